@@ -1,0 +1,191 @@
+#include "colmap_irav4/util/option_manager.h"
+
+#include <iostream>
+#include <sstream>
+
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+std::string FormatDouble(double value) {
+  std::ostringstream stream;
+  stream << value;
+  return stream.str();
+}
+
+bool ParseBool(const std::string& text, bool* value) {
+  if (text == "1" || text == "true" || text == "True" || text == "TRUE") {
+    *value = true;
+    return true;
+  }
+  if (text == "0" || text == "false" || text == "False" || text == "FALSE") {
+    *value = false;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+OptionManager::OptionManager(std::string command_name, std::string description)
+    : command_name_(std::move(command_name)),
+      description_(std::move(description)) {}
+
+OptionManager::Option& OptionManager::AddOption(
+    const std::string& name, const std::string& help, const std::string& type,
+    std::string default_value,
+    std::function<void(const std::string&)> assign) {
+  for (const Option& option : options_) {
+    if (option.name == name) {
+      throw std::logic_error("option --" + name + " registered twice");
+    }
+  }
+  Option option;
+  option.name = name;
+  option.help = help;
+  option.type = type;
+  option.default_value = std::move(default_value);
+  option.assign = std::move(assign);
+  options_.push_back(std::move(option));
+  return options_.back();
+}
+
+void OptionManager::Add(const std::string& name, bool* value,
+                        const std::string& help) {
+  AddOption(name, help, "bool", *value ? "1" : "0",
+            [name, value](const std::string& text) {
+              if (!ParseBool(text, value)) {
+                throw InputError("--" + name,
+                                 "expected 0/1/true/false, got '" + text + "'");
+              }
+            });
+}
+
+void OptionManager::Add(const std::string& name, int* value,
+                        const std::string& help) {
+  AddOption(name, help, "int", std::to_string(*value),
+            [name, value](const std::string& text) {
+              size_t end = 0;
+              try {
+                const long parsed = std::stol(text, &end);
+                if (end == text.size() && parsed >= INT32_MIN &&
+                    parsed <= INT32_MAX) {
+                  *value = static_cast<int>(parsed);
+                  return;
+                }
+              } catch (const std::exception&) {
+              }
+              throw InputError("--" + name,
+                               "expected an integer, got '" + text + "'");
+            });
+}
+
+void OptionManager::Add(const std::string& name, double* value,
+                        const std::string& help) {
+  AddOption(name, help, "double", FormatDouble(*value),
+            [name, value](const std::string& text) {
+              size_t end = 0;
+              try {
+                const double parsed = std::stod(text, &end);
+                if (end == text.size()) {
+                  *value = parsed;
+                  return;
+                }
+              } catch (const std::exception&) {
+              }
+              throw InputError("--" + name,
+                               "expected a number, got '" + text + "'");
+            });
+}
+
+void OptionManager::Add(const std::string& name, std::string* value,
+                        const std::string& help) {
+  AddOption(name, help, "string", *value,
+            [value](const std::string& text) { *value = text; });
+}
+
+void OptionManager::AddRequired(const std::string& name, std::string* value,
+                                const std::string& help) {
+  AddOption(name, help, "string", *value,
+            [value](const std::string& text) { *value = text; })
+      .required = true;
+}
+
+bool OptionManager::Parse(int argc, char** argv) {
+  for (Option& option : options_) option.set = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg == "-h" || arg == "--help" || arg == "help") {
+      PrintHelp(std::cout);
+      return false;
+    }
+    if (arg.rfind("--", 0) != 0) {
+      throw InputError(command_name_, "unexpected argument '" + arg +
+                                          "' (options are --name value)");
+    }
+    std::string name = arg.substr(2);
+    std::string value;
+    bool has_value = false;
+    const size_t equals = name.find('=');
+    if (equals != std::string::npos) {
+      value = name.substr(equals + 1);
+      name = name.substr(0, equals);
+      has_value = true;
+    }
+    Option* match = nullptr;
+    for (Option& option : options_) {
+      if (option.name == name) match = &option;
+    }
+    if (match == nullptr) {
+      throw InputError("--" + name, "unknown option for '" + command_name_ +
+                                        "' (see " + command_name_ + " -h)");
+    }
+    if (!has_value) {
+      const bool next_is_option =
+          i + 1 >= argc || std::string(argv[i + 1]).rfind("--", 0) == 0;
+      if (next_is_option) {
+        // A bare boolean flag means true.
+        if (match->type != "bool") {
+          throw InputError("--" + name, "missing value");
+        }
+        value = "1";
+      } else {
+        value = argv[++i];
+      }
+    }
+    match->assign(value);
+    match->set = true;
+  }
+  for (const Option& option : options_) {
+    if (option.required && !option.set) {
+      throw InputError("--" + option.name,
+                       "required option of '" + command_name_ + "' missing");
+    }
+  }
+  return true;
+}
+
+bool OptionManager::IsSet(const std::string& name) const {
+  for (const Option& option : options_) {
+    if (option.name == name) return option.set;
+  }
+  return false;
+}
+
+void OptionManager::PrintHelp(std::ostream& stream) const {
+  stream << "Usage: colmap_irav4 " << command_name_ << " [options]\n";
+  if (!description_.empty()) stream << "\n" << description_ << "\n";
+  stream << "\nOptions:\n";
+  for (const Option& option : options_) {
+    stream << "  --" << option.name << " arg";
+    if (option.required) {
+      stream << " (required)";
+    } else {
+      stream << " (=" << option.default_value << ")";
+    }
+    stream << "\n      " << option.help << "\n";
+  }
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,59 @@
+#pragma once
+
+#include <functional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace colmap_irav4 {
+
+// Parses "--name value" / "--name=value" command lines in COLMAP's style and
+// writes the values straight into the options structs of the components:
+//   OptionManager options("rotation_averager");
+//   options.AddRequired("database_path", &database_path, "COLMAP database");
+//   options.Add("RotationAveraging.theta_deg", &ra_options.theta_deg,
+//               "outlier threshold (deg)");
+//   if (!options.Parse(argc, argv)) return 0;  // -h / --help was printed
+// Unknown options, missing values, malformed numbers and missing required
+// options throw InputError naming the option.
+class OptionManager {
+ public:
+  explicit OptionManager(std::string command_name,
+                         std::string description = "");
+
+  void Add(const std::string& name, bool* value, const std::string& help);
+  void Add(const std::string& name, int* value, const std::string& help);
+  void Add(const std::string& name, double* value, const std::string& help);
+  void Add(const std::string& name, std::string* value,
+           const std::string& help);
+  void AddRequired(const std::string& name, std::string* value,
+                   const std::string& help);
+
+  // argv[0] is the sub-command's name (or the program's); options follow.
+  // Returns false if help was requested (and printed to stdout).
+  bool Parse(int argc, char** argv);
+  // Whether the option was given on the command line by the last Parse.
+  bool IsSet(const std::string& name) const;
+
+  void PrintHelp(std::ostream& stream) const;
+
+ private:
+  struct Option {
+    std::string name;
+    std::string help;
+    std::string default_value;
+    std::string type;
+    bool required = false;
+    bool set = false;
+    std::function<void(const std::string&)> assign;
+  };
+  Option& AddOption(const std::string& name, const std::string& help,
+                    const std::string& type, std::string default_value,
+                    std::function<void(const std::string&)> assign);
+
+  std::string command_name_;
+  std::string description_;
+  std::vector<Option> options_;
+};
+
+}  // namespace colmap_irav4

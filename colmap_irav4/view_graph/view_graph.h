@@ -1,0 +1,31 @@
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/scene/types.h"
+
+namespace colmap_irav4 {
+
+// One verified image pair of the epipolar graph, oriented image_id1 ->
+// image_id2: R = cam2_from_cam1 = R_2 R_1^T, t = unit translation of
+// cam2_from_cam1 (x2 = R x1 + t, up to scale).
+struct ImagePairGeometry {
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  int num_inliers = 0;
+  int config = 0;  // COLMAP TwoViewGeometry::ConfigurationType
+};
+
+// The epipolar graph (view graph): images and the pairs kept after filtering.
+struct ViewGraph {
+  std::map<image_t, std::string> image_names;
+  std::vector<ImagePairGeometry> pairs;
+};
+
+}  // namespace colmap_irav4

@@ -1,0 +1,68 @@
+// colmap_irav4: a global Structure-from-Motion mapper for COLMAP databases.
+// Sub-commands in COLMAP's style: `colmap_irav4 <command> [--options]`.
+
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/util/error.h"
+#include "src/command.h"
+
+namespace colmap_irav4 {
+
+std::map<std::string, CommandInfo>& CommandRegistry() {
+  static std::map<std::string, CommandInfo> registry;
+  return registry;
+}
+
+namespace {
+
+void PrintUsage() {
+  std::cout << "colmap_irav4 -- global Structure-from-Motion with IRAv4 "
+               "rotation averaging\n\n"
+               "Usage:\n"
+               "  colmap_irav4 help\n"
+               "  colmap_irav4 <command> -h\n"
+               "  colmap_irav4 <command> [--option value ...]\n\n"
+               "Commands:\n";
+  for (const auto& [name, info] : CommandRegistry()) {
+    std::cout << "  " << name;
+    for (size_t i = name.size(); i < 20; ++i) std::cout << ' ';
+    std::cout << info.description << "\n";
+  }
+}
+
+}  // namespace
+}  // namespace colmap_irav4
+
+int main(int argc, char** argv) {
+  using namespace colmap_irav4;
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_logtostderr = true;
+  if (argc < 2) {
+    PrintUsage();
+    return 1;
+  }
+  const std::string command = argv[1];
+  if (command == "help" || command == "-h" || command == "--help") {
+    PrintUsage();
+    return 0;
+  }
+  const auto it = CommandRegistry().find(command);
+  if (it == CommandRegistry().end()) {
+    std::cerr << "ERROR: unknown command '" << command
+              << "' (see colmap_irav4 help)" << std::endl;
+    return 1;
+  }
+  try {
+    return it->second.function(argc - 1, argv + 1);
+  } catch (const InputError& error) {
+    std::cerr << "ERROR: " << error.what() << std::endl;
+    return 1;
+  } catch (const std::exception& error) {
+    std::cerr << "ERROR: " << command << ": " << error.what() << std::endl;
+    return 1;
+  }
+}

@@ -207,6 +207,9 @@ RotationAveragingResult L1IrlsAverager::Estimate(const RotationGraph& graph) {
     return sum / num_unknowns;
   };
 
+  // Progress lines at most once a second, and one per stage.
+  Timer progress_timer;
+  int num_iterations = 0;
   const double l1_epsilon = DegToRad(options_.l1_epsilon_deg);
   for (int iteration = 0; iteration < options_.l1_max_iterations;
        ++iteration) {
@@ -219,14 +222,24 @@ RotationAveragingResult L1IrlsAverager::Estimate(const RotationGraph& graph) {
       LOG(WARNING) << "L1-IRLS: linear solver failed in the L1 stage";
       break;
     }
-    LOG_IF(INFO, options_.log_progress)
-        << "L1-IRLS: L1 iteration " << iteration + 1 << ", mean step "
-        << RadToDeg(mean_step) << " deg, " << timer.ElapsedSeconds() << " s";
+    ++num_iterations;
+    if (options_.log_progress && progress_timer.ElapsedSeconds() >= 1.0) {
+      progress_timer.Restart();
+      LOG(INFO) << "L1-IRLS: L1 iteration " << iteration + 1
+                << ", mean step " << RadToDeg(mean_step) << " deg, "
+                << timer.ElapsedSeconds() << " s";
+    }
     if (RadToDeg(mean_step) < options_.l1_step_tolerance_deg) break;
   }
   result.stage_seconds.emplace_back("l1", stage_timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "L1-IRLS: L1 stage done, " << num_iterations << " iterations, "
+      << stage_timer.ElapsedSeconds() << " s (" << num_unknowns + 1
+      << " cameras, " << edges.size() << " edges, "
+      << (use_cholesky ? "sparse Cholesky" : "conjugate gradients") << ")";
 
   stage_timer.Restart();
+  num_iterations = 0;
   const double sigma_squared =
       DegToRad(options_.gm_sigma_deg) * DegToRad(options_.gm_sigma_deg);
   for (int iteration = 0; iteration < options_.irls_max_iterations;
@@ -241,12 +254,19 @@ RotationAveragingResult L1IrlsAverager::Estimate(const RotationGraph& graph) {
       LOG(WARNING) << "L1-IRLS: linear solver failed in the IRLS stage";
       break;
     }
-    LOG_IF(INFO, options_.log_progress)
-        << "L1-IRLS: IRLS iteration " << iteration + 1 << ", mean step "
-        << RadToDeg(mean_step) << " deg, " << timer.ElapsedSeconds() << " s";
+    ++num_iterations;
+    if (options_.log_progress && progress_timer.ElapsedSeconds() >= 1.0) {
+      progress_timer.Restart();
+      LOG(INFO) << "L1-IRLS: IRLS iteration " << iteration + 1
+                << ", mean step " << RadToDeg(mean_step) << " deg, "
+                << timer.ElapsedSeconds() << " s";
+    }
     if (RadToDeg(mean_step) < options_.irls_step_tolerance_deg) break;
   }
   result.stage_seconds.emplace_back("irls", stage_timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "L1-IRLS: IRLS stage done, " << num_iterations << " iterations, "
+      << stage_timer.ElapsedSeconds() << " s";
   return result;
 }
 

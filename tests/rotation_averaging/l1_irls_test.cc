@@ -6,16 +6,16 @@
 
 #include <gtest/gtest.h>
 
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
 namespace {
 
-// A small hand-made test scene: ground-truth rotations on a random graph
-// (a ring, so it is connected, plus random chords), edges perturbed by
-// `noise_deg` about random axes, a fraction replaced by random rotations.
+// The paper's synthetic protocol on a connected random graph.
 struct Scene {
   RotationGraph graph;
   std::vector<Eigen::Matrix3d> truth;
@@ -23,60 +23,20 @@ struct Scene {
 
 Scene MakeScene(int num_vertices, int num_chords, double noise_deg,
                 double outlier_ratio, int seed) {
-  std::mt19937_64 rng(seed);
-  Scene scene;
-  scene.graph = RotationGraph(num_vertices);
-  for (int v = 0; v < num_vertices; ++v) {
-    scene.truth.push_back(RandomRotation(&rng));
-  }
-  std::vector<std::pair<int, int>> pairs;
-  for (int v = 0; v < num_vertices; ++v) {
-    pairs.emplace_back(v, (v + 1) % num_vertices);
-  }
-  std::uniform_int_distribution<int> vertex(0, num_vertices - 1);
-  while (static_cast<int>(pairs.size()) < num_vertices + num_chords) {
-    const int i = vertex(rng), j = vertex(rng);
-    if (std::abs(i - j) > 1 && std::abs(i - j) != num_vertices - 1) {
-      pairs.emplace_back(i, j);
-    }
-  }
-  std::normal_distribution<double> noise(0.0, DegToRad(noise_deg));
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  std::uniform_real_distribution<double> inliers(20.0, 200.0);
-  for (const auto& [i, j] : pairs) {
-    Eigen::Matrix3d R_ij = scene.truth[j] * scene.truth[i].transpose();
-    if (uniform(rng) < outlier_ratio) {
-      R_ij = RandomRotation(&rng);
-    } else if (noise_deg > 0) {
-      R_ij = RandomRotationWithAngle(noise(rng), &rng) * R_ij;
-    }
-    scene.graph.AddEdge(i, j, R_ij, inliers(rng));
-  }
-  return scene;
+  SyntheticOptions options;
+  options.noise_sigma_deg = noise_deg;
+  options.outlier_ratio = outlier_ratio;
+  options.seed = seed;
+  SyntheticProblem problem = MakeSyntheticProblem(
+      num_vertices,
+      RandomConnectedGraph(num_vertices, num_vertices + num_chords, seed),
+      options);
+  return {std::move(problem.graph), std::move(problem.ground_truth)};
 }
 
-// Median of d(R_gt_i, R_i A) with A aligning vertex 0 (a rough but honest
-// alignment; the robust evaluation lives in eval/).
 std::vector<double> Errors(const std::vector<Eigen::Matrix3d>& estimate,
                            const std::vector<Eigen::Matrix3d>& truth) {
-  // Align with the best of all single-vertex alignments (by median).
-  std::vector<double> best;
-  double best_median = 1e9;
-  for (size_t a = 0; a < truth.size(); a += std::max<size_t>(1, truth.size() / 20)) {
-    const Eigen::Matrix3d A = estimate[a].transpose() * truth[a];
-    std::vector<double> errors;
-    for (size_t v = 0; v < truth.size(); ++v) {
-      errors.push_back(AngularDistanceDeg(truth[v], estimate[v] * A));
-    }
-    std::vector<double> sorted = errors;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
-                     sorted.end());
-    if (sorted[sorted.size() / 2] < best_median) {
-      best_median = sorted[sorted.size() / 2];
-      best = errors;
-    }
-  }
-  return best;
+  return EvaluateRotations(estimate, {}, truth).errors_deg;
 }
 
 double Median(std::vector<double> values) {

@@ -1,0 +1,54 @@
+#pragma once
+
+#include <cstdint>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/rotation_averaging/rotation_graph.h"
+
+namespace colmap_irav4 {
+
+// The paper's synthetic protocol (its section 5.2.1, after HARA and CReTA):
+// ground-truth rotations drawn uniformly, every edge R_ij = N_ij R_j R_i^T with
+// N_ij a rotation about a uniformly random axis by an angle ~ normal(0, sigma),
+// then a fraction p of the edges (chosen at random, exactly round(p |E|))
+// replaced by uniformly random rotations.
+struct SyntheticOptions {
+  // Standard deviation of the noise angle, degrees (the paper: 5 or 10).
+  double noise_sigma_deg = 5.0;
+  // Fraction of edges replaced by random rotations, in [0, 1] (paper: 0-0.5).
+  double outlier_ratio = 0.0;
+  // Seed of the std::mt19937_64 that draws everything.
+  uint64_t seed = 0;
+  bool Check() const;  // throws InputError
+};
+
+struct SyntheticProblem {
+  RotationGraph graph;                       // structure + noisy measurements
+  std::vector<Eigen::Matrix3d> ground_truth; // cam_from_world per vertex
+  std::vector<bool> edge_is_outlier;         // per edge index of `graph`
+};
+
+// Measurements on the structure of `structure` (its vertices, names, edge
+// endpoints and weights are kept; its rotations are ignored).
+SyntheticProblem MakeSyntheticProblem(const RotationGraph& structure,
+                                      const SyntheticOptions& options);
+// Measurements on an edge list over vertices 0..num_vertices-1 (weights 1).
+SyntheticProblem MakeSyntheticProblem(
+    int num_vertices, const std::vector<std::pair<int, int>>& edges,
+    const SyntheticOptions& options);
+
+// A connected random graph: a random spanning tree (each vertex, in a random
+// order, attached to a uniformly chosen earlier one) plus uniformly random
+// distinct pairs (Erdos-Renyi G(n, m) style) until `num_edges` edges.
+// Requires n-1 <= num_edges <= n(n-1)/2 (throws InputError). Edges (i < j) in
+// generation order; O(num_edges) time and memory, so 5,000 vertices and
+// 700,000 edges take well under a second.
+std::vector<std::pair<int, int>> RandomConnectedGraph(int num_vertices,
+                                                      int64_t num_edges,
+                                                      uint64_t seed);
+
+}  // namespace colmap_irav4

@@ -26,6 +26,13 @@ Eigen::Matrix3d CrossMatrix(const Eigen::Vector3d& v) {
   return M;
 }
 
+// A less preferred candidate source must have a truncated cost below this
+// fraction of the preferred one's to win.
+constexpr double kCostTolerance = 1.1;
+// Fraction of the matches within the threshold of H above which the scene
+// is treated as near-planar.
+constexpr double kMinPlanarFraction = 0.5;
+
 bool IsZero(const Eigen::Matrix3d& M) { return M.cwiseAbs().maxCoeff() == 0; }
 
 // A candidate cam2_from_cam1; pure_rotation candidates have no translation.
@@ -532,17 +539,52 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
     AddEssentialCandidates(E8, RelativePoseSource::kEightPoint, &candidates);
   }
 
-  int best = -1;
-  int best_derived = -1;
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    Score(corrs, focal, options.max_error_px, &candidates[i]);
-    if (candidates[i].source == RelativePoseSource::kStored) continue;
-    if (best_derived < 0 ||
-        candidates[i].cost < candidates[best_derived].cost) {
-      best_derived = static_cast<int>(i);
+  // Sources in order of preference. A planar scene fits the true pose and
+  // the homography's twin solution equally well (both pass cheirality), so the
+  // truncated cost alone cannot tell them apart: the preferred source wins
+  // unless another fits clearly better.
+  const RelativePoseSource kPreference[] = {
+      RelativePoseSource::kEssential, RelativePoseSource::kFundamental,
+      RelativePoseSource::kHomography, RelativePoseSource::kRotation,
+      RelativePoseSource::kEightPoint};
+  double min_cost = std::numeric_limits<double>::infinity();
+  for (Candidate& candidate : candidates) {
+    Score(corrs, focal, options.max_error_px, &candidate);
+    if (candidate.source != RelativePoseSource::kStored) {
+      min_cost = std::min(min_cost, candidate.cost);
     }
   }
-  best = best_derived;
+  const double tolerance =
+      options.max_error_px * options.max_error_px * 1e-6 * corrs.x1.size();
+  // Only where the matches are mostly explained by H (a near-planar scene)
+  // does the homography's twin compete; elsewhere the lowest cost wins.
+  int num_homography_inliers = 0;
+  if (!IsZero(geometry.H)) {
+    const Eigen::Matrix3d Hn = K2.inverse() * geometry.H * K1;
+    for (size_t i = 0; i < corrs.x1.size(); ++i) {
+      const Eigen::Vector3d p = Hn * corrs.x1[i].homogeneous();
+      num_homography_inliers +=
+          p.z() != 0 && (p.hnormalized() - corrs.x2[i]).norm() * focal <
+                            options.max_error_px;
+    }
+  }
+  const bool near_planar =
+      num_homography_inliers >= kMinPlanarFraction * corrs.x1.size();
+  int best_derived = -1;
+  for (const RelativePoseSource source : kPreference) {
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      if (candidates[i].source != source ||
+          candidates[i].cost > (near_planar ? kCostTolerance : 1.0) * min_cost +
+                                   tolerance) {
+        continue;
+      }
+      if (best_derived < 0 || candidates[i].cost < candidates[best_derived].cost) {
+        best_derived = static_cast<int>(i);
+      }
+    }
+    if (best_derived >= 0) break;
+  }
+  int best = best_derived;
   const bool use_stored =
       geometry.has_pose && candidates[0].support > 0 &&
       (best_derived < 0 ||

@@ -115,6 +115,35 @@ std::string ReferenceMethodToString(ReferenceMethod method) {
   return "?";
 }
 
+void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
+  manager->Add("RotationAveraging.theta_deg", &options->engine.theta_deg,
+               "outlier threshold of every IRA-series step (deg)");
+  manager->Add("RotationAveraging.global_growth_ratio",
+               &options->engine.global_growth_ratio,
+               "re-optimise a growing set globally after this relative "
+               "growth");
+  manager->Add("RotationAveraging.min_community_size",
+               &options->communities.min_community_size,
+               "smaller communities merge into their best-connected "
+               "neighbour");
+  manager->Add("RotationAveraging.max_community_size",
+               &options->communities.max_community_size,
+               "larger communities are split (0 = no limit)");
+  manager->Add("RotationAveraging.reference_method",
+               &options->reference_method,
+               "alignment reference: irav4 | greedy_cds | random_cds");
+  manager->Add("RotationAveraging.weighted_greedy_cds",
+               &options->weighted_greedy_cds,
+               "greedy CDS counts neighbours by inlier count");
+  manager->Add("RotationAveraging.num_random_cds", &options->num_random_cds,
+               "random CDSs united in the random_cds reference");
+  manager->Add("RotationAveraging.seed", &options->seed,
+               "seed of the random choices (random_cds)");
+  manager->Add("RotationAveraging.num_final_rounds",
+               &options->num_final_rounds,
+               "rounds of inlier selection + global optimisation at the end");
+}
+
 bool Irav4Options::Check() const {
   if (!engine.Check()) {
     throw InputError("--RotationAveraging.*",

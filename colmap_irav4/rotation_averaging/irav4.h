@@ -10,6 +10,7 @@
 #include "colmap_irav4/rotation_averaging/community_detection.h"
 #include "colmap_irav4/rotation_averaging/incremental_engine.h"
 #include "colmap_irav4/rotation_averaging/rotation_graph.h"
+#include "colmap_irav4/util/option_manager.h"
 
 namespace colmap_irav4 {
 
@@ -43,6 +44,12 @@ struct Irav4Options {
 
   bool Check() const;  // throws InputError naming the option
 };
+
+// Registers the options in COLMAP's dotted style under RotationAveraging.*
+// (theta_deg, global_growth_ratio, min/max_community_size,
+// reference_method, weighted_greedy_cds, num_random_cds, seed,
+// num_final_rounds), shared by the command and the benchmarks.
+void AddIrav4Options(OptionManager* manager, Irav4Options* options);
 
 // A reference: the selected vertices and their rotations (one entry per
 // graph vertex, meaningful where `selected`).

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "colmap_irav4/scene/camera.h"
 
@@ -43,9 +44,14 @@ bool CameraHasValidParams(const Camera& camera);
 double CameraMeanFocalLength(const Camera& camera);
 
 // Pixel -> normalised undistorted camera plane (iterative undistortion where
-// COLMAP's is).
+// COLMAP's is). A fisheye (or FOV) pixel seen at 90 degrees or more off-axis
+// has no point on that plane: the result is then NaN (use CameraImageToRay).
 Eigen::Vector2d CameraImageToCamera(const Camera& camera,
                                     const Eigen::Vector2d& image_point);
+// Pixel -> unit viewing ray in camera coordinates, valid at every angle
+// (fisheye lenses see beyond 90 degrees).
+Eigen::Vector3d CameraImageToRay(const Camera& camera,
+                                 const Eigen::Vector2d& image_point);
 // Normalised undistorted camera plane -> pixel.
 Eigen::Vector2d CameraCameraToImage(const Camera& camera,
                                     const Eigen::Vector2d& camera_point);

@@ -1,0 +1,64 @@
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/types.h"
+
+namespace colmap_irav4 {
+
+// The inlier matches of one verified image pair: (point2D_idx in image_id1,
+// point2D_idx in image_id2).
+struct ImagePairMatches {
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  std::vector<std::pair<point2D_t, point2D_t>> matches;
+};
+
+// A feature track: observations of one scene point, at most one per image,
+// sorted by (image_id, point2D_idx).
+typedef std::vector<TrackElement> Track;
+
+struct TrackBuilderOptions {
+  // Tracks observed in fewer images are dropped.
+  int min_track_length = 2;
+  // Tracks observed in more images are dropped (likely merged repetitions).
+  int max_track_length = 1000;
+  // Two observations of one track in the same image closer than this (px) are
+  // one feature detected twice: one is kept. Farther apart: the track is
+  // inconsistent and dropped.
+  double max_duplicate_distance = 4.0;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+struct TrackBuilderStats {
+  size_t num_observations = 0;       // distinct matched observations
+  size_t num_components = 0;         // union-find components
+  size_t num_inconsistent = 0;       // dropped: one image at distant pixels
+  size_t num_merged_duplicates = 0;  // near-duplicate observations removed
+  size_t num_too_short = 0;
+  size_t num_too_long = 0;
+  size_t num_tracks = 0;  // kept
+};
+
+// Union-find over (image_id, point2D_idx) observations linked by the matches.
+// `keypoints(image_id)` positions are taken from images[image_id].points2D (a
+// match referring to a missing image or keypoint index is an error of the
+// caller: CHECK). The result is deterministic: elements sorted by (image_id,
+// point2D_idx) and tracks sorted by their first element.
+std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
+                               const std::vector<ImagePairMatches>& pairs,
+                               const std::map<image_t, Image>& images,
+                               TrackBuilderStats* stats = nullptr);
+
+// Adds one Point3D (position unknown: zero, error -1) per track to the
+// reconstruction and links the observations (points2D[].point3D_id). Returns
+// the new point ids in track order.
+std::vector<point3D_t> AddTracksToReconstruction(const std::vector<Track>& tracks,
+                                                 Reconstruction* reconstruction);
+
+}  // namespace colmap_irav4

@@ -1,0 +1,70 @@
+#pragma once
+
+#include <string>
+
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+// Bundle adjustment of a whole model (Ceres): reprojection residuals in
+// pixels through the camera models (scene/camera_models.h), poses as unit
+// quaternion (Eigen order, EigenQuaternionManifold) + translation, one
+// intrinsics block per camera (shared by its images), Schur elimination of
+// the points, robust loss. Run in rounds: after each, observations with a
+// reprojection error above max_reproj_error are unlinked, and the next round
+// starts from the result (stops early when nothing was removed).
+//
+// Gauge: the first image's pose is held fixed and so is the component of the
+// second image's translation most sensitive to scale, as COLMAP does; with
+// refine_poses off only the points (and intrinsics) move.
+struct BundleAdjustmentOptions {
+  // Intrinsics to refine (COLMAP's ba_refine_* options).
+  bool refine_focal_length = true;
+  bool refine_principal_point = false;
+  bool refine_extra_params = true;
+  bool refine_poses = true;
+  bool refine_points = true;
+  // Hold the gauge (see above); off: LM's damping alone handles the 7
+  // degrees of freedom.
+  bool fix_gauge = true;
+  // Robust loss on the reprojection error: "huber", "cauchy" or "trivial".
+  std::string loss_function = "huber";
+  double loss_scale = 1.0;  // px
+  // Rounds of (solve, filter); observations over max_reproj_error px are
+  // removed after each round (0: no filtering, a single round).
+  int num_rounds = 3;
+  double max_reproj_error = 4.0;
+  // "auto" (COLMAP's rule: DENSE_SCHUR below 50 images, else SPARSE_SCHUR),
+  // "sparse_schur", "dense_schur", "iterative_schur".
+  std::string linear_solver = "auto";
+  // Ceres.
+  int max_num_iterations = 100;
+  double function_tolerance = 1e-6;
+  double gradient_tolerance = 1e-10;
+  double parameter_tolerance = 1e-8;
+  int num_threads = -1;  // -1: the hardware concurrency
+  bool print_progress = false;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+struct BundleAdjustmentSummary {
+  int num_rounds = 0;
+  int num_images = 0;
+  int num_points = 0;                  // after the last round
+  int num_observations = 0;            // after the last round
+  int num_observations_filtered = 0;   // over all rounds
+  int num_iterations = 0;              // over all rounds
+  double initial_mean_reproj_error = 0;  // px, before the first round
+  double final_mean_reproj_error = 0;    // px, after filtering
+  double seconds = 0;
+  bool converged = false;  // last round reached a tolerance
+};
+
+// Returns false if Ceres failed (no usable solution).
+bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
+                         Reconstruction* reconstruction,
+                         BundleAdjustmentSummary* summary = nullptr);
+
+}  // namespace colmap_irav4

@@ -1,0 +1,69 @@
+#pragma once
+
+#include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+// Unlinks observations whose reprojection error exceeds max_reproj_error (px)
+// or whose point is behind the camera; points left with fewer than two
+// observations are deleted. Returns the number of observations removed.
+size_t FilterObservationsWithLargeReprojectionError(double max_reproj_error,
+                                                    Reconstruction* reconstruction);
+
+// Largest angle (rad) between the viewing rays of a point's observations.
+double MaxTriangulationAngle(const Reconstruction& reconstruction, const Point3D& point);
+
+// Deletes points whose largest triangulation angle is below min_tri_angle_deg
+// (their depth is unreliable). Returns the number of points deleted.
+size_t FilterPointsWithSmallTriangulationAngle(double min_tri_angle_deg,
+                                               Reconstruction* reconstruction);
+
+struct FilterOptions {
+  // Observations over this reprojection error (px) are removed (COLMAP's
+  // filter_max_reproj_error).
+  double max_reproj_error = 4.0;
+  // Points seen under a smaller largest angle (deg) are removed (COLMAP's
+  // filter_min_tri_angle).
+  double min_tri_angle = 1.5;
+  // Images left with fewer observations are deleted (unregistered).
+  int min_num_observations_per_image = 0;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+struct FilterSummary {
+  size_t num_observations_filtered = 0;
+  size_t num_points_filtered = 0;  // by triangulation angle
+  size_t num_images_filtered = 0;
+};
+
+FilterSummary RunFiltering(const FilterOptions& options, Reconstruction* reconstruction);
+
+// Applies x' = scale * R x + t to the whole model (points and poses; the
+// images are unchanged).
+void TransformReconstruction(const Sim3d& new_from_old, Reconstruction* reconstruction);
+
+struct NormalizationOptions {
+  // Extent of the central part of the model after normalisation.
+  double extent = 10.0;
+  // The central part: between these percentiles of the coordinates, per axis
+  // (COLMAP's Normalize uses 0.1 and 0.9).
+  double min_percentile = 0.1;
+  double max_percentile = 0.9;
+  // Measure on camera centres (else on points).
+  bool use_images = true;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+// Translates the model so that the median of the camera centres (or points)
+// is the origin and scales it so that the largest per-axis spread between
+// the percentiles is `extent`. Returns the transform applied (identity if the
+// model is empty or degenerate).
+Sim3d NormalizeReconstruction(const NormalizationOptions& options,
+                              Reconstruction* reconstruction);
+
+}  // namespace colmap_irav4

@@ -1,0 +1,62 @@
+#pragma once
+
+#include <string>
+
+#include "colmap_irav4/rotation_averaging/rotation_graph.h"
+
+namespace colmap_irav4 {
+
+// L1-IRLS rotation averaging (Chatterjee and Govindu, TPAMI 2018): maximum
+// spanning tree initialisation, robust L1 refinement, then iteratively
+// reweighted least squares with the Geman-McClure loss.
+//
+// Both stages solve the same linearised tangent system. With the update
+// R_i <- R_i exp([w_i]_x) (a perturbation in the world frame),
+//   R_j exp(w_j) exp(-w_i) R_i^T = R_ij  gives  w_j - w_i = log(R_j^T R_ij R_i)
+// to first order. Every edge's three rows share one weight (the weight of its
+// residual norm), so the normal matrix is (weighted graph Laplacian) x I_3:
+// one (n-1)x(n-1) system with three right-hand sides, gauge vertex removed.
+// The sparsity pattern and its symbolic factorisation are built once.
+struct L1IrlsOptions {
+  // Relinearised IRLS-L1 steps (weights 1 / max(|r_e|, l1_epsilon)).
+  int l1_max_iterations = 20;
+  // The L1 stage stops when the mean step |w_i| falls below this (deg).
+  double l1_step_tolerance_deg = 1e-3;
+  // Residual floor in the L1 weights (deg): keeps the system well conditioned.
+  double l1_epsilon_deg = 0.01;
+  // Geman-McClure IRLS iterations.
+  int irls_max_iterations = 50;
+  // IRLS stops when the mean step |w_i| falls below this (deg).
+  double irls_step_tolerance_deg = 1e-5;
+  // Geman-McClure scale sigma (deg): weight (1 + r^2 / sigma^2)^-2.
+  double gm_sigma_deg = 5.0;
+  // Linear solver: "auto", "cholesky" (sparse LDL^T, symbolic analysis
+  // reused) or "cg" (Jacobi-preconditioned conjugate gradients). Dense,
+  // random-like graphs fill the Cholesky factor completely, where CG on the
+  // Laplacian converges in few iterations; "auto" picks by size.
+  std::string linear_solver = "auto";
+  // "auto" uses Cholesky up to this many vertices, CG above.
+  int max_vertices_for_cholesky = 1500;
+  // CG relative residual tolerance and iteration cap per solve.
+  double cg_tolerance = 1e-10;
+  int cg_max_iterations = 1000;
+  // Log one progress line per iteration.
+  bool log_progress = false;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+class L1IrlsAverager : public RotationAverager {
+ public:
+  explicit L1IrlsAverager(const L1IrlsOptions& options = L1IrlsOptions());
+  std::string Name() const override { return "l1_irls"; }
+  // Estimates the largest connected component; other vertices stay
+  // unestimated.
+  RotationAveragingResult Estimate(const RotationGraph& graph) override;
+
+ private:
+  L1IrlsOptions options_;
+};
+
+}  // namespace colmap_irav4

@@ -1,0 +1,41 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "colmap_irav4/rotation_averaging/ira.h"
+#include "colmap_irav4/rotation_averaging/l1_irls.h"
+#include "colmap_irav4/rotation_averaging/rotation_graph.h"
+
+namespace colmap_irav4 {
+
+class OptionManager;
+
+// The options of every rotation averaging method, exposed on the command
+// line as --RotationAveraging.<name>.
+struct RotationAveragerOptions {
+  IraOptions ira;
+  L1IrlsOptions l1_irls;
+  // Log progress lines during long runs.
+  bool log_progress = false;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+// Registers every method's options as --RotationAveraging.<name>.
+void AddRotationAveragerOptions(OptionManager* options,
+                                RotationAveragerOptions* averager_options);
+
+// The methods, in the order the help text lists them.
+std::vector<std::string> RotationAveragerMethods();
+// "a, b, c" for help texts and error messages.
+std::string RotationAveragerMethodList();
+
+// The averager called `method`; throws InputError("--method", ...) for an
+// unknown name.
+std::unique_ptr<RotationAverager> CreateRotationAverager(
+    const std::string& method, const RotationAveragerOptions& options);
+
+}  // namespace colmap_irav4

@@ -1,0 +1,115 @@
+#include "colmap_irav4/scene/reconstruction_utils.h"
+
+#include <limits>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/scene/camera_models.h"
+
+namespace colmap_irav4 {
+
+point3D_t AddPoint3D(const Eigen::Vector3d& xyz, const std::vector<TrackElement>& track,
+                     Reconstruction* reconstruction) {
+  const point3D_t point3D_id = reconstruction->points3D.empty()
+                                   ? 1
+                                   : reconstruction->points3D.rbegin()->first + 1;
+  Point3D& point = reconstruction->points3D[point3D_id];
+  point.xyz = xyz;
+  point.track = track;
+  for (const TrackElement& element : track) {
+    Image& image = reconstruction->images.at(element.image_id);
+    CHECK_LT(element.point2D_idx, image.points2D.size());
+    Point2D& point2D = image.points2D[element.point2D_idx];
+    CHECK_EQ(point2D.point3D_id, kInvalidPoint3DId)
+        << "observation already belongs to a point";
+    point2D.point3D_id = point3D_id;
+  }
+  return point3D_id;
+}
+
+void DeletePoint3D(point3D_t point3D_id, Reconstruction* reconstruction) {
+  auto it = reconstruction->points3D.find(point3D_id);
+  if (it == reconstruction->points3D.end()) return;
+  for (const TrackElement& element : it->second.track) {
+    auto image_it = reconstruction->images.find(element.image_id);
+    if (image_it == reconstruction->images.end()) continue;
+    Point2D& point2D = image_it->second.points2D.at(element.point2D_idx);
+    if (point2D.point3D_id == point3D_id) point2D.point3D_id = kInvalidPoint3DId;
+  }
+  reconstruction->points3D.erase(it);
+}
+
+bool DeleteObservation(image_t image_id, point2D_t point2D_idx,
+                       Reconstruction* reconstruction) {
+  Point2D& point2D = reconstruction->images.at(image_id).points2D.at(point2D_idx);
+  const point3D_t point3D_id = point2D.point3D_id;
+  if (point3D_id == kInvalidPoint3DId) return false;
+  point2D.point3D_id = kInvalidPoint3DId;
+  Point3D& point = reconstruction->points3D.at(point3D_id);
+  auto& track = point.track;
+  for (auto it = track.begin(); it != track.end(); ++it) {
+    if (it->image_id == image_id && it->point2D_idx == point2D_idx) {
+      track.erase(it);
+      break;
+    }
+  }
+  if (track.size() < 2) {
+    DeletePoint3D(point3D_id, reconstruction);
+    return true;
+  }
+  return false;
+}
+
+void DeleteImage(image_t image_id, Reconstruction* reconstruction) {
+  auto it = reconstruction->images.find(image_id);
+  if (it == reconstruction->images.end()) return;
+  for (point2D_t idx = 0; idx < it->second.points2D.size(); ++idx) {
+    DeleteObservation(image_id, idx, reconstruction);
+  }
+  reconstruction->images.erase(it);
+}
+
+double ReprojectionError(const Camera& camera, const Image& image,
+                         const Eigen::Vector3d& xyz, const Eigen::Vector2d& xy) {
+  const Eigen::Vector3d in_cam = image.cam_from_world * xyz;
+  if (in_cam.z() <= std::numeric_limits<double>::epsilon()) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const Eigen::Vector2d projected =
+      CameraCameraToImage(camera, in_cam.hnormalized());
+  return (projected - xy).norm();
+}
+
+double UpdateReprojectionErrors(Reconstruction* reconstruction) {
+  double sum = 0.0;
+  size_t count = 0;
+  for (auto& [point3D_id, point] : reconstruction->points3D) {
+    double point_sum = 0.0;
+    for (const TrackElement& element : point.track) {
+      const Image& image = reconstruction->images.at(element.image_id);
+      const Camera& camera = reconstruction->cameras.at(image.camera_id);
+      point_sum += ReprojectionError(camera, image, point.xyz,
+                                     image.points2D[element.point2D_idx].xy);
+    }
+    point.error = point.track.empty() ? -1.0 : point_sum / point.track.size();
+    sum += point_sum;
+    count += point.track.size();
+  }
+  return count == 0 ? 0.0 : sum / count;
+}
+
+size_t NumObservations(const Reconstruction& reconstruction) {
+  size_t count = 0;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    count += point.track.size();
+  }
+  return count;
+}
+
+double MeanTrackLength(const Reconstruction& reconstruction) {
+  if (reconstruction.points3D.empty()) return 0.0;
+  return static_cast<double>(NumObservations(reconstruction)) /
+         reconstruction.points3D.size();
+}
+
+}  // namespace colmap_irav4

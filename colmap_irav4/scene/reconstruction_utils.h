@@ -1,0 +1,37 @@
+#pragma once
+
+// Editing and measuring a Reconstruction while keeping points2D[].point3D_id
+// and the points' tracks consistent with each other.
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+// Adds a point (id = largest id + 1, or 1) and links its observations, which
+// must exist and be free. Returns the id.
+point3D_t AddPoint3D(const Eigen::Vector3d& xyz, const std::vector<TrackElement>& track,
+                     Reconstruction* reconstruction);
+// Removes the point and unlinks its observations.
+void DeletePoint3D(point3D_t point3D_id, Reconstruction* reconstruction);
+// Unlinks one observation from its point; a point left with fewer than two
+// observations is deleted. Returns whether the point was deleted.
+bool DeleteObservation(image_t image_id, point2D_t point2D_idx,
+                       Reconstruction* reconstruction);
+// Unlinks every observation of the image and removes it from the model.
+void DeleteImage(image_t image_id, Reconstruction* reconstruction);
+
+// Reprojection error in pixels of `xyz` observed at `xy` in `image`;
+// +infinity when the point is not in front of the camera.
+double ReprojectionError(const Camera& camera, const Image& image,
+                         const Eigen::Vector3d& xyz, const Eigen::Vector2d& xy);
+
+// Sets every point's `error` (mean over its track) and returns the mean over
+// all observations (0 without observations).
+double UpdateReprojectionErrors(Reconstruction* reconstruction);
+size_t NumObservations(const Reconstruction& reconstruction);
+// Mean over points of the number of observations (0 without points).
+double MeanTrackLength(const Reconstruction& reconstruction);
+
+}  // namespace colmap_irav4

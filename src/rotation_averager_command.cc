@@ -1,0 +1,153 @@
+// colmap_irav4 rotation_averager: absolute rotations from relative ones.
+
+#include <iomanip>
+#include <iostream>
+#include <map>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/eval/rotation_eval.h"
+#include "colmap_irav4/io/onedsfm.h"
+#include "colmap_irav4/io/relpose_io.h"
+#include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/timer.h"
+#include "src/command.h"
+
+namespace colmap_irav4 {
+namespace {
+
+void PrintErrors(const std::string& label, const RotationErrors& errors) {
+  std::cout << std::fixed << std::setprecision(3) << "Rotation errors vs "
+            << label << ": " << errors.num_compared << " cameras, median "
+            << errors.median_deg << " deg, mean " << errors.mean_deg
+            << " deg, max " << errors.max_deg << " deg" << std::endl;
+}
+
+int RunRotationAverager(int argc, char** argv) {
+  std::string relpose_path;
+  std::string eg_path;
+  std::string method = "ira";
+  std::string output_path;
+  std::string gt_path;
+  RotationAveragerOptions averager_options;
+  averager_options.log_progress = true;
+  OptionManager options(
+      "rotation_averager",
+      "Estimates absolute rotations (cam_from_world) from relative ones.\n"
+      "Input: --relpose_path (lines 'IMG1 IMG2 QW QX QY QZ TX TY TZ "
+      "[INLIERS]',\nq = cam2_from_cam1, as written by view_graph) or "
+      "--eg_path (a 1DSfM scene\ndirectory: EGs.txt, list.txt, cc.txt, "
+      "gt_bundle.out if present).\nOutput: 'IMAGE_NAME QW QX QY QZ' per "
+      "line.");
+  options.Add("relpose_path", &relpose_path, "relative poses file");
+  options.Add("eg_path", &eg_path, "1DSfM scene directory");
+  options.Add("method", &method,
+              "rotation averaging method: " + RotationAveragerMethodList());
+  options.Add("output_path", &output_path, "absolute rotations file to write");
+  options.Add("gt_path", &gt_path,
+              "ground-truth rotations ('IMAGE_NAME QW QX QY QZ') to evaluate "
+              "against");
+  options.Add("log_progress", &averager_options.log_progress,
+              "progress lines during long runs");
+  AddRotationAveragerOptions(&options, &averager_options);
+  if (!options.Parse(argc, argv)) return 0;
+  if (relpose_path.empty() == eg_path.empty()) {
+    throw InputError("rotation_averager",
+                     "give exactly one of --relpose_path and --eg_path");
+  }
+  if (output_path.empty() && gt_path.empty()) {
+    LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "
+                    "neither written nor evaluated";
+  }
+  // Validates the method and its options before any long reading.
+  std::unique_ptr<RotationAverager> averager =
+      CreateRotationAverager(method, averager_options);
+
+  RotationGraph graph;
+  std::vector<Eigen::Matrix3d> bundler_truth;
+  std::vector<bool> has_bundler_truth;
+  if (!relpose_path.empty()) {
+    graph = ReadRelativePoses(relpose_path);
+  } else {
+    OneDsfmScene scene = ReadOneDsfmScene(eg_path);
+    graph = std::move(scene.graph);
+    bundler_truth = std::move(scene.ground_truth);
+    has_bundler_truth = std::move(scene.has_ground_truth);
+  }
+  if (graph.NumEdges() == 0) {
+    throw InputError(relpose_path.empty() ? eg_path : relpose_path,
+                     "the graph has no edges");
+  }
+  const std::vector<std::vector<int>> components = graph.ConnectedComponents();
+  if (components.size() > 1) {
+    LOG(WARNING) << "the graph has " << components.size()
+                 << " connected components; estimating the largest ("
+                 << components[0].size() << " of " << graph.NumVertices()
+                 << " images)";
+    graph = graph.InducedSubgraph(components[0]);
+    if (!bundler_truth.empty()) {
+      std::vector<Eigen::Matrix3d> truth;
+      std::vector<bool> has_truth;
+      for (int v : components[0]) {
+        truth.push_back(bundler_truth[v]);
+        has_truth.push_back(has_bundler_truth[v]);
+      }
+      bundler_truth = std::move(truth);
+      has_bundler_truth = std::move(has_truth);
+    }
+  }
+  LOG(INFO) << "Rotation averaging (" << averager->Name() << "): "
+            << graph.NumVertices() << " images, " << graph.NumEdges()
+            << " pairs";
+  Timer timer;
+  const RotationAveragingResult result = averager->Estimate(graph);
+  std::cout << "Estimated " << result.NumEstimated() << " of "
+            << graph.NumVertices() << " rotations with " << averager->Name()
+            << " in " << std::fixed << std::setprecision(3)
+            << timer.ElapsedSeconds() << " s" << std::endl;
+  if (!output_path.empty()) {
+    WriteAbsoluteRotations(output_path, graph.Names(), result.rotations,
+                           result.estimated);
+    LOG(INFO) << "Wrote " << output_path;
+  }
+
+  if (!bundler_truth.empty()) {
+    PrintErrors(eg_path + "/gt_bundle.out",
+                EvaluateRotations(result, bundler_truth, has_bundler_truth));
+  }
+  if (!gt_path.empty()) {
+    std::map<std::string, Eigen::Matrix3d> truth;
+    for (auto& [name, R] : ReadAbsoluteRotations(gt_path)) truth[name] = R;
+    std::map<std::string, Eigen::Matrix3d> estimate;
+    for (int v = 0; v < graph.NumVertices(); ++v) {
+      if (result.estimated[v]) estimate[graph.Name(v)] = result.rotations[v];
+    }
+    int num_unknown = 0;
+    std::string first_unknown;
+    for (const auto& [name, R] : truth) {
+      if (estimate.count(name) == 0) {
+        if (num_unknown++ == 0) first_unknown = name;
+      }
+    }
+    LOG_IF(WARNING, num_unknown > 0)
+        << gt_path << ": " << num_unknown
+        << " images not estimated or not in the graph (e.g. '"
+        << first_unknown << "'), not evaluated";
+    const RotationErrors errors = EvaluateRotations(estimate, truth);
+    if (errors.num_compared == 0) {
+      throw InputError(gt_path, "no image in common with the estimate");
+    }
+    PrintErrors(gt_path, errors);
+  }
+  return 0;
+}
+
+CommandRegistrar registrar("rotation_averager",
+                           "Absolute rotations from relative poses "
+                           "(IRA, L1-IRLS, spanning tree, ...)",
+                           RunRotationAverager);
+
+}  // namespace
+}  // namespace colmap_irav4

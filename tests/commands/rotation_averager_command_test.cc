@@ -1,0 +1,236 @@
+// End-to-end tests of `colmap_irav4 rotation_averager` through the binary.
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/rotation_eval.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/io/relpose_io.h"
+#include "colmap_irav4/rotation_averaging/synthetic.h"
+
+namespace colmap_irav4 {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path& TempDir() {
+  static const fs::path dir =
+      fs::temp_directory_path() /
+      ("colmap_irav4_ra_command_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string WriteFile(const std::string& name, const std::string& text) {
+  const std::string path = (TempDir() / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+struct CommandRun {
+  int exit_code = -1;  // -1: killed by a signal (a crash)
+  std::string out;
+  std::string err;
+};
+
+CommandRun RunCommand(const std::string& arguments) {
+  const std::string out = (TempDir() / "stdout.txt").string();
+  const std::string err = (TempDir() / "stderr.txt").string();
+  const std::string command = std::string(COLMAP_IRAV4_BINARY) +
+                              " rotation_averager " + arguments + " >" + out +
+                              " 2>" + err;
+  const int status = std::system(command.c_str());
+  CommandRun run;
+  if (WIFEXITED(status)) run.exit_code = WEXITSTATUS(status);
+  run.out = ReadFile(out);
+  run.err = ReadFile(err);
+  return run;
+}
+
+// Writes a synthetic scene as a relative pose file and its ground truth.
+void WriteScene(const SyntheticProblem& problem, const std::string& relpose,
+                const std::string& gt) {
+  std::ofstream file(relpose);
+  file.precision(17);
+  for (const RelativeRotation& e : problem.graph.Edges()) {
+    const Eigen::Vector4d q = RotationToQuaternion(e.R_ij);
+    file << "img" << e.i << ".jpg img" << e.j << ".jpg " << q.transpose()
+         << " 0 0 1 100\n";
+  }
+  std::vector<std::string> names;
+  for (int v = 0; v < problem.graph.NumVertices(); ++v) {
+    names.push_back("img" + std::to_string(v) + ".jpg");
+  }
+  WriteAbsoluteRotations(gt, names, problem.ground_truth,
+                         std::vector<bool>(names.size(), true));
+}
+
+SyntheticProblem MakeProblem(int num_vertices, int num_edges, double sigma,
+                             double outliers, uint64_t seed) {
+  SyntheticOptions options;
+  options.noise_sigma_deg = sigma;
+  options.outlier_ratio = outliers;
+  options.seed = seed;
+  return MakeSyntheticProblem(
+      num_vertices, RandomConnectedGraph(num_vertices, num_edges, seed),
+      options);
+}
+
+double ErrorAgainst(const std::string& output, const std::string& gt) {
+  std::map<std::string, Eigen::Matrix3d> estimate, truth;
+  for (auto& [name, R] : ReadAbsoluteRotations(output)) estimate[name] = R;
+  for (auto& [name, R] : ReadAbsoluteRotations(gt)) truth[name] = R;
+  return EvaluateRotations(estimate, truth).median_deg;
+}
+
+TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
+  const SyntheticProblem problem = MakeProblem(100, 1500, 3.0, 0.2, 11);
+  const std::string relpose = (TempDir() / "relpose.txt").string();
+  const std::string gt = (TempDir() / "gt.txt").string();
+  WriteScene(problem, relpose, gt);
+  std::map<std::string, double> median;
+  for (const std::string method : {"spanning_tree", "l1_irls", "ira"}) {
+    const std::string output = (TempDir() / (method + ".txt")).string();
+    const CommandRun run = RunCommand("--relpose_path " + relpose + " --method " +
+                               method + " --output_path " + output +
+                               " --gt_path " + gt);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find("Rotation errors vs " + gt + ": 100 cameras"),
+              std::string::npos)
+        << run.out;
+    EXPECT_EQ(ReadAbsoluteRotations(output).size(), 100u);
+    median[method] = ErrorAgainst(output, gt);
+  }
+  for (const std::string method : {"l1_irls", "ira"}) {
+    EXPECT_LT(median[method], 1.5) << method;
+    EXPECT_LT(5 * median[method], median["spanning_tree"]) << method;
+  }
+}
+
+TEST(RotationAveragerCommand, MadridEgPath) {
+  const std::string output = (TempDir() / "madrid.txt").string();
+  const CommandRun run = RunCommand(
+      "--eg_path " + std::string(COLMAP_IRAV4_DATA_DIR) +
+      "/1dsfm/Madrid_Metropolis --method l1_irls --output_path " + output);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("Estimated 394 of 394 rotations"), std::string::npos);
+  EXPECT_EQ(ReadAbsoluteRotations(output).size(), 394u);
+}
+
+TEST(RotationAveragerCommand, DisconnectedGraphWarnsAndKeepsLargest) {
+  const std::string relpose = WriteFile(
+      "disconnected.txt",
+      "a b 1 0 0 0 1 0 0 50\nb c 1 0 0 0 1 0 0 50\nc a 1 0 0 0 1 0 0 50\n"
+      "x y 1 0 0 0 1 0 0 50\n");
+  const std::string output = (TempDir() / "disconnected_out.txt").string();
+  const CommandRun run = RunCommand("--relpose_path " + relpose +
+                             " --method spanning_tree --output_path " + output);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("2 connected components; estimating the largest (3 "
+                         "of 5 images)"),
+            std::string::npos)
+      << run.err;
+  const auto rotations = ReadAbsoluteRotations(output);
+  ASSERT_EQ(rotations.size(), 3u);
+  for (const auto& [name, R] : rotations) {
+    EXPECT_TRUE(name == "a" || name == "b" || name == "c") << name;
+  }
+}
+
+TEST(RotationAveragerCommand, UnknownImageInGroundTruthWarns) {
+  const std::string relpose = WriteFile(
+      "small.txt", "a b 1 0 0 0 1 0 0 50\nb c 1 0 0 0 1 0 0 50\n");
+  const std::string gt =
+      WriteFile("small_gt.txt", "a 1 0 0 0\nb 1 0 0 0\nc 1 0 0 0\nzz 1 0 0 0\n");
+  const CommandRun run = RunCommand("--relpose_path " + relpose +
+                             " --method l1_irls --gt_path " + gt);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("1 images not estimated or not in the graph (e.g. "
+                         "'zz')"),
+            std::string::npos)
+      << run.err;
+  EXPECT_NE(run.out.find(": 3 cameras, median 0.000 deg"), std::string::npos)
+      << run.out;
+  // No common image at all: a clear error.
+  const std::string other = WriteFile("other_gt.txt", "zz 1 0 0 0\n");
+  const CommandRun none = RunCommand("--relpose_path " + relpose +
+                              " --method l1_irls --gt_path " + other);
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_NE(none.err.find(other + ": no image in common"), std::string::npos)
+      << none.err;
+}
+
+TEST(RotationAveragerCommand, MalformedInputGivesOneLineError) {
+  const std::string good = "a b 1 0 0 0 1 0 0 50\n";
+  struct Case {
+    std::string file;
+    std::string text;
+    std::string expected;
+  };
+  const std::vector<Case> cases = {
+      {"columns.txt", good + "b c 1 0 0 0 1 0\n", "line 2: expected 9 to 10"},
+      {"numeric.txt", good + "b c 1 0 0 0 1 0 zero\n", "line 2: field 9"},
+      {"rotation.txt", good + "b c 3 0 0 0 1 0 0\n", "line 2: quaternion norm"},
+      {"empty.txt", "", "no image pairs"},
+  };
+  for (const Case& c : cases) {
+    const std::string path = WriteFile(c.file, c.text);
+    const std::string output = (TempDir() / ("out_" + c.file)).string();
+    const CommandRun run = RunCommand("--relpose_path " + path + " --output_path " +
+                               output);
+    EXPECT_EQ(run.exit_code, 1) << c.file << ": " << run.err;
+    EXPECT_NE(run.err.find("ERROR: " + path + ": " + c.expected),
+              std::string::npos)
+        << run.err;
+    EXPECT_FALSE(fs::exists(output)) << c.file;
+  }
+  // Malformed 1DSfM directory and ground truth.
+  const fs::path eg_dir = TempDir() / "eg";
+  fs::create_directories(eg_dir);
+  std::ofstream(eg_dir / "EGs.txt") << "0 1 1 0 0 0 1 0 0 0 2 0 0 1\n";
+  CommandRun run = RunCommand("--eg_path " + eg_dir.string());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("EGs.txt: line 1: the 3x3 matrix is not a rotation"),
+            std::string::npos)
+      << run.err;
+  const std::string relpose = WriteFile("ok.txt", good);
+  const std::string gt = WriteFile("bad_gt.txt", "a 1 0 0\n");
+  run = RunCommand("--relpose_path " + relpose + " --gt_path " + gt);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find(gt + ": line 1: expected 5 fields"), std::string::npos)
+      << run.err;
+  // Bad options.
+  run = RunCommand("--relpose_path " + relpose + " --method nope");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("--method: unknown method 'nope'"), std::string::npos);
+  run = RunCommand("--relpose_path " + relpose + " --eg_path " +
+                   eg_dir.string());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("exactly one of"), std::string::npos);
+  run = RunCommand("--relpose_path " + relpose +
+                   " --RotationAveraging.linear_solver qr");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("--RotationAveraging.linear_solver"),
+            std::string::npos);
+  run = RunCommand("--relpose_path /nonexistent/relpose.txt");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("/nonexistent/relpose.txt: cannot open"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

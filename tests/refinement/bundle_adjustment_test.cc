@@ -1,0 +1,175 @@
+#include "colmap_irav4/refinement/bundle_adjustment.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// Poses rotated by ~angle_deg, centres moved by ~center_noise, points moved
+// by ~point_noise, focal lengths scaled by focal_factor.
+void Perturb(double angle_deg, double center_noise, double point_noise, double focal_factor,
+             uint64_t seed, Reconstruction* reconstruction) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (auto& [image_id, image] : reconstruction->images) {
+    const Eigen::Vector3d center =
+        image.ProjectionCenter() + center_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    image.cam_from_world.rotation =
+        Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(angle_deg), &rng)) *
+        image.cam_from_world.rotation;
+    image.cam_from_world.translation = -(image.cam_from_world.rotation * center);
+  }
+  for (auto& [point3D_id, point] : reconstruction->points3D) {
+    point.xyz += point_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+  }
+  for (auto& [camera_id, camera] : reconstruction->cameras) {
+    for (int idx : CameraModelFocalLengthIdxs(camera.model_id)) camera.params[idx] *= focal_factor;
+  }
+}
+
+struct Errors {
+  double max_center_error = 0;  // after similarity alignment
+  double max_rotation_error_deg = 0;
+};
+
+Errors Compare(const Reconstruction& estimate, const Reconstruction& truth) {
+  std::vector<Eigen::Vector3d> src, dst;
+  for (const auto& [image_id, image] : estimate.images) {
+    src.push_back(image.ProjectionCenter());
+    dst.push_back(truth.images.at(image_id).ProjectionCenter());
+  }
+  Sim3d sim;
+  EXPECT_TRUE(EstimateSimilarity(src, dst, &sim));
+  Errors errors;
+  size_t i = 0;
+  for (const auto& [image_id, image] : estimate.images) {
+    errors.max_center_error = std::max(errors.max_center_error, (sim * src[i] - dst[i]).norm());
+    ++i;
+    const Eigen::Matrix3d R = image.cam_from_world.rotation.toRotationMatrix() * sim.R.transpose();
+    errors.max_rotation_error_deg = std::max(
+        errors.max_rotation_error_deg,
+        AngularDistanceDeg(R, truth.images.at(image_id).cam_from_world.rotation.toRotationMatrix()));
+  }
+  return errors;
+}
+
+SyntheticSceneOptions SceneOptions() {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.num_points = 600;
+  options.visibility = 0.7;
+  options.noise_px = 1.0;
+  return options;
+}
+
+TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
+  const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
+  Reconstruction truth = scene.truth;
+  Reconstruction reconstruction = scene.truth;
+  Perturb(1.0, 0.1, 0.05, 1.03, 5, &reconstruction);
+  BundleAdjustmentOptions options;
+  options.refine_extra_params = false;  // PINHOLE has none
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+  EXPECT_GT(summary.initial_mean_reproj_error, 10.0);
+  // Noise of 1 px per coordinate: the mean error norm is ~1.25 px minus what
+  // the fit absorbs.
+  EXPECT_LT(summary.final_mean_reproj_error, 1.3);
+  EXPECT_GT(summary.final_mean_reproj_error, 0.9);
+  EXPECT_LT(summary.num_observations_filtered, 0.01 * NumObservations(truth));
+  const Errors errors = Compare(reconstruction, truth);
+  EXPECT_LT(errors.max_center_error, 0.01);  // radius 10
+  EXPECT_LT(errors.max_rotation_error_deg, 0.05);
+  const double focal = CameraMeanFocalLength(reconstruction.cameras.at(1));
+  EXPECT_NEAR(focal, 1200.0, 3.0);
+}
+
+TEST(BundleAdjustment, RefinesDistortionOfPerImageCameras) {
+  SyntheticSceneOptions scene_options = SceneOptions();
+  scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
+  scene_options.extra_param = -0.05;
+  scene_options.shared_camera = false;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  Reconstruction reconstruction = scene.truth;
+  ASSERT_EQ(reconstruction.cameras.size(), 12u);
+  Perturb(0.3, 0.05, 0.02, 1.0, 6, &reconstruction);
+  for (auto& [camera_id, camera] : reconstruction.cameras) camera.params[3] = 0.0;
+  BundleAdjustmentOptions options;
+  options.refine_focal_length = false;
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+  EXPECT_LT(summary.final_mean_reproj_error, 1.3);
+  for (const auto& [camera_id, camera] : reconstruction.cameras) {
+    EXPECT_NEAR(camera.params[3], -0.05, 0.01);
+    EXPECT_EQ(camera.params[0], 1200.0);  // held
+  }
+  EXPECT_LT(Compare(reconstruction, scene.truth).max_center_error, 0.02);
+}
+
+TEST(BundleAdjustment, RoundsRemoveWrongObservations) {
+  const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
+  Reconstruction reconstruction = scene.truth;
+  // Move 5% of the keypoints by 30-60 px.
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  int num_moved = 0;
+  for (auto& [image_id, image] : reconstruction.images) {
+    for (Point2D& point2D : image.points2D) {
+      if (uniform(rng) < 0.05) {
+        const double angle = 2 * kPi * uniform(rng);
+        point2D.xy += (30 + 30 * uniform(rng)) * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+        ++num_moved;
+      }
+    }
+  }
+  Perturb(0.5, 0.05, 0.02, 1.0, 7, &reconstruction);
+  BundleAdjustmentSummary summary;
+  BundleAdjustmentOptions options;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+  EXPECT_GE(summary.num_observations_filtered, 0.95 * num_moved);
+  EXPECT_LT(summary.num_observations_filtered, 1.1 * num_moved);
+  EXPECT_LT(summary.final_mean_reproj_error, 1.3);
+  EXPECT_LT(Compare(reconstruction, scene.truth).max_center_error, 0.02);
+}
+
+TEST(BundleAdjustment, FixedPosesMoveOnlyPoints) {
+  const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
+  Reconstruction reconstruction = scene.truth;
+  Perturb(0.0, 0.0, 0.1, 1.0, 8, &reconstruction);
+  const Reconstruction start = reconstruction;
+  BundleAdjustmentOptions options;
+  options.refine_poses = false;
+  options.refine_focal_length = false;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction));
+  for (const auto& [image_id, image] : reconstruction.images) {
+    const Image& start_image = start.images.at(image_id);
+    EXPECT_EQ(image.cam_from_world.translation, start_image.cam_from_world.translation);
+  }
+  double max_point_error = 0;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    max_point_error = std::max(max_point_error, (point.xyz - scene.truth.points3D.at(point3D_id).xyz).norm());
+  }
+  EXPECT_LT(max_point_error, 0.05);
+}
+
+TEST(BundleAdjustment, OptionsCheck) {
+  BundleAdjustmentOptions options;
+  EXPECT_NO_THROW(options.Check());
+  options.linear_solver = "magic";
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.num_rounds = 0;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

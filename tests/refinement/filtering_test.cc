@@ -1,0 +1,129 @@
+#include "colmap_irav4/refinement/filtering.h"
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+SyntheticScene Scene() {
+  SyntheticSceneOptions options;
+  options.num_images = 6;
+  options.num_points = 200;
+  options.noise_px = 0.5;
+  return GenerateSyntheticScene(options);
+}
+
+// Whether every link points both ways.
+void ExpectConsistent(const Reconstruction& reconstruction) {
+  size_t num_linked = 0;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    for (point2D_t idx = 0; idx < image.points2D.size(); ++idx) {
+      const point3D_t point3D_id = image.points2D[idx].point3D_id;
+      if (point3D_id == kInvalidPoint3DId) continue;
+      ++num_linked;
+      const auto& track = reconstruction.points3D.at(point3D_id).track;
+      EXPECT_EQ(std::count_if(track.begin(), track.end(),
+                              [&](const TrackElement& e) {
+                                return e.image_id == image_id && e.point2D_idx == idx;
+                              }),
+                1);
+    }
+  }
+  EXPECT_EQ(num_linked, NumObservations(reconstruction));
+  for (const auto& [point3D_id, point] : reconstruction.points3D) EXPECT_GE(point.track.size(), 2u);
+}
+
+TEST(Filtering, RemovesExactlyTheObservationsOverTheThreshold) {
+  SyntheticScene scene = Scene();
+  Reconstruction& reconstruction = scene.truth;
+  const size_t num_before = NumObservations(reconstruction);
+  // Move 20 keypoints of image 3 by 10 px.
+  int num_moved = 0;
+  for (Point2D& point2D : reconstruction.images.at(3).points2D) {
+    if (num_moved == 20) break;
+    point2D.xy.x() += 10.0;
+    ++num_moved;
+  }
+  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction), 20u);
+  EXPECT_EQ(NumObservations(reconstruction), num_before - 20);
+  ExpectConsistent(reconstruction);
+  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction), 0u);
+}
+
+TEST(Filtering, RemovesPointsBehindTheCamera) {
+  SyntheticScene scene = Scene();
+  Reconstruction& reconstruction = scene.truth;
+  Point3D& point = reconstruction.points3D.begin()->second;
+  const size_t track_length = point.track.size();
+  // Mirror the point through the first camera's centre: behind that camera.
+  const Eigen::Vector3d center = reconstruction.images.at(point.track[0].image_id).ProjectionCenter();
+  point.xyz = 2 * center - point.xyz;
+  EXPECT_GE(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction), track_length - 1);
+  ExpectConsistent(reconstruction);
+}
+
+TEST(Filtering, TriangulationAngle) {
+  SyntheticScene scene = Scene();
+  Reconstruction& reconstruction = scene.truth;
+  // Images 1 and 2 are 90/5 = 18 deg apart on the arc, the points near the
+  // centre: every point sees angles well above 1.5 deg.
+  EXPECT_EQ(FilterPointsWithSmallTriangulationAngle(1.5, &reconstruction), 0u);
+  // A point 1000 radii away is seen under ~0.09 deg at most.
+  const point3D_t far_id = reconstruction.points3D.begin()->first;
+  reconstruction.points3D.at(far_id).xyz = Eigen::Vector3d(0, 0, 10000.0);
+  EXPECT_LT(RadToDeg(MaxTriangulationAngle(reconstruction, reconstruction.points3D.at(far_id))), 0.2);
+  EXPECT_EQ(FilterPointsWithSmallTriangulationAngle(1.5, &reconstruction), 1u);
+  EXPECT_FALSE(reconstruction.points3D.count(far_id));
+  ExpectConsistent(reconstruction);
+}
+
+TEST(Filtering, NormalizationCentresAndScalesWithoutChangingProjections) {
+  SyntheticScene scene = Scene();
+  Reconstruction& reconstruction = scene.truth;
+  const double error_before = UpdateReprojectionErrors(&reconstruction);
+  Sim3d offset;
+  offset.scale = 3.7;
+  offset.R = AngleAxisToRotation(Eigen::Vector3d(0.3, -0.2, 0.5));
+  offset.t = Eigen::Vector3d(100, -50, 7);
+  TransformReconstruction(offset, &reconstruction);
+  EXPECT_NEAR(UpdateReprojectionErrors(&reconstruction), error_before, 1e-6);
+  NormalizationOptions options;
+  const Sim3d applied = NormalizeReconstruction(options, &reconstruction);
+  EXPECT_GT(applied.scale, 0);
+  EXPECT_NEAR(UpdateReprojectionErrors(&reconstruction), error_before, 1e-6);
+  std::vector<double> xs, ys, zs;
+  double spread = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> values;
+    for (const auto& [image_id, image] : reconstruction.images) values.push_back(image.ProjectionCenter()[axis]);
+    std::sort(values.begin(), values.end());
+    const auto at = [&](double f) { return values[static_cast<size_t>(std::round(f * (values.size() - 1)))]; };
+    EXPECT_NEAR(at(0.5), 0.0, 1e-9);
+    spread = std::max(spread, at(0.9) - at(0.1));
+  }
+  EXPECT_NEAR(spread, 10.0, 1e-9);
+  options.max_percentile = 0.05;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+TEST(Filtering, RunFilteringDropsImagesWithFewObservations) {
+  SyntheticScene scene = Scene();
+  Reconstruction& reconstruction = scene.truth;
+  for (point2D_t idx = 10; idx < reconstruction.images.at(2).points2D.size(); ++idx) {
+    DeleteObservation(2, idx, &reconstruction);
+  }
+  FilterOptions options;
+  options.min_num_observations_per_image = 20;
+  const FilterSummary summary = RunFiltering(options, &reconstruction);
+  EXPECT_EQ(summary.num_images_filtered, 1u);
+  EXPECT_FALSE(reconstruction.images.count(2));
+  ExpectConsistent(reconstruction);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

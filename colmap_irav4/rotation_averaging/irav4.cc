@@ -18,6 +18,14 @@ std::vector<bool> MaskOf(int n, const std::vector<int>& vertices) {
   return mask;
 }
 
+int MaxDegreeVertex(const RotationGraph& graph) {
+  int best = 0;
+  for (int v = 1; v < graph.NumVertices(); ++v) {
+    if (graph.Degree(v) > graph.Degree(best)) best = v;
+  }
+  return best;
+}
+
 // Copies an engine's selected rotations into a per-vertex table.
 void ExportEngine(const IncrementalEngine& engine, int n,
                   std::vector<Eigen::Matrix3d>* rotations,
@@ -38,7 +46,10 @@ AlignmentReference TaskSpecificReference(const RotationGraph& graph,
   const int n = graph.NumVertices();
   AlignmentReference reference;
   IncrementalEngine engine(graph, options.engine);
-  if (!engine.InitializeFromBestTriplet()) return reference;
+  if (!engine.InitializeFromBestTriplet() &&
+      !engine.InitializeFromVertex(MaxDegreeVertex(graph))) {
+    return reference;
+  }
   std::vector<char> dominated(n, 0);
   int num_dominated = 0;
   auto dominate = [&](int v) {
@@ -116,12 +127,6 @@ std::string ReferenceMethodToString(ReferenceMethod method) {
 }
 
 void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
-  manager->Add("RotationAveraging.theta_deg", &options->engine.theta_deg,
-               "outlier threshold of every IRA-series step (deg)");
-  manager->Add("RotationAveraging.global_growth_ratio",
-               &options->engine.global_growth_ratio,
-               "re-optimise a growing set globally after this relative "
-               "growth");
   manager->Add("RotationAveraging.min_community_size",
                &options->communities.min_community_size,
                "smaller communities merge into their best-connected "
@@ -214,22 +219,19 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   std::vector<bool> affiliated(n, false);
   for (const std::vector<int>& community : communities) {
     if (community.size() < 3) continue;
-    IncrementalEngine seeder(graph, options_.engine, MaskOf(n, community));
-    if (!seeder.InitializeFromBestTriplet()) continue;
-    const std::vector<int> seed = seeder.Selected();
-    CHECK_EQ(seed.size(), 3u);
-    // The cluster may grow beyond its community: every vertex allowed.
+    // Seeded inside its community, the cluster may then grow beyond it:
+    // every vertex is allowed, the seed triangle is restricted.
     auto cluster = std::make_unique<IncrementalEngine>(graph, options_.engine);
-    if (!cluster->InitializeFromTriplet(seed[0], seed[1], seed[2])) continue;
-    for (int v : seed) affiliated[v] = true;
+    if (!cluster->InitializeFromBestTriplet(MaskOf(n, community))) continue;
+    for (int v : cluster->Selected()) affiliated[v] = true;
     clusters.push_back(std::move(cluster));
   }
   if (clusters.empty()) {
     // No community could seed (e.g. very few, inconsistent triangles): one
     // cluster from the best triplet of the whole graph.
     auto cluster = std::make_unique<IncrementalEngine>(graph, options_.engine);
-    if (!cluster->InitializeFromBestTriplet()) {
-      LOG(WARNING) << "IRAv4: no triplet passes the chaining check";
+    if (!cluster->InitializeFromBestTriplet() &&
+        !cluster->InitializeFromVertex(MaxDegreeVertex(graph))) {
       return result;
     }
     for (int v : cluster->Selected()) affiliated[v] = true;
@@ -329,9 +331,21 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
 
   // 5. Final optimisation over the inlier edges of the whole graph.
   timer.Restart();
-  for (int round = 0; round < options_.num_final_rounds; ++round) {
-    report_.num_final_inlier_edges = GlobalOptimizeRotations(
-        graph, options_.engine, estimated, &rotations);
+  std::vector<int> estimated_vertices;
+  for (int v = 0; v < n; ++v) {
+    if (estimated[v]) estimated_vertices.push_back(v);
+  }
+  if (options_.num_final_rounds > 0 && estimated_vertices.size() >= 2) {
+    // Eq. 11-12 on all vertices: the engine seeded with the aligned
+    // rotations (same inlier selection and Ceres problem as the growth).
+    IncrementalEngine final_engine(graph, options_.engine);
+    CHECK(final_engine.InitializeFromRotations(estimated_vertices, rotations));
+    for (int round = 0; round < options_.num_final_rounds; ++round) {
+      final_engine.GlobalOptimize();
+    }
+    report_.num_final_inlier_edges =
+        final_engine.Stats().last_global_num_inliers;
+    for (int v : estimated_vertices) rotations[v] = final_engine.Rotation(v);
   }
   result.stage_seconds.emplace_back("global_optimization",
                                     timer.ElapsedSeconds());

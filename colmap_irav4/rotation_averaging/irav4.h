@@ -45,10 +45,11 @@ struct Irav4Options {
   bool Check() const;  // throws InputError naming the option
 };
 
-// Registers the options in COLMAP's dotted style under RotationAveraging.*
-// (theta_deg, global_growth_ratio, min/max_community_size,
-// reference_method, weighted_greedy_cds, num_random_cds, seed,
-// num_final_rounds), shared by the command and the benchmarks.
+// Registers IRAv4's own options in COLMAP's dotted style under
+// RotationAveraging.* (min/max_community_size, reference_method,
+// weighted_greedy_cds, num_random_cds, seed, num_final_rounds); the engine's
+// (theta_deg, global_growth_ratio, ...) are shared with IRA and registered
+// by the rotation averager factory.
 void AddIrav4Options(OptionManager* manager, Irav4Options* options);
 
 // A reference: the selected vertices and their rotations (one entry per

@@ -1,7 +1,7 @@
 // rotation_benchmark: the paper's synthetic protocol (section 5.2.1) for
 // several rotation averaging methods side by side, on the same measurements.
 //
-//   rotation_benchmark --graph madrid --methods ira,l1_irls,spanning_tree
+//   rotation_benchmark --graph madrid --methods irav4,ira,l1_irls,spanning_tree
 //   rotation_benchmark --graph random --num_vertices 5000 --num_edges 700000
 //                      --methods l1_irls --sigmas 5 --outlier_ratios 0
 //
@@ -97,7 +97,7 @@ int Run(int argc, char** argv) {
   std::string eg_path = "../shared/data/1dsfm/Madrid_Metropolis";
   int num_vertices = 1000;
   int num_edges = 20000;
-  std::string methods_text = "l1_irls,spanning_tree";
+  std::string methods_text = "irav4,ira,l1_irls";
   std::string sigmas_text = "5,10";
   std::string outliers_text = "0,10,20,30,40,50";
   int seed = 1;

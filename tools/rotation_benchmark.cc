@@ -1,7 +1,7 @@
 // rotation_benchmark: the paper's synthetic protocol (section 5.2.1) for
 // several rotation averaging methods side by side, on the same measurements.
 //
-//   rotation_benchmark --graph madrid --methods ira,l1_irls,spanning_tree
+//   rotation_benchmark --graph madrid --methods irav4,ira,l1_irls,spanning_tree
 //   rotation_benchmark --graph random --num_vertices 5000 --num_edges 700000
 //                      --methods l1_irls --sigmas 5 --outlier_ratios 0
 //
@@ -70,12 +70,34 @@ double PeakMemoryMb() {
   return usage.ru_maxrss / 1024.0;  // Linux: kilobytes
 }
 
+// Resets the kernel's peak resident set size of this process to its current
+// size (Linux >= 4.0), so that each method's own peak can be read after it.
+bool ResetPeakMemory() {
+  FILE* file = std::fopen("/proc/self/clear_refs", "w");
+  if (file == nullptr) return false;
+  const bool ok = std::fputs("5", file) >= 0;
+  return std::fclose(file) == 0 && ok;
+}
+
+// VmHWM (peak resident set size since the last reset), MB; -1 if unknown.
+double PeakResidentMb() {
+  FILE* file = std::fopen("/proc/self/status", "r");
+  if (file == nullptr) return -1.0;
+  char line[256];
+  double kb = -1.0;
+  while (std::fgets(line, sizeof(line), file) != nullptr) {
+    if (std::sscanf(line, "VmHWM: %lf kB", &kb) == 1) break;
+  }
+  std::fclose(file);
+  return kb < 0 ? -1.0 : kb / 1024.0;
+}
+
 int Run(int argc, char** argv) {
   std::string graph_type = "madrid";
   std::string eg_path = "../shared/data/1dsfm/Madrid_Metropolis";
   int num_vertices = 1000;
   int num_edges = 20000;
-  std::string methods_text = "l1_irls,spanning_tree";
+  std::string methods_text = "irav4,ira,l1_irls";
   std::string sigmas_text = "5,10";
   std::string outliers_text = "0,10,20,30,40,50";
   int seed = 1;
@@ -129,10 +151,12 @@ int Run(int argc, char** argv) {
   std::printf("# graph %s: %d cameras, %d edges; seed %d\n",
               graph_label.c_str(), structure.NumVertices(),
               structure.NumEdges(), seed);
-  std::printf("# per method: median / mean rotation error (deg), seconds\n");
+  std::printf(
+      "# per method: median / mean rotation error (deg), seconds, peak "
+      "resident memory during the method (MB, whole process)\n");
   std::printf("%-7s %5s %4s", "graph", "sigma", "p%");
   for (const std::string& method : methods) {
-    std::printf(" | %-26s", method.c_str());
+    std::printf(" | %-34s", method.c_str());
   }
   std::printf("\n");
   std::fflush(stdout);
@@ -150,16 +174,18 @@ int Run(int argc, char** argv) {
       for (const std::string& method : methods) {
         std::unique_ptr<RotationAverager> averager =
             CreateRotationAverager(method, averager_options);
+        const bool reset = ResetPeakMemory();
         Timer timer;
         const RotationAveragingResult result =
             averager->Estimate(problem.graph);
         const double seconds = timer.ElapsedSeconds();
         const RotationErrors errors =
             EvaluateRotations(result, problem.ground_truth);
-        char cell[64];
-        std::snprintf(cell, sizeof(cell), "%7.3f / %7.3f  %7.2fs",
-                      errors.median_deg, errors.mean_deg, seconds);
-        std::printf(" | %-26s", cell);
+        const double peak_mb = reset ? PeakResidentMb() : -1.0;
+        char cell[80];
+        std::snprintf(cell, sizeof(cell), "%7.3f / %7.3f %7.2fs %6.0fMB",
+                      errors.median_deg, errors.mean_deg, seconds, peak_mb);
+        std::printf(" | %-34s", cell);
         std::fflush(stdout);
       }
       std::printf("\n");

@@ -363,6 +363,21 @@ bool IncrementalEngine::InitializeFromVertex(int v) {
   return true;
 }
 
+bool IncrementalEngine::InitializeFromRotations(
+    const std::vector<int>& vertices,
+    const std::vector<Eigen::Matrix3d>& rotations) {
+  CHECK(selected_list_.empty()) << "engine already initialised";
+  CHECK_EQ(static_cast<int>(rotations.size()), graph_.NumVertices());
+  if (vertices.empty()) return false;
+  for (int v : vertices) {
+    if (v < 0 || v >= graph_.NumVertices() || !CanSelect(v)) return false;
+  }
+  for (int v : vertices) SelectVertex(v, rotations[v]);
+  last_added_ = vertices.back();
+  AfterSeed();
+  return true;
+}
+
 void IncrementalEngine::RemoveCandidate(int p) {
   if (!in_frontier_[p]) return;
   in_frontier_[p] = false;

@@ -98,6 +98,11 @@ class IncrementalEngine {
   // Degenerate seed for graphs without any consistent triangle: the single
   // vertex `v` with the identity rotation.
   bool InitializeFromVertex(int v);
+  // Seeds the set with rotations estimated elsewhere (`rotations` indexed by
+  // vertex), e.g. IRAv4's aligned clusters, so that GlobalOptimize() runs
+  // Eq. 11-12 on them. False if a vertex is not selectable or none given.
+  bool InitializeFromRotations(const std::vector<int>& vertices,
+                               const std::vector<Eigen::Matrix3d>& rotations);
 
   struct Candidate {
     int vertex = -1;  // v_p*, -1 if none

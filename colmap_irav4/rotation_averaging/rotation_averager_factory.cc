@@ -15,6 +15,12 @@ using Factory = std::function<std::unique_ptr<RotationAverager>(
 // Adding a method is one line here.
 const std::vector<std::pair<std::string, Factory>>& Methods() {
   static const std::vector<std::pair<std::string, Factory>> methods = {
+      {"irav4",
+       [](const RotationAveragerOptions& o) {
+         Irav4Options irav4 = o.irav4;
+         irav4.engine = o.ira.engine;  // one set of engine options
+         return std::make_unique<Irav4>(irav4);
+       }},
       {"ira",
        [](const RotationAveragerOptions& o) {
          IraOptions ira = o.ira;
@@ -39,6 +45,9 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
 
 void RotationAveragerOptions::Check() const {
   ira.Check();
+  Irav4Options irav4_with_engine = irav4;
+  irav4_with_engine.engine = ira.engine;
+  irav4_with_engine.Check();
   l1_irls.Check();
 }
 
@@ -66,6 +75,7 @@ void AddRotationAveragerOptions(OptionManager* options,
                &engine->max_direct_solver_vertices,
                "IRA: sparse Cholesky up to this many cameras, CG above");
   options->Add(p + "num_threads", &engine->num_threads, "IRA: Ceres threads");
+  AddIrav4Options(options, &o->irav4);
   L1IrlsOptions* l1 = &o->l1_irls;
   options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,
                "L1-IRLS: relinearised L1 steps");

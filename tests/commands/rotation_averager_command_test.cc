@@ -103,7 +103,7 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
   const std::string gt = (TempDir() / "gt.txt").string();
   WriteScene(problem, relpose, gt);
   std::map<std::string, double> median;
-  for (const std::string method : {"spanning_tree", "l1_irls", "ira"}) {
+  for (const std::string method : {"spanning_tree", "l1_irls", "ira", "irav4"}) {
     const std::string output = (TempDir() / (method + ".txt")).string();
     const CommandRun run = RunCommand("--relpose_path " + relpose + " --method " +
                                method + " --output_path " + output +
@@ -115,7 +115,7 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
     EXPECT_EQ(ReadAbsoluteRotations(output).size(), 100u);
     median[method] = ErrorAgainst(output, gt);
   }
-  for (const std::string method : {"l1_irls", "ira"}) {
+  for (const std::string method : {"l1_irls", "ira", "irav4"}) {
     EXPECT_LT(median[method], 1.5) << method;
     EXPECT_LT(5 * median[method], median["spanning_tree"]) << method;
   }

@@ -293,6 +293,12 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   }
   result.stage_seconds.emplace_back("on_the_fly_clustering",
                                     timer.ElapsedSeconds());
+  if (options_.log_progress) {
+    std::string sizes;
+    for (int size : report_.cluster_sizes) sizes += " " + std::to_string(size);
+    LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
+              << result.stage_seconds.back().second << " s)";
+  }
 
   // 3. The alignment reference.
   timer.Restart();

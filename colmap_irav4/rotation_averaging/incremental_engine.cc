@@ -50,6 +50,23 @@ inline double CosDistance(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
   return std::clamp(c, -1.0, 1.0);
 }
 
+// R_{from,to} R without copying the (possibly transposed) measurement.
+inline Eigen::Matrix3d Chain(const RotationGraph& graph, int edge_idx,
+                             int from, const Eigen::Matrix3d& R) {
+  const RelativeRotation& edge = graph.Edge(edge_idx);
+  if (edge.i == from) return edge.R_ij * R;
+  return edge.R_ij.transpose() * R;
+}
+
+// cos d(R_{from,to}, X).
+inline double CosToEdge(const RotationGraph& graph, int edge_idx, int from,
+                        const Eigen::Matrix3d& X) {
+  const RelativeRotation& edge = graph.Edge(edge_idx);
+  const double dot = edge.i == from ? (edge.R_ij.array() * X.array()).sum()
+                                    : (edge.R_ij.transpose().array() * X.array()).sum();
+  return std::clamp((dot - 1.0) * 0.5, -1.0, 1.0);
+}
+
 // Residual of an edge: the angle-axis vector of R_ij^T R_j R_i^T, so that the
 // squared norm is d^2(R_ij, R_j R_i^T). Quaternions in Eigen's (x, y, z, w)
 // storage, kept unit by ceres::EigenQuaternionManifold.
@@ -114,36 +131,44 @@ int FindRoot(std::vector<int>* parent, int v) {
 
 }  // namespace
 
-IncrementalEngine::IncrementalEngine(const RotationGraph& graph,
-                                     const IncrementalOptions& options,
-                                     std::vector<bool> allowed)
-    : graph_(graph),
-      options_(options),
-      cos_theta_(std::cos(DegToRad(options.theta_deg))),
-      allowed_(std::move(allowed)) {
-  options_.Check();
-  const int n = graph_.NumVertices();
-  if (allowed_.empty()) allowed_.assign(n, true);
-  CHECK_EQ(static_cast<int>(allowed_.size()), n);
-  adjacency_.resize(n);
-  for (int v = 0; v < n; ++v) {
-    std::vector<std::pair<int, int>> neighbors = graph_.Neighbors(v);
+std::shared_ptr<const IncrementalEngine::AdjacencyList>
+IncrementalEngine::BuildAdjacency(const RotationGraph& graph) {
+  auto adjacency = std::make_shared<AdjacencyList>(graph.NumVertices());
+  for (int v = 0; v < graph.NumVertices(); ++v) {
+    std::vector<std::pair<int, int>> neighbors = graph.Neighbors(v);
     // Duplicate pairs: keep the heaviest edge, ties the smaller index.
     std::sort(neighbors.begin(), neighbors.end(),
               [&](const std::pair<int, int>& a, const std::pair<int, int>& b) {
                 if (a.first != b.first) return a.first < b.first;
-                const double wa = graph_.Edge(a.second).weight;
-                const double wb = graph_.Edge(b.second).weight;
+                const double wa = graph.Edge(a.second).weight;
+                const double wb = graph.Edge(b.second).weight;
                 if (wa != wb) return wa > wb;
                 return a.second < b.second;
               });
-    auto& adjacency = adjacency_[v];
+    auto& list = (*adjacency)[v];
     for (const auto& neighbor : neighbors) {
-      if (adjacency.empty() || adjacency.back().first != neighbor.first) {
-        adjacency.push_back(neighbor);
+      if (list.empty() || list.back().first != neighbor.first) {
+        list.push_back(neighbor);
       }
     }
+    list.shrink_to_fit();
   }
+  return adjacency;
+}
+
+IncrementalEngine::IncrementalEngine(
+    const RotationGraph& graph, const IncrementalOptions& options,
+    std::vector<bool> allowed, std::shared_ptr<const AdjacencyList> adjacency)
+    : graph_(graph),
+      options_(options),
+      cos_theta_(std::cos(DegToRad(options.theta_deg))),
+      allowed_(std::move(allowed)),
+      adjacency_(adjacency ? std::move(adjacency) : BuildAdjacency(graph)) {
+  options_.Check();
+  const int n = graph_.NumVertices();
+  if (allowed_.empty()) allowed_.assign(n, true);
+  CHECK_EQ(static_cast<int>(allowed_.size()), n);
+  CHECK_EQ(static_cast<int>(adjacency_->size()), n);
   selected_.assign(n, false);
   excluded_.assign(n, false);
   rotations_.assign(n, Eigen::Matrix3d::Identity());
@@ -152,7 +177,7 @@ IncrementalEngine::IncrementalEngine(const RotationGraph& graph,
 }
 
 int IncrementalEngine::FindEdge(int u, int v) const {
-  const auto& adjacency = adjacency_[u];
+  const auto& adjacency = (*adjacency_)[u];
   const auto it = std::lower_bound(
       adjacency.begin(), adjacency.end(), std::make_pair(v, -1),
       [](const std::pair<int, int>& a, const std::pair<int, int>& b) {
@@ -172,7 +197,7 @@ void IncrementalEngine::SelectVertex(int v, const Eigen::Matrix3d& R) {
 void IncrementalEngine::AfterSeed() {
   size_at_last_global_ = NumSelected();
   for (int s : selected_list_) {
-    for (const auto& [q, e] : adjacency_[s]) {
+    for (const auto& [q, e] : (*adjacency_)[s]) {
       if (CanSelect(q) && !in_frontier_[q]) {
         in_frontier_[q] = true;
         frontier_list_.push_back(q);
@@ -249,12 +274,12 @@ bool IncrementalEngine::InitializeFromBestTriplet(
   const int n = graph_.NumVertices();
   for (int i = 0; i < n; ++i) {
     if (!ok(i)) continue;
-    const auto& adj_i = adjacency_[i];
+    const auto& adj_i = (*adjacency_)[i];
     for (size_t a = 0; a < adj_i.size(); ++a) {
       const auto [j, e_ij] = adj_i[a];
       if (j <= i || !ok(j)) continue;
       const Eigen::Matrix3d R_ij = graph_.RotationFrom(e_ij, i);
-      const auto& adj_j = adjacency_[j];
+      const auto& adj_j = (*adjacency_)[j];
       // Both lists sorted by neighbour: walk them for common k > j.
       size_t x = a + 1;
       size_t y = std::upper_bound(adj_j.begin(), adj_j.end(),
@@ -275,8 +300,8 @@ bool IncrementalEngine::InitializeFromBestTriplet(
             const int e_jk = adj_j[y].second;
             // Eq. 2: d(R_jk, R_ik R_ij^T) < theta.
             const Eigen::Matrix3d chained =
-                graph_.RotationFrom(e_ik, i) * R_ij.transpose();
-            const double c = CosDistance(graph_.RotationFrom(e_jk, j), chained);
+                Chain(graph_, e_ik, i, R_ij.transpose());
+            const double c = CosToEdge(graph_, e_jk, j, chained);
             if (c > cos_theta_) {
               ++stats_.num_triangles_passed;
               const Triangle t{1.0 - c, i, j, k, e_ij, e_ik, e_jk};
@@ -391,12 +416,12 @@ void IncrementalEngine::RecomputeCandidate(int p) {
   CandidateState& state = candidates_[p];
   auto& pre = state.precomputations;
   pre.clear();
-  for (const auto& [m, e] : adjacency_[p]) {
+  for (const auto& [m, e] : (*adjacency_)[p]) {
     if (!selected_[m]) continue;
     Precomputation entry;
     entry.m = m;
     entry.weight = graph_.Edge(e).weight;
-    entry.P = graph_.RotationFrom(e, m) * rotations_[m];  // Eq. 5
+    entry.P = Chain(graph_, e, m, rotations_[m]);  // Eq. 5
     pre.push_back(entry);
   }
   const int D = static_cast<int>(pre.size());
@@ -460,7 +485,7 @@ void IncrementalEngine::UpdateCandidate(int p, int x, int edge_idx) {
   Precomputation added;
   added.m = x;
   added.weight = graph_.Edge(edge_idx).weight;
-  added.P = graph_.RotationFrom(edge_idx, x) * rotations_[x];
+  added.P = Chain(graph_, edge_idx, x, rotations_[x]);
   added.evaluated = true;
   added.reward = 1.0;
   for (Precomputation& entry : pre) {
@@ -568,10 +593,10 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
   // Eq. 9: inliers of the initialisation R_p^{m*} among the selected
   // neighbours: d(R_np, R_p R_n^T) = d(R_np R_n, R_p).
   std::vector<int> inlier_edges;
-  for (const auto& [n, e] : adjacency_[p]) {
+  for (const auto& [n, e] : (*adjacency_)[p]) {
     if (!selected_[n]) continue;
     const double c =
-        CosDistance(graph_.RotationFrom(e, n) * rotations_[n], candidate.R_init);
+        CosDistance(Chain(graph_, e, n, rotations_[n]), candidate.R_init);
     if (c > cos_theta_) inlier_edges.push_back(e);
   }
   SelectVertex(p, candidate.R_init);
@@ -584,7 +609,7 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
   if (global) GlobalOptimize();  // marks every candidate stale
 
   const Timer reward_timer;
-  for (const auto& [q, e] : adjacency_[p]) {
+  for (const auto& [q, e] : (*adjacency_)[p]) {
     if (!CanSelect(q)) continue;
     if (!in_frontier_[q]) {
       in_frontier_[q] = true;
@@ -616,11 +641,11 @@ void IncrementalEngine::GlobalOptimize() {
   std::vector<std::pair<int, int>> inliers;  // (edge, from vertex)
   int num_edges = 0;
   for (int v : selected_list_) {
-    for (const auto& [u, e] : adjacency_[v]) {
+    for (const auto& [u, e] : (*adjacency_)[v]) {
       if (u <= v || !selected_[u]) continue;
       ++num_edges;
-      if (CosDistance(graph_.RotationFrom(e, v) * rotations_[v],
-                      rotations_[u]) > cos_theta_) {
+      if (CosDistance(Chain(graph_, e, v, rotations_[v]), rotations_[u]) >
+          cos_theta_) {
         inliers.emplace_back(e, v);
       }
     }

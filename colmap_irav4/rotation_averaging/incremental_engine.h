@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <queue>
 #include <vector>
 
@@ -41,13 +42,13 @@ struct IncrementalOptions {
   // a recomputation O(K deg) instead of O(deg^2). 0 = unlimited.
   int max_precomputations = 256;
   // Global problems over more vertices than this use Ceres' iterative CGNR
-  // (Jacobi preconditioner) instead of SPARSE_NORMAL_CHOLESKY: on dense view
-  // graphs the Cholesky factor fills in completely (O(n^3)), while the
-  // rotation graph Laplacian is well conditioned for CG. 0 = always direct.
-  // 300: on the dense Madrid graph CG gives the same errors (3 decimals) at
-  // 2.7x less time than Cholesky at 394 cameras; at 1,000 cameras and 28,000
-  // edges 1.2 s against 18 s (rotation_benchmark, measured by IRAv4's helper).
-  int max_direct_solver_vertices = 300;
+  // (Jacobi preconditioner) instead of SPARSE_NORMAL_CHOLESKY (SuiteSparse):
+  // on dense view graphs the Cholesky factor fills in completely, O((3n)^3)
+  // per iteration (measured: 1,000-2,000 vertices of a 5,000 x 700,000
+  // random graph took seconds per factorisation), while the Laplacian of a
+  // dense rotation graph is well conditioned for CG. 400 vertices keep a
+  // dense factor under ~1e9 flops. 0 = always direct.
+  int max_direct_solver_vertices = 400;
   // Ceres threads; 1 keeps the output bit-identical from run to run.
   int num_threads = 1;
   bool Check() const;  // throws InputError
@@ -87,10 +88,19 @@ struct IncrementalStats {
 // single-threaded by default.
 class IncrementalEngine {
  public:
+  // Per vertex, (neighbour, edge index) pairs sorted by neighbour, one edge
+  // per neighbour (the heaviest; ties: the smaller edge index).
+  using AdjacencyList = std::vector<std::vector<std::pair<int, int>>>;
+  static std::shared_ptr<const AdjacencyList> BuildAdjacency(
+      const RotationGraph& graph);
+
   // `allowed`: vertices this engine may ever select (empty = all).
+  // `adjacency`: BuildAdjacency(graph), to share one O(E) copy between the
+  // many engines of a clustering (built here when null).
   IncrementalEngine(const RotationGraph& graph,
                     const IncrementalOptions& options,
-                    std::vector<bool> allowed = {});
+                    std::vector<bool> allowed = {},
+                    std::shared_ptr<const AdjacencyList> adjacency = nullptr);
 
   // Eq. 1-4 over every triangle with all three vertices allowed (and, if
   // `restrict_to` is non-empty, all three in it); false if none passes.
@@ -139,10 +149,12 @@ class IncrementalEngine {
   const IncrementalStats& Stats() const { return stats_; }
   const RotationGraph& Graph() const { return graph_; }
   const IncrementalOptions& Options() const { return options_; }
-  // Deduplicated adjacency (one edge per neighbour, the heaviest; ties: the
-  // smaller edge index), sorted by neighbour index.
+  // Deduplicated adjacency (see AdjacencyList).
   const std::vector<std::pair<int, int>>& Adjacency(int v) const {
-    return adjacency_[v];
+    return (*adjacency_)[v];
+  }
+  const std::shared_ptr<const AdjacencyList>& SharedAdjacency() const {
+    return adjacency_;
   }
 
  private:
@@ -192,7 +204,7 @@ class IncrementalEngine {
   const IncrementalOptions options_;
   const double cos_theta_;
   std::vector<bool> allowed_;
-  std::vector<std::vector<std::pair<int, int>>> adjacency_;
+  std::shared_ptr<const AdjacencyList> adjacency_;
   std::vector<bool> selected_;
   std::vector<bool> excluded_;
   std::vector<int> selected_list_;

@@ -1,0 +1,539 @@
+#include "colmap_irav4/io/database.h"
+
+#include <sys/stat.h>
+
+#include <cstring>
+#include <sstream>
+
+#include <glog/logging.h>
+#include <sqlite3.h>
+
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// SQLite URI file name: '%', '?' and '#' (and non-printable bytes) must be
+// percent-encoded.
+std::string PathToUri(const std::string& path) {
+  std::string uri = "file:";
+  for (const unsigned char c : path) {
+    if (c == '%' || c == '?' || c == '#' || c <= ' ' || c >= 0x7f) {
+      char buffer[4];
+      std::snprintf(buffer, sizeof(buffer), "%%%02X", c);
+      uri += buffer;
+    } else {
+      uri += static_cast<char>(c);
+    }
+  }
+  return uri + "?mode=ro&immutable=1";
+}
+
+std::string Bytes(int num_bytes) { return std::to_string(num_bytes) + " bytes"; }
+
+}  // namespace
+
+// RAII prepared statement.
+struct Database::Statement {
+  Statement(const Database& database, const std::string& sql)
+      : database_(database) {
+    if (sqlite3_prepare_v2(database.db_, sql.c_str(), -1, &stmt, nullptr) !=
+        SQLITE_OK) {
+      database.Fail(std::string("SQLite error: ") +
+                    sqlite3_errmsg(database.db_) + " (in '" + sql + "')");
+    }
+  }
+  ~Statement() { sqlite3_finalize(stmt); }
+  // True while there is a row.
+  bool Step() {
+    const int rc = sqlite3_step(stmt);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    database_.Fail(std::string("SQLite error: ") +
+                   sqlite3_errmsg(database_.db_));
+  }
+  int64_t Int(int column) const { return sqlite3_column_int64(stmt, column); }
+  double Double(int column) const {
+    return sqlite3_column_double(stmt, column);
+  }
+  bool IsNull(int column) const {
+    return sqlite3_column_type(stmt, column) == SQLITE_NULL;
+  }
+  std::string Text(int column) const {
+    const unsigned char* text = sqlite3_column_text(stmt, column);
+    return text == nullptr ? std::string() : std::string(
+        reinterpret_cast<const char*>(text));
+  }
+  const void* Blob(int column) const { return sqlite3_column_blob(stmt, column); }
+  int BlobBytes(int column) const { return sqlite3_column_bytes(stmt, column); }
+  void Bind(int index, int64_t value) { sqlite3_bind_int64(stmt, index, value); }
+
+  const Database& database_;
+  sqlite3_stmt* stmt = nullptr;
+};
+
+std::string DatabaseSchema::Description() const {
+  if (has_rigs_table || has_frames_table) return "COLMAP 4.x";
+  if (has_pose_priors_table) return "COLMAP 3.10+";
+  if (has_two_view_pose) return "COLMAP 3.8/3.9";
+  return "COLMAP <= 3.7";
+}
+
+void Database::Fail(const std::string& problem) const {
+  throw InputError(path_, problem);
+}
+
+Database::Database(const std::string& path) : path_(path) {
+  struct stat info;
+  if (stat(path.c_str(), &info) != 0) {
+    Fail(std::string("cannot open database: ") + std::strerror(errno));
+  }
+  if (!S_ISREG(info.st_mode)) Fail("cannot open database: not a regular file");
+  if (sqlite3_open_v2(PathToUri(path).c_str(), &db_,
+                      SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr) !=
+      SQLITE_OK) {
+    const std::string message =
+        db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    Fail("cannot open database: " + message);
+  }
+  try {
+    std::set<std::string> tables;
+    {
+      // The first read of the file: fails here if it is not SQLite.
+      Statement statement(*this,
+                          "SELECT name FROM sqlite_master WHERE type='table'");
+      while (statement.Step()) tables.insert(statement.Text(0));
+    }
+    for (const char* table :
+         {"cameras", "images", "keypoints", "two_view_geometries"}) {
+      if (tables.count(table) == 0) {
+        Fail(std::string("not a COLMAP database: table '") + table +
+             "' is missing");
+      }
+    }
+    const std::map<std::string, std::vector<std::string>> required_columns = {
+        {"cameras", {"camera_id", "model", "width", "height", "params"}},
+        {"images", {"image_id", "name", "camera_id"}},
+        {"keypoints", {"image_id", "rows", "cols", "data"}},
+        {"two_view_geometries", {"pair_id", "rows", "cols", "data", "config"}},
+    };
+    for (const auto& [table, columns] : required_columns) {
+      const std::set<std::string> present = TableColumns(table);
+      for (const std::string& column : columns) {
+        if (present.count(column) == 0) {
+          Fail("table '" + table + "' has no column '" + column + "'");
+        }
+      }
+    }
+    schema_.has_matches_table = tables.count("matches") > 0;
+    if (schema_.has_matches_table) {
+      const std::set<std::string> columns = TableColumns("matches");
+      for (const char* column : {"pair_id", "rows", "cols", "data"}) {
+        if (columns.count(column) == 0) {
+          Fail(std::string("table 'matches' has no column '") + column + "'");
+        }
+      }
+    }
+    const std::set<std::string> tvg_columns =
+        TableColumns("two_view_geometries");
+    for (const char* column : {"F", "E", "H"}) {
+      if (tvg_columns.count(column) == 0) {
+        Fail(std::string("table 'two_view_geometries' has no column '") +
+             column + "'");
+      }
+    }
+    schema_.has_two_view_pose =
+        tvg_columns.count("qvec") > 0 && tvg_columns.count("tvec") > 0;
+    const std::set<std::string> image_columns = TableColumns("images");
+    schema_.has_image_prior_columns = true;
+    for (const char* column : {"prior_qw", "prior_qx", "prior_qy", "prior_qz",
+                               "prior_tx", "prior_ty", "prior_tz"}) {
+      if (image_columns.count(column) == 0) {
+        schema_.has_image_prior_columns = false;
+      }
+    }
+    schema_.has_pose_priors_table = tables.count("pose_priors") > 0;
+    schema_.has_rigs_table = tables.count("rigs") > 0;
+    schema_.has_frames_table = tables.count("frames") > 0;
+    schema_.has_frame_data_table = tables.count("frame_data") > 0;
+  } catch (...) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  }
+}
+
+Database::~Database() {
+  if (db_ != nullptr) sqlite3_close(db_);
+}
+
+std::set<std::string> Database::TableColumns(const std::string& table) const {
+  std::set<std::string> columns;
+  Statement statement(*this, "PRAGMA table_info(" + table + ")");
+  while (statement.Step()) columns.insert(statement.Text(1));
+  return columns;
+}
+
+std::vector<Camera> Database::ReadAllCameras() const {
+  std::vector<Camera> cameras;
+  const bool has_prior_focal_length =
+      TableColumns("cameras").count("prior_focal_length") > 0;
+  Statement statement(
+      *this, std::string("SELECT camera_id, model, width, height, params") +
+                 (has_prior_focal_length ? ", prior_focal_length" : "") +
+                 " FROM cameras ORDER BY camera_id");
+  while (statement.Step()) {
+    Camera camera;
+    const int64_t camera_id = statement.Int(0);
+    const std::string what = "camera " + std::to_string(camera_id);
+    if (camera_id < 0 || camera_id >= kInvalidCameraId) {
+      Fail(what + ": camera_id out of range");
+    }
+    camera.camera_id = static_cast<camera_t>(camera_id);
+    const int64_t model_id = statement.Int(1);
+    if (!IsValidCameraModelId(static_cast<int>(model_id)) ||
+        model_id != static_cast<int>(model_id)) {
+      Fail(what + ": unknown camera model id " + std::to_string(model_id) +
+           " (COLMAP's are 0-" + std::to_string(kNumCameraModels - 1) + ")");
+    }
+    camera.model_id = static_cast<int>(model_id);
+    if (statement.Int(2) <= 0 || statement.Int(3) <= 0) {
+      Fail(what + ": invalid image size " + std::to_string(statement.Int(2)) +
+           " x " + std::to_string(statement.Int(3)));
+    }
+    camera.width = static_cast<uint64_t>(statement.Int(2));
+    camera.height = static_cast<uint64_t>(statement.Int(3));
+    const int num_params = CameraModelNumParams(camera.model_id);
+    const int bytes = statement.BlobBytes(4);
+    if (bytes != num_params * static_cast<int>(sizeof(double))) {
+      Fail(what + ": params blob has " + Bytes(bytes) + ", " +
+           CameraModelIdToName(camera.model_id) + " expects " +
+           std::to_string(num_params) + " doubles (" +
+           Bytes(num_params * static_cast<int>(sizeof(double))) + ")");
+    }
+    camera.params.resize(num_params);
+    std::memcpy(camera.params.data(), statement.Blob(4), bytes);
+    camera.has_prior_focal_length =
+        has_prior_focal_length && statement.Int(5) != 0;
+    cameras.push_back(std::move(camera));
+  }
+  return cameras;
+}
+
+std::vector<DatabaseImage> Database::ReadAllImages() const {
+  std::vector<DatabaseImage> images;
+  std::string sql = "SELECT image_id, name, camera_id";
+  if (schema_.has_image_prior_columns) {
+    sql += ", prior_qw, prior_qx, prior_qy, prior_qz, prior_tx, prior_ty, "
+           "prior_tz";
+  }
+  sql += " FROM images ORDER BY image_id";
+  Statement statement(*this, sql);
+  std::map<image_t, size_t> index;
+  while (statement.Step()) {
+    DatabaseImage image;
+    const int64_t image_id = statement.Int(0);
+    if (image_id < 0 || image_id >= static_cast<int64_t>(kMaxNumImages)) {
+      Fail("image " + std::to_string(image_id) + ": image_id out of range");
+    }
+    image.image_id = static_cast<image_t>(image_id);
+    image.name = statement.Text(1);
+    image.camera_id = static_cast<camera_t>(statement.Int(2));
+    if (schema_.has_image_prior_columns) {
+      bool rotation = true, position = true;
+      for (int k = 0; k < 4; ++k) rotation &= !statement.IsNull(3 + k);
+      for (int k = 0; k < 3; ++k) position &= !statement.IsNull(7 + k);
+      if (rotation) {
+        image.prior_qvec =
+            Eigen::Vector4d(statement.Double(3), statement.Double(4),
+                            statement.Double(5), statement.Double(6));
+        image.has_prior_rotation = image.prior_qvec.norm() > 0;
+      }
+      if (position) {
+        image.prior_tvec =
+            Eigen::Vector3d(statement.Double(7), statement.Double(8),
+                            statement.Double(9));
+        image.has_prior_position = true;
+      }
+    }
+    index[image.image_id] = images.size();
+    images.push_back(std::move(image));
+  }
+  if (schema_.has_pose_priors_table) {
+    const std::set<std::string> columns = TableColumns("pose_priors");
+    // 3.10: image_id; 4.x: corr_data_id (the image of a camera sensor).
+    const std::string id_column = columns.count("image_id")      ? "image_id"
+                                  : columns.count("corr_data_id") ? "corr_data_id"
+                                                                  : "";
+    if (!id_column.empty() && columns.count("position") > 0) {
+      Statement priors(*this,
+                       "SELECT " + id_column + ", position FROM pose_priors");
+      while (priors.Step()) {
+        const auto it = index.find(static_cast<image_t>(priors.Int(0)));
+        if (it == index.end() || priors.IsNull(1)) continue;
+        const int bytes = priors.BlobBytes(1);
+        if (bytes != 3 * static_cast<int>(sizeof(double))) {
+          Fail("pose_priors of image " + std::to_string(priors.Int(0)) +
+               ": position blob has " + Bytes(bytes) + ", expected 24 bytes");
+        }
+        DatabaseImage& image = images[it->second];
+        std::memcpy(image.prior_tvec.data(), priors.Blob(1), bytes);
+        image.has_prior_position = true;
+      }
+    }
+  }
+  return images;
+}
+
+FeatureKeypoints Database::ReadKeypoints(image_t image_id) const {
+  Statement statement(
+      *this, "SELECT rows, cols, data FROM keypoints WHERE image_id = ?");
+  statement.Bind(1, image_id);
+  FeatureKeypoints keypoints;
+  if (!statement.Step()) return keypoints;
+  const std::string what = "keypoints of image " + std::to_string(image_id);
+  const int64_t rows = statement.Int(0);
+  const int64_t cols = statement.Int(1);
+  if (rows < 0) Fail(what + ": negative row count");
+  if (rows == 0) return keypoints;
+  if (cols != 2 && cols != 4 && cols != 6) {
+    Fail(what + ": " + std::to_string(cols) +
+         " columns, expected 2, 4 or 6");
+  }
+  const int64_t expected = rows * cols * static_cast<int64_t>(sizeof(float));
+  const int bytes = statement.BlobBytes(2);
+  if (bytes != expected) {
+    Fail(what + ": data blob has " + Bytes(bytes) + ", expected " +
+         std::to_string(rows) + " x " + std::to_string(cols) +
+         " floats (" + std::to_string(expected) + " bytes)");
+  }
+  const float* data = static_cast<const float*>(statement.Blob(2));
+  keypoints.resize(rows);
+  for (int64_t i = 0; i < rows; ++i) {
+    keypoints[i] = Eigen::Vector2f(data[i * cols], data[i * cols + 1]);
+  }
+  return keypoints;
+}
+
+std::map<image_t, int> Database::ReadNumKeypoints() const {
+  std::map<image_t, int> num_keypoints;
+  Statement statement(*this, "SELECT image_id, rows FROM keypoints");
+  while (statement.Step()) {
+    num_keypoints[static_cast<image_t>(statement.Int(0))] =
+        static_cast<int>(statement.Int(1));
+  }
+  return num_keypoints;
+}
+
+namespace {
+
+// Decodes an N x 2 uint32 match blob, checking its size.
+bool DecodeMatches(int64_t rows, int64_t cols, const void* blob, int bytes,
+                   FeatureMatches* matches, std::string* problem) {
+  matches->clear();
+  if (rows < 0) {
+    *problem = "negative row count";
+    return false;
+  }
+  if (rows == 0) return true;
+  if (cols != 2) {
+    *problem = std::to_string(cols) + " columns, expected 2";
+    return false;
+  }
+  const int64_t expected = rows * 2 * static_cast<int64_t>(sizeof(uint32_t));
+  if (bytes != expected) {
+    *problem = "data blob has " + std::to_string(bytes) + " bytes, expected " +
+               std::to_string(rows) + " x 2 uint32 (" +
+               std::to_string(expected) + " bytes)";
+    return false;
+  }
+  const uint32_t* data = static_cast<const uint32_t*>(blob);
+  matches->resize(rows);
+  for (int64_t i = 0; i < rows; ++i) {
+    (*matches)[i].point2D_idx1 = data[2 * i];
+    (*matches)[i].point2D_idx2 = data[2 * i + 1];
+  }
+  return true;
+}
+
+std::string PairName(image_pair_t pair_id) {
+  const auto [id1, id2] = PairIdToImagePair(pair_id);
+  return "pair (" + std::to_string(id1) + ", " + std::to_string(id2) + ")";
+}
+
+}  // namespace
+
+FeatureMatches Database::ReadMatches(image_t image_id1,
+                                     image_t image_id2) const {
+  FeatureMatches matches;
+  if (!schema_.has_matches_table) return matches;
+  const image_pair_t pair_id = ImagePairToPairId(image_id1, image_id2);
+  Statement statement(*this,
+                      "SELECT rows, cols, data FROM matches WHERE pair_id = ?");
+  statement.Bind(1, static_cast<int64_t>(pair_id));
+  if (!statement.Step()) return matches;
+  std::string problem;
+  if (!DecodeMatches(statement.Int(0), statement.Int(1), statement.Blob(2),
+                     statement.BlobBytes(2), &matches, &problem)) {
+    Fail("matches of " + PairName(pair_id) + ": " + problem);
+  }
+  if (SwapImagePair(image_id1, image_id2)) {
+    for (FeatureMatch& match : matches) {
+      std::swap(match.point2D_idx1, match.point2D_idx2);
+    }
+  }
+  return matches;
+}
+
+std::map<image_pair_t, int> Database::ReadNumMatches() const {
+  std::map<image_pair_t, int> num_matches;
+  if (!schema_.has_matches_table) return num_matches;
+  Statement statement(*this, "SELECT pair_id, rows FROM matches");
+  while (statement.Step()) {
+    num_matches[static_cast<image_pair_t>(statement.Int(0))] =
+        static_cast<int>(statement.Int(1));
+  }
+  return num_matches;
+}
+
+TwoViewGeometry Database::ReadTwoViewGeometryRow(Statement* statement) const {
+  // Columns: pair_id, rows, cols, data, config, F, E, H [, qvec, tvec].
+  TwoViewGeometry geometry;
+  const int64_t pair_id = statement->Int(0);
+  if (pair_id < 0) Fail("two_view_geometries: negative pair_id");
+  const auto [id1, id2] = PairIdToImagePair(static_cast<image_pair_t>(pair_id));
+  geometry.image_id1 = id1;
+  geometry.image_id2 = id2;
+  const std::string what = "two_view_geometries of " +
+                           PairName(static_cast<image_pair_t>(pair_id));
+  std::string problem;
+  if (!DecodeMatches(statement->Int(1), statement->Int(2), statement->Blob(3),
+                     statement->BlobBytes(3), &geometry.inlier_matches,
+                     &problem)) {
+    Fail(what + ": " + problem);
+  }
+  geometry.config = static_cast<int>(statement->Int(4));
+  const char* const names[] = {"F", "E", "H"};
+  Eigen::Matrix3d* matrices[] = {&geometry.F, &geometry.E, &geometry.H};
+  for (int k = 0; k < 3; ++k) {
+    const int bytes = statement->BlobBytes(5 + k);
+    if (bytes == 0) continue;  // NULL or empty: not estimated
+    if (bytes != 9 * static_cast<int>(sizeof(double))) {
+      Fail(what + ": " + names[k] + " blob has " + Bytes(bytes) +
+           ", expected 3 x 3 doubles (72 bytes)");
+    }
+    // Row-major in the database.
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> M;
+    std::memcpy(M.data(), statement->Blob(5 + k), bytes);
+    *matrices[k] = M;
+  }
+  if (schema_.has_two_view_pose) {
+    const int q_bytes = statement->BlobBytes(8);
+    const int t_bytes = statement->BlobBytes(9);
+    if (q_bytes != 0 || t_bytes != 0) {
+      if (q_bytes != 4 * static_cast<int>(sizeof(double))) {
+        Fail(what + ": qvec blob has " + Bytes(q_bytes) +
+             ", expected 4 doubles (32 bytes)");
+      }
+      if (t_bytes != 3 * static_cast<int>(sizeof(double))) {
+        Fail(what + ": tvec blob has " + Bytes(t_bytes) +
+             ", expected 3 doubles (24 bytes)");
+      }
+      Eigen::Vector4d qvec;
+      Eigen::Vector3d tvec;
+      std::memcpy(qvec.data(), statement->Blob(8), q_bytes);
+      std::memcpy(tvec.data(), statement->Blob(9), t_bytes);
+      // COLMAP 3.8 stores zeros unless asked to estimate the pose; identity
+      // with zero translation carries no information either.
+      const bool zero = !(qvec.norm() > 1e-6);
+      const bool identity = tvec.isZero(0) && qvec(0) != 0 &&
+                            qvec.tail<3>().isZero(0);
+      if (!zero && !identity) {
+        geometry.has_pose = true;
+        geometry.qvec = qvec.normalized();
+        geometry.tvec = tvec;
+      }
+    }
+  }
+  return geometry;
+}
+
+bool Database::ReadTwoViewGeometry(image_t image_id1, image_t image_id2,
+                                   TwoViewGeometry* geometry) const {
+  std::string sql =
+      "SELECT pair_id, rows, cols, data, config, F, E, H";
+  if (schema_.has_two_view_pose) sql += ", qvec, tvec";
+  sql += " FROM two_view_geometries WHERE pair_id = ?";
+  Statement statement(*this, sql);
+  statement.Bind(1, static_cast<int64_t>(ImagePairToPairId(image_id1, image_id2)));
+  if (!statement.Step()) return false;
+  *geometry = ReadTwoViewGeometryRow(&statement);
+  if (SwapImagePair(image_id1, image_id2)) *geometry = geometry->Inverse();
+  return true;
+}
+
+std::vector<TwoViewGeometry> Database::ReadAllTwoViewGeometries() const {
+  std::string sql = "SELECT pair_id, rows, cols, data, config, F, E, H";
+  if (schema_.has_two_view_pose) sql += ", qvec, tvec";
+  sql += " FROM two_view_geometries ORDER BY pair_id";
+  Statement statement(*this, sql);
+  std::vector<TwoViewGeometry> geometries;
+  while (statement.Step()) {
+    geometries.push_back(ReadTwoViewGeometryRow(&statement));
+  }
+  return geometries;
+}
+
+DatabaseContents ReadDatabase(const std::string& path) {
+  Database database(path);
+  DatabaseContents contents;
+  contents.path = path;
+  contents.schema = database.Schema();
+  for (Camera& camera : database.ReadAllCameras()) {
+    contents.cameras[camera.camera_id] = std::move(camera);
+  }
+  for (DatabaseImage& image : database.ReadAllImages()) {
+    if (contents.cameras.count(image.camera_id) == 0) {
+      throw InputError(path, "image " + std::to_string(image.image_id) +
+                                 " '" + image.name + "' refers to camera " +
+                                 std::to_string(image.camera_id) +
+                                 ", which is not in the cameras table");
+    }
+    contents.images[image.image_id] = std::move(image);
+  }
+  for (const auto& [image_id, image] : contents.images) {
+    contents.keypoints[image_id] = database.ReadKeypoints(image_id);
+  }
+  contents.two_view_geometries = database.ReadAllTwoViewGeometries();
+  for (const TwoViewGeometry& geometry : contents.two_view_geometries) {
+    const std::string what = "two_view_geometries of pair (" +
+                             std::to_string(geometry.image_id1) + ", " +
+                             std::to_string(geometry.image_id2) + ")";
+    const auto keypoints1 = contents.keypoints.find(geometry.image_id1);
+    const auto keypoints2 = contents.keypoints.find(geometry.image_id2);
+    if (keypoints1 == contents.keypoints.end() ||
+        keypoints2 == contents.keypoints.end()) {
+      throw InputError(path, what + ": refers to an image that is not in "
+                                    "the images table");
+    }
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      if (match.point2D_idx1 >= keypoints1->second.size() ||
+          match.point2D_idx2 >= keypoints2->second.size()) {
+        throw InputError(
+            path, what + ": match (" + std::to_string(match.point2D_idx1) +
+                      ", " + std::to_string(match.point2D_idx2) +
+                      ") is out of range of the images' " +
+                      std::to_string(keypoints1->second.size()) + " and " +
+                      std::to_string(keypoints2->second.size()) +
+                      " keypoints");
+      }
+    }
+  }
+  contents.num_matches = database.ReadNumMatches();
+  return contents;
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,24 @@
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/scene/types.h"
+
+namespace colmap_irav4 {
+
+// Keypoint positions of one image in pixels (COLMAP's convention: the centre
+// of the top-left pixel is (0.5, 0.5)). The database stores 2, 4 or 6 floats
+// per keypoint; only x, y are kept (shape parameters are not used).
+typedef std::vector<Eigen::Vector2f> FeatureKeypoints;
+
+// A correspondence between keypoint point2D_idx1 of the first image of a pair
+// and keypoint point2D_idx2 of the second.
+struct FeatureMatch {
+  point2D_t point2D_idx1 = kInvalidPoint2DIdx;
+  point2D_t point2D_idx2 = kInvalidPoint2DIdx;
+};
+typedef std::vector<FeatureMatch> FeatureMatches;
+
+}  // namespace colmap_irav4

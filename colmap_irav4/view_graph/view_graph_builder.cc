@@ -1,0 +1,207 @@
+#include "colmap_irav4/view_graph/view_graph_builder.h"
+
+#include <algorithm>
+#include <numeric>
+#include <sstream>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+std::vector<std::string> SplitComma(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    const size_t begin = item.find_first_not_of(" \t");
+    const size_t end = item.find_last_not_of(" \t");
+    if (begin == std::string::npos) continue;
+    items.push_back(item.substr(begin, end - begin + 1));
+  }
+  return items;
+}
+
+int Find(std::vector<int>* parent, int x) {
+  while ((*parent)[x] != x) {
+    (*parent)[x] = (*parent)[(*parent)[x]];
+    x = (*parent)[x];
+  }
+  return x;
+}
+
+}  // namespace
+
+bool ViewGraphBuilderOptions::Check() const {
+  if (min_num_inliers < 0) {
+    throw InputError("--ViewGraph.min_num_inliers", "must be >= 0");
+  }
+  if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1)) {
+    throw InputError("--ViewGraph.min_inlier_ratio", "must be in [0, 1]");
+  }
+  for (const std::string& name : SplitComma(drop_configs)) {
+    if (TwoViewConfigFromName(name) < 0) {
+      throw InputError("--ViewGraph.drop_configs",
+                       "unknown configuration '" + name +
+                           "' (UNDEFINED, DEGENERATE, CALIBRATED, "
+                           "UNCALIBRATED, PLANAR, PANORAMIC, "
+                           "PLANAR_OR_PANORAMIC, WATERMARK, MULTIPLE)");
+    }
+  }
+  return relative_pose.Check();
+}
+
+std::vector<int> ViewGraphBuilderOptions::DropConfigs() const {
+  std::vector<int> configs;
+  for (const std::string& name : SplitComma(drop_configs)) {
+    const int config = TwoViewConfigFromName(name);
+    CHECK_GE(config, 0) << name;
+    configs.push_back(config);
+  }
+  return configs;
+}
+
+void ViewGraphSummary::Print(std::ostream& stream) const {
+  stream << "View graph summary\n"
+         << "  cameras:              " << num_cameras << "\n"
+         << "  images:               " << num_images << "\n"
+         << "  verified pairs read:  " << num_pairs_read << "\n"
+         << "  pairs kept:           " << num_pairs_kept << "\n";
+  for (const auto& [source, count] : num_kept_by_source) {
+    stream << "    pose from " << source << ": " << count << "\n";
+  }
+  stream << "    without translation (pure rotation): "
+         << num_kept_without_translation << "\n";
+  int total_dropped = 0;
+  for (const auto& [reason, count] : num_dropped) total_dropped += count;
+  stream << "  pairs dropped:        " << total_dropped << "\n";
+  for (const auto& [reason, count] : num_dropped) {
+    stream << "    " << reason << ": " << count << "\n";
+  }
+  stream << "  connected components: " << num_components << "\n"
+         << "  images in the largest component: " << num_images_in_component
+         << "\n";
+}
+
+ViewGraph BuildViewGraph(const DatabaseContents& database,
+                         const ViewGraphBuilderOptions& options,
+                         ViewGraphSummary* summary) {
+  options.Check();
+  *summary = ViewGraphSummary();
+  summary->num_cameras = static_cast<int>(database.cameras.size());
+  summary->num_images = static_cast<int>(database.images.size());
+  summary->num_pairs_read =
+      static_cast<int>(database.two_view_geometries.size());
+  const std::vector<int> drop_configs = options.DropConfigs();
+
+  std::vector<ImagePairGeometry> pairs;
+  std::vector<RelativePose> poses;
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    if (std::find(drop_configs.begin(), drop_configs.end(), geometry.config) !=
+        drop_configs.end()) {
+      ++summary->num_dropped["config " + TwoViewConfigName(geometry.config)];
+      continue;
+    }
+    if (geometry.config < 0 || geometry.config > TwoViewGeometry::MULTIPLE) {
+      ++summary->num_dropped["unknown config"];
+      continue;
+    }
+    const int num_inliers = static_cast<int>(geometry.inlier_matches.size());
+    if (num_inliers < options.min_num_inliers) {
+      ++summary->num_dropped["fewer than min_num_inliers inliers"];
+      continue;
+    }
+    if (options.min_inlier_ratio > 0) {
+      const auto it = database.num_matches.find(
+          ImagePairToPairId(geometry.image_id1, geometry.image_id2));
+      if (it != database.num_matches.end() && it->second > 0 &&
+          num_inliers < options.min_inlier_ratio * it->second) {
+        ++summary->num_dropped["inlier ratio below min_inlier_ratio"];
+        continue;
+      }
+    }
+    const DatabaseImage& image1 = database.images.at(geometry.image_id1);
+    const DatabaseImage& image2 = database.images.at(geometry.image_id2);
+    const RelativePose pose = EstimateRelativePose(
+        geometry, database.cameras.at(image1.camera_id),
+        database.cameras.at(image2.camera_id),
+        database.keypoints.at(geometry.image_id1),
+        database.keypoints.at(geometry.image_id2), options.relative_pose);
+    if (!pose.success) {
+      VLOG(1) << "pair (" << geometry.image_id1 << ", " << geometry.image_id2
+              << "): " << pose.failure;
+      ++summary->num_dropped["relative pose failed"];
+      continue;
+    }
+    ImagePairGeometry pair;
+    pair.image_id1 = geometry.image_id1;
+    pair.image_id2 = geometry.image_id2;
+    pair.R = pose.R;
+    pair.t = pose.t;
+    pair.num_inliers = num_inliers;
+    pair.config = geometry.config;
+    pairs.push_back(pair);
+    poses.push_back(pose);
+  }
+
+  // Connected components over the kept pairs (union-find on image indices).
+  std::map<image_t, int> index;
+  std::vector<image_t> ids;
+  for (const auto& [image_id, image] : database.images) {
+    index[image_id] = static_cast<int>(ids.size());
+    ids.push_back(image_id);
+  }
+  std::vector<int> parent(ids.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (const ImagePairGeometry& pair : pairs) {
+    const int a = Find(&parent, index.at(pair.image_id1));
+    const int b = Find(&parent, index.at(pair.image_id2));
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+  std::map<int, int> component_size;  // root -> images with >= 1 pair
+  std::vector<char> has_pair(ids.size(), 0);
+  for (const ImagePairGeometry& pair : pairs) {
+    has_pair[index.at(pair.image_id1)] = 1;
+    has_pair[index.at(pair.image_id2)] = 1;
+  }
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (has_pair[i]) ++component_size[Find(&parent, static_cast<int>(i))];
+  }
+  summary->num_components = static_cast<int>(component_size.size());
+  // Largest by images; ties go to the component of the smallest image id
+  // (the smallest root), for determinism.
+  int best_root = -1;
+  for (const auto& [root, size] : component_size) {
+    if (best_root < 0 || size > component_size[best_root]) best_root = root;
+  }
+
+  ViewGraph view_graph;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const ImagePairGeometry& pair = pairs[i];
+    const bool in_component =
+        best_root >= 0 && Find(&parent, index.at(pair.image_id1)) == best_root;
+    if (options.keep_largest_component && !in_component) {
+      ++summary->num_dropped["outside the largest component"];
+      continue;
+    }
+    view_graph.pairs.push_back(pair);
+    ++summary->num_kept_by_source[RelativePoseSourceName(poses[i].source)];
+    if (!poses[i].has_translation) ++summary->num_kept_without_translation;
+  }
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (!has_pair[i]) continue;
+    if (options.keep_largest_component &&
+        Find(&parent, static_cast<int>(i)) != best_root) {
+      continue;
+    }
+    view_graph.image_names[ids[i]] = database.images.at(ids[i]).name;
+  }
+  summary->num_pairs_kept = static_cast<int>(view_graph.pairs.size());
+  summary->num_images_in_component =
+      best_root >= 0 ? component_size[best_root] : 0;
+  return view_graph;
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,120 @@
+// colmap_irav4 view_graph: reads a COLMAP database (read-only), builds the
+// epipolar graph and writes one line per kept pair:
+//   IMAGE_NAME1 IMAGE_NAME2 QW QX QY QZ TX TY TZ INLIERS
+// with (q, t) = cam2_from_cam1 (the relative pose format GLOMAP's rotation
+// averager reads, plus the inlier count). t is 0 0 0 for pure rotations.
+
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/io/database.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/timer.h"
+#include "colmap_irav4/view_graph/view_graph_builder.h"
+#include "src/command.h"
+
+namespace colmap_irav4 {
+namespace {
+
+void WriteRelativePoses(const ViewGraph& view_graph, const std::string& path) {
+  // Written to a temporary name and renamed when complete, so that a reader
+  // never sees a partial file.
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream file(temporary);
+    if (!file) throw InputError(path, "cannot write file");
+    file << std::setprecision(17);
+    for (const ImagePairGeometry& pair : view_graph.pairs) {
+      const Eigen::Vector4d q = RotationToQuaternion(pair.R);
+      file << view_graph.image_names.at(pair.image_id1) << " "
+           << view_graph.image_names.at(pair.image_id2) << " " << q(0) << " "
+           << q(1) << " " << q(2) << " " << q(3) << " " << pair.t(0) << " "
+           << pair.t(1) << " " << pair.t(2) << " " << pair.num_inliers
+           << "\n";
+    }
+    file.flush();
+    if (!file) {
+      std::remove(temporary.c_str());
+      throw InputError(path, "error while writing file");
+    }
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    std::remove(temporary.c_str());
+    throw InputError(path, "cannot rename the temporary file into place");
+  }
+}
+
+int RunViewGraph(int argc, char** argv) {
+  std::string database_path;
+  std::string output_path;
+  ViewGraphBuilderOptions options;
+  OptionManager manager(
+      "view_graph",
+      "Builds the epipolar graph of a COLMAP database and writes the relative\n"
+      "poses: IMAGE_NAME1 IMAGE_NAME2 QW QX QY QZ TX TY TZ INLIERS\n"
+      "(cam2_from_cam1; t = 0 0 0 for pure rotations).");
+  manager.AddRequired("database_path", &database_path,
+                      "COLMAP database (opened read-only)");
+  manager.AddRequired("output_path", &output_path, "relative poses file");
+  manager.Add("ViewGraph.min_num_inliers", &options.min_num_inliers,
+              "minimum inlier matches of a pair");
+  manager.Add("ViewGraph.min_inlier_ratio", &options.min_inlier_ratio,
+              "minimum inliers / raw matches (where raw matches are stored)");
+  manager.Add("ViewGraph.drop_configs", &options.drop_configs,
+              "comma-separated two-view configurations to drop");
+  manager.Add("ViewGraph.keep_largest_component",
+              &options.keep_largest_component,
+              "keep only the largest connected component");
+  manager.Add("RelativePose.max_error_px", &options.relative_pose.max_error_px,
+              "epipolar error threshold of a supporting match (pixels)");
+  manager.Add("RelativePose.refine", &options.relative_pose.refine,
+              "refine each pose on its inliers (robust Sampson error)");
+  manager.Add("RelativePose.refine_loss_scale_px",
+              &options.relative_pose.refine_loss_scale_px,
+              "Cauchy loss scale of the refinement (pixels)");
+  manager.Add("RelativePose.refine_max_num_iterations",
+              &options.relative_pose.refine_max_num_iterations,
+              "refinement iterations");
+  manager.Add("RelativePose.min_stored_pose_support",
+              &options.relative_pose.min_stored_pose_support,
+              "use a stored qvec/tvec if it has this fraction of the best "
+              "derived pose's support");
+  manager.Add("RelativePose.min_tri_angle_deg",
+              &options.relative_pose.min_tri_angle_deg,
+              "median triangulation angle below which t is undefined (deg)");
+  if (!manager.Parse(argc, argv)) return 0;
+  options.Check();
+
+  Timer timer;
+  const DatabaseContents database = ReadDatabase(database_path);
+  std::cout << "Read " << database_path << " (" << database.schema.Description()
+            << " schema) in " << std::fixed << std::setprecision(2)
+            << timer.ElapsedSeconds() << " s" << std::endl;
+  timer.Restart();
+  ViewGraphSummary summary;
+  const ViewGraph view_graph = BuildViewGraph(database, options, &summary);
+  summary.Print(std::cout);
+  std::cout << "Built in " << timer.ElapsedSeconds() << " s" << std::endl;
+  if (view_graph.pairs.empty()) {
+    std::cout << "WARNING: " << database_path
+              << ": no verified image pair survives (no matches?); the "
+                 "relative pose file is empty"
+              << std::endl;
+  }
+  WriteRelativePoses(view_graph, output_path);
+  std::cout << "Wrote " << view_graph.pairs.size() << " relative poses to "
+            << output_path << std::endl;
+  return 0;
+}
+
+static CommandRegistrar registrar(
+    "view_graph",
+    "Builds the epipolar graph of a database, writes the relative poses",
+    RunViewGraph);
+
+}  // namespace
+}  // namespace colmap_irav4

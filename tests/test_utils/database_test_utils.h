@@ -1,0 +1,199 @@
+#pragma once
+
+// Helpers for tests that create small COLMAP databases with SQLite directly
+// (in a temporary directory; the shared data is never written).
+
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace colmap_irav4 {
+namespace test {
+
+// A fresh temporary directory, removed on destruction.
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device device;
+    path_ = std::filesystem::temp_directory_path() /
+            ("colmap_irav4_test_" + std::to_string(device()) + "_" +
+             std::to_string(device()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code error;
+    std::filesystem::remove_all(path_, error);
+  }
+  std::string File(const std::string& name) const {
+    return (path_ / name).string();
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// FNV-1a 64-bit hash of a file's bytes (0 if it cannot be read).
+inline uint64_t HashFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return 0;
+  const std::string bytes((std::istreambuf_iterator<char>(file)),
+                          std::istreambuf_iterator<char>());
+  uint64_t hash = 1469598103934665603ull;
+  for (const unsigned char c : bytes) {
+    hash ^= c;
+    hash *= 1099511628211ull;
+  }
+  return hash;
+}
+
+// A read-write connection for building test databases.
+class SqliteWriter {
+ public:
+  explicit SqliteWriter(const std::string& path) {
+    EXPECT_EQ(sqlite3_open(path.c_str(), &db_), SQLITE_OK);
+  }
+  ~SqliteWriter() { sqlite3_close(db_); }
+
+  void Exec(const std::string& sql) {
+    char* error = nullptr;
+    const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error);
+    EXPECT_EQ(rc, SQLITE_OK) << sql << ": " << (error ? error : "");
+    sqlite3_free(error);
+  }
+
+  // Runs an INSERT/UPDATE with ? placeholders bound to integers, doubles or
+  // blobs (vectors of bytes), in order.
+  struct Value {
+    enum Type { kInt, kDouble, kBlob, kNull } type;
+    int64_t i = 0;
+    double d = 0;
+    std::vector<char> blob;
+    Value(int64_t value) : type(kInt), i(value) {}
+    Value(int value) : type(kInt), i(value) {}
+    Value(double value) : type(kDouble), d(value) {}
+    Value(std::vector<char> value) : type(kBlob), blob(std::move(value)) {}
+    static Value Null() {
+      Value value(0);
+      value.type = kNull;
+      return value;
+    }
+  };
+  void Run(const std::string& sql, const std::vector<Value>& values) {
+    sqlite3_stmt* stmt = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db_, sql.c_str(), -1, &stmt, nullptr),
+              SQLITE_OK)
+        << sql << ": " << sqlite3_errmsg(db_);
+    for (size_t k = 0; k < values.size(); ++k) {
+      const int index = static_cast<int>(k) + 1;
+      const Value& value = values[k];
+      switch (value.type) {
+        case Value::kInt:
+          sqlite3_bind_int64(stmt, index, value.i);
+          break;
+        case Value::kDouble:
+          sqlite3_bind_double(stmt, index, value.d);
+          break;
+        case Value::kBlob:
+          sqlite3_bind_blob(stmt, index, value.blob.data(),
+                            static_cast<int>(value.blob.size()),
+                            SQLITE_TRANSIENT);
+          break;
+        case Value::kNull:
+          sqlite3_bind_null(stmt, index);
+          break;
+      }
+    }
+    EXPECT_EQ(sqlite3_step(stmt), SQLITE_DONE) << sql << ": "
+                                               << sqlite3_errmsg(db_);
+    sqlite3_finalize(stmt);
+  }
+
+ private:
+  sqlite3* db_ = nullptr;
+};
+
+template <typename T>
+std::vector<char> ToBlob(const std::vector<T>& values) {
+  std::vector<char> blob(values.size() * sizeof(T));
+  if (!blob.empty()) std::memcpy(blob.data(), values.data(), blob.size());
+  return blob;
+}
+
+// COLMAP 3.8's schema (as its Database::CreateTables writes it).
+inline const char* Colmap38Schema() {
+  return R"sql(
+CREATE TABLE cameras (camera_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  model INTEGER NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL,
+  params BLOB, prior_focal_length INTEGER NOT NULL);
+CREATE TABLE images (image_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  name TEXT NOT NULL UNIQUE, camera_id INTEGER NOT NULL,
+  prior_qw REAL, prior_qx REAL, prior_qy REAL, prior_qz REAL,
+  prior_tx REAL, prior_ty REAL, prior_tz REAL,
+  CONSTRAINT image_id_check CHECK(image_id >= 0 and image_id < 2147483647),
+  FOREIGN KEY(camera_id) REFERENCES cameras(camera_id));
+CREATE UNIQUE INDEX index_name ON images(name);
+CREATE TABLE keypoints (image_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
+  FOREIGN KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);
+CREATE TABLE descriptors (image_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
+  FOREIGN KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);
+CREATE TABLE matches (pair_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB);
+CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
+  config INTEGER NOT NULL, F BLOB, E BLOB, H BLOB, qvec BLOB, tvec BLOB);
+)sql";
+}
+
+// COLMAP 4.x's schema: rigs, frames and pose priors; no images.prior_*.
+inline const char* Colmap4Schema() {
+  return R"sql(
+CREATE TABLE rigs (rig_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  ref_sensor_id INTEGER NOT NULL, ref_sensor_type INTEGER NOT NULL);
+CREATE TABLE rig_sensors (rig_id INTEGER NOT NULL, sensor_id INTEGER NOT NULL,
+  sensor_type INTEGER NOT NULL, sensor_from_rig BLOB,
+  FOREIGN KEY(rig_id) REFERENCES rigs(rig_id) ON DELETE CASCADE);
+CREATE TABLE cameras (camera_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  model INTEGER NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL,
+  params BLOB, prior_focal_length INTEGER NOT NULL);
+CREATE TABLE frames (frame_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  rig_id INTEGER NOT NULL,
+  FOREIGN KEY(rig_id) REFERENCES rigs(rig_id) ON DELETE CASCADE);
+CREATE TABLE frame_data (frame_id INTEGER NOT NULL, data_id INTEGER NOT NULL,
+  sensor_id INTEGER NOT NULL, sensor_type INTEGER NOT NULL,
+  FOREIGN KEY(frame_id) REFERENCES frames(frame_id) ON DELETE CASCADE);
+CREATE TABLE images (image_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  name TEXT NOT NULL UNIQUE, camera_id INTEGER NOT NULL,
+  CONSTRAINT image_id_check CHECK(image_id >= 0 and image_id < 2147483647),
+  FOREIGN KEY(camera_id) REFERENCES cameras(camera_id));
+CREATE TABLE pose_priors (pose_prior_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
+  corr_data_id INTEGER NOT NULL, corr_sensor_id INTEGER NOT NULL,
+  corr_sensor_type INTEGER NOT NULL, position BLOB, position_covariance BLOB,
+  gravity BLOB, coordinate_system INTEGER NOT NULL);
+CREATE TABLE keypoints (image_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
+  FOREIGN KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);
+CREATE TABLE descriptors (image_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, type INTEGER NOT NULL,
+  data BLOB,
+  FOREIGN KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);
+CREATE TABLE matches (pair_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB);
+CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY NOT NULL,
+  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
+  config INTEGER NOT NULL, F BLOB, E BLOB, H BLOB, qvec BLOB, tvec BLOB);
+)sql";
+}
+
+}  // namespace test
+}  // namespace colmap_irav4

@@ -1,0 +1,99 @@
+#include "colmap_irav4/rotation_averaging/ira.h"
+
+#include <deque>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/rotation_eval.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/rotation_averaging/synthetic.h"
+
+namespace colmap_irav4 {
+namespace {
+
+SyntheticProblem MakeProblem(int n, int m, double sigma, double p,
+                             uint64_t seed) {
+  SyntheticOptions options;
+  options.noise_sigma_deg = sigma;
+  options.outlier_ratio = p;
+  options.seed = seed;
+  return MakeSyntheticProblem(n, RandomConnectedGraph(n, m, seed), options);
+}
+
+// Naive baseline: chain the measurements along a breadth-first tree.
+std::vector<Eigen::Matrix3d> ChainBreadthFirst(const RotationGraph& graph) {
+  std::vector<Eigen::Matrix3d> R(graph.NumVertices(),
+                                 Eigen::Matrix3d::Identity());
+  std::vector<bool> seen(graph.NumVertices(), false);
+  std::deque<int> queue = {0};
+  seen[0] = true;
+  while (!queue.empty()) {
+    const int v = queue.front();
+    queue.pop_front();
+    for (const auto& [u, e] : graph.Neighbors(v)) {
+      if (seen[u]) continue;
+      seen[u] = true;
+      R[u] = graph.RotationFrom(e, v) * R[v];
+      queue.push_back(u);
+    }
+  }
+  return R;
+}
+
+TEST(Ira, NoiseFreeGraphIsRecoveredExactly) {
+  const SyntheticProblem problem = MakeProblem(150, 1200, 0.0, 0.0, 1);
+  Ira ira;
+  const RotationAveragingResult result = ira.Estimate(problem.graph);
+  EXPECT_EQ(result.NumEstimated(), 150);
+  const RotationErrors errors = EvaluateRotations(result, problem.ground_truth);
+  EXPECT_EQ(errors.num_compared, 150);
+  EXPECT_LT(errors.max_deg, 1e-6);
+  ASSERT_EQ(result.stage_seconds.size(), 3u);
+  EXPECT_EQ(result.stage_seconds[0].first, "seed");
+}
+
+TEST(Ira, NoisyGraphWithOutliersBeatsChainingByFar) {
+  // sigma 5 deg, 30% outliers, 200 vertices, average degree 40. Measured on
+  // seeds 3-7: IRA median 0.61-0.69 deg; breadth-first chaining 6-109 deg
+  // (at least 9x worse).
+  const SyntheticProblem problem = MakeProblem(200, 4000, 5.0, 0.3, 3);
+  Ira ira;
+  const RotationAveragingResult result = ira.Estimate(problem.graph);
+  const RotationErrors errors = EvaluateRotations(result, problem.ground_truth);
+  const RotationErrors chained = EvaluateRotations(
+      ChainBreadthFirst(problem.graph), {}, problem.ground_truth);
+  EXPECT_EQ(errors.num_compared, 200);
+  EXPECT_LT(errors.median_deg, 1.0);
+  EXPECT_GT(chained.median_deg, 5 * errors.median_deg);
+  RecordProperty("ira_median_deg", std::to_string(errors.median_deg));
+  RecordProperty("chaining_median_deg", std::to_string(chained.median_deg));
+}
+
+TEST(Ira, LargestComponentOnlyAndTreeGraphs) {
+  // Two components: a noise-free dense one (60 vertices) and a triangle. Plus
+  // a tree (no triangle at all) which must still be chained exactly.
+  const auto dense = RandomConnectedGraph(60, 400, 2);
+  std::vector<std::pair<int, int>> edges = dense;
+  edges.push_back({60, 61});
+  edges.push_back({61, 62});
+  edges.push_back({60, 62});
+  SyntheticOptions options;
+  options.noise_sigma_deg = 0.0;
+  const SyntheticProblem problem = MakeSyntheticProblem(63, edges, options);
+  Ira ira;
+  RotationAveragingResult result = ira.Estimate(problem.graph);
+  EXPECT_EQ(result.NumEstimated(), 60);
+  for (int v = 60; v < 63; ++v) EXPECT_FALSE(result.estimated[v]);
+  EXPECT_LT(EvaluateRotations(result, problem.ground_truth).max_deg, 1e-6);
+
+  const SyntheticProblem tree =
+      MakeSyntheticProblem(30, RandomConnectedGraph(30, 29, 3), options);
+  result = ira.Estimate(tree.graph);
+  EXPECT_EQ(result.NumEstimated(), 30);
+  EXPECT_LT(EvaluateRotations(result, tree.ground_truth).max_deg, 1e-6);
+
+  EXPECT_EQ(ira.Estimate(RotationGraph()).NumEstimated(), 0);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -651,27 +651,12 @@ Reconstruction ReadReconstruction(const std::string& path) {
 // ---------------------------------------------------------------------------
 // Statistics.
 
-size_t NumObservations(const Reconstruction& reconstruction) {
-  size_t num_observations = 0;
-  for (const auto& [image_id, image] : reconstruction.images) {
-    for (const Point2D& point2D : image.points2D) {
-      if (point2D.point3D_id != kInvalidPoint3DId) ++num_observations;
-    }
-  }
-  return num_observations;
-}
-
 double MeanObservationsPerImage(const Reconstruction& reconstruction) {
   if (reconstruction.images.empty()) return 0.0;
   return NumObservations(reconstruction) /
          static_cast<double>(reconstruction.images.size());
 }
 
-double MeanTrackLength(const Reconstruction& reconstruction) {
-  if (reconstruction.points3D.empty()) return 0.0;
-  return NumObservations(reconstruction) /
-         static_cast<double>(reconstruction.points3D.size());
-}
 
 // ---------------------------------------------------------------------------
 // Writing.

@@ -18,6 +18,7 @@
 #include <string>
 
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"  // NumObservations, MeanTrackLength
 
 namespace colmap_irav4 {
 
@@ -63,8 +64,6 @@ std::string Points3DTextBytes(const Reconstruction& reconstruction);
 
 // Statistics that COLMAP prints in its text headers: observations are the
 // points2D with a 3D point.
-size_t NumObservations(const Reconstruction& reconstruction);
 double MeanObservationsPerImage(const Reconstruction& reconstruction);
-double MeanTrackLength(const Reconstruction& reconstruction);
 
 }  // namespace colmap_irav4

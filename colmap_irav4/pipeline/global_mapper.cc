@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <ctime>
 #include <filesystem>
 #include <functional>
 #include <fstream>
@@ -41,9 +42,13 @@ std::string FormatFigure(double value) {
 
 // Logs the stage's line: "[component] name: 1.23 s, pairs 55, ...".
 void LogStage(const std::string& prefix, const StageReport& stage) {
+  // Process CPU time so far: wall time alone misleads on a loaded machine.
+  static double last_cpu = 0;
+  const double cpu = static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
   std::ostringstream line;
   line << prefix << stage.name << ": " << std::fixed << std::setprecision(2)
-       << stage.seconds << " s";
+       << stage.seconds << " s (cpu " << cpu - last_cpu << " s)";
+  last_cpu = cpu;
   for (const auto& [name, value] : stage.figures) {
     line << ", " << name << " " << FormatFigure(value);
   }
@@ -474,6 +479,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "observations disagreeing more are unlinked (deg)");
   manager->Add("GlobalPositioning.max_num_iterations", &gp.max_num_iterations,
                "Ceres iterations");
+  manager->Add("GlobalPositioning.function_tolerance", &gp.function_tolerance,
+               "Ceres function tolerance");
+  manager->Add("GlobalPositioning.print_progress", &gp.print_progress,
+               "print Ceres' iterations");
 
   BundleAdjustmentOptions& ba = o.bundle_adjustment;
   manager->Add("BundleAdjustment.loss_function", &ba.loss_function,
@@ -488,6 +497,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "Ceres iterations per round");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
                "auto, sparse_schur, dense_schur or iterative_schur");
+  manager->Add("BundleAdjustment.function_tolerance", &ba.function_tolerance,
+               "Ceres function tolerance");
+  manager->Add("BundleAdjustment.print_progress", &ba.print_progress,
+               "print Ceres' iterations");
 
   manager->Add("Filter.max_reproj_error", &o.filtering.max_reproj_error,
                "observations over this reprojection error are removed (px)");

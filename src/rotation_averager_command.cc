@@ -28,7 +28,7 @@ void PrintErrors(const std::string& label, const RotationErrors& errors) {
 int RunRotationAverager(int argc, char** argv) {
   std::string relpose_path;
   std::string eg_path;
-  std::string method = "l1_irls";
+  std::string method = "irav4";
   std::string output_path;
   std::string gt_path;
   RotationAveragerOptions averager_options;

@@ -1,15 +1,12 @@
 // IRA on the paper's synthetic protocol: median / mean error and seconds per
-// (sigma, outlier ratio), on a graph structure read from a 1DSfM EGs.txt (its
-// first two columns only) or on a connected random graph.
-//   ira_bench --eg_path ../shared/data/1dsfm/Madrid_Metropolis/EGs.txt
+// (sigma, outlier ratio), on the graph structure of a 1DSfM scene (its
+// measurements are replaced by the protocol's) or on a connected random graph.
+//   ira_bench --eg_path ../shared/data/1dsfm/Madrid_Metropolis
 //   /usr/bin/time -v ira_bench --num_vertices 5000 --num_edges 700000 \
 //       --sigmas 5 --outlier_ratios 0.3
 // The side-by-side comparison with the baselines is tools/rotation_benchmark.
 
 #include <cstdio>
-#include <fstream>
-#include <iostream>
-#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -17,6 +14,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/eval/rotation_eval.h"
+#include "colmap_irav4/io/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/ira.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
@@ -42,32 +40,6 @@ std::vector<double> ParseList(const std::string& option,
   return values;
 }
 
-// The structure of a 1DSfM EGs.txt: "i j R(9) t(3)" per line.
-RotationGraph ReadStructure(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw InputError(path, "cannot open");
-  std::map<long, int> index;
-  RotationGraph graph;
-  std::string line;
-  int line_number = 0;
-  while (std::getline(file, line)) {
-    ++line_number;
-    std::stringstream stream(line);
-    long a, b;
-    if (!(stream >> a >> b)) {
-      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-      throw InputError(path, "line " + std::to_string(line_number) +
-                                 ": expected two image ids");
-    }
-    if (a == b) continue;
-    for (long id : {a, b}) {
-      if (!index.count(id)) index[id] = graph.AddVertex(std::to_string(id));
-    }
-    graph.AddEdge(index[a], index[b], Eigen::Matrix3d::Identity());
-  }
-  return graph;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -82,7 +54,8 @@ int main(int argc, char** argv) {
   IraOptions ira_options;
   OptionManager options("ira_bench", "IRA on the paper's synthetic protocol");
   options.Add("eg_path", &eg_path,
-              "1DSfM EGs.txt whose graph structure is used (else random)");
+              "1DSfM scene directory whose graph structure is used (else a "
+              "random graph)");
   options.Add("num_vertices", &num_vertices, "random graph: vertices");
   options.Add("num_edges", &num_edges, "random graph: edges");
   options.Add("sigmas", &sigmas, "noise sigmas (deg), comma separated");
@@ -103,7 +76,7 @@ int main(int argc, char** argv) {
     RotationGraph structure;
     std::string graph_name;
     if (!eg_path.empty()) {
-      structure = ReadStructure(eg_path);
+      structure = ReadOneDsfmScene(eg_path).graph;
       graph_name = eg_path;
     } else {
       const Timer timer;

@@ -63,7 +63,7 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
         DegToRad(options.arc_angle_deg) *
         (options.num_images == 1 ? 0.0 : (i / (options.num_images - 1.0) - 0.5));
     const Eigen::Vector3d center(options.arc_radius * std::sin(angle),
-                                 0.1 * options.arc_radius * uniform(rng),
+                                 options.height_jitter * options.arc_radius * uniform(rng),
                                  -options.arc_radius * std::cos(angle));
     const Eigen::Vector3d target(0.05 * options.arc_radius * uniform(rng),
                                  0.05 * options.arc_radius * uniform(rng),

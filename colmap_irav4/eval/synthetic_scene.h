@@ -28,6 +28,8 @@ struct SyntheticSceneOptions {
   // origin, each looking at a point near the origin.
   double arc_angle_deg = 90.0;
   double arc_radius = 10.0;
+  // Random vertical offsets of the cameras, as a fraction of the radius.
+  double height_jitter = 0.1;
   // Points uniform in a cube of this half size around the origin.
   double point_half_extent = 3.0;
   // Probability that a point is detected in an image where it projects.

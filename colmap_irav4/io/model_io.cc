@@ -657,7 +657,6 @@ double MeanObservationsPerImage(const Reconstruction& reconstruction) {
          static_cast<double>(reconstruction.images.size());
 }
 
-
 // ---------------------------------------------------------------------------
 // Writing.
 

@@ -18,7 +18,7 @@
 #include <string>
 
 #include "colmap_irav4/scene/reconstruction.h"
-#include "colmap_irav4/scene/reconstruction_utils.h"  // NumObservations, MeanTrackLength
+#include "colmap_irav4/scene/reconstruction_utils.h"
 
 namespace colmap_irav4 {
 
@@ -62,8 +62,9 @@ std::string CamerasTextBytes(const Reconstruction& reconstruction);
 std::string ImagesTextBytes(const Reconstruction& reconstruction);
 std::string Points3DTextBytes(const Reconstruction& reconstruction);
 
-// Statistics that COLMAP prints in its text headers: observations are the
-// points2D with a 3D point.
+// Mean number of observations (points2D with a 3D point) per image, as
+// COLMAP prints it in images.txt; NumObservations and MeanTrackLength are in
+// scene/reconstruction_utils.h.
 double MeanObservationsPerImage(const Reconstruction& reconstruction);
 
 }  // namespace colmap_irav4

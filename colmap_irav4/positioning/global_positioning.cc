@@ -10,43 +10,13 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/positioning/direction_cost.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
-namespace {
-
-// r = s * d - (X - c): 3 residuals; blocks c (3), X (3), s (1).
-struct ScaledDirectionCost {
-  explicit ScaledDirectionCost(const Eigen::Vector3d& direction)
-      : direction_(direction) {}
-
-  template <typename T>
-  bool operator()(const T* center, const T* point, const T* scale,
-                  T* residuals) const {
-    for (int k = 0; k < 3; ++k) {
-      residuals[k] = scale[0] * T(direction_[k]) - (point[k] - center[k]);
-    }
-    return true;
-  }
-
-  static ceres::CostFunction* Create(const Eigen::Vector3d& direction) {
-    return new ceres::AutoDiffCostFunction<ScaledDirectionCost, 3, 3, 3, 1>(
-        new ScaledDirectionCost(direction));
-  }
-
-  const Eigen::Vector3d direction_;
-};
-
-ceres::LossFunction* MakeLoss(const std::string& name, double scale) {
-  if (name == "huber") return new ceres::HuberLoss(scale);
-  if (name == "cauchy") return new ceres::CauchyLoss(scale);
-  return nullptr;  // "trivial"
-}
-
-}  // namespace
 
 int EffectiveNumThreads(int num_threads) {
   if (num_threads > 0) return num_threads;
@@ -175,7 +145,7 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
         1.0, observation.direction.dot(Eigen::Map<Eigen::Vector3d>(point) -
                                        Eigen::Map<Eigen::Vector3d>(center)));
     problem.AddResidualBlock(ScaledDirectionCost::Create(observation.direction),
-                             MakeLoss(options.loss_function, options.loss_scale),
+                             CreateLossFunction(options.loss_function, options.loss_scale),
                              center, point, &scales[k]);
     problem.SetParameterLowerBound(&scales[k], 0, 1.0);
     // Each scale sits in one residual: eliminate the scales first.

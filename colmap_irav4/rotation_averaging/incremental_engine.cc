@@ -50,6 +50,23 @@ inline double CosDistance(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
   return std::clamp(c, -1.0, 1.0);
 }
 
+// R_{from,to} R without copying the (possibly transposed) measurement.
+inline Eigen::Matrix3d Chain(const RotationGraph& graph, int edge_idx,
+                             int from, const Eigen::Matrix3d& R) {
+  const RelativeRotation& edge = graph.Edge(edge_idx);
+  if (edge.i == from) return edge.R_ij * R;
+  return edge.R_ij.transpose() * R;
+}
+
+// cos d(R_{from,to}, X).
+inline double CosToEdge(const RotationGraph& graph, int edge_idx, int from,
+                        const Eigen::Matrix3d& X) {
+  const RelativeRotation& edge = graph.Edge(edge_idx);
+  const double dot = edge.i == from ? (edge.R_ij.array() * X.array()).sum()
+                                    : (edge.R_ij.transpose().array() * X.array()).sum();
+  return std::clamp((dot - 1.0) * 0.5, -1.0, 1.0);
+}
+
 // Residual of an edge: the angle-axis vector of R_ij^T R_j R_i^T, so that the
 // squared norm is d^2(R_ij, R_j R_i^T). Quaternions in Eigen's (x, y, z, w)
 // storage, kept unit by ceres::EigenQuaternionManifold.
@@ -275,8 +292,8 @@ bool IncrementalEngine::InitializeFromBestTriplet(
             const int e_jk = adj_j[y].second;
             // Eq. 2: d(R_jk, R_ik R_ij^T) < theta.
             const Eigen::Matrix3d chained =
-                graph_.RotationFrom(e_ik, i) * R_ij.transpose();
-            const double c = CosDistance(graph_.RotationFrom(e_jk, j), chained);
+                Chain(graph_, e_ik, i, R_ij.transpose());
+            const double c = CosToEdge(graph_, e_jk, j, chained);
             if (c > cos_theta_) {
               ++stats_.num_triangles_passed;
               const Triangle t{1.0 - c, i, j, k, e_ij, e_ik, e_jk};
@@ -363,6 +380,21 @@ bool IncrementalEngine::InitializeFromVertex(int v) {
   return true;
 }
 
+bool IncrementalEngine::InitializeFromRotations(
+    const std::vector<int>& vertices,
+    const std::vector<Eigen::Matrix3d>& rotations) {
+  CHECK(selected_list_.empty()) << "engine already initialised";
+  CHECK_EQ(static_cast<int>(rotations.size()), graph_.NumVertices());
+  if (vertices.empty()) return false;
+  for (int v : vertices) {
+    if (v < 0 || v >= graph_.NumVertices() || !CanSelect(v)) return false;
+  }
+  for (int v : vertices) SelectVertex(v, rotations[v]);
+  last_added_ = vertices.back();
+  AfterSeed();
+  return true;
+}
+
 void IncrementalEngine::RemoveCandidate(int p) {
   if (!in_frontier_[p]) return;
   in_frontier_[p] = false;
@@ -381,7 +413,7 @@ void IncrementalEngine::RecomputeCandidate(int p) {
     Precomputation entry;
     entry.m = m;
     entry.weight = graph_.Edge(e).weight;
-    entry.P = graph_.RotationFrom(e, m) * rotations_[m];  // Eq. 5
+    entry.P = Chain(graph_, e, m, rotations_[m]);  // Eq. 5
     pre.push_back(entry);
   }
   const int D = static_cast<int>(pre.size());
@@ -445,7 +477,7 @@ void IncrementalEngine::UpdateCandidate(int p, int x, int edge_idx) {
   Precomputation added;
   added.m = x;
   added.weight = graph_.Edge(edge_idx).weight;
-  added.P = graph_.RotationFrom(edge_idx, x) * rotations_[x];
+  added.P = Chain(graph_, edge_idx, x, rotations_[x]);
   added.evaluated = true;
   added.reward = 1.0;
   for (Precomputation& entry : pre) {
@@ -556,7 +588,7 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
   for (const auto& [n, e] : adjacency_[p]) {
     if (!selected_[n]) continue;
     const double c =
-        CosDistance(graph_.RotationFrom(e, n) * rotations_[n], candidate.R_init);
+        CosDistance(Chain(graph_, e, n, rotations_[n]), candidate.R_init);
     if (c > cos_theta_) inlier_edges.push_back(e);
   }
   SelectVertex(p, candidate.R_init);
@@ -604,8 +636,8 @@ void IncrementalEngine::GlobalOptimize() {
     for (const auto& [u, e] : adjacency_[v]) {
       if (u <= v || !selected_[u]) continue;
       ++num_edges;
-      if (CosDistance(graph_.RotationFrom(e, v) * rotations_[v],
-                      rotations_[u]) > cos_theta_) {
+      if (CosDistance(Chain(graph_, e, v, rotations_[v]), rotations_[u]) >
+          cos_theta_) {
         inliers.emplace_back(e, v);
       }
     }

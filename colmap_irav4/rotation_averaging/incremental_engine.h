@@ -41,10 +41,13 @@ struct IncrementalOptions {
   // a recomputation O(K deg) instead of O(deg^2). 0 = unlimited.
   int max_precomputations = 256;
   // Global problems over more vertices than this use Ceres' iterative CGNR
-  // (Jacobi preconditioner) instead of SPARSE_NORMAL_CHOLESKY: on dense view
-  // graphs the Cholesky factor fills in completely (O(n^3)), while the
-  // rotation graph Laplacian is well conditioned for CG. 0 = always direct.
-  int max_direct_solver_vertices = 2000;
+  // (Jacobi preconditioner) instead of SPARSE_NORMAL_CHOLESKY (SuiteSparse):
+  // on dense view graphs the Cholesky factor fills in completely, O((3n)^3)
+  // per iteration (measured: 1,000-2,000 vertices of a 5,000 x 700,000
+  // random graph took seconds per factorisation), while the Laplacian of a
+  // dense rotation graph is well conditioned for CG. 400 vertices keep a
+  // dense factor under ~1e9 flops. 0 = always direct.
+  int max_direct_solver_vertices = 400;
   // Ceres threads; 1 keeps the output bit-identical from run to run.
   int num_threads = 1;
   bool Check() const;  // throws InputError
@@ -98,6 +101,11 @@ class IncrementalEngine {
   // Degenerate seed for graphs without any consistent triangle: the single
   // vertex `v` with the identity rotation.
   bool InitializeFromVertex(int v);
+  // Seeds the set with rotations estimated elsewhere (`rotations` indexed by
+  // vertex), e.g. IRAv4's aligned clusters, so that GlobalOptimize() runs
+  // Eq. 11-12 on them. False if a vertex is not selectable or none given.
+  bool InitializeFromRotations(const std::vector<int>& vertices,
+                               const std::vector<Eigen::Matrix3d>& rotations);
 
   struct Candidate {
     int vertex = -1;  // v_p*, -1 if none

@@ -15,6 +15,18 @@ using Factory = std::function<std::unique_ptr<RotationAverager>(
 // Adding a method is one line here.
 const std::vector<std::pair<std::string, Factory>>& Methods() {
   static const std::vector<std::pair<std::string, Factory>> methods = {
+      {"irav4",
+       [](const RotationAveragerOptions& o) {
+         Irav4Options irav4 = o.irav4;
+         irav4.engine = o.ira.engine;  // one set of engine options
+         return std::make_unique<Irav4>(irav4);
+       }},
+      {"ira",
+       [](const RotationAveragerOptions& o) {
+         IraOptions ira = o.ira;
+         ira.progress = ira.progress || o.log_progress;
+         return std::make_unique<Ira>(ira);
+       }},
       {"l1_irls",
        [](const RotationAveragerOptions& o) {
          L1IrlsOptions l1_irls = o.l1_irls;
@@ -31,11 +43,39 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
 
 }  // namespace
 
-void RotationAveragerOptions::Check() const { l1_irls.Check(); }
+void RotationAveragerOptions::Check() const {
+  ira.Check();
+  Irav4Options irav4_with_engine = irav4;
+  irav4_with_engine.engine = ira.engine;
+  irav4_with_engine.Check();
+  l1_irls.Check();
+}
 
 void AddRotationAveragerOptions(OptionManager* options,
                                 RotationAveragerOptions* o) {
   const std::string p = "RotationAveraging.";
+  // The incremental engine (IRA and the methods built on it).
+  IncrementalOptions* engine = &o->ira.engine;
+  options->Add(p + "theta_deg", &engine->theta_deg,
+               "IRA: outlier threshold theta (deg)");
+  options->Add(p + "global_growth_ratio", &engine->global_growth_ratio,
+               "IRA: global optimisation each time the set grows by this");
+  options->Add(p + "max_num_iterations", &engine->max_num_iterations,
+               "IRA: Ceres iterations of a global optimisation");
+  options->Add(p + "max_num_local_iterations",
+               &engine->max_num_local_iterations,
+               "IRA: Ceres iterations of a local optimisation");
+  options->Add(p + "function_tolerance", &engine->function_tolerance,
+               "IRA: Ceres function tolerance of the global problems");
+  options->Add(p + "max_seed_triplets", &engine->max_seed_triplets,
+               "IRA: seed triangles optimised (0 = all)");
+  options->Add(p + "max_precomputations", &engine->max_precomputations,
+               "IRA: pre-computations evaluated per recomputation (0 = all)");
+  options->Add(p + "max_direct_solver_vertices",
+               &engine->max_direct_solver_vertices,
+               "IRA: sparse Cholesky up to this many cameras, CG above");
+  options->Add(p + "num_threads", &engine->num_threads, "IRA: Ceres threads");
+  AddIrav4Options(options, &o->irav4);
   L1IrlsOptions* l1 = &o->l1_irls;
   options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,
                "L1-IRLS: relinearised L1 steps");

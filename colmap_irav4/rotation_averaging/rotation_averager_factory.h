@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "colmap_irav4/rotation_averaging/ira.h"
+#include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/l1_irls.h"
 #include "colmap_irav4/rotation_averaging/rotation_graph.h"
 
@@ -14,6 +16,8 @@ class OptionManager;
 // The options of every rotation averaging method, exposed on the command
 // line as --RotationAveraging.<name>.
 struct RotationAveragerOptions {
+  IraOptions ira;  // its engine options are IRAv4's too
+  Irav4Options irav4;
   L1IrlsOptions l1_irls;
   // Log progress lines during long runs.
   bool log_progress = false;

@@ -103,7 +103,7 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
   const std::string gt = (TempDir() / "gt.txt").string();
   WriteScene(problem, relpose, gt);
   std::map<std::string, double> median;
-  for (const std::string method : {"spanning_tree", "l1_irls"}) {
+  for (const std::string method : {"spanning_tree", "l1_irls", "ira", "irav4"}) {
     const std::string output = (TempDir() / (method + ".txt")).string();
     const CommandRun run = RunCommand("--relpose_path " + relpose + " --method " +
                                method + " --output_path " + output +
@@ -115,8 +115,10 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
     EXPECT_EQ(ReadAbsoluteRotations(output).size(), 100u);
     median[method] = ErrorAgainst(output, gt);
   }
-  EXPECT_LT(median["l1_irls"], 1.5);
-  EXPECT_LT(5 * median["l1_irls"], median["spanning_tree"]);
+  for (const std::string method : {"l1_irls", "ira", "irav4"}) {
+    EXPECT_LT(median[method], 1.5) << method;
+    EXPECT_LT(5 * median[method], median["spanning_tree"]) << method;
+  }
 }
 
 TEST(RotationAveragerCommand, MadridEgPath) {

@@ -8,6 +8,7 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/io/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"
@@ -117,6 +118,29 @@ TEST(L1Irls, FarBetterThanSpanningTreeWithNoiseAndOutliers) {
             << " deg, L1-IRLS " << l1_median << " deg" << std::endl;
   EXPECT_LT(l1_median, 2.0);
   EXPECT_LT(l1_median * 5, tree_median);
+}
+
+TEST(L1Irls, MadridStructureWithNoiseAndOutliers) {
+  // The paper's protocol on the real Madrid graph: sigma 5 deg, 30% outliers.
+  SyntheticOptions options;
+  options.noise_sigma_deg = 5.0;
+  options.outlier_ratio = 0.3;
+  options.seed = 8;
+  const SyntheticProblem problem = MakeSyntheticProblem(
+      ReadOneDsfmScene(std::string(COLMAP_IRAV4_DATA_DIR) +
+                       "/1dsfm/Madrid_Metropolis")
+          .graph,
+      options);
+  const RotationErrors tree = EvaluateRotations(
+      SpanningTreeAverager().Estimate(problem.graph), problem.ground_truth);
+  const RotationErrors l1 = EvaluateRotations(
+      L1IrlsAverager().Estimate(problem.graph), problem.ground_truth);
+  std::cout << "Madrid, sigma 5, 30% outliers: median error spanning tree "
+            << tree.median_deg << " deg, L1-IRLS " << l1.median_deg << " deg"
+            << std::endl;
+  EXPECT_EQ(l1.num_compared, 394);
+  EXPECT_LT(l1.median_deg, 1.0);
+  EXPECT_LT(10 * l1.median_deg, tree.median_deg);
 }
 
 TEST(L1Irls, CholeskyAndCgAgree) {

@@ -1,0 +1,214 @@
+#include "colmap_irav4/refinement/triangulation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <Eigen/Dense>
+#include <glog/logging.h>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+struct Ray {
+  TrackElement element;
+  Eigen::Vector3d center;
+  Eigen::Vector3d direction;  // unit, world frame
+  const Camera* camera;
+  const Image* image;
+  Eigen::Vector2d xy;
+};
+
+// Inliers of `xyz` among `rays` (in front, within the reprojection error).
+std::vector<int> Inliers(const std::vector<Ray>& rays, const std::vector<int>& candidates,
+                         const Eigen::Vector3d& xyz, double max_reproj_error,
+                         double* sum_error) {
+  std::vector<int> inliers;
+  *sum_error = 0;
+  for (int r : candidates) {
+    const double error = ReprojectionError(*rays[r].camera, *rays[r].image, xyz, rays[r].xy);
+    if (error <= max_reproj_error) {
+      inliers.push_back(r);
+      *sum_error += error;
+    }
+  }
+  return inliers;
+}
+
+double MaxAngleCos(const std::vector<Ray>& rays, const std::vector<int>& subset,
+                   const Eigen::Vector3d& xyz) {
+  double min_cos = 1.0;
+  for (size_t a = 0; a < subset.size(); ++a) {
+    const Eigen::Vector3d ra = (xyz - rays[subset[a]].center).normalized();
+    for (size_t b = a + 1; b < subset.size(); ++b) {
+      min_cos = std::min(min_cos, ra.dot((xyz - rays[subset[b]].center).normalized()));
+    }
+  }
+  return min_cos;
+}
+
+}  // namespace
+
+bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
+                         const std::vector<Eigen::Vector3d>& directions,
+                         Eigen::Vector3d* xyz) {
+  CHECK_EQ(centers.size(), directions.size());
+  if (centers.size() < 2) return false;
+  // sum_i (I - d_i d_i^T) (X - c_i) = 0.
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < centers.size(); ++i) {
+    const Eigen::Vector3d d = directions[i].normalized();
+    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - d * d.transpose();
+    A += P;
+    b += P * centers[i];
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
+  // Parallel rays: A has a (near) null direction along them.
+  if (eigen.eigenvalues()(0) < 1e-12 * centers.size()) return false;
+  *xyz = A.ldlt().solve(b);
+  return xyz->allFinite();
+}
+
+bool TriangulateDLT(const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
+                    const std::vector<Eigen::Vector2d>& points, Eigen::Vector3d* xyz) {
+  CHECK_EQ(cams_from_world.size(), points.size());
+  if (points.size() < 2) return false;
+  Eigen::MatrixXd A(2 * points.size(), 4);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const auto& P = cams_from_world[i];
+    A.row(2 * i) = points[i].x() * P.row(2) - P.row(0);
+    A.row(2 * i + 1) = points[i].y() * P.row(2) - P.row(1);
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
+  const Eigen::Vector4d X = svd.matrixV().col(3);
+  if (std::abs(X(3)) < 1e-12 * X.head<3>().norm()) return false;
+  *xyz = X.head<3>() / X(3);
+  return xyz->allFinite();
+}
+
+void TriangulationOptions::Check() const {
+  if (!(max_reproj_error > 0)) {
+    throw InputError("Triangulation.max_reproj_error", "must be positive");
+  }
+  if (!(min_tri_angle >= 0 && min_tri_angle < 180)) {
+    throw InputError("Triangulation.min_tri_angle", "must be in [0, 180)");
+  }
+  if (max_num_trials < 1) throw InputError("Triangulation.max_num_trials", "must be positive");
+  if (max_points_per_track < 1) {
+    throw InputError("Triangulation.max_points_per_track", "must be positive");
+  }
+}
+
+TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
+                                       const std::vector<Track>& tracks,
+                                       Reconstruction* reconstruction) {
+  options.Check();
+  TriangulationSummary summary;
+  std::mt19937_64 rng(options.random_seed);
+  const double min_angle_cos = std::cos(DegToRad(options.min_tri_angle));
+  std::map<image_t, Eigen::Vector3d> centers;
+  for (const auto& [image_id, image] : reconstruction->images) {
+    centers[image_id] = image.ProjectionCenter();
+  }
+
+  std::vector<Ray> rays;
+  for (const Track& track : tracks) {
+    rays.clear();
+    for (const TrackElement& element : track) {
+      auto image_it = reconstruction->images.find(element.image_id);
+      if (image_it == reconstruction->images.end()) continue;
+      const Image& image = image_it->second;
+      const Point2D& point2D = image.points2D.at(element.point2D_idx);
+      if (point2D.point3D_id != kInvalidPoint3DId) continue;
+      Ray ray;
+      ray.element = element;
+      ray.image = &image;
+      ray.camera = &reconstruction->cameras.at(image.camera_id);
+      ray.xy = point2D.xy;
+      const Eigen::Vector2d normalized = CameraImageToCamera(*ray.camera, point2D.xy);
+      if (!normalized.allFinite()) continue;
+      ray.center = centers.at(element.image_id);
+      ray.direction = (image.cam_from_world.rotation.inverse() * normalized.homogeneous()).normalized();
+      rays.push_back(ray);
+    }
+    if (rays.size() < 2) continue;
+    ++summary.num_tracks_tried;
+
+    std::vector<int> remaining(rays.size());
+    for (size_t r = 0; r < rays.size(); ++r) remaining[r] = r;
+    for (int found = 0; found < options.max_points_per_track && remaining.size() >= 2; ++found) {
+      // Candidate pairs.
+      std::vector<std::pair<int, int>> pairs;
+      const size_t n = remaining.size();
+      if (n * (n - 1) / 2 <= static_cast<size_t>(options.max_num_trials)) {
+        for (size_t a = 0; a < n; ++a) {
+          for (size_t b = a + 1; b < n; ++b) pairs.emplace_back(remaining[a], remaining[b]);
+        }
+      } else {
+        std::uniform_int_distribution<size_t> dist(0, n - 1);
+        while (static_cast<int>(pairs.size()) < options.max_num_trials) {
+          const size_t a = dist(rng), b = dist(rng);
+          if (a != b) pairs.emplace_back(remaining[a], remaining[b]);
+        }
+      }
+      std::vector<int> best_inliers;
+      double best_error = 0;
+      Eigen::Vector3d best_xyz;
+      for (const auto& [a, b] : pairs) {
+        if (rays[a].direction.dot(rays[b].direction) > min_angle_cos) continue;
+        Eigen::Vector3d xyz;
+        if (!TriangulateMidpoint({rays[a].center, rays[b].center},
+                                 {rays[a].direction, rays[b].direction}, &xyz)) {
+          continue;
+        }
+        double error;
+        std::vector<int> inliers = Inliers(rays, remaining, xyz, options.max_reproj_error, &error);
+        if (inliers.size() > best_inliers.size() ||
+            (inliers.size() == best_inliers.size() && error < best_error)) {
+          best_inliers = std::move(inliers);
+          best_error = error;
+          best_xyz = xyz;
+        }
+      }
+      if (best_inliers.size() < 2) break;
+      // Least squares over the inliers, kept only if it keeps them all.
+      std::vector<Eigen::Vector3d> inlier_centers, inlier_directions;
+      for (int r : best_inliers) {
+        inlier_centers.push_back(rays[r].center);
+        inlier_directions.push_back(rays[r].direction);
+      }
+      Eigen::Vector3d refined;
+      if (TriangulateMidpoint(inlier_centers, inlier_directions, &refined)) {
+        double error;
+        std::vector<int> inliers =
+            Inliers(rays, remaining, refined, options.max_reproj_error, &error);
+        if (inliers.size() >= best_inliers.size()) {
+          best_inliers = std::move(inliers);
+          best_xyz = refined;
+        }
+      }
+      if (MaxAngleCos(rays, best_inliers, best_xyz) > min_angle_cos) break;
+      std::vector<TrackElement> point_track;
+      for (int r : best_inliers) point_track.push_back(rays[r].element);
+      AddPoint3D(best_xyz, point_track, reconstruction);
+      ++summary.num_points_added;
+      summary.num_observations_added += point_track.size();
+      std::vector<int> rest;
+      std::set_difference(remaining.begin(), remaining.end(), best_inliers.begin(),
+                          best_inliers.end(), std::back_inserter(rest));
+      remaining = std::move(rest);
+    }
+  }
+  VLOG(1) << "Triangulation: " << summary.num_points_added << " points, "
+          << summary.num_observations_added << " observations from "
+          << summary.num_tracks_tried << " tracks";
+  return summary;
+}
+
+}  // namespace colmap_irav4

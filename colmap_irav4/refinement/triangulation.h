@@ -1,0 +1,61 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/positioning/track_builder.h"
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+// The point closest to a bundle of rays in the least-squares sense (sum of
+// squared distances to the rays: the multi-view midpoint). `directions` need
+// not be unit. Returns false if the rays are (nearly) parallel.
+bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
+                         const std::vector<Eigen::Vector3d>& directions,
+                         Eigen::Vector3d* xyz);
+
+// Multi-view DLT from cam_from_world matrices and normalised image points
+// (x/z, y/z). Returns false if degenerate or the point is at infinity.
+bool TriangulateDLT(const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
+                    const std::vector<Eigen::Vector2d>& points,
+                    Eigen::Vector3d* xyz);
+
+struct TriangulationOptions {
+  // Inlier threshold on the reprojection error, px (COLMAP's
+  // complete_max_reproj_error / create_max_angle_error analogue).
+  double max_reproj_error = 4.0;
+  // A point needs two inlier rays at least this far apart, deg (COLMAP's
+  // min_tri_angle).
+  double min_tri_angle = 1.5;
+  // RANSAC over pairs of observations: every pair if there are at most this
+  // many, else this many random pairs.
+  int max_num_trials = 100;
+  // Points found per track at most (observations left over after a point
+  // may form another one, e.g. when a wrong match merged two tracks).
+  int max_points_per_track = 2;
+  uint64_t random_seed = 0;
+
+  // Throws InputError naming the offending option.
+  void Check() const;
+};
+
+struct TriangulationSummary {
+  size_t num_tracks_tried = 0;     // tracks with >= 2 unlinked observations
+  size_t num_points_added = 0;
+  size_t num_observations_added = 0;
+};
+
+// For every track, triangulates its observations in registered images that
+// no point uses yet (robustly: RANSAC over pairs, cheirality, reprojection
+// error, triangulation angle; then the midpoint of the inliers) and adds the
+// points with their inlier observations. Tracks that failed positioning and
+// observations removed by filtering are recovered this way; on a model
+// without points it triangulates everything (translation averaging path).
+TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
+                                       const std::vector<Track>& tracks,
+                                       Reconstruction* reconstruction);
+
+}  // namespace colmap_irav4

@@ -1,0 +1,368 @@
+#include "colmap_irav4/rotation_averaging/irav4.h"
+
+#include <algorithm>
+#include <memory>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/rotation_averaging/cds.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/timer.h"
+
+namespace colmap_irav4 {
+namespace {
+
+std::vector<bool> MaskOf(int n, const std::vector<int>& vertices) {
+  std::vector<bool> mask(n, false);
+  for (int v : vertices) mask[v] = true;
+  return mask;
+}
+
+int MaxDegreeVertex(const RotationGraph& graph) {
+  int best = 0;
+  for (int v = 1; v < graph.NumVertices(); ++v) {
+    if (graph.Degree(v) > graph.Degree(best)) best = v;
+  }
+  return best;
+}
+
+// Copies an engine's selected rotations into a per-vertex table.
+void ExportEngine(const IncrementalEngine& engine, int n,
+                  std::vector<Eigen::Matrix3d>* rotations,
+                  std::vector<bool>* selected) {
+  rotations->assign(n, Eigen::Matrix3d::Identity());
+  selected->assign(n, false);
+  for (int v : engine.Selected()) {
+    (*rotations)[v] = engine.Rotation(v);
+    (*selected)[v] = true;
+  }
+}
+
+// The IRAv4 task-specific CDS: the engine on the whole graph from the best
+// triplet, stopped as soon as the selected set dominates the graph. Selected
+// sets are connected by construction (each vertex joins through an edge).
+AlignmentReference TaskSpecificReference(const RotationGraph& graph,
+                                         const Irav4Options& options) {
+  const int n = graph.NumVertices();
+  AlignmentReference reference;
+  IncrementalEngine engine(graph, options.engine);
+  if (!engine.InitializeFromBestTriplet() &&
+      !engine.InitializeFromVertex(MaxDegreeVertex(graph))) {
+    return reference;
+  }
+  std::vector<char> dominated(n, 0);
+  int num_dominated = 0;
+  auto dominate = [&](int v) {
+    if (!dominated[v]) {
+      dominated[v] = 1;
+      ++num_dominated;
+    }
+    for (const auto& [u, e] : graph.Neighbors(v)) {
+      if (!dominated[u]) {
+        dominated[u] = 1;
+        ++num_dominated;
+      }
+    }
+  };
+  for (int v : engine.Selected()) dominate(v);
+  if (num_dominated < n) {
+    engine.Grow([&]() {
+      dominate(engine.LastAdded());
+      return num_dominated == n;
+    });
+  }
+  // The paper's growth ends with a global optimisation of the set.
+  engine.GlobalOptimize();
+  ExportEngine(engine, n, &reference.rotations, &reference.selected);
+  reference.vertices = engine.Selected();
+  std::sort(reference.vertices.begin(), reference.vertices.end());
+  reference.is_cds = num_dominated == n;
+  return reference;
+}
+
+// A given vertex set (a task-independent CDS) estimated by the engine
+// restricted to it (IRA on the CDS-induced sub-graph).
+AlignmentReference EstimateVertexSet(const RotationGraph& graph,
+                                     const Irav4Options& options,
+                                     const std::vector<int>& vertices) {
+  const int n = graph.NumVertices();
+  AlignmentReference reference;
+  IncrementalEngine engine(graph, options.engine, MaskOf(n, vertices));
+  if (!engine.InitializeFromBestTriplet()) {
+    LOG(WARNING) << "The CDS (" << vertices.size()
+                 << " vertices) holds no consistent triangle; using the "
+                    "task-specific reference instead";
+    return TaskSpecificReference(graph, options);
+  }
+  engine.Grow([]() { return false; });
+  engine.GlobalOptimize();
+  ExportEngine(engine, n, &reference.rotations, &reference.selected);
+  reference.vertices = engine.Selected();
+  std::sort(reference.vertices.begin(), reference.vertices.end());
+  reference.is_cds = IsConnectedDominatingSet(graph, reference.vertices);
+  return reference;
+}
+
+}  // namespace
+
+ReferenceMethod ReferenceMethodFromString(const std::string& name) {
+  if (name == "irav4") return ReferenceMethod::kIrav4;
+  if (name == "greedy_cds") return ReferenceMethod::kGreedyCds;
+  if (name == "random_cds") return ReferenceMethod::kRandomCds;
+  throw InputError("--RotationAveraging.reference_method",
+                   "unknown reference method '" + name +
+                       "' (irav4, greedy_cds, random_cds)");
+}
+
+std::string ReferenceMethodToString(ReferenceMethod method) {
+  switch (method) {
+    case ReferenceMethod::kIrav4:
+      return "irav4";
+    case ReferenceMethod::kGreedyCds:
+      return "greedy_cds";
+    case ReferenceMethod::kRandomCds:
+      return "random_cds";
+  }
+  return "?";
+}
+
+void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
+  manager->Add("RotationAveraging.min_community_size",
+               &options->communities.min_community_size,
+               "smaller communities merge into their best-connected "
+               "neighbour");
+  manager->Add("RotationAveraging.max_community_size",
+               &options->communities.max_community_size,
+               "larger communities are split (0 = no limit)");
+  manager->Add("RotationAveraging.reference_method",
+               &options->reference_method,
+               "alignment reference: irav4 | greedy_cds | random_cds");
+  manager->Add("RotationAveraging.weighted_greedy_cds",
+               &options->weighted_greedy_cds,
+               "greedy CDS counts neighbours by inlier count");
+  manager->Add("RotationAveraging.num_random_cds", &options->num_random_cds,
+               "random CDSs united in the random_cds reference");
+  manager->Add("RotationAveraging.seed", &options->seed,
+               "seed of the random choices (random_cds)");
+  manager->Add("RotationAveraging.num_final_rounds",
+               &options->num_final_rounds,
+               "rounds of inlier selection + global optimisation at the end");
+}
+
+bool Irav4Options::Check() const {
+  if (!engine.Check()) {
+    throw InputError("--RotationAveraging.*",
+                     "invalid incremental engine options");
+  }
+  if (!communities.Check()) {
+    throw InputError("--RotationAveraging.*",
+                     "invalid community sizes (min <= max, max 0 or >= 3)");
+  }
+  ReferenceMethodFromString(reference_method);
+  if (num_random_cds < 1) {
+    throw InputError("--RotationAveraging.num_random_cds", "must be >= 1");
+  }
+  if (num_final_rounds < 0) {
+    throw InputError("--RotationAveraging.num_final_rounds", "must be >= 0");
+  }
+  return true;
+}
+
+AlignmentReference BuildAlignmentReference(const RotationGraph& graph,
+                                           const Irav4Options& options,
+                                           ReferenceMethod method) {
+  switch (method) {
+    case ReferenceMethod::kIrav4:
+      return TaskSpecificReference(graph, options);
+    case ReferenceMethod::kGreedyCds:
+      return EstimateVertexSet(
+          graph, options, GreedyCds(graph, options.weighted_greedy_cds));
+    case ReferenceMethod::kRandomCds:
+      return EstimateVertexSet(
+          graph, options,
+          UnionOfRandomCds(graph, options.num_random_cds,
+                           static_cast<uint64_t>(options.seed)));
+  }
+  return {};
+}
+
+Irav4::Irav4(const Irav4Options& options) : options_(options) {
+  options_.Check();
+}
+
+RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
+  report_ = Irav4Report();
+  RotationAveragingResult result;
+  const int num_input = input.NumVertices();
+  result.rotations.assign(num_input, Eigen::Matrix3d::Identity());
+  result.estimated.assign(num_input, false);
+  if (num_input == 0) return result;
+
+  // Work on the largest connected component (domination is per component).
+  Timer timer;
+  const std::vector<std::vector<int>> components =
+      input.ConnectedComponents();
+  const bool whole = components.front().size() ==
+                     static_cast<size_t>(num_input);
+  RotationGraph component_graph;
+  if (!whole) component_graph = input.InducedSubgraph(components.front());
+  const RotationGraph& graph = whole ? input : component_graph;
+  auto to_input = [&](int v) { return whole ? v : components.front()[v]; };
+  const int n = graph.NumVertices();
+  report_.num_vertices = n;
+
+  // 1. Communities and one seed triplet each (Eq. 1-4 inside the community).
+  const std::vector<std::vector<int>> communities =
+      DetectCommunities(graph, options_.communities);
+  report_.num_communities = static_cast<int>(communities.size());
+  std::vector<std::unique_ptr<IncrementalEngine>> clusters;
+  std::vector<bool> affiliated(n, false);
+  for (const std::vector<int>& community : communities) {
+    if (community.size() < 3) continue;
+    // Seeded inside its community, the cluster may then grow beyond it:
+    // every vertex is allowed, the seed triangle is restricted.
+    auto cluster = std::make_unique<IncrementalEngine>(graph, options_.engine);
+    if (!cluster->InitializeFromBestTriplet(MaskOf(n, community))) continue;
+    for (int v : cluster->Selected()) affiliated[v] = true;
+    clusters.push_back(std::move(cluster));
+  }
+  if (clusters.empty()) {
+    // No community could seed (e.g. very few, inconsistent triangles): one
+    // cluster from the best triplet of the whole graph.
+    auto cluster = std::make_unique<IncrementalEngine>(graph, options_.engine);
+    if (!cluster->InitializeFromBestTriplet() &&
+        !cluster->InitializeFromVertex(MaxDegreeVertex(graph))) {
+      return result;
+    }
+    for (int v : cluster->Selected()) affiliated[v] = true;
+    clusters.push_back(std::move(cluster));
+  }
+  const int num_clusters = static_cast<int>(clusters.size());
+  report_.num_clusters = num_clusters;
+  for (int c = 0; c < num_clusters; ++c) {
+    for (int d = 0; d < num_clusters; ++d) {
+      if (d == c) continue;
+      for (int v : clusters[d]->Selected()) clusters[c]->Exclude(v);
+    }
+  }
+  result.stage_seconds.emplace_back("communities_and_seeds",
+                                    timer.ElapsedSeconds());
+
+  // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
+  // clusters joins. A cluster's best candidate only changes when the cluster
+  // grows or its candidate is taken by another cluster, so it is cached.
+  timer.Restart();
+  std::vector<IncrementalEngine::Candidate> best(num_clusters);
+  std::vector<bool> stale(num_clusters, true);
+  int num_affiliated = 0;
+  for (bool a : affiliated) num_affiliated += a;
+  while (num_affiliated < n) {
+    int chosen = -1;
+    for (int c = 0; c < num_clusters; ++c) {
+      if (stale[c]) {
+        best[c] = clusters[c]->BestCandidate();
+        stale[c] = false;
+      }
+      if (best[c].vertex < 0) continue;
+      if (chosen < 0 || best[c].reward > best[chosen].reward) chosen = c;
+    }
+    if (chosen < 0) break;  // nothing reachable any more
+    const IncrementalEngine::Candidate candidate = best[chosen];
+    CHECK(!affiliated[candidate.vertex]);
+    clusters[chosen]->AddVertex(candidate);
+    affiliated[candidate.vertex] = true;
+    ++num_affiliated;
+    stale[chosen] = true;
+    for (int c = 0; c < num_clusters; ++c) {
+      if (c == chosen) continue;
+      clusters[c]->Exclude(candidate.vertex);
+      if (best[c].vertex == candidate.vertex) stale[c] = true;
+    }
+  }
+  for (auto& cluster : clusters) {
+    cluster->GlobalOptimize();
+    report_.cluster_sizes.push_back(
+        static_cast<int>(cluster->Selected().size()));
+  }
+  result.stage_seconds.emplace_back("on_the_fly_clustering",
+                                    timer.ElapsedSeconds());
+
+  // 3. The alignment reference.
+  timer.Restart();
+  const AlignmentReference reference = BuildAlignmentReference(
+      graph, options_, ReferenceMethodFromString(options_.reference_method));
+  report_.n_ref = static_cast<int>(reference.vertices.size());
+  result.stage_seconds.emplace_back("reference", timer.ElapsedSeconds());
+
+  // 4. Common-vertex-guided alignment of each cluster and global alignment.
+  timer.Restart();
+  std::vector<Eigen::Matrix3d> rotations(n, Eigen::Matrix3d::Identity());
+  std::vector<bool> estimated(n, false);
+  ClusterAlignmentOptions alignment_options;
+  alignment_options.theta_deg = options_.engine.theta_deg;
+  std::vector<Eigen::Matrix3d> cluster_rotations;
+  std::vector<bool> in_cluster;
+  for (int c = 0; c < num_clusters; ++c) {
+    ExportEngine(*clusters[c], n, &cluster_rotations, &in_cluster);
+    ClusterAlignment alignment;
+    if (reference.vertices.empty()) {
+      // No reference at all: the first cluster's frame stands in for it.
+      alignment.success = c == 0;
+    } else {
+      alignment = AlignClusterToReference(graph, cluster_rotations, in_cluster,
+                                          reference.rotations,
+                                          reference.selected,
+                                          alignment_options);
+    }
+    if (!alignment.success) {
+      LOG(WARNING) << "IRAv4: cluster " << c << " ("
+                   << clusters[c]->Selected().size()
+                   << " vertices) shares nothing with the reference";
+      continue;
+    }
+    report_.num_vertex_guided_alignments += alignment.used_vertex_guidance;
+    for (int v : clusters[c]->Selected()) {
+      rotations[v] = cluster_rotations[v] * alignment.A;
+      estimated[v] = true;
+    }
+  }
+  clusters.clear();  // release the engines before the final problem
+  result.stage_seconds.emplace_back("alignment", timer.ElapsedSeconds());
+
+  // 5. Final optimisation over the inlier edges of the whole graph.
+  timer.Restart();
+  std::vector<int> estimated_vertices;
+  for (int v = 0; v < n; ++v) {
+    if (estimated[v]) estimated_vertices.push_back(v);
+  }
+  if (options_.num_final_rounds > 0 && estimated_vertices.size() >= 2) {
+    // Eq. 11-12 on all vertices: the engine seeded with the aligned
+    // rotations (same inlier selection and Ceres problem as the growth).
+    IncrementalEngine final_engine(graph, options_.engine);
+    CHECK(final_engine.InitializeFromRotations(estimated_vertices, rotations));
+    for (int round = 0; round < options_.num_final_rounds; ++round) {
+      final_engine.GlobalOptimize();
+    }
+    report_.num_final_inlier_edges =
+        final_engine.Stats().last_global_num_inliers;
+    for (int v : estimated_vertices) rotations[v] = final_engine.Rotation(v);
+  }
+  result.stage_seconds.emplace_back("global_optimization",
+                                    timer.ElapsedSeconds());
+
+  for (int v = 0; v < n; ++v) {
+    result.rotations[to_input(v)] = rotations[v];
+    result.estimated[to_input(v)] = estimated[v];
+  }
+  report_.reference.selected.assign(num_input, false);
+  report_.reference.rotations.assign(num_input, Eigen::Matrix3d::Identity());
+  report_.reference.is_cds = reference.is_cds;
+  for (int v : reference.vertices) {
+    report_.reference.vertices.push_back(to_input(v));
+    report_.reference.selected[to_input(v)] = true;
+    report_.reference.rotations[to_input(v)] = reference.rotations[v];
+  }
+  return result;
+}
+
+}  // namespace colmap_irav4

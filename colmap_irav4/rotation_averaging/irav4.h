@@ -1,0 +1,99 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/rotation_averaging/cluster_alignment.h"
+#include "colmap_irav4/rotation_averaging/community_detection.h"
+#include "colmap_irav4/rotation_averaging/incremental_engine.h"
+#include "colmap_irav4/rotation_averaging/rotation_graph.h"
+#include "colmap_irav4/util/option_manager.h"
+
+namespace colmap_irav4 {
+
+// How the global alignment reference is built.
+enum class ReferenceMethod {
+  kIrav4,       // task-specific CDS: the engine grown until dominating
+  kGreedyCds,   // Guha-Khuller greedy CDS (WCDS-style), estimated by engine
+  kRandomCds,   // union of random CDSs (IRAv3+-style), estimated by engine
+};
+// "irav4" | "greedy_cds" | "random_cds"; throws InputError otherwise.
+ReferenceMethod ReferenceMethodFromString(const std::string& name);
+std::string ReferenceMethodToString(ReferenceMethod method);
+
+struct Irav4Options {
+  // Engine parameters (theta = outlier threshold, 5% global growth ratio),
+  // shared by the reference, the clusters and the final optimisation.
+  IncrementalOptions engine;
+  // Community detection for the cluster seeds.
+  CommunityDetectionOptions communities;
+  // "irav4" (the paper), "greedy_cds" or "random_cds" (baselines).
+  std::string reference_method = "irav4";
+  // Greedy CDS: count neighbours by inlier count instead of one each.
+  bool weighted_greedy_cds = false;
+  // Random CDS reference: how many random CDSs are united.
+  int num_random_cds = 3;
+  // Seed of everything random (only the random CDS reference draws).
+  int seed = 0;
+  // Rounds of the final global optimisation (each re-selects the inlier
+  // edges of the whole graph within theta, then optimises Eq. 12).
+  int num_final_rounds = 1;
+
+  bool Check() const;  // throws InputError naming the option
+};
+
+// Registers IRAv4's own options in COLMAP's dotted style under
+// RotationAveraging.* (min/max_community_size, reference_method,
+// weighted_greedy_cds, num_random_cds, seed, num_final_rounds); the engine's
+// (theta_deg, global_growth_ratio, ...) are shared with IRA and registered
+// by the rotation averager factory.
+void AddIrav4Options(OptionManager* manager, Irav4Options* options);
+
+// A reference: the selected vertices and their rotations (one entry per
+// graph vertex, meaningful where `selected`).
+struct AlignmentReference {
+  std::vector<int> vertices;
+  std::vector<bool> selected;
+  std::vector<Eigen::Matrix3d> rotations;
+  bool is_cds = false;  // connected and dominating on the graph
+};
+
+// Builds the reference with `method` on a connected graph. Empty vertices
+// when no triplet passes the chaining check.
+AlignmentReference BuildAlignmentReference(const RotationGraph& graph,
+                                           const Irav4Options& options,
+                                           ReferenceMethod method);
+
+// What the last Estimate did, for reports and benchmarks.
+struct Irav4Report {
+  int num_vertices = 0;            // of the largest connected component
+  int num_communities = 0;
+  int num_clusters = 0;            // communities that produced a seed
+  std::vector<int> cluster_sizes;  // after on-the-fly clustering
+  int n_ref = 0;
+  AlignmentReference reference;    // indices of the input graph
+  int num_vertex_guided_alignments = 0;
+  int num_final_inlier_edges = 0;
+};
+
+// IRAv4 (the paper's section 4 with DESIGN.md's completions): communities ->
+// cluster seeds -> on-the-fly clustering with local rotation averaging ->
+// task-specific CDS reference -> common-vertex-guided alignment -> global
+// alignment and optimisation over the inlier edges. Works on the largest
+// connected component; other vertices are reported as not estimated.
+class Irav4 : public RotationAverager {
+ public:
+  explicit Irav4(const Irav4Options& options = Irav4Options());
+  std::string Name() const override { return "irav4"; }
+  RotationAveragingResult Estimate(const RotationGraph& graph) override;
+  const Irav4Report& LastReport() const { return report_; }
+
+ private:
+  Irav4Options options_;
+  Irav4Report report_;
+};
+
+}  // namespace colmap_irav4

@@ -1,0 +1,144 @@
+#include "colmap_irav4/refinement/triangulation.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+TEST(Triangulation, MidpointAndDLTAreExactOnExactRays) {
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Vector3d X(uniform(rng), uniform(rng), 5 + uniform(rng));
+    std::vector<Eigen::Vector3d> centers, directions;
+    std::vector<Eigen::Matrix<double, 3, 4>> cams;
+    std::vector<Eigen::Vector2d> points;
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d c(uniform(rng), uniform(rng), uniform(rng));
+      centers.push_back(c);
+      directions.push_back(3.0 * (X - c));
+      Eigen::Matrix<double, 3, 4> P;
+      P << Eigen::Matrix3d::Identity(), -c;
+      cams.push_back(P);
+      points.push_back((X - c).hnormalized());
+    }
+    Eigen::Vector3d midpoint, dlt;
+    ASSERT_TRUE(TriangulateMidpoint(centers, directions, &midpoint));
+    ASSERT_TRUE(TriangulateDLT(cams, points, &dlt));
+    EXPECT_LT((midpoint - X).norm(), 1e-9);
+    EXPECT_LT((dlt - X).norm(), 1e-9);
+  }
+  Eigen::Vector3d xyz;
+  EXPECT_FALSE(TriangulateMidpoint({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()},
+                                   {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitX()}, &xyz));
+}
+
+SyntheticScene Scene(double noise_px) {
+  SyntheticSceneOptions options;
+  options.num_images = 8;
+  options.num_points = 300;
+  options.visibility = 0.7;
+  options.noise_px = noise_px;
+  options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
+  options.extra_param = 0.02;
+  return GenerateSyntheticScene(options);
+}
+
+TEST(Triangulation, TriangulatesEveryTrackOfKnownPoses) {
+  const SyntheticScene scene = Scene(0.5);
+  Reconstruction reconstruction = StripPoints(scene.truth);
+  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  const TriangulationSummary summary = TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
+  EXPECT_EQ(summary.num_points_added, tracks.size());
+  EXPECT_EQ(NumObservations(reconstruction), NumObservations(scene.truth));
+  EXPECT_LT(UpdateReprojectionErrors(&reconstruction), 1.0);
+  double max_error = 0;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    const TrackElement& e = point.track[0];
+    const point3D_t true_id = scene.truth.images.at(e.image_id).points2D[e.point2D_idx].point3D_id;
+    max_error = std::max(max_error, (point.xyz - scene.truth.points3D.at(true_id).xyz).norm());
+  }
+  EXPECT_LT(max_error, 0.1);  // cameras 10 away, 0.5 px noise
+}
+
+TEST(Triangulation, RejectsWrongObservationsAndSplitsMergedTracks) {
+  const SyntheticScene scene = Scene(0.0);
+  Reconstruction reconstruction = StripPoints(scene.truth);
+  std::vector<Track> tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  // Merge pairs of tracks: images 1-4 of one with images 5-8 of the next.
+  std::vector<Track> merged;
+  for (size_t t = 0; t + 1 < tracks.size(); t += 2) {
+    Track track;
+    for (const auto& e : tracks[t]) if (e.image_id <= 4) track.push_back(e);
+    const size_t num_first = track.size();
+    for (const auto& e : tracks[t + 1]) if (e.image_id > 4) track.push_back(e);
+    if (num_first >= 2 && track.size() - num_first >= 2) merged.push_back(track);
+  }
+  const size_t num_merged = merged.size();
+  ASSERT_GT(num_merged, 5u);
+  const TriangulationSummary summary = TriangulateTracks(TriangulationOptions(), merged, &reconstruction);
+  EXPECT_EQ(summary.num_points_added, 2 * num_merged);
+  EXPECT_LT(UpdateReprojectionErrors(&reconstruction), 1e-6);
+  // One wrong observation per track: excluded.
+  Reconstruction reconstruction2 = StripPoints(scene.truth);
+  std::vector<Track> corrupted = tracks;
+  std::mt19937_64 rng(4);
+  size_t num_corrupted = 0;
+  for (Track& track : corrupted) {
+    if (track.size() < 3) continue;
+    const Image& image = reconstruction2.images.at(track[1].image_id);
+    std::uniform_int_distribution<point2D_t> dist(0, image.points2D.size() - 1);
+    const point2D_t idx = dist(rng);
+    if ((image.points2D[idx].xy - image.points2D[track[1].point2D_idx].xy).norm() < 20) continue;
+    track[1].point2D_idx = idx;
+    ++num_corrupted;
+  }
+  ASSERT_GT(num_corrupted, 50u);
+  TriangulateTracks(TriangulationOptions(), corrupted, &reconstruction2);
+  EXPECT_LT(UpdateReprojectionErrors(&reconstruction2), 1e-6);
+  EXPECT_GE(NumObservations(reconstruction2), NumObservations(scene.truth) - 2 * num_corrupted);
+}
+
+TEST(Triangulation, RetriangulatesOnlyWhatIsMissing) {
+  const SyntheticScene scene = Scene(0.5);
+  Reconstruction reconstruction = scene.truth;
+  const size_t num_points = reconstruction.points3D.size();
+  const size_t num_observations = NumObservations(reconstruction);
+  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  // Delete every third point.
+  std::vector<point3D_t> deleted;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    if (point3D_id % 3 == 0) deleted.push_back(point3D_id);
+  }
+  for (point3D_t id : deleted) DeletePoint3D(id, &reconstruction);
+  const TriangulationSummary summary = TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
+  EXPECT_EQ(summary.num_points_added, deleted.size());
+  EXPECT_EQ(reconstruction.points3D.size(), num_points);
+  EXPECT_EQ(NumObservations(reconstruction), num_observations);
+}
+
+TEST(Triangulation, RespectsMinimumAngle) {
+  SyntheticSceneOptions options;
+  options.num_images = 2;
+  options.num_points = 100;
+  options.arc_angle_deg = 1.0;  // baseline: 1 deg seen from the centre
+  options.height_jitter = 0.0;
+  const SyntheticScene scene = GenerateSyntheticScene(options);
+  Reconstruction reconstruction = StripPoints(scene.truth);
+  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  ASSERT_GT(tracks.size(), 50u);
+  TriangulationOptions triangulation_options;
+  EXPECT_EQ(TriangulateTracks(triangulation_options, tracks, &reconstruction).num_points_added, 0u);
+  triangulation_options.min_tri_angle = 0.1;
+  EXPECT_GT(TriangulateTracks(triangulation_options, tracks, &reconstruction).num_points_added, 50u);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -20,6 +20,8 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/positioning/translation_averaging.h"
+#include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
@@ -146,6 +148,35 @@ void AddModelFigures(Reconstruction* reconstruction, StageReport* stage) {
   stage->figures.push_back({"mean reprojection error px", error});
 }
 
+// The longest tracks first, each kept while one of its images has fewer
+// than `per_image` observations from the tracks kept so far: every image
+// gets enough constraints, long (well-triangulated) tracks are preferred.
+std::vector<Track> SelectTracksForPositioning(const std::vector<Track>& tracks,
+                                              int per_image) {
+  if (per_image <= 0) return tracks;
+  std::vector<size_t> order(tracks.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return tracks[a].size() > tracks[b].size();
+  });
+  std::map<image_t, int> count;
+  std::vector<char> selected(tracks.size(), 0);
+  for (const size_t k : order) {
+    bool needed = false;
+    for (const TrackElement& element : tracks[k]) {
+      if (count[element.image_id] < per_image) needed = true;
+    }
+    if (!needed) continue;
+    selected[k] = 1;
+    for (const TrackElement& element : tracks[k]) ++count[element.image_id];
+  }
+  std::vector<Track> subset;
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    if (selected[k]) subset.push_back(tracks[k]);
+  }
+  return subset;
+}
+
 // Maps one component (its images and pairs). Returns false with the reason
 // in *failure when no model of min_model_size images results.
 bool MapComponent(const GlobalMapperOptions& options,
@@ -246,66 +277,111 @@ bool MapComponent(const GlobalMapperOptions& options,
   TrackBuilderStats track_stats;
   const std::vector<Track> tracks = BuildTracks(
       options.tracks, matches, reconstruction->images, &track_stats);
-  AddTracksToReconstruction(tracks, reconstruction);
+  const bool global_positioning =
+      options.positioning_method == "global_positioning";
+  // Global positioning needs only enough tracks to tie every camera down;
+  // the others are triangulated from the refined poses afterwards.
+  const std::vector<Track> positioning_tracks =
+      global_positioning && !options.skip_retriangulation
+          ? SelectTracksForPositioning(
+                tracks, options.positioning_tracks_per_image)
+          : tracks;
+  if (global_positioning) {
+    AddTracksToReconstruction(positioning_tracks, reconstruction);
+  }
   stage.seconds = timer.ElapsedSeconds();
   stage.figures = {
       {"tracks", static_cast<double>(track_stats.num_tracks)},
-      {"observations", static_cast<double>(NumObservations(*reconstruction))},
+      {"tracks for positioning",
+       static_cast<double>(global_positioning ? positioning_tracks.size() : 0)},
       {"dropped inconsistent", static_cast<double>(track_stats.num_inconsistent)},
       {"dropped short", static_cast<double>(track_stats.num_too_short)},
       {"dropped long", static_cast<double>(track_stats.num_too_long)}};
   LogStage(prefix, stage);
   report->stages.push_back(stage);
 
-  // Positioning of camera centres and points.
+  // Positioning of camera centres (and points).
   timer.Restart();
   stage = StageReport{options.positioning_method};
-  GlobalPositionerSummary positioner_summary;
-  if (!RunGlobalPositioning(options.global_positioning, reconstruction,
-                            &positioner_summary)) {
-    *failure = "global positioning failed";
-    return false;
+  if (global_positioning) {
+    GlobalPositionerSummary positioner_summary;
+    if (!RunGlobalPositioning(options.global_positioning, reconstruction,
+                              &positioner_summary)) {
+      *failure = "global positioning failed";
+      return false;
+    }
+    stage.figures = {
+        {"iterations", static_cast<double>(positioner_summary.num_iterations)},
+        {"observations filtered",
+         static_cast<double>(positioner_summary.num_observations_filtered)}};
+  } else {
+    TranslationAveragingSummary averaging_summary;
+    if (!RunTranslationAveraging(options.translation_averaging, pairs,
+                                 reconstruction, &averaging_summary)) {
+      *failure = "translation averaging failed";
+      return false;
+    }
+    const TriangulationSummary triangulation =
+        TriangulateTracks(options.triangulation, tracks, reconstruction);
+    stage.figures = {
+        {"iterations", static_cast<double>(averaging_summary.num_iterations)},
+        {"outlier pairs", static_cast<double>(averaging_summary.num_outlier_pairs)},
+        {"points triangulated",
+         static_cast<double>(triangulation.num_points_added)}};
   }
   stage.seconds = timer.ElapsedSeconds();
-  stage.figures = {
-      {"iterations", static_cast<double>(positioner_summary.num_iterations)},
-      {"observations filtered",
-       static_cast<double>(positioner_summary.num_observations_filtered)}};
   AddModelFigures(reconstruction, &stage);
   LogStage(prefix, stage);
   report->stages.push_back(stage);
 
-  // Bundle adjustment rounds, each followed by filtering.
+  // Bundle adjustment rounds, each followed by filtering; retriangulation of
+  // every track after the first (then the poses are good enough).
   BundleAdjustmentOptions ba_options = options.bundle_adjustment;
   ba_options.refine_focal_length = options.ba_refine_focal_length;
   ba_options.refine_principal_point = options.ba_refine_principal_point;
   ba_options.refine_extra_params = options.ba_refine_extra_params;
   const int num_ba = options.skip_bundle_adjustment ? 0 : options.num_ba_iterations;
-  for (int iteration = 0; iteration < num_ba; ++iteration) {
-    timer.Restart();
-    stage = StageReport{"bundle adjustment " + std::to_string(iteration + 1)};
-    BundleAdjustmentSummary ba_summary;
-    if (!RunBundleAdjustment(ba_options, reconstruction, &ba_summary)) {
-      *failure = "bundle adjustment failed";
-      return false;
+  bool retriangulated = options.skip_retriangulation;
+  for (int iteration = 0; iteration < std::max(num_ba, 1); ++iteration) {
+    if (iteration < num_ba) {
+      timer.Restart();
+      stage = StageReport{"bundle adjustment " + std::to_string(iteration + 1)};
+      BundleAdjustmentSummary ba_summary;
+      if (!RunBundleAdjustment(ba_options, reconstruction, &ba_summary)) {
+        *failure = "bundle adjustment failed";
+        return false;
+      }
+      const FilterSummary filter_summary =
+          RunFiltering(options.filtering, reconstruction);
+      stage.seconds = timer.ElapsedSeconds();
+      stage.figures = {
+          {"iterations", static_cast<double>(ba_summary.num_iterations)},
+          {"observations filtered",
+           static_cast<double>(ba_summary.num_observations_filtered +
+                               filter_summary.num_observations_filtered)},
+          {"points filtered (angle)",
+           static_cast<double>(filter_summary.num_points_filtered)}};
+      AddModelFigures(reconstruction, &stage);
+      LogStage(prefix, stage);
+      report->stages.push_back(stage);
     }
-    const FilterSummary filter_summary =
-        RunFiltering(options.filtering, reconstruction);
-    stage.seconds = timer.ElapsedSeconds();
-    stage.figures = {
-        {"iterations", static_cast<double>(ba_summary.num_iterations)},
-        {"observations filtered",
-         static_cast<double>(ba_summary.num_observations_filtered +
-                             filter_summary.num_observations_filtered)},
-        {"points filtered (angle)",
-         static_cast<double>(filter_summary.num_points_filtered)}};
-    AddModelFigures(reconstruction, &stage);
-    LogStage(prefix, stage);
-    report->stages.push_back(stage);
+    if (!retriangulated) {
+      timer.Restart();
+      stage = StageReport{"retriangulation"};
+      const TriangulationSummary triangulation =
+          TriangulateTracks(options.triangulation, tracks, reconstruction);
+      retriangulated = true;
+      stage.seconds = timer.ElapsedSeconds();
+      stage.figures = {
+          {"tracks tried", static_cast<double>(triangulation.num_tracks_tried)},
+          {"points added", static_cast<double>(triangulation.num_points_added)},
+          {"observations added",
+           static_cast<double>(triangulation.num_observations_added)}};
+      AddModelFigures(reconstruction, &stage);
+      LogStage(prefix, stage);
+      report->stages.push_back(stage);
+    }
   }
-
-  // TODO(retriangulation): wire the retriangulation of the mapper branch
-  // (colmap_irav4/refinement) here once it lands on main.
 
   if (!options.skip_filtering) {
     timer.Restart();
@@ -366,6 +442,10 @@ GlobalMapperOptions::GlobalMapperOptions()
   // COLMAP's mapper default (min_num_matches = 15).
   view_graph.min_num_inliers = 15;
   view_graph.keep_largest_component = false;
+  // Squared loss as COLMAP's bundle adjustment: the filtering between rounds
+  // removes the outliers, and plain least squares converges in a few
+  // iterations where a robust loss creeps for dozens.
+  bundle_adjustment.loss_function = "trivial";
 }
 
 void GlobalMapperOptions::Check() const {
@@ -379,13 +459,8 @@ void GlobalMapperOptions::Check() const {
                      "unknown method '" + rotation_method + "' (one of " +
                          RotationAveragerMethodList() + ")");
   }
-  if (positioning_method == "translation_averaging") {
-    // TODO(translation averaging): BATA comes from the mapper branch.
-    throw InputError("--Mapper.positioning_method",
-                     "translation_averaging is not available in this build "
-                     "yet (use global_positioning)");
-  }
-  if (positioning_method != "global_positioning") {
+  if (positioning_method != "global_positioning" &&
+      positioning_method != "translation_averaging") {
     throw InputError("--Mapper.positioning_method",
                      "unknown method '" + positioning_method +
                          "' (global_positioning or translation_averaging)");
@@ -401,6 +476,11 @@ void GlobalMapperOptions::Check() const {
   rotation_filter.Check();
   tracks.Check();
   global_positioning.Check();
+  translation_averaging.Check();
+  triangulation.Check();
+  if (positioning_tracks_per_image < 0) {
+    throw InputError("--Mapper.positioning_tracks_per_image", "must be >= 0");
+  }
   bundle_adjustment.Check();
   filtering.Check();
   normalization.Check();
@@ -428,6 +508,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "threads of every stage (-1: all cores)");
   manager->Add("Mapper.num_ba_iterations", &o.num_ba_iterations,
                "rounds of bundle adjustment + filtering");
+  manager->Add("Mapper.positioning_tracks_per_image",
+               &o.positioning_tracks_per_image,
+               "global positioning uses the longest tracks until each image "
+               "has this many observations (0: all tracks)");
   manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
                "skip the rotation-consistency filter");
   manager->Add("Mapper.skip_bundle_adjustment", &o.skip_bundle_adjustment,
@@ -483,6 +567,18 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "Ceres function tolerance");
   manager->Add("GlobalPositioning.print_progress", &gp.print_progress,
                "print Ceres' iterations");
+
+  TranslationAveragingOptions& ta = o.translation_averaging;
+  manager->Add("TranslationAveraging.cost", &ta.cost, "bata or chordal");
+  manager->Add("TranslationAveraging.loss_function", &ta.loss_function,
+               "huber, cauchy or trivial");
+  manager->Add("TranslationAveraging.loss_scale", &ta.loss_scale,
+               "robust loss scale");
+  manager->Add("Triangulation.max_reproj_error",
+               &o.triangulation.max_reproj_error,
+               "inlier threshold of (re)triangulation (px)");
+  manager->Add("Triangulation.min_tri_angle", &o.triangulation.min_tri_angle,
+               "minimum triangulation angle (deg)");
 
   BundleAdjustmentOptions& ba = o.bundle_adjustment;
   manager->Add("BundleAdjustment.loss_function", &ba.loss_function,
@@ -692,6 +788,7 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
   GlobalMapperOptions effective = options;
   effective.global_positioning.num_threads = options.num_threads;
   effective.bundle_adjustment.num_threads = options.num_threads;
+  effective.translation_averaging.num_threads = options.num_threads;
   summary->rotation_method = options.rotation_method;
   summary->positioning_method = options.positioning_method;
   summary->num_database_images = static_cast<int>(database.images.size());
@@ -699,9 +796,6 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
       static_cast<int>(database.two_view_geometries.size());
   if (options.skip_retriangulation) {
     summary->notes.push_back("retriangulation skipped");
-  } else {
-    summary->notes.push_back(
-        "retriangulation not available in this build (TODO)");
   }
 
   Timer timer;

@@ -16,6 +16,8 @@
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
+#include "colmap_irav4/positioning/translation_averaging.h"
+#include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
@@ -52,6 +54,10 @@ struct GlobalMapperOptions {
   // Rounds of (bundle adjustment, filtering) before retriangulation; each
   // bundle adjustment itself filters by reprojection error between its solves.
   int num_ba_iterations = 2;
+  // Global positioning uses the longest tracks until every image has this
+  // many observations (0: all tracks); the rest are triangulated after the
+  // first bundle adjustment. Fewer unknowns, same poses, much faster.
+  int positioning_tracks_per_image = 500;
 
   // Skip flags of the optional stages. The view graph, rotation averaging,
   // tracks and positioning cannot be skipped: nothing downstream exists
@@ -68,6 +74,8 @@ struct GlobalMapperOptions {
   RotationFilterOptions rotation_filter;
   TrackBuilderOptions tracks;
   GlobalPositionerOptions global_positioning;
+  TranslationAveragingOptions translation_averaging;
+  TriangulationOptions triangulation;
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;

@@ -103,6 +103,11 @@ Database::Database(const std::string& path) : path_(path) {
     std::set<std::string> tables;
     {
       // The first read of the file: fails here if it is not SQLite.
+      sqlite3_stmt* probe = nullptr;
+      const int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master",
+                                        -1, &probe, nullptr);
+      sqlite3_finalize(probe);
+      if (rc == SQLITE_NOTADB) Fail("not an SQLite database");
       Statement statement(*this,
                           "SELECT name FROM sqlite_master WHERE type='table'");
       while (statement.Step()) tables.insert(statement.Text(0));

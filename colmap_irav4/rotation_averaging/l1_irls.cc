@@ -36,8 +36,7 @@ void L1IrlsOptions::Check() const {
               linear_solver == "cg",
           "linear_solver", "must be auto, cholesky or cg, got '" +
                                linear_solver + "'");
-  require(max_vertices_for_cholesky >= 0, "max_vertices_for_cholesky",
-          "must be >= 0");
+  require(max_cholesky_flops >= 0, "max_cholesky_flops", "must be >= 0");
   require(cg_tolerance > 0, "cg_tolerance", "must be > 0");
   require(cg_max_iterations > 0, "cg_max_iterations", "must be > 0");
 }
@@ -46,17 +45,29 @@ namespace {
 
 using SparseMatrix = Eigen::SparseMatrix<double>;
 
+// Sparse LDL^T that reports the cost of its numeric factorisation after the
+// symbolic analysis (column counts of L from the elimination tree).
+class AnalyzedLdlt : public Eigen::SimplicialLDLT<SparseMatrix> {
+ public:
+  double FactorizationFlops() const {
+    double flops = 0.0;
+    for (Eigen::Index k = 0; k < m_nonZerosPerCol.size(); ++k) {
+      flops += static_cast<double>(m_nonZerosPerCol[k]) * m_nonZerosPerCol[k];
+    }
+    return flops;
+  }
+};
+
 // The weighted Laplacian of the component without the gauge vertex, with
 // fixed sparsity: values are rewritten in place for each set of weights.
 class TangentSystem {
  public:
   TangentSystem(const RotationGraph& graph, const std::vector<int>& edges,
                 const std::vector<int>& unknown_index, int num_unknowns,
-                bool use_cholesky, const L1IrlsOptions& options)
+                const L1IrlsOptions& options)
       : graph_(graph),
         edges_(edges),
         unknown_index_(unknown_index),
-        use_cholesky_(use_cholesky),
         options_(options) {
     std::vector<Eigen::Triplet<double>> triplets;
     triplets.reserve(4 * edges_.size() + num_unknowns);
@@ -79,10 +90,17 @@ class TangentSystem {
       const int uj = unknown_index_[graph_.Edge(edges_[k]).j];
       slots_[k] = {Slot(ui, ui), Slot(uj, uj), Slot(ui, uj), Slot(uj, ui)};
     }
+    use_cholesky_ = options_.linear_solver != "cg";
     if (use_cholesky_) {
-      cholesky_ = std::make_unique<Eigen::SimplicialLDLT<SparseMatrix>>();
+      cholesky_ = std::make_unique<AnalyzedLdlt>();
       cholesky_->analyzePattern(matrix_);
-    } else {
+      if (options_.linear_solver == "auto" &&
+          cholesky_->FactorizationFlops() > options_.max_cholesky_flops) {
+        use_cholesky_ = false;
+        cholesky_.reset();
+      }
+    }
+    if (!use_cholesky_) {
       cg_ = std::make_unique<Eigen::ConjugateGradient<
           SparseMatrix, Eigen::Lower | Eigen::Upper>>();
       cg_->setTolerance(options_.cg_tolerance);
@@ -92,6 +110,8 @@ class TangentSystem {
 
   // Solves min sum_e weight_e |b_e - (w_j - w_i)|^2 for the unknowns' w.
   // Returns false if the solver failed.
+  bool UsesCholesky() const { return use_cholesky_; }
+
   bool Solve(const std::vector<double>& weights,
              const std::vector<Eigen::Vector3d>& b, Eigen::MatrixX3d* x) {
     const int n = matrix_.rows();
@@ -139,11 +159,11 @@ class TangentSystem {
   const RotationGraph& graph_;
   const std::vector<int>& edges_;
   const std::vector<int>& unknown_index_;
-  const bool use_cholesky_;
+  bool use_cholesky_ = false;
   const L1IrlsOptions& options_;
   SparseMatrix matrix_;
   std::vector<std::array<int, 4>> slots_;
-  std::unique_ptr<Eigen::SimplicialLDLT<SparseMatrix>> cholesky_;
+  std::unique_ptr<AnalyzedLdlt> cholesky_;
   std::unique_ptr<
       Eigen::ConjugateGradient<SparseMatrix, Eigen::Lower | Eigen::Upper>>
       cg_;
@@ -173,13 +193,9 @@ RotationAveragingResult L1IrlsAverager::Estimate(const RotationGraph& graph) {
   for (int e = 0; e < graph.NumEdges(); ++e) {
     if (result.estimated[graph.Edge(e).i]) edges.push_back(e);
   }
-  const bool use_cholesky =
-      options_.linear_solver == "cholesky" ||
-      (options_.linear_solver == "auto" &&
-       num_unknowns + 1 <= options_.max_vertices_for_cholesky);
   Timer stage_timer;
-  TangentSystem system(graph, edges, unknown_index, num_unknowns,
-                       use_cholesky, options_);
+  TangentSystem system(graph, edges, unknown_index, num_unknowns, options_);
+  const bool use_cholesky = system.UsesCholesky();
   std::vector<Eigen::Matrix3d>& rotations = result.rotations;
 
   std::vector<Eigen::Vector3d> residuals(edges.size());

@@ -32,11 +32,13 @@ struct L1IrlsOptions {
   double gm_sigma_deg = 5.0;
   // Linear solver: "auto", "cholesky" (sparse LDL^T, symbolic analysis
   // reused) or "cg" (Jacobi-preconditioned conjugate gradients). Dense,
-  // random-like graphs fill the Cholesky factor completely, where CG on the
-  // Laplacian converges in few iterations; "auto" picks by size.
+  // random-like graphs fill the Cholesky factor completely (O(n^3) per
+  // factorisation), where CG on the well-conditioned Laplacian converges in
+  // few iterations; sparse, elongated graphs (sequences) are the opposite.
+  // "auto" runs the symbolic analysis and picks Cholesky when the
+  // factorisation's cost sum_k nnz(L_k)^2 is at most max_cholesky_flops.
   std::string linear_solver = "auto";
-  // "auto" uses Cholesky up to this many vertices, CG above.
-  int max_vertices_for_cholesky = 1500;
+  double max_cholesky_flops = 5e7;
   // CG relative residual tolerance and iteration cap per solve.
   double cg_tolerance = 1e-10;
   int cg_max_iterations = 1000;

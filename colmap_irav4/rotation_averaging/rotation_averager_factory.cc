@@ -91,8 +91,8 @@ void AddRotationAveragerOptions(OptionManager* options,
                "L1-IRLS: Geman-McClure scale (deg)");
   options->Add(p + "linear_solver", &l1->linear_solver,
                "L1-IRLS: auto, cholesky or cg");
-  options->Add(p + "max_vertices_for_cholesky", &l1->max_vertices_for_cholesky,
-               "L1-IRLS: auto uses Cholesky up to this many cameras");
+  options->Add(p + "max_cholesky_flops", &l1->max_cholesky_flops,
+               "L1-IRLS: auto uses Cholesky up to this factorisation cost");
 }
 
 std::vector<std::string> RotationAveragerMethods() {

@@ -12,6 +12,7 @@
 #include <iostream>
 
 #include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/io/strecha_gt.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
@@ -95,6 +96,22 @@ int RunModelComparer(int argc, char** argv) {
             << comparison.center_error_median << ", max "
             << comparison.center_error_max << " (reference units"
             << (gt_path.empty() ? "" : ": metres") << ")\n";
+  // The similarity's rotation comes from the centres alone; nearly collinear
+  // cameras leave it loose. With one rotation fitted to the rotations instead
+  // (robust geodesic L1 mean, as for rotation averaging):
+  std::map<std::string, Eigen::Matrix3d> estimated_rotations, reference_rotations;
+  for (const auto& [name, pose] : PosesByName(model1)) {
+    estimated_rotations[name] = pose.rotation.toRotationMatrix();
+  }
+  for (const auto& [name, pose] : reference) {
+    reference_rotations[name] = pose.rotation.toRotationMatrix();
+  }
+  const RotationErrors rotation_only =
+      EvaluateRotations(estimated_rotations, reference_rotations);
+  std::cout << std::setprecision(4)
+            << "rotation error, rotation-only alignment [deg]: median "
+            << rotation_only.median_deg << ", max " << rotation_only.max_deg
+            << "\n";
   return 0;
 }
 

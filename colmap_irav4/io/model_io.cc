@@ -217,7 +217,8 @@ std::string CameraRecordProblem(const Camera& camera,
   }
   if (!IsValidCameraModelId(camera.model_id)) {
     return "camera " + std::to_string(camera.camera_id) +
-           " has unknown camera model id " + std::to_string(camera.model_id);
+           " has unknown camera model id " + std::to_string(camera.model_id) +
+           " (supported: COLMAP 3.8's ids 0-10)";
   }
   if (reconstruction.cameras.count(camera.camera_id) > 0) {
     return "duplicate camera id " + std::to_string(camera.camera_id);
@@ -487,7 +488,8 @@ void ReadCamerasText(const std::string& path, Reconstruction* reconstruction) {
         tokens[0], "camera id", std::numeric_limits<camera_t>::max()));
     camera.model_id = CameraModelNameToId(tokens[1]);
     if (camera.model_id < 0) {
-      reader.Fail("unknown camera model '" + tokens[1] + "'");
+      reader.Fail("unknown camera model '" + tokens[1] +
+                  "' (supported: COLMAP 3.8's eleven models)");
     }
     camera.width = reader.ParseUInt(tokens[2], "width",
                                     std::numeric_limits<uint64_t>::max());

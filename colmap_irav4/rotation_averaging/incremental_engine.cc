@@ -131,36 +131,44 @@ int FindRoot(std::vector<int>* parent, int v) {
 
 }  // namespace
 
-IncrementalEngine::IncrementalEngine(const RotationGraph& graph,
-                                     const IncrementalOptions& options,
-                                     std::vector<bool> allowed)
-    : graph_(graph),
-      options_(options),
-      cos_theta_(std::cos(DegToRad(options.theta_deg))),
-      allowed_(std::move(allowed)) {
-  options_.Check();
-  const int n = graph_.NumVertices();
-  if (allowed_.empty()) allowed_.assign(n, true);
-  CHECK_EQ(static_cast<int>(allowed_.size()), n);
-  adjacency_.resize(n);
-  for (int v = 0; v < n; ++v) {
-    std::vector<std::pair<int, int>> neighbors = graph_.Neighbors(v);
+std::shared_ptr<const IncrementalEngine::AdjacencyList>
+IncrementalEngine::BuildAdjacency(const RotationGraph& graph) {
+  auto adjacency = std::make_shared<AdjacencyList>(graph.NumVertices());
+  for (int v = 0; v < graph.NumVertices(); ++v) {
+    std::vector<std::pair<int, int>> neighbors = graph.Neighbors(v);
     // Duplicate pairs: keep the heaviest edge, ties the smaller index.
     std::sort(neighbors.begin(), neighbors.end(),
               [&](const std::pair<int, int>& a, const std::pair<int, int>& b) {
                 if (a.first != b.first) return a.first < b.first;
-                const double wa = graph_.Edge(a.second).weight;
-                const double wb = graph_.Edge(b.second).weight;
+                const double wa = graph.Edge(a.second).weight;
+                const double wb = graph.Edge(b.second).weight;
                 if (wa != wb) return wa > wb;
                 return a.second < b.second;
               });
-    auto& adjacency = adjacency_[v];
+    auto& list = (*adjacency)[v];
     for (const auto& neighbor : neighbors) {
-      if (adjacency.empty() || adjacency.back().first != neighbor.first) {
-        adjacency.push_back(neighbor);
+      if (list.empty() || list.back().first != neighbor.first) {
+        list.push_back(neighbor);
       }
     }
+    list.shrink_to_fit();
   }
+  return adjacency;
+}
+
+IncrementalEngine::IncrementalEngine(
+    const RotationGraph& graph, const IncrementalOptions& options,
+    std::vector<bool> allowed, std::shared_ptr<const AdjacencyList> adjacency)
+    : graph_(graph),
+      options_(options),
+      cos_theta_(std::cos(DegToRad(options.theta_deg))),
+      allowed_(std::move(allowed)),
+      adjacency_(adjacency ? std::move(adjacency) : BuildAdjacency(graph)) {
+  options_.Check();
+  const int n = graph_.NumVertices();
+  if (allowed_.empty()) allowed_.assign(n, true);
+  CHECK_EQ(static_cast<int>(allowed_.size()), n);
+  CHECK_EQ(static_cast<int>(adjacency_->size()), n);
   selected_.assign(n, false);
   excluded_.assign(n, false);
   rotations_.assign(n, Eigen::Matrix3d::Identity());
@@ -169,7 +177,7 @@ IncrementalEngine::IncrementalEngine(const RotationGraph& graph,
 }
 
 int IncrementalEngine::FindEdge(int u, int v) const {
-  const auto& adjacency = adjacency_[u];
+  const auto& adjacency = (*adjacency_)[u];
   const auto it = std::lower_bound(
       adjacency.begin(), adjacency.end(), std::make_pair(v, -1),
       [](const std::pair<int, int>& a, const std::pair<int, int>& b) {
@@ -189,7 +197,7 @@ void IncrementalEngine::SelectVertex(int v, const Eigen::Matrix3d& R) {
 void IncrementalEngine::AfterSeed() {
   size_at_last_global_ = NumSelected();
   for (int s : selected_list_) {
-    for (const auto& [q, e] : adjacency_[s]) {
+    for (const auto& [q, e] : (*adjacency_)[s]) {
       if (CanSelect(q) && !in_frontier_[q]) {
         in_frontier_[q] = true;
         frontier_list_.push_back(q);
@@ -266,12 +274,12 @@ bool IncrementalEngine::InitializeFromBestTriplet(
   const int n = graph_.NumVertices();
   for (int i = 0; i < n; ++i) {
     if (!ok(i)) continue;
-    const auto& adj_i = adjacency_[i];
+    const auto& adj_i = (*adjacency_)[i];
     for (size_t a = 0; a < adj_i.size(); ++a) {
       const auto [j, e_ij] = adj_i[a];
       if (j <= i || !ok(j)) continue;
       const Eigen::Matrix3d R_ij = graph_.RotationFrom(e_ij, i);
-      const auto& adj_j = adjacency_[j];
+      const auto& adj_j = (*adjacency_)[j];
       // Both lists sorted by neighbour: walk them for common k > j.
       size_t x = a + 1;
       size_t y = std::upper_bound(adj_j.begin(), adj_j.end(),
@@ -408,7 +416,7 @@ void IncrementalEngine::RecomputeCandidate(int p) {
   CandidateState& state = candidates_[p];
   auto& pre = state.precomputations;
   pre.clear();
-  for (const auto& [m, e] : adjacency_[p]) {
+  for (const auto& [m, e] : (*adjacency_)[p]) {
     if (!selected_[m]) continue;
     Precomputation entry;
     entry.m = m;
@@ -585,7 +593,7 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
   // Eq. 9: inliers of the initialisation R_p^{m*} among the selected
   // neighbours: d(R_np, R_p R_n^T) = d(R_np R_n, R_p).
   std::vector<int> inlier_edges;
-  for (const auto& [n, e] : adjacency_[p]) {
+  for (const auto& [n, e] : (*adjacency_)[p]) {
     if (!selected_[n]) continue;
     const double c =
         CosDistance(Chain(graph_, e, n, rotations_[n]), candidate.R_init);
@@ -601,7 +609,7 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
   if (global) GlobalOptimize();  // marks every candidate stale
 
   const Timer reward_timer;
-  for (const auto& [q, e] : adjacency_[p]) {
+  for (const auto& [q, e] : (*adjacency_)[p]) {
     if (!CanSelect(q)) continue;
     if (!in_frontier_[q]) {
       in_frontier_[q] = true;
@@ -633,7 +641,7 @@ void IncrementalEngine::GlobalOptimize() {
   std::vector<std::pair<int, int>> inliers;  // (edge, from vertex)
   int num_edges = 0;
   for (int v : selected_list_) {
-    for (const auto& [u, e] : adjacency_[v]) {
+    for (const auto& [u, e] : (*adjacency_)[v]) {
       if (u <= v || !selected_[u]) continue;
       ++num_edges;
       if (CosDistance(Chain(graph_, e, v, rotations_[v]), rotations_[u]) >

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <queue>
 #include <vector>
 
@@ -87,10 +88,19 @@ struct IncrementalStats {
 // single-threaded by default.
 class IncrementalEngine {
  public:
+  // Per vertex, (neighbour, edge index) pairs sorted by neighbour, one edge
+  // per neighbour (the heaviest; ties: the smaller edge index).
+  using AdjacencyList = std::vector<std::vector<std::pair<int, int>>>;
+  static std::shared_ptr<const AdjacencyList> BuildAdjacency(
+      const RotationGraph& graph);
+
   // `allowed`: vertices this engine may ever select (empty = all).
+  // `adjacency`: BuildAdjacency(graph), to share one O(E) copy between the
+  // many engines of a clustering (built here when null).
   IncrementalEngine(const RotationGraph& graph,
                     const IncrementalOptions& options,
-                    std::vector<bool> allowed = {});
+                    std::vector<bool> allowed = {},
+                    std::shared_ptr<const AdjacencyList> adjacency = nullptr);
 
   // Eq. 1-4 over every triangle with all three vertices allowed (and, if
   // `restrict_to` is non-empty, all three in it); false if none passes.
@@ -139,10 +149,12 @@ class IncrementalEngine {
   const IncrementalStats& Stats() const { return stats_; }
   const RotationGraph& Graph() const { return graph_; }
   const IncrementalOptions& Options() const { return options_; }
-  // Deduplicated adjacency (one edge per neighbour, the heaviest; ties: the
-  // smaller edge index), sorted by neighbour index.
+  // Deduplicated adjacency (see AdjacencyList).
   const std::vector<std::pair<int, int>>& Adjacency(int v) const {
-    return adjacency_[v];
+    return (*adjacency_)[v];
+  }
+  const std::shared_ptr<const AdjacencyList>& SharedAdjacency() const {
+    return adjacency_;
   }
 
  private:
@@ -192,7 +204,7 @@ class IncrementalEngine {
   const IncrementalOptions options_;
   const double cos_theta_;
   std::vector<bool> allowed_;
-  std::vector<std::vector<std::pair<int, int>>> adjacency_;
+  std::shared_ptr<const AdjacencyList> adjacency_;
   std::vector<bool> selected_;
   std::vector<bool> excluded_;
   std::vector<int> selected_list_;

@@ -212,6 +212,52 @@ TEST(ModelIO, SyntheticModelWithEveryCameraModelRoundTrips) {
   EXPECT_THROW(WriteReconstruction(model, temp.File("x"), "PLY"), InputError);
 }
 
+// Expects `function` to throw InputError whose message names `path` and
+// contains `problem`.
+template <typename Function>
+void ExpectInputError(Function function, const std::string& path,
+                      const std::string& problem) {
+  try {
+    function();
+    ADD_FAILURE() << "no InputError for " << path << " (" << problem << ")";
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find(path), std::string::npos) << message;
+    EXPECT_NE(message.find(problem), std::string::npos) << message;
+  }
+}
+
+// COLMAP 4.x models add rigs and frames files beside the three files, whose
+// layout is unchanged: those are ignored. Text files with Windows line ends
+// read the same.
+TEST(ModelIO, ReadsCOLMAP4xLayoutAndWindowsLineEnds) {
+  const Reconstruction model = SyntheticModel();
+  TempDir temp;
+  for (const std::string type : {"BIN", "TXT"}) {
+    const std::string dir = temp.File(type);
+    WriteReconstruction(model, dir, type);
+    const std::string ext = type == "BIN" ? ".bin" : ".txt";
+    WriteBytes(dir + "/rigs" + ext, "rigs of COLMAP 4");
+    WriteBytes(dir + "/frames" + ext, "frames of COLMAP 4");
+    ExpectIdentical(model, ReadReconstruction(dir));
+  }
+  const std::string dir = temp.File("TXT");
+  for (const std::string name : {"cameras.txt", "images.txt", "points3D.txt"}) {
+    std::string crlf;
+    for (const char c : ReadBytes(dir + "/" + name)) {
+      if (c == '\n') crlf += '\r';
+      crlf += c;
+    }
+    WriteBytes(dir + "/" + name, crlf);
+  }
+  ExpectIdentical(model, ReadReconstruction(dir));
+  // Camera models added after COLMAP 3.8 are reported as such.
+  WriteBytes(dir + "/cameras.txt",
+             "1 SIMPLE_DIVISION 640 480 500 320 240 0.1\n");
+  ExpectInputError([&] { ReadReconstruction(dir); }, dir + "/cameras.txt",
+                   "line 1: unknown camera model 'SIMPLE_DIVISION'");
+}
+
 // Quaternions are written divided by their norm, as COLMAP 3.8 writes them.
 TEST(ModelIO, WritesNormalizedQuaternions) {
   Reconstruction model = SyntheticModel();
@@ -232,21 +278,6 @@ TEST(ModelIO, WritesNormalizedQuaternions) {
     // COLMAP writes a zero quaternion as (1, 0, 0, 0).
     EXPECT_EQ(read.images.at(zero.image_id).cam_from_world.rotation.coeffs(),
               Eigen::Quaterniond::Identity().coeffs());
-  }
-}
-
-// Expects `function` to throw InputError whose message names `path` and
-// contains `problem`.
-template <typename Function>
-void ExpectInputError(Function function, const std::string& path,
-                      const std::string& problem) {
-  try {
-    function();
-    ADD_FAILURE() << "no InputError for " << path << " (" << problem << ")";
-  } catch (const InputError& error) {
-    const std::string message = error.what();
-    EXPECT_NE(message.find(path), std::string::npos) << message;
-    EXPECT_NE(message.find(problem), std::string::npos) << message;
   }
 }
 

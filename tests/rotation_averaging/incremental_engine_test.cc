@@ -167,8 +167,11 @@ TEST(IncrementalEngine, Deterministic) {
   const SyntheticProblem problem = MakeProblem(150, 2000, 10.0, 0.4, 5);
   std::vector<Eigen::Matrix3d> first;
   std::vector<int> first_order;
+  // The second run shares a separately built adjacency: same output.
+  const auto shared = IncrementalEngine::BuildAdjacency(problem.graph);
   for (int run = 0; run < 2; ++run) {
-    IncrementalEngine engine(problem.graph, IncrementalOptions());
+    IncrementalEngine engine(problem.graph, IncrementalOptions(), {},
+                             run == 0 ? nullptr : shared);
     ASSERT_TRUE(engine.InitializeFromBestTriplet());
     engine.Grow([]() { return false; });
     engine.GlobalOptimize();

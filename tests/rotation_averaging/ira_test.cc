@@ -95,6 +95,15 @@ TEST(Ira, LargestComponentOnlyAndTreeGraphs) {
   EXPECT_LT(EvaluateRotations(result, tree.ground_truth).max_deg, 1e-6);
 
   EXPECT_EQ(ira.Estimate(RotationGraph()).NumEstimated(), 0);
+
+  // A single edge: both ends, exactly. Isolated vertices only: one vertex.
+  const SyntheticProblem pair = MakeSyntheticProblem(
+      3, std::vector<std::pair<int, int>>{{2, 0}}, options);
+  result = ira.Estimate(pair.graph);
+  EXPECT_EQ(result.NumEstimated(), 2);
+  EXPECT_FALSE(result.estimated[1]);
+  EXPECT_LT(EvaluateRotations(result, pair.ground_truth).max_deg, 1e-6);
+  EXPECT_EQ(ira.Estimate(RotationGraph(4)).NumEstimated(), 1);
 }
 
 TEST(Ira, SyntheticProtocolOnTheMadridGraph) {

@@ -1,6 +1,7 @@
 // `colmap_irav4 model_comparer`: COLMAP 3.8's model of fountain-P11 against
 // the ground truth cameras and against itself, and its input errors.
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -18,7 +19,7 @@ struct RunResult {
   std::string output;
 };
 
-RunResult Run(const std::string& arguments, const test::TempDir& temp) {
+RunResult RunComparer(const std::string& arguments, const test::TempDir& temp) {
   const std::string log = temp.File("run.log");
   const int status = std::system((std::string(COLMAP_IRAV4_BINARY) +
                                   " model_comparer " + arguments + " > " +
@@ -44,7 +45,7 @@ const std::string kScene =
 
 TEST(ModelComparerCommand, ColmapModelAgainstGroundTruth) {
   test::TempDir temp;
-  const RunResult run = Run("--input_path1 " + kScene +
+  const RunResult run = RunComparer("--input_path1 " + kScene +
                                 "/colmap38_incremental --gt_path " + kScene +
                                 "/gt_cameras",
                             temp);
@@ -65,7 +66,7 @@ TEST(ModelComparerCommand, ModelAgainstItselfHasNoError) {
   test::TempDir temp;
   const std::string model = kScene + "/colmap38_incremental";
   const RunResult run =
-      Run("--input_path1 " + model + " --input_path2 " + model, temp);
+      RunComparer("--input_path1 " + model + " --input_path2 " + model, temp);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_LT(FigureAfter(run.output, "rotation error [deg]: median "), 1e-6);
   EXPECT_LT(FigureAfter(run.output, "centre error: median "), 1e-6);
@@ -75,11 +76,11 @@ TEST(ModelComparerCommand, ModelAgainstItselfHasNoError) {
 TEST(ModelComparerCommand, NeedsExactlyOneReference) {
   test::TempDir temp;
   const std::string model = kScene + "/colmap38_incremental";
-  RunResult run = Run("--input_path1 " + model, temp);
+  RunResult run = RunComparer("--input_path1 " + model, temp);
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("--input_path2/--gt_path"), std::string::npos)
       << run.output;
-  run = Run("--input_path1 " + temp.File("nothing") + " --input_path2 " + model,
+  run = RunComparer("--input_path1 " + temp.File("nothing") + " --input_path2 " + model,
             temp);
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find(temp.File("nothing")), std::string::npos)

@@ -95,9 +95,10 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
   // Seen only in the missing image (twice): grey.
   const point3D_t none = AddPoint3D(Eigen::Vector3d::Zero(), {{3, 0}}, &model);
   ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model), 1);
-  EXPECT_EQ(model.points3D.at(both).color, Eigen::Matrix<uint8_t, 3, 1>(100, 0, 50));
-  EXPECT_EQ(model.points3D.at(a_only).color, Eigen::Matrix<uint8_t, 3, 1>(200, 0, 0));
-  EXPECT_EQ(model.points3D.at(none).color, Eigen::Matrix<uint8_t, 3, 1>(128, 128, 128));
+  using Rgb = Eigen::Matrix<int, 3, 1>;
+  EXPECT_EQ(model.points3D.at(both).color.cast<int>(), Rgb(100, 0, 50));
+  EXPECT_EQ(model.points3D.at(a_only).color.cast<int>(), Rgb(200, 0, 0));
+  EXPECT_EQ(model.points3D.at(none).color.cast<int>(), Rgb(128, 128, 128));
 }
 
 TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {

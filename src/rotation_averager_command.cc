@@ -1,5 +1,6 @@
 // colmap_irav4 rotation_averager: absolute rotations from relative ones.
 
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -7,12 +8,15 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/eval/rotation_eval.h"
+#include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/onedsfm.h"
 #include "colmap_irav4/io/relpose_io.h"
+#include "colmap_irav4/io/strecha_gt.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
+#include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "src/command.h"
 
 namespace colmap_irav4 {
@@ -25,14 +29,54 @@ void PrintErrors(const std::string& label, const RotationErrors& errors) {
             << " deg, max " << errors.max_deg << " deg" << std::endl;
 }
 
+// The epipolar graph of a COLMAP database as a rotation graph: vertices are
+// the images in image id order, edge weights the inlier counts.
+RotationGraph RotationGraphFromDatabase(
+    const std::string& database_path,
+    const ViewGraphBuilderOptions& builder_options) {
+  const DatabaseContents database = ReadDatabase(database_path);
+  ViewGraphSummary summary;
+  const ViewGraph view_graph =
+      BuildViewGraph(database, builder_options, &summary);
+  summary.Print(std::cout);
+  RotationGraph graph;
+  std::map<image_t, int> vertex_of;
+  for (const auto& [image_id, name] : view_graph.image_names) {
+    vertex_of[image_id] = graph.AddVertex(name);
+  }
+  for (const ImagePairGeometry& pair : view_graph.pairs) {
+    graph.AddEdge(vertex_of.at(pair.image_id1), vertex_of.at(pair.image_id2),
+                  pair.R, pair.num_inliers);
+  }
+  return graph;
+}
+
+// Ground-truth rotations by image name: a file of 'IMAGE_NAME QW QX QY QZ'
+// lines, or a Strecha gt_cameras directory of <image>.camera files.
+std::map<std::string, Eigen::Matrix3d> ReadGroundTruth(
+    const std::string& gt_path) {
+  std::map<std::string, Eigen::Matrix3d> truth;
+  if (std::filesystem::is_directory(gt_path)) {
+    for (const auto& [name, camera] : ReadStrechaGroundTruth(gt_path)) {
+      truth[name] = camera.cam_from_world.rotation.toRotationMatrix();
+    }
+    if (truth.empty()) throw InputError(gt_path, "no .camera files");
+  } else {
+    for (auto& [name, R] : ReadAbsoluteRotations(gt_path)) truth[name] = R;
+  }
+  return truth;
+}
+
 int RunRotationAverager(int argc, char** argv) {
   std::string relpose_path;
+  std::string database_path;
   std::string eg_path;
   std::string method = "irav4";
   std::string output_path;
   std::string gt_path;
   RotationAveragerOptions averager_options;
   averager_options.log_progress = true;
+  ViewGraphBuilderOptions builder_options;
   OptionManager options(
       "rotation_averager",
       "Estimates absolute rotations (cam_from_world) from relative ones.\n"
@@ -42,21 +86,34 @@ int RunRotationAverager(int argc, char** argv) {
       "gt_bundle.out if present).\nOutput: 'IMAGE_NAME QW QX QY QZ' per "
       "line.");
   options.Add("relpose_path", &relpose_path, "relative poses file");
+  options.Add("database_path", &database_path,
+              "COLMAP database (opened read-only)");
   options.Add("eg_path", &eg_path, "1DSfM scene directory");
   options.Add("method", &method,
               "rotation averaging method: " + RotationAveragerMethodList());
   options.Add("output_path", &output_path, "absolute rotations file to write");
   options.Add("gt_path", &gt_path,
-              "ground-truth rotations ('IMAGE_NAME QW QX QY QZ') to evaluate "
-              "against");
+              "ground-truth rotations to evaluate against: a file of "
+              "'IMAGE_NAME QW QX QY QZ' lines or a Strecha gt_cameras "
+              "directory");
   options.Add("log_progress", &averager_options.log_progress,
               "progress lines during long runs");
+  options.Add("ViewGraph.min_num_inliers", &builder_options.min_num_inliers,
+              "--database_path: minimum inlier matches of a pair");
+  options.Add("ViewGraph.min_inlier_ratio", &builder_options.min_inlier_ratio,
+              "--database_path: minimum inliers / raw matches");
+  options.Add("ViewGraph.drop_configs", &builder_options.drop_configs,
+              "--database_path: two-view configurations to drop");
   AddRotationAveragerOptions(&options, &averager_options);
   if (!options.Parse(argc, argv)) return 0;
-  if (relpose_path.empty() == eg_path.empty()) {
+  const int num_inputs = !relpose_path.empty() + !database_path.empty() +
+                         !eg_path.empty();
+  if (num_inputs != 1) {
     throw InputError("rotation_averager",
-                     "give exactly one of --relpose_path and --eg_path");
+                     "give exactly one of --relpose_path, --database_path "
+                     "and --eg_path");
   }
+  builder_options.Check();
   if (output_path.empty() && gt_path.empty()) {
     LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "
                     "neither written nor evaluated";
@@ -68,8 +125,13 @@ int RunRotationAverager(int argc, char** argv) {
   RotationGraph graph;
   std::vector<Eigen::Matrix3d> bundler_truth;
   std::vector<bool> has_bundler_truth;
+  const std::string input_path =
+      !relpose_path.empty() ? relpose_path
+                            : (!database_path.empty() ? database_path : eg_path);
   if (!relpose_path.empty()) {
     graph = ReadRelativePoses(relpose_path);
+  } else if (!database_path.empty()) {
+    graph = RotationGraphFromDatabase(database_path, builder_options);
   } else {
     OneDsfmScene scene = ReadOneDsfmScene(eg_path);
     graph = std::move(scene.graph);
@@ -77,8 +139,7 @@ int RunRotationAverager(int argc, char** argv) {
     has_bundler_truth = std::move(scene.has_ground_truth);
   }
   if (graph.NumEdges() == 0) {
-    throw InputError(relpose_path.empty() ? eg_path : relpose_path,
-                     "the graph has no edges");
+    throw InputError(input_path, "the graph has no edges");
   }
   const std::vector<std::vector<int>> components = graph.ConnectedComponents();
   if (components.size() > 1) {
@@ -118,8 +179,8 @@ int RunRotationAverager(int argc, char** argv) {
                 EvaluateRotations(result, bundler_truth, has_bundler_truth));
   }
   if (!gt_path.empty()) {
-    std::map<std::string, Eigen::Matrix3d> truth;
-    for (auto& [name, R] : ReadAbsoluteRotations(gt_path)) truth[name] = R;
+    const std::map<std::string, Eigen::Matrix3d> truth =
+        ReadGroundTruth(gt_path);
     std::map<std::string, Eigen::Matrix3d> estimate;
     for (int v = 0; v < graph.NumVertices(); ++v) {
       if (result.estimated[v]) estimate[graph.Name(v)] = result.rotations[v];

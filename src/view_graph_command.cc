@@ -69,6 +69,8 @@ int RunViewGraph(int argc, char** argv) {
   manager.Add("ViewGraph.keep_largest_component",
               &options.keep_largest_component,
               "keep only the largest connected component");
+  manager.Add("ViewGraph.num_threads", &options.num_threads,
+              "threads deriving the relative poses (-1: all cores)");
   manager.Add("RelativePose.max_error_px", &options.relative_pose.max_error_px,
               "epipolar error threshold of a supporting match (pixels)");
   manager.Add("RelativePose.refine", &options.relative_pose.refine,
@@ -79,6 +81,9 @@ int RunViewGraph(int argc, char** argv) {
   manager.Add("RelativePose.refine_max_num_iterations",
               &options.relative_pose.refine_max_num_iterations,
               "refinement iterations");
+  manager.Add("RelativePose.refine_max_num_matches",
+              &options.relative_pose.refine_max_num_matches,
+              "refine on at most this many matches (0: all)");
   manager.Add("RelativePose.min_stored_pose_support",
               &options.relative_pose.min_stored_pose_support,
               "use a stored qvec/tvec if it has this fraction of the best "

@@ -1,12 +1,14 @@
 // Relative pose accuracy of the epipolar graph against ground truth, per
 // scene, with and without the refinement of the relative poses:
-//   relpose_eval [--verbose] SCENE_DIR [SCENE_DIR ...]
+//   relpose_eval [--verbose] [--refine_max_num_matches N] [--num_threads N]
+//                SCENE_DIR [SCENE_DIR ...]
 // A scene directory holds database.db and gt_cameras/ (the Strecha layout of
 // ../shared/data/strecha/<scene>). Prints pairs, rotation error median / mean
 // / max / count over 5 deg, and the same for the translation direction;
 // --verbose lists the pairs with a rotation error over 1 deg.
 
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -52,14 +54,14 @@ void PrintWorstPairs(const DatabaseContents& database,
         database.keypoints.at(pair.image_id1),
         database.keypoints.at(pair.image_id2), options.relative_pose);
     std::printf("    %s %s: R error %.3f deg, t error %.3f deg, %s, %d inliers, "
-                "%d supporting, pose from %s, median tri angle %.2f deg\n",
+                "%d supporting, pose from %s%s, median tri angle %.2f deg\n",
                 view_graph.image_names.at(pair.image_id1).c_str(),
                 view_graph.image_names.at(pair.image_id2).c_str(),
                 e.rotation_errors_deg[0],
                 e.translation_errors_deg.empty() ? -1.0
                                                  : e.translation_errors_deg[0],
                 TwoViewConfigName(geometry.config).c_str(), pair.num_inliers,
-                pose.num_supporting, RelativePoseSourceName(pose.source).c_str(),
+                pose.num_supporting, RelativePoseSourceName(pose.source).c_str(), pose.refined ? " (refined)" : "",
                 pose.median_tri_angle_deg);
   }
 }
@@ -69,15 +71,21 @@ void PrintWorstPairs(const DatabaseContents& database,
 int main(int argc, char** argv) {
   google::InitGoogleLogging(argv[0]);
   if (argc < 2) {
-    std::cerr << "Usage: relpose_eval [--verbose] SCENE_DIR [SCENE_DIR ...]\n"
+    std::cerr << "Usage: relpose_eval [--verbose] [--refine_max_num_matches N] [--num_threads N] SCENE_DIR [SCENE_DIR ...]\n"
                  "  SCENE_DIR holds database.db and gt_cameras/\n";
     return 1;
   }
   bool verbose = false;
+  int refine_max_num_matches = RelativePoseOptions().refine_max_num_matches;
+  int num_threads = 1;
   std::vector<std::string> scene_dirs;
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--verbose") {
       verbose = true;
+    } else if (std::string(argv[i]) == "--refine_max_num_matches" && i + 1 < argc) {
+      refine_max_num_matches = std::atoi(argv[++i]);
+    } else if (std::string(argv[i]) == "--num_threads" && i + 1 < argc) {
+      num_threads = std::atoi(argv[++i]);
     } else {
       scene_dirs.push_back(argv[i]);
     }
@@ -100,6 +108,8 @@ int main(int argc, char** argv) {
       for (const bool refine : {false, true}) {
         ViewGraphBuilderOptions options;
         options.relative_pose.refine = refine;
+        options.relative_pose.refine_max_num_matches = refine_max_num_matches;
+        options.num_threads = num_threads;
         Timer timer;
         ViewGraphSummary summary;
         const ViewGraph view_graph = BuildViewGraph(database, options, &summary);

@@ -32,6 +32,9 @@ constexpr double kCostTolerance = 1.1;
 // Fraction of the matches within the threshold of H above which the scene
 // is treated as near-planar.
 constexpr double kMinPlanarFraction = 0.5;
+// A refined pose is kept unless it loses more than this fraction of the
+// support (a refinement that drifts, e.g. to a planar twin, loses many).
+constexpr double kMinRefinedSupport = 0.95;
 
 bool IsZero(const Eigen::Matrix3d& M) { return M.cwiseAbs().maxCoeff() == 0; }
 
@@ -170,8 +173,19 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
   double q[4] = {qvec(0), qvec(1), qvec(2), qvec(3)};
   double t[3] = {candidate->t(0), candidate->t(1), candidate->t(2)};
   ceres::Problem problem;
+  size_t num_supporting = 0;
+  for (const char s : supporting) num_supporting += s;
+  const double stride =
+      options.refine_max_num_matches > 0 &&
+              num_supporting > static_cast<size_t>(options.refine_max_num_matches)
+          ? static_cast<double>(num_supporting) / options.refine_max_num_matches
+          : 1.0;
+  double next_sample = 0;
+  size_t rank = 0;  // index among the supporting matches
   for (size_t i = 0; i < corrs.x1.size(); ++i) {
     if (!supporting[i]) continue;
+    if (static_cast<double>(rank++) < next_sample) continue;
+    next_sample += stride;
     ceres::LossFunction* loss =
         new ceres::CauchyLoss(options.refine_loss_scale_px);
     if (candidate->pure_rotation) {
@@ -265,6 +279,9 @@ bool RelativePoseOptions::Check() const {
   }
   if (!(refine_loss_scale_px > 0)) {
     throw InputError("--RelativePose.refine_loss_scale_px", "must be > 0");
+  }
+  if (refine_max_num_matches < 0) {
+    throw InputError("--RelativePose.refine_max_num_matches", "must be >= 0");
   }
   if (refine_max_num_iterations < 0) {
     throw InputError("--RelativePose.refine_max_num_iterations",
@@ -605,8 +622,8 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
     std::vector<char> refined_supporting;
     Score(corrs, focal, options.max_error_px, &refined, &refined_supporting);
     // Refinement minimises a robust cost, not the truncated one: accept it
-    // unless it loses support.
-    if (refined.support >= 0.99 * chosen.support) {
+    // unless it loses support clearly.
+    if (refined.support >= kMinRefinedSupport * chosen.support) {
       chosen = refined;
       supporting = refined_supporting;
       result.refined = true;

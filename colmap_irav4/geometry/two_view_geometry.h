@@ -64,6 +64,10 @@ struct RelativePoseOptions {
   // Cauchy loss scale of the refinement, pixels.
   double refine_loss_scale_px = 1.0;
   int refine_max_num_iterations = 50;
+  // Refine on at most this many supporting matches, evenly spread over them
+  // (the pose has 5 degrees of freedom; thousands of matches add time, little
+  // accuracy). 0: all.
+  int refine_max_num_matches = 0;
   // Use the pose stored in the database when it is non-zero and supported by
   // at least this fraction of the support of the best derived candidate.
   double min_stored_pose_support = 0.9;

@@ -1,8 +1,10 @@
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 
 #include <algorithm>
+#include <atomic>
 #include <numeric>
 #include <sstream>
+#include <thread>
 
 #include <glog/logging.h>
 
@@ -37,6 +39,9 @@ int Find(std::vector<int>* parent, int x) {
 bool ViewGraphBuilderOptions::Check() const {
   if (min_num_inliers < 0) {
     throw InputError("--ViewGraph.min_num_inliers", "must be >= 0");
+  }
+  if (num_threads == 0 || num_threads < -1) {
+    throw InputError("--ViewGraph.num_threads", "must be -1 (all cores) or >= 1");
   }
   if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1)) {
     throw InputError("--ViewGraph.min_inlier_ratio", "must be in [0, 1]");
@@ -96,8 +101,9 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
       static_cast<int>(database.two_view_geometries.size());
   const std::vector<int> drop_configs = options.DropConfigs();
 
-  std::vector<ImagePairGeometry> pairs;
-  std::vector<RelativePose> poses;
+  // Filters first (cheap, sequential), then the relative poses of the
+  // survivors in parallel (independent per pair).
+  std::vector<const TwoViewGeometry*> candidates;
   for (const TwoViewGeometry& geometry : database.two_view_geometries) {
     if (std::find(drop_configs.begin(), drop_configs.end(), geometry.config) !=
         drop_configs.end()) {
@@ -122,13 +128,38 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
         continue;
       }
     }
-    const DatabaseImage& image1 = database.images.at(geometry.image_id1);
-    const DatabaseImage& image2 = database.images.at(geometry.image_id2);
-    const RelativePose pose = EstimateRelativePose(
-        geometry, database.cameras.at(image1.camera_id),
-        database.cameras.at(image2.camera_id),
-        database.keypoints.at(geometry.image_id1),
-        database.keypoints.at(geometry.image_id2), options.relative_pose);
+    candidates.push_back(&geometry);
+  }
+
+  std::vector<RelativePose> candidate_poses(candidates.size());
+  std::atomic<size_t> next(0);
+  auto worker = [&]() {
+    for (size_t i = next++; i < candidates.size(); i = next++) {
+      const TwoViewGeometry& geometry = *candidates[i];
+      const DatabaseImage& image1 = database.images.at(geometry.image_id1);
+      const DatabaseImage& image2 = database.images.at(geometry.image_id2);
+      candidate_poses[i] = EstimateRelativePose(
+          geometry, database.cameras.at(image1.camera_id),
+          database.cameras.at(image2.camera_id),
+          database.keypoints.at(geometry.image_id1),
+          database.keypoints.at(geometry.image_id2), options.relative_pose);
+    }
+  };
+  const int num_threads = std::max<int>(
+      1, std::min<int>(options.num_threads > 0
+                           ? options.num_threads
+                           : std::thread::hardware_concurrency(),
+                       static_cast<int>(candidates.size())));
+  std::vector<std::thread> threads;
+  for (int k = 1; k < num_threads; ++k) threads.emplace_back(worker);
+  worker();
+  for (std::thread& thread : threads) thread.join();
+
+  std::vector<ImagePairGeometry> pairs;
+  std::vector<RelativePose> poses;
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const TwoViewGeometry& geometry = *candidates[i];
+    const RelativePose& pose = candidate_poses[i];
     if (!pose.success) {
       VLOG(1) << "pair (" << geometry.image_id1 << ", " << geometry.image_id2
               << "): " << pose.failure;
@@ -140,7 +171,7 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     pair.image_id2 = geometry.image_id2;
     pair.R = pose.R;
     pair.t = pose.t;
-    pair.num_inliers = num_inliers;
+    pair.num_inliers = static_cast<int>(geometry.inlier_matches.size());
     pair.config = geometry.config;
     pairs.push_back(pair);
     poses.push_back(pose);

@@ -21,6 +21,8 @@ struct ViewGraphBuilderOptions {
   std::string drop_configs = "UNDEFINED,DEGENERATE,WATERMARK,MULTIPLE";
   // Keep only the largest connected component (by images).
   bool keep_largest_component = true;
+  // Threads deriving the relative poses (-1: all cores).
+  int num_threads = -1;
   RelativePoseOptions relative_pose;
 
   // Throws InputError naming the option if invalid.

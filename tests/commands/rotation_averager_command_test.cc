@@ -131,6 +131,27 @@ TEST(RotationAveragerCommand, MadridEgPath) {
   EXPECT_EQ(ReadAbsoluteRotations(output).size(), 394u);
 }
 
+TEST(RotationAveragerCommand, StrechaDatabaseAgainstGtCameras) {
+  // The real path: COLMAP database -> view graph -> rotations, evaluated
+  // against the LIDAR ground truth directory.
+  const std::string scene =
+      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11";
+  for (const std::string method :
+       {"irav4", "ira", "l1_irls", "spanning_tree"}) {
+    const std::string output =
+        (TempDir() / ("fountain_" + method + ".txt")).string();
+    const CommandRun run = RunCommand(
+        "--database_path " + scene + "/database.db --method " + method +
+        " --gt_path " + scene + "/gt_cameras --output_path " + output);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(ReadAbsoluteRotations(output).size(), 11u);
+    const size_t at = run.out.find("11 cameras, median ");
+    ASSERT_NE(at, std::string::npos) << run.out;
+    const double median = std::stod(run.out.substr(at + 19));
+    EXPECT_LT(median, 0.5) << method;
+  }
+}
+
 TEST(RotationAveragerCommand, DisconnectedGraphWarnsAndKeepsLargest) {
   const std::string relpose = WriteFile(
       "disconnected.txt",
@@ -221,6 +242,15 @@ TEST(RotationAveragerCommand, MalformedInputGivesOneLineError) {
                    eg_dir.string());
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("exactly one of"), std::string::npos);
+  run = RunCommand("--database_path " + std::string(COLMAP_IRAV4_DATA_DIR) +
+                   "/colmap_samples/t265_fisheye/database.db");  // no pairs
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("t265_fisheye/database.db: the graph has no edges"),
+            std::string::npos)
+      << run.err;
+  run = RunCommand("--database_path /nonexistent/db.db");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("/nonexistent/db.db"), std::string::npos) << run.err;
   run = RunCommand("--relpose_path " + relpose +
                    " --RotationAveraging.linear_solver qr");
   EXPECT_EQ(run.exit_code, 1);

@@ -36,9 +36,11 @@ struct GlobalPositionerOptions {
   double max_angular_error_deg = 5.0;
   // Ceres.
   int max_num_iterations = 200;
-  double function_tolerance = 1e-7;
+  // Loose: this is the initialisation of bundle adjustment (tighter
+  // tolerances cost iterations without changing the result after BA).
+  double function_tolerance = 1e-5;
   double gradient_tolerance = 1e-10;
-  double parameter_tolerance = 1e-8;
+  double parameter_tolerance = 1e-6;
   // -1: the hardware concurrency.
   int num_threads = -1;
   bool print_progress = false;

@@ -29,7 +29,9 @@ struct BundleAdjustmentOptions {
   bool fix_gauge = true;
   // Robust loss on the reprojection error: "huber", "cauchy" or "trivial".
   std::string loss_function = "huber";
-  double loss_scale = 1.0;  // px
+  // px; about twice the keypoint noise: in Huber's linear region
+  // Levenberg-Marquardt converges slowly (Ceres' corrector drops curvature).
+  double loss_scale = 1.0;
   // Rounds of (solve, filter); observations over max_reproj_error px are
   // removed after each round (0: no filtering, a single round).
   int num_rounds = 3;

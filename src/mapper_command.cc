@@ -1,0 +1,49 @@
+// colmap_irav4 mapper: COLMAP database -> COLMAP sparse models, with the
+// global pipeline of colmap_irav4/pipeline/global_mapper.h:
+//   colmap_irav4 mapper --database_path DB --image_path IMAGES
+//                       --output_path SPARSE
+// writes SPARSE/0, SPARSE/1, ... (largest first) and SPARSE/summary.json.
+
+#include <iostream>
+
+#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/util/option_manager.h"
+#include "src/command.h"
+
+namespace colmap_irav4 {
+namespace {
+
+int RunMapper(int argc, char** argv) {
+  std::string database_path;
+  std::string image_path;
+  std::string output_path;
+  std::string output_type = "BIN";
+  GlobalMapperOptions options;
+  OptionManager manager(
+      "mapper",
+      "Global Structure-from-Motion: reads a COLMAP database (read-only) and\n"
+      "writes one COLMAP sparse model per connected component of at least\n"
+      "--Mapper.min_model_size images into OUTPUT/0, OUTPUT/1, ... (largest\n"
+      "first), and OUTPUT/summary.json with the figures of every stage.");
+  manager.AddRequired("database_path", &database_path,
+                      "COLMAP database (opened read-only)");
+  manager.Add("image_path", &image_path,
+              "images, for point colours (empty: grey points)");
+  manager.AddRequired("output_path", &output_path,
+                      "output directory (created if missing)");
+  manager.Add("output_type", &output_type, "BIN or TXT");
+  AddGlobalMapperOptions(&manager, &options);
+  if (!manager.Parse(argc, argv)) return 0;
+  options.Check();
+  const GlobalMapperSummary summary = RunGlobalMapperOnDatabase(
+      options, database_path, image_path, output_path, output_type);
+  return summary.components.empty() ? 1 : 0;
+}
+
+static CommandRegistrar registrar(
+    "mapper",
+    "Global SfM: COLMAP database -> COLMAP sparse models (IRAv4 rotations)",
+    RunMapper);
+
+}  // namespace
+}  // namespace colmap_irav4

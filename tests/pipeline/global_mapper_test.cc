@@ -1,0 +1,148 @@
+// Unit tests of the mapper's own glue: the rotation-consistency filter, the
+// components of a pair list, point colours, options and the summary.
+
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+#include "tests/test_utils/database_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+ImagePairGeometry Pair(image_t a, image_t b, const Eigen::Matrix3d& R) {
+  ImagePairGeometry pair;
+  pair.image_id1 = a;
+  pair.image_id2 = b;
+  pair.R = R;
+  pair.num_inliers = 100;
+  return pair;
+}
+
+TEST(RotationFilter, DropsPairsDisagreeingWithAveragedRotations) {
+  std::mt19937_64 rng(7);
+  std::map<image_t, Eigen::Matrix3d> rotations;
+  for (image_t id = 1; id <= 4; ++id) rotations[id] = RandomRotation(&rng);
+  std::vector<ImagePairGeometry> pairs;
+  for (image_t a = 1; a <= 4; ++a) {
+    for (image_t b = a + 1; b <= 4; ++b) {
+      // R_ab = R_b R_a^T, with 1 deg of noise on every pair ...
+      pairs.push_back(Pair(a, b,
+                           RandomRotationWithAngle(DegToRad(1.0), &rng) *
+                               rotations[b] * rotations[a].transpose()));
+    }
+  }
+  // ... and one wrong pair (10 deg off), one pair with an image without
+  // rotation.
+  pairs[2].R = RandomRotationWithAngle(DegToRad(10.0), &rng) * pairs[2].R;
+  pairs.push_back(Pair(4, 5, Eigen::Matrix3d::Identity()));
+
+  const std::vector<ImagePairGeometry> kept =
+      FilterPairsByRotation(pairs, rotations, 5.0);
+  ASSERT_EQ(kept.size(), 5u);
+  for (const ImagePairGeometry& pair : kept) {
+    EXPECT_FALSE(pair.image_id1 == pairs[2].image_id1 &&
+                 pair.image_id2 == pairs[2].image_id2);
+    EXPECT_NE(pair.image_id2, 5u);
+  }
+  // A threshold below the noise drops everything; 180 deg keeps all pairs
+  // whose images have rotations.
+  EXPECT_TRUE(FilterPairsByRotation(pairs, rotations, 0.5).empty());
+  EXPECT_EQ(FilterPairsByRotation(pairs, rotations, 180.0).size(), 6u);
+}
+
+TEST(PairComponents, LargestFirstThenSmallestImageId) {
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const std::vector<ImagePairGeometry> pairs = {
+      Pair(10, 11, I), Pair(1, 2, I), Pair(20, 21, I), Pair(21, 22, I),
+      Pair(22, 20, I)};
+  const std::vector<std::vector<image_t>> components = PairComponents(pairs);
+  ASSERT_EQ(components.size(), 3u);
+  EXPECT_EQ(components[0], (std::vector<image_t>{20, 21, 22}));
+  EXPECT_EQ(components[1], (std::vector<image_t>{1, 2}));
+  EXPECT_EQ(components[2], (std::vector<image_t>{10, 11}));
+  EXPECT_TRUE(PairComponents({}).empty());
+}
+
+TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
+  test::TempDir temp;
+  // Two 8x8 images of one colour each (BGR on disk).
+  cv::imwrite(temp.File("a.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 200)));
+  cv::imwrite(temp.File("b.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(100, 0, 0)));
+  Reconstruction model;
+  model.cameras[1].camera_id = 1;
+  const std::vector<std::string> names = {"a.png", "b.png", "missing.png"};
+  for (image_t id = 1; id <= 3; ++id) {
+    Image& image = model.images[id];
+    image.image_id = id;
+    image.camera_id = 1;
+    image.name = names[id - 1];
+    image.points2D.resize(2);
+    image.points2D[0].xy = Eigen::Vector2d(3.5, 4.5);
+    image.points2D[1].xy = Eigen::Vector2d(2.0, 2.0);
+  }
+  // Seen in a and b: mean of red 200 and blue 100.
+  const point3D_t both = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  // Seen only in a and the missing image.
+  const point3D_t a_only = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {3, 1}}, &model);
+  // Seen only in the missing image (twice): grey.
+  const point3D_t none = AddPoint3D(Eigen::Vector3d::Zero(), {{3, 0}}, &model);
+  ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model), 1);
+  using Rgb = Eigen::Matrix<int, 3, 1>;
+  EXPECT_EQ(model.points3D.at(both).color.cast<int>(), Rgb(100, 0, 50));
+  EXPECT_EQ(model.points3D.at(a_only).color.cast<int>(), Rgb(200, 0, 0));
+  EXPECT_EQ(model.points3D.at(none).color.cast<int>(), Rgb(128, 128, 128));
+}
+
+TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {
+  GlobalMapperOptions options;
+  EXPECT_NO_THROW(options.Check());
+  EXPECT_EQ(options.rotation_method, DefaultRotationMethod());
+  EXPECT_EQ(options.rotation_method, "irav4");
+  EXPECT_TRUE(options.ba_refine_focal_length);
+  EXPECT_FALSE(options.ba_refine_principal_point);
+  EXPECT_TRUE(options.ba_refine_extra_params);
+  options.min_model_size = 2;
+  try {
+    options.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("--Mapper.min_model_size"),
+              std::string::npos);
+  }
+  options = GlobalMapperOptions();
+  options.positioning_method = "magic";
+  EXPECT_THROW(options.Check(), InputError);
+  options = GlobalMapperOptions();
+  options.rotation_filter.max_rotation_error_deg = 0;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+TEST(GlobalMapperSummary, JsonHasTheFiguresAndEscapesStrings) {
+  GlobalMapperSummary summary;
+  summary.database_path = "a \"quoted\" path";
+  summary.rotation_method = "irav4";
+  StageReport stage("view graph");
+  stage.seconds = 1.5;
+  stage.figures = {{"pairs kept", 55}};
+  summary.stages.push_back(stage);
+  ComponentReport component;
+  component.num_registered_images = 11;
+  component.mean_reprojection_error = 0.4;
+  summary.components.push_back(component);
+  const std::string json = summary.ToJson();
+  EXPECT_NE(json.find("\"a \\\"quoted\\\" path\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"pairs kept\": 55"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"num_registered_images\": 11"), std::string::npos);
+  EXPECT_NE(json.find("\"mean_reprojection_error\": 0.4"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -1,0 +1,218 @@
+// End-to-end tests of `colmap_irav4 mapper` on the real Strecha databases:
+// accuracy against the LIDAR ground truth cameras, COLMAP reads the model,
+// the database is never written, and the component / too-few-images cases.
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "tests/test_utils/database_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+namespace fs = std::filesystem;
+using test::HashFile;
+using test::SqliteWriter;
+using test::TempDir;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;
+};
+
+// Runs the program with `arguments`, stdout and stderr captured.
+RunResult RunProgram(const std::string& arguments, const TempDir& temp) {
+  const std::string log = temp.File("run.log");
+  const std::string command =
+      std::string(COLMAP_IRAV4_BINARY) + " " + arguments + " > " + log + " 2>&1";
+  RunResult result;
+  const int status = std::system(command.c_str());
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream file(log);
+  result.output.assign(std::istreambuf_iterator<char>(file),
+                       std::istreambuf_iterator<char>());
+  return result;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream file(path);
+  return std::string(std::istreambuf_iterator<char>(file),
+                     std::istreambuf_iterator<char>());
+}
+
+void CheckStrechaScene(const std::string& scene, int num_images,
+                       bool with_images) {
+  const std::string dir =
+      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/" + scene;
+  const std::string database = dir + "/database.db";
+  ASSERT_TRUE(fs::exists(database)) << database;
+  const uint64_t hash_before = HashFile(database);
+  TempDir temp;
+  const std::string sparse = temp.File("sparse");
+  const RunResult run = RunProgram(
+      "mapper --database_path " + database +
+          (with_images ? " --image_path " + dir + "/images" : "") +
+          " --output_path " + sparse + " --Mapper.num_threads 2",
+      temp);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(HashFile(database), hash_before) << "the database was modified";
+  EXPECT_FALSE(fs::exists(sparse + "/1")) << "one component expected";
+  // No temporary directory left behind.
+  for (const auto& entry : fs::directory_iterator(sparse)) {
+    EXPECT_EQ(entry.path().filename().string().rfind(".colmap_irav4_tmp", 0),
+              std::string::npos)
+        << entry.path();
+  }
+
+  Reconstruction model = ReadReconstruction(sparse + "/0");
+  EXPECT_EQ(static_cast<int>(model.images.size()), num_images);
+  EXPECT_GT(model.points3D.size(), 1000u);
+  const double mean_error = UpdateReprojectionErrors(&model);
+  EXPECT_LT(mean_error, 1.0);
+  EXPECT_GT(mean_error, 0.0);
+
+  std::map<std::string, Rigid3d> gt;
+  for (const auto& [name, camera] :
+       ReadStrechaGroundTruth(dir + "/gt_cameras")) {
+    gt[name] = camera.cam_from_world;
+  }
+  PoseComparison comparison;
+  ASSERT_TRUE(ComparePoses(PosesByName(model), gt, SimilarityRansacOptions(),
+                           &comparison));
+  EXPECT_EQ(comparison.num_common, num_images);
+  EXPECT_EQ(comparison.num_inliers, num_images);
+  EXPECT_LT(comparison.rotation_error_median_deg, 0.1);
+  EXPECT_LT(comparison.center_error_median, 0.01);  // metres
+  std::cout << scene << ": rotation error median "
+            << comparison.rotation_error_median_deg << " deg, centre error "
+            << "median " << comparison.center_error_median * 1000
+            << " mm, mean reprojection error " << mean_error << " px, "
+            << model.points3D.size() << " points" << std::endl;
+
+  // Colours: from the images when given, grey otherwise.
+  size_t num_grey = 0;
+  for (const auto& [point3D_id, point] : model.points3D) {
+    num_grey += point.color == Eigen::Matrix<uint8_t, 3, 1>::Constant(128);
+  }
+  if (with_images) {
+    EXPECT_LT(num_grey, model.points3D.size() / 10);
+  } else {
+    EXPECT_EQ(num_grey, model.points3D.size());
+  }
+
+  // The summary has the same figures as the model.
+  const std::string summary = ReadText(sparse + "/summary.json");
+  EXPECT_NE(summary.find("\"num_registered_images\": " +
+                         std::to_string(num_images)),
+            std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("\"num_points\": " +
+                         std::to_string(model.points3D.size())),
+            std::string::npos);
+
+  // COLMAP 3.8 reads the model.
+  if (fs::exists("/usr/bin/colmap")) {
+    const std::string analyzer = "/usr/bin/colmap model_analyzer --path " +
+                                 sparse + "/0 > " + temp.File("analyzer.log") +
+                                 " 2>&1";
+    EXPECT_EQ(std::system(analyzer.c_str()), 0)
+        << ReadText(temp.File("analyzer.log"));
+    EXPECT_NE(ReadText(temp.File("analyzer.log"))
+                  .find("Registered images: " + std::to_string(num_images)),
+              std::string::npos)
+        << ReadText(temp.File("analyzer.log"));
+  }
+}
+
+TEST(MapperE2E, FountainP11MatchesGroundTruth) {
+  CheckStrechaScene("fountain-P11", 11, /*with_images=*/true);
+}
+
+TEST(MapperE2E, HerzJesusP8MatchesGroundTruth) {
+  CheckStrechaScene("Herz-Jesus-P8", 8, /*with_images=*/false);
+}
+
+// A copy of the bundled example database (ids 1..11) in `temp`.
+std::string CopyExampleDatabase(const TempDir& temp) {
+  const std::string copy = temp.File("database.db");
+  fs::copy_file(std::string(COLMAP_IRAV4_SOURCE_DIR) +
+                    "/tests/data/fountain-P11.db",
+                copy);
+  fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
+  return copy;
+}
+
+TEST(MapperE2E, TwoComponentsGiveTwoModels) {
+  TempDir temp;
+  const std::string database = CopyExampleDatabase(temp);
+  {
+    // Cut every verified pair between images 1..6 and 7..11.
+    SqliteWriter writer(database);
+    writer.Exec(
+        "DELETE FROM two_view_geometries WHERE "
+        "((pair_id / 2147483647) <= 6) != ((pair_id % 2147483647) <= 6);");
+  }
+  const std::string sparse = temp.File("sparse");
+  const RunResult run = RunProgram("mapper --database_path " + database +
+                                       " --output_path " + sparse +
+                                       " --Mapper.num_threads 2",
+                                   temp);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  ASSERT_TRUE(fs::exists(sparse + "/0"));
+  ASSERT_TRUE(fs::exists(sparse + "/1"));
+  EXPECT_FALSE(fs::exists(sparse + "/2"));
+  const Reconstruction model0 = ReadReconstruction(sparse + "/0");
+  const Reconstruction model1 = ReadReconstruction(sparse + "/1");
+  // Largest first; each model holds exactly one half.
+  EXPECT_EQ(model0.images.size(), 6u);
+  EXPECT_EQ(model1.images.size(), 5u);
+  for (const auto& [image_id, image] : model0.images) EXPECT_LE(image_id, 6u);
+  for (const auto& [image_id, image] : model1.images) EXPECT_GE(image_id, 7u);
+  const std::string summary = ReadText(sparse + "/summary.json");
+  EXPECT_NE(summary.find("\"index\": 1"), std::string::npos) << summary;
+}
+
+TEST(MapperE2E, FewerThanThreeConnectedImagesIsAClearError) {
+  TempDir temp;
+  const std::string database = CopyExampleDatabase(temp);
+  {
+    // Only the pair (1, 2) remains.
+    SqliteWriter writer(database);
+    writer.Exec("DELETE FROM two_view_geometries WHERE pair_id != " +
+                std::to_string(2147483647ll * 1 + 2) + ";");
+  }
+  const std::string sparse = temp.File("sparse");
+  const RunResult run = RunProgram("mapper --database_path " + database +
+                                       " --output_path " + sparse,
+                                   temp);
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("ERROR: " + database), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("no model"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("2 image(s)"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(sparse + "/0"));
+  EXPECT_FALSE(fs::exists(sparse + "/summary.json"));
+}
+
+TEST(MapperE2E, BadOptionsAreReported) {
+  TempDir temp;
+  const RunResult run = RunProgram(
+      "mapper --database_path " + temp.File("missing.db") + " --output_path " +
+          temp.File("sparse") + " --Mapper.rotation_method nonsense",
+      temp);
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.output.find("--Mapper.rotation_method"), std::string::npos)
+      << run.output;
+}
+
+}  // namespace
+}  // namespace colmap_irav4

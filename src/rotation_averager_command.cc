@@ -168,6 +168,13 @@ int RunRotationAverager(int argc, char** argv) {
             << graph.NumVertices() << " rotations with " << averager->Name()
             << " in " << std::fixed << std::setprecision(3)
             << timer.ElapsedSeconds() << " s" << std::endl;
+  if (!result.stage_seconds.empty()) {
+    std::cout << "Stages:";
+    for (const auto& [stage, seconds] : result.stage_seconds) {
+      std::cout << " " << stage << " " << seconds << " s;";
+    }
+    std::cout << std::endl;
+  }
   if (!output_path.empty()) {
     WriteAbsoluteRotations(output_path, graph.Names(), result.rotations,
                            result.estimated);

@@ -616,7 +616,7 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
   Candidate chosen = candidates[best];
   std::vector<char> supporting;
   Score(corrs, focal, options.max_error_px, &chosen, &supporting);
-  if (options.refine && !use_stored && options.refine_max_num_iterations > 0) {
+  if (options.refine && options.refine_max_num_iterations > 0) {
     Candidate refined = chosen;
     Refine(corrs, supporting, focal, options, &refined);
     std::vector<char> refined_supporting;

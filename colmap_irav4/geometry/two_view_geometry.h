@@ -69,7 +69,9 @@ struct RelativePoseOptions {
   // accuracy). 0: all.
   int refine_max_num_matches = 0;
   // Use the pose stored in the database when it is non-zero and supported by
-  // at least this fraction of the support of the best derived candidate.
+  // at least this fraction of the support of the best derived candidate (it
+  // is refined like a derived one: COLMAP 3.8's stored poses were measured
+  // less accurate than refined derived ones).
   double min_stored_pose_support = 0.9;
   // Below this median triangulation angle of the supporting matches the
   // translation direction is marked unreliable (near pure rotation).

@@ -247,6 +247,10 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   }
   result.stage_seconds.emplace_back("communities_and_seeds",
                                     timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: " << report_.num_communities << " communities, "
+      << num_clusters << " cluster seeds (" << result.stage_seconds.back().second
+      << " s)";
 
   // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
   // clusters joins. A cluster's best candidate only changes when the cluster
@@ -272,6 +276,9 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
     clusters[chosen]->AddVertex(candidate);
     affiliated[candidate.vertex] = true;
     ++num_affiliated;
+    LOG_IF(INFO, options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
+        << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
+        << " vertices (" << timer.ElapsedSeconds() << " s)";
     stale[chosen] = true;
     for (int c = 0; c < num_clusters; ++c) {
       if (c == chosen) continue;
@@ -286,6 +293,12 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   }
   result.stage_seconds.emplace_back("on_the_fly_clustering",
                                     timer.ElapsedSeconds());
+  if (options_.log_progress) {
+    std::string sizes;
+    for (int size : report_.cluster_sizes) sizes += " " + std::to_string(size);
+    LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
+              << result.stage_seconds.back().second << " s)";
+  }
 
   // 3. The alignment reference.
   timer.Restart();
@@ -293,6 +306,10 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       graph, options_, ReferenceMethodFromString(options_.reference_method));
   report_.n_ref = static_cast<int>(reference.vertices.size());
   result.stage_seconds.emplace_back("reference", timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: " << options_.reference_method << " reference n_ref = "
+      << report_.n_ref << (reference.is_cds ? " (connected dominating)" : "")
+      << " (" << result.stage_seconds.back().second << " s)";
 
   // 4. Common-vertex-guided alignment of each cluster and global alignment.
   timer.Restart();
@@ -328,6 +345,9 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   }
   clusters.clear();  // release the engines before the final problem
   result.stage_seconds.emplace_back("alignment", timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: aligned " << num_clusters << " clusters ("
+      << report_.num_vertex_guided_alignments << " by common vertices)";
 
   // 5. Final optimisation over the inlier edges of the whole graph.
   timer.Restart();
@@ -349,6 +369,9 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   }
   result.stage_seconds.emplace_back("global_optimization",
                                     timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: final optimisation on " << report_.num_final_inlier_edges
+      << " inlier edges (" << result.stage_seconds.back().second << " s)";
 
   for (int v = 0; v < n; ++v) {
     result.rotations[to_input(v)] = rotations[v];

@@ -41,6 +41,8 @@ struct Irav4Options {
   // Rounds of the final global optimisation (each re-selects the inlier
   // edges of the whole graph within theta, then optimises Eq. 12).
   int num_final_rounds = 1;
+  // Log a line per stage and every 10% of the on-the-fly clustering.
+  bool log_progress = false;
 
   bool Check() const;  // throws InputError naming the option
 };

@@ -19,6 +19,7 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
        [](const RotationAveragerOptions& o) {
          Irav4Options irav4 = o.irav4;
          irav4.engine = o.ira.engine;  // one set of engine options
+         irav4.log_progress = irav4.log_progress || o.log_progress;
          return std::make_unique<Irav4>(irav4);
        }},
       {"ira",

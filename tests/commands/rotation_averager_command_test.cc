@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -150,6 +151,61 @@ TEST(RotationAveragerCommand, StrechaDatabaseAgainstGtCameras) {
     const double median = std::stod(run.out.substr(at + 19));
     EXPECT_LT(median, 0.5) << method;
   }
+}
+
+TEST(RotationAveragerCommand, OneDsfmDirectoryWithBundlerGroundTruth) {
+  // A 1DSfM scene written in the dataset's conventions (Bundler axes,
+  // EGs rotation R_i R_j^T, translation = camera j's centre in camera i's
+  // frame) from known cameras: the readers' conversions must agree with each
+  // other, so the estimate matches gt_bundle.out exactly.
+  const int num_images = 30;
+  std::mt19937_64 rng(21);
+  const Eigen::Matrix3d D = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  std::vector<Eigen::Matrix3d> R_bundler;
+  std::vector<Eigen::Vector3d> centers;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int k = 0; k < num_images; ++k) {
+    R_bundler.push_back(D * RandomRotation(&rng));
+    centers.emplace_back(normal(rng), normal(rng), normal(rng));
+  }
+  const fs::path dir = TempDir() / "onedsfm_scene";
+  fs::create_directories(dir);
+  std::ofstream list(dir / "list.txt"), cc(dir / "cc.txt"),
+      egs(dir / "EGs.txt"), bundle(dir / "gt_bundle.out");
+  egs.precision(17);
+  bundle.precision(17);
+  bundle << "# Bundle file v0.3\n" << num_images << " 0\n";
+  for (int k = 0; k < num_images; ++k) {
+    list << "images/" << k << ".jpg 0 1000\n";
+    if (k != 5) cc << k << "\n";  // image 5 is outside the component
+    if (k == 7) {  // not reconstructed by Bundler
+      bundle << "0 0 0\n0 0 0\n0 0 0\n0 0 0\n0 0 0\n";
+    } else {
+      bundle << "1000 0 0\n" << R_bundler[k] << "\n"
+             << (-R_bundler[k] * centers[k]).transpose() << "\n";
+    }
+    for (int j = k + 1; j < num_images; j += 1 + k % 3) {
+      const Eigen::Matrix3d M = R_bundler[k] * R_bundler[j].transpose();
+      const Eigen::Vector3d direction =
+          (R_bundler[k] * (centers[j] - centers[k])).normalized();
+      egs << k << ' ' << j;
+      for (int e = 0; e < 9; ++e) egs << ' ' << M(e / 3, e % 3);
+      egs << ' ' << direction.transpose() << "\n";
+    }
+  }
+  list.close();
+  cc.close();
+  egs.close();
+  bundle.close();
+  const CommandRun run = RunCommand("--eg_path " + dir.string() +
+                                    " --method l1_irls");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("Estimated 29 of 29 rotations"), std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("gt_bundle.out: 28 cameras, median 0.000 deg, mean "
+                         "0.000 deg, max 0.000 deg"),
+            std::string::npos)
+      << run.out;
 }
 
 TEST(RotationAveragerCommand, DisconnectedGraphWarnsAndKeepsLargest) {

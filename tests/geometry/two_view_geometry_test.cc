@@ -241,7 +241,15 @@ TEST(TwoViewGeometry, StoredPoseUsedOnlyWhenConsistent) {
                                            pair.keypoints2, options);
   ASSERT_TRUE(pose.success);
   EXPECT_EQ(pose.source, RelativePoseSource::kStored);
+  EXPECT_LT(AngularDistanceDeg(pose.R, R), 0.2);  // refined on noisy matches
+  // Without refinement the stored pose is returned as is.
+  options.refine = false;
+  pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2,
+                              options);
+  EXPECT_EQ(pose.source, RelativePoseSource::kStored);
   EXPECT_LT(AngularDistanceDeg(pose.R, R), 1e-9);
+  EXPECT_LT((pose.t - t.normalized()).norm(), 1e-12);
+  options.refine = true;
   // A stored pose that contradicts the matches (transposed R) is ignored.
   pair.geometry.qvec = RotationToQuaternion(R.transpose());
   pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2,

@@ -27,11 +27,13 @@ struct BundleAdjustmentOptions {
   // Hold the gauge (see above); off: LM's damping alone handles the 7
   // degrees of freedom.
   bool fix_gauge = true;
-  // Robust loss on the reprojection error: "huber", "cauchy" or "trivial".
+  // Robust loss on the reprojection error: "huber" (iteratively reweighted:
+  // weights min(1, loss_scale / error) fixed during each solve, updated by
+  // the rounds; converges like least squares), "huber_ceres" (Ceres'
+  // HuberLoss: Levenberg-Marquardt crawls when many residuals are in its
+  // linear region), "cauchy" (Ceres) or "trivial".
   std::string loss_function = "huber";
-  // px; about twice the keypoint noise: in Huber's linear region
-  // Levenberg-Marquardt converges slowly (Ceres' corrector drops curvature).
-  double loss_scale = 1.0;
+  double loss_scale = 1.0;  // px
   // Rounds of (solve, filter); observations over max_reproj_error px are
   // removed after each round (0: no filtering, a single round).
   int num_rounds = 3;

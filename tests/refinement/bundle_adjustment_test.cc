@@ -86,9 +86,25 @@ TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
   EXPECT_LT(summary.final_mean_reproj_error, 1.3);
   EXPECT_GT(summary.final_mean_reproj_error, 0.9);
   EXPECT_LT(summary.num_observations_filtered, 0.01 * NumObservations(truth));
+  // With noise the optimum is not the truth: at the noise level (1 px at
+  // 1200 px focal length) from the truth ...
   const Errors errors = Compare(reconstruction, truth);
-  EXPECT_LT(errors.max_center_error, 0.01);  // radius 10
-  EXPECT_LT(errors.max_rotation_error_deg, 0.05);
+  EXPECT_LT(errors.max_center_error, 0.02);  // radius 10
+  EXPECT_LT(errors.max_rotation_error_deg, 0.1);
+  // ... and, without filtering (which depends on the path) and with least
+  // squares, the same optimum as bundle adjustment started from the truth.
+  BundleAdjustmentOptions exact_options = options;
+  exact_options.loss_function = "trivial";
+  exact_options.max_reproj_error = 0;
+  exact_options.function_tolerance = 1e-12;
+  Reconstruction from_perturbed = scene.truth;
+  Perturb(1.0, 0.1, 0.05, 1.03, 5, &from_perturbed);
+  ASSERT_TRUE(RunBundleAdjustment(exact_options, &from_perturbed));
+  Reconstruction from_truth = scene.truth;
+  ASSERT_TRUE(RunBundleAdjustment(exact_options, &from_truth));
+  const Errors to_optimum = Compare(from_perturbed, from_truth);
+  EXPECT_LT(to_optimum.max_center_error, 1e-5);
+  EXPECT_LT(to_optimum.max_rotation_error_deg, 1e-4);
   const double focal = CameraMeanFocalLength(reconstruction.cameras.at(1));
   EXPECT_NEAR(focal, 1200.0, 3.0);
 }

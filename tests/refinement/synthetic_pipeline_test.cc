@@ -78,9 +78,6 @@ TEST(SyntheticPipeline, RecoversTheSceneFromNoisyRotationsAndMatches) {
   ASSERT_TRUE(RunGlobalPositioning(gp_options, &reconstruction, &positioning));
 
   BundleAdjustmentOptions ba_options;
-  // Huber's scale at twice the simulated noise: in its linear region
-  // Levenberg-Marquardt converges slowly (44 instead of 3 iterations here).
-  ba_options.loss_scale = 4.0;
   BundleAdjustmentSummary ba1;
   ASSERT_TRUE(RunBundleAdjustment(ba_options, &reconstruction, &ba1));
   const TriangulationSummary retriangulation =

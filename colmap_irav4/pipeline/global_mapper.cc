@@ -347,7 +347,12 @@ bool MapComponent(const GlobalMapperOptions& options,
       timer.Restart();
       stage = StageReport{"bundle adjustment " + std::to_string(iteration + 1)};
       BundleAdjustmentSummary ba_summary;
-      if (!RunBundleAdjustment(ba_options, reconstruction, &ba_summary)) {
+      // After retriangulation the model is nearly clean: the last bundle
+      // adjustment is one solve (a second one for the few observations its
+      // filter removes changes nothing); the filtering below follows it.
+      BundleAdjustmentOptions round_options = ba_options;
+      if (retriangulated && iteration + 1 == num_ba) round_options.num_rounds = 1;
+      if (!RunBundleAdjustment(round_options, reconstruction, &ba_summary)) {
         *failure = "bundle adjustment failed";
         return false;
       }
@@ -468,6 +473,10 @@ void GlobalMapperOptions::Check() const {
   if (num_threads == 0 || num_threads < -1) {
     throw InputError("--Mapper.num_threads", "must be -1 (all cores) or > 0");
   }
+  if (color_image_downscale != 1 && color_image_downscale != 2 &&
+      color_image_downscale != 4 && color_image_downscale != 8) {
+    throw InputError("--Mapper.color_image_downscale", "must be 1, 2, 4 or 8");
+  }
   if (num_ba_iterations < 0) {
     throw InputError("--Mapper.num_ba_iterations", "must be >= 0");
   }
@@ -522,6 +531,9 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "skip the final filtering");
   manager->Add("Mapper.skip_normalization", &o.skip_normalization,
                "skip normalising the scene's centre and scale");
+  manager->Add("Mapper.color_image_downscale", &o.color_image_downscale,
+               "images are decoded at 1/1, 1/2, 1/4 or 1/8 of their size for "
+               "the point colours");
   manager->Add("Mapper.skip_colors", &o.skip_colors,
                "do not read images for point colours (grey)");
 
@@ -659,7 +671,15 @@ std::vector<std::vector<image_t>> PairComponents(
 }
 
 int ColorPointsFromImages(const std::string& image_path,
-                          Reconstruction* reconstruction) {
+                          Reconstruction* reconstruction, int downscale) {
+  CHECK(downscale == 1 || downscale == 2 || downscale == 4 || downscale == 8)
+      << downscale;
+  // JPEG decoders scale by 2, 4 or 8 inside the DCT: much faster, and the
+  // colour of a point (a mean over its track) barely changes.
+  const int flags = downscale == 1   ? cv::IMREAD_COLOR
+                    : downscale == 2 ? cv::IMREAD_REDUCED_COLOR_2
+                    : downscale == 4 ? cv::IMREAD_REDUCED_COLOR_4
+                                     : cv::IMREAD_REDUCED_COLOR_8;
   // Per image, the colour at each observation (read in parallel, summed
   // serially so that the result does not depend on the thread count).
   std::vector<const Image*> images;
@@ -674,8 +694,7 @@ int ColorPointsFromImages(const std::string& image_path,
     for (size_t i = next++; i < images.size(); i = next++) {
       const Image& image = *images[i];
       const cv::Mat bgr =
-          cv::imread((fs::path(image_path) / image.name).string(),
-                     cv::IMREAD_COLOR);
+          cv::imread((fs::path(image_path) / image.name).string(), flags);
       if (bgr.empty()) {
         missing[i] = 1;
         continue;
@@ -684,8 +703,8 @@ int ColorPointsFromImages(const std::string& image_path,
         if (point2D.point3D_id == kInvalidPoint3DId) continue;
         // Keypoints put the centre of the top-left pixel at (0.5, 0.5):
         // bilinear interpolation between the four nearest pixel centres.
-        const double x = point2D.xy.x() - 0.5;
-        const double y = point2D.xy.y() - 0.5;
+        const double x = point2D.xy.x() / downscale - 0.5;
+        const double y = point2D.xy.y() / downscale - 0.5;
         const int x0 = static_cast<int>(std::floor(x));
         const int y0 = static_cast<int>(std::floor(y));
         if (x0 < 0 || y0 < 0 || x0 + 1 >= bgr.cols || y0 + 1 >= bgr.rows) {
@@ -883,7 +902,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     timer.Restart();
     StageReport colors{"colours"};
     if (!image_path.empty() && !options.skip_colors) {
-      const int num_missing = ColorPointsFromImages(image_path, &reconstruction);
+      const int num_missing = ColorPointsFromImages(
+          image_path, &reconstruction, options.color_image_downscale);
       colors.figures = {{"images read", static_cast<double>(
                                             reconstruction.images.size() -
                                             num_missing)},

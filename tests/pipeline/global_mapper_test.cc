@@ -94,11 +94,40 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
   const point3D_t a_only = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {3, 1}}, &model);
   // Seen only in the missing image (twice): grey.
   const point3D_t none = AddPoint3D(Eigen::Vector3d::Zero(), {{3, 0}}, &model);
-  ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model), 1);
-  using Rgb = Eigen::Matrix<int, 3, 1>;
-  EXPECT_EQ(model.points3D.at(both).color.cast<int>(), Rgb(100, 0, 50));
-  EXPECT_EQ(model.points3D.at(a_only).color.cast<int>(), Rgb(200, 0, 0));
-  EXPECT_EQ(model.points3D.at(none).color.cast<int>(), Rgb(128, 128, 128));
+  for (const int downscale : {1, 2}) {
+    SCOPED_TRACE(downscale);
+    ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model, downscale), 1);
+    using Rgb = Eigen::Matrix<int, 3, 1>;
+    EXPECT_EQ(model.points3D.at(both).color.cast<int>(), Rgb(100, 0, 50));
+    EXPECT_EQ(model.points3D.at(a_only).color.cast<int>(), Rgb(200, 0, 0));
+    EXPECT_EQ(model.points3D.at(none).color.cast<int>(), Rgb(128, 128, 128));
+  }
+}
+
+TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
+  test::TempDir temp;
+  // Red = 10 * column.
+  cv::Mat image(16, 16, CV_8UC3, cv::Scalar(0, 0, 0));
+  for (int col = 0; col < 16; ++col) {
+    image.col(col).setTo(cv::Scalar(0, 0, 10 * col));
+  }
+  cv::imwrite(temp.File("g.png"), image);
+  Reconstruction model;
+  model.cameras[1].camera_id = 1;
+  for (image_t id = 1; id <= 2; ++id) {
+    Image& view = model.images[id];
+    view.image_id = id;
+    view.camera_id = 1;
+    view.name = "g.png";
+    view.points2D.resize(2);
+    view.points2D[0].xy = Eigen::Vector2d(5.5, 2.5);  // centre of column 5
+    view.points2D[1].xy = Eigen::Vector2d(5.0, 2.5);  // between 4 and 5
+  }
+  const point3D_t centre = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  const point3D_t between = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}}, &model);
+  ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model, 1), 0);
+  EXPECT_EQ(static_cast<int>(model.points3D.at(centre).color[0]), 50);
+  EXPECT_EQ(static_cast<int>(model.points3D.at(between).color[0]), 45);
 }
 
 TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {

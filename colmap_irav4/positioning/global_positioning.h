@@ -36,11 +36,12 @@ struct GlobalPositionerOptions {
   double max_angular_error_deg = 5.0;
   // Ceres.
   int max_num_iterations = 200;
-  // Loose: this is the initialisation of bundle adjustment (tighter
-  // tolerances cost iterations without changing the result after BA).
-  double function_tolerance = 1e-5;
+  // Loose: this is the initialisation of bundle adjustment. On fountain-P11
+  // 1e-3 / 1e-4 take 9 iterations instead of 39 (1.3 s instead of 4.7 s) and
+  // give the same model after bundle adjustment.
+  double function_tolerance = 1e-3;
   double gradient_tolerance = 1e-10;
-  double parameter_tolerance = 1e-6;
+  double parameter_tolerance = 1e-4;
   // -1: the hardware concurrency.
   int num_threads = -1;
   bool print_progress = false;

@@ -71,6 +71,7 @@ int RunViewGraph(int argc, char** argv) {
               "keep only the largest connected component");
   manager.Add("ViewGraph.num_threads", &options.num_threads,
               "threads deriving the relative poses (-1: all cores)");
+  AddFocalCalibrationOptions(&manager, &options.focal_calibration);
   manager.Add("RelativePose.max_error_px", &options.relative_pose.max_error_px,
               "epipolar error threshold of a supporting match (pixels)");
   manager.Add("RelativePose.refine", &options.relative_pose.refine,

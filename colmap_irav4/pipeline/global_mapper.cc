@@ -104,6 +104,7 @@ void AppendStagesJson(const std::vector<StageReport>& stages,
 // The images of the model with their rotations and all their keypoints.
 Reconstruction MakeReconstruction(
     const DatabaseContents& database,
+    const std::map<camera_t, Camera>& cameras,
     const std::map<image_t, Eigen::Matrix3d>& rotations) {
   Reconstruction reconstruction;
   for (const auto& [image_id, R] : rotations) {
@@ -120,8 +121,7 @@ Reconstruction MakeReconstruction(
         image.points2D[k].xy = keypoints->second[k].cast<double>();
       }
     }
-    reconstruction.cameras[image.camera_id] =
-        database.cameras.at(image.camera_id);
+    reconstruction.cameras[image.camera_id] = cameras.at(image.camera_id);
   }
   return reconstruction;
 }
@@ -181,6 +181,7 @@ std::vector<Track> SelectTracksForPositioning(const std::vector<Track>& tracks,
 // in *failure when no model of min_model_size images results.
 bool MapComponent(const GlobalMapperOptions& options,
                   const DatabaseContents& database,
+                  const std::map<camera_t, Camera>& cameras,
                   const std::map<image_pair_t, size_t>& geometry_index,
                   const std::vector<image_t>& component_images,
                   const std::vector<ImagePairGeometry>& component_pairs,
@@ -258,7 +259,7 @@ bool MapComponent(const GlobalMapperOptions& options,
   // Tracks from the inlier matches of the kept pairs.
   timer.Restart();
   stage = StageReport{"tracks"};
-  *reconstruction = MakeReconstruction(database, rotations);
+  *reconstruction = MakeReconstruction(database, cameras, rotations);
   std::vector<ImagePairMatches> matches;
   matches.reserve(pairs.size());
   for (const ImagePairGeometry& pair : pairs) {
@@ -541,6 +542,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "minimum inliers / raw matches (where raw matches are stored)");
   manager->Add("ViewGraph.drop_configs", &o.view_graph.drop_configs,
                "comma-separated two-view configurations to drop");
+  AddFocalCalibrationOptions(manager, &o.view_graph.focal_calibration);
   RelativePoseOptions& rp = o.view_graph.relative_pose;
   manager->Add("RelativePose.max_error_px", &rp.max_error_px,
                "epipolar error threshold of a supporting match (pixels)");
@@ -872,8 +874,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     Reconstruction reconstruction;
     ComponentReport report;
     std::string failure;
-    if (!MapComponent(effective, database, geometry_index, components[c], pairs,
-                      prefix, &reconstruction, &report, &failure)) {
+    if (!MapComponent(effective, database, view_graph.cameras, geometry_index,
+                      components[c], pairs, prefix, &reconstruction, &report, &failure)) {
       LOG(WARNING) << prefix << "no model for the component of "
                    << components[c].size() << " images: " << failure;
       summary->notes.push_back("component of " +

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "colmap_irav4/scene/camera.h"
 #include "colmap_irav4/scene/types.h"
 
 namespace colmap_irav4 {
@@ -26,6 +27,9 @@ struct ImagePairGeometry {
 struct ViewGraph {
   std::map<image_t, std::string> image_names;
   std::vector<ImagePairGeometry> pairs;
+  // The cameras the relative poses were derived with (focal lengths possibly
+  // self-calibrated); may be empty for graphs not built from a database.
+  std::map<camera_t, Camera> cameras;
 };
 
 }  // namespace colmap_irav4

@@ -55,6 +55,7 @@ bool ViewGraphBuilderOptions::Check() const {
                            "PLANAR_OR_PANORAMIC, WATERMARK, MULTIPLE)");
     }
   }
+  focal_calibration.Check();
   return relative_pose.Check();
 }
 
@@ -84,6 +85,12 @@ void ViewGraphSummary::Print(std::ostream& stream) const {
   stream << "  pairs dropped:        " << total_dropped << "\n";
   for (const auto& [reason, count] : num_dropped) {
     stream << "    " << reason << ": " << count << "\n";
+  }
+  for (const FocalCalibrationResult& result : focal_calibration) {
+    stream << "  camera " << result.camera_id << " focal " << result.guess_focal
+           << " -> " << result.focal << " px (" << result.num_pairs
+           << " pairs" << (result.calibrated ? "" : ", kept: " + result.reason)
+           << ")\n";
   }
   stream << "  connected components: " << num_components << "\n"
          << "  images in the largest component: " << num_images_in_component
@@ -131,6 +138,27 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     candidates.push_back(&geometry);
   }
 
+  // Focal self-calibration from the fundamental matrices of the surviving
+  // pairs (F is in pixels: it does not depend on the focal guess).
+  std::map<camera_t, Camera> cameras = database.cameras;
+  if (options.focal_calibration.calibrate_focal) {
+    std::vector<FocalCalibrationPair> calibration_pairs;
+    for (const TwoViewGeometry* geometry : candidates) {
+      if (geometry->config != TwoViewGeometry::UNCALIBRATED &&
+          geometry->config != TwoViewGeometry::CALIBRATED) {
+        continue;  // planar / panoramic: F is ill-defined
+      }
+      FocalCalibrationPair pair;
+      pair.camera_id1 = database.images.at(geometry->image_id1).camera_id;
+      pair.camera_id2 = database.images.at(geometry->image_id2).camera_id;
+      pair.F = geometry->F;
+      pair.weight = static_cast<double>(geometry->inlier_matches.size());
+      calibration_pairs.push_back(pair);
+    }
+    summary->focal_calibration = CalibrateFocalLengths(
+        calibration_pairs, options.focal_calibration, &cameras);
+  }
+
   std::vector<RelativePose> candidate_poses(candidates.size());
   std::atomic<size_t> next(0);
   auto worker = [&]() {
@@ -139,8 +167,7 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
       const DatabaseImage& image1 = database.images.at(geometry.image_id1);
       const DatabaseImage& image2 = database.images.at(geometry.image_id2);
       candidate_poses[i] = EstimateRelativePose(
-          geometry, database.cameras.at(image1.camera_id),
-          database.cameras.at(image2.camera_id),
+          geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
           database.keypoints.at(geometry.image_id1),
           database.keypoints.at(geometry.image_id2), options.relative_pose);
     }
@@ -209,6 +236,7 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   }
 
   ViewGraph view_graph;
+  view_graph.cameras = cameras;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const ImagePairGeometry& pair = pairs[i];
     const bool in_component =

@@ -6,6 +6,7 @@
 
 #include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/view_graph/focal_calibration.h"
 #include "colmap_irav4/view_graph/view_graph.h"
 
 namespace colmap_irav4 {
@@ -23,6 +24,9 @@ struct ViewGraphBuilderOptions {
   bool keep_largest_component = true;
   // Threads deriving the relative poses (-1: all cores).
   int num_threads = -1;
+  // Focal self-calibration of cameras without a prior focal, before the
+  // relative poses are derived.
+  FocalCalibrationOptions focal_calibration;
   RelativePoseOptions relative_pose;
 
   // Throws InputError naming the option if invalid.
@@ -42,6 +46,7 @@ struct ViewGraphSummary {
   int num_kept_without_translation = 0;
   int num_components = 0;
   int num_images_in_component = 0;
+  std::vector<FocalCalibrationResult> focal_calibration;
 
   void Print(std::ostream& stream) const;
 };
@@ -50,6 +55,8 @@ struct ViewGraphSummary {
 // pair's relative pose (R = cam2_from_cam1, unit t) and keeps the largest
 // connected component. view_graph.image_names holds the component's images;
 // pairs keep the database orientation (image_id1 < image_id2).
+// view_graph.cameras are the database's cameras with the focal lengths of
+// those without a prior self-calibrated (options.focal_calibration).
 ViewGraph BuildViewGraph(const DatabaseContents& database,
                          const ViewGraphBuilderOptions& options,
                          ViewGraphSummary* summary);

@@ -1,0 +1,363 @@
+#include "colmap_irav4/view_graph/focal_calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include <Eigen/SVD>
+#include <glog/logging.h>
+
+#include "colmap_irav4/geometry/two_view_geometry.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// K of a camera with its focal length(s) multiplied by scale.
+Eigen::Matrix3d ScaledK(const Camera& camera, double scale) {
+  Eigen::Matrix3d K = CameraCalibrationMatrix(camera);
+  K(0, 0) *= scale;
+  K(1, 1) *= scale;
+  return K;
+}
+
+// Minimises cost over x in [lo, hi] (log-spaced grid, then golden-section
+// search in log x around the best grid point).
+double Minimize1D(const std::function<double(double)>& cost, double lo,
+                  double hi, int num_grid_points) {
+  const double log_lo = std::log(lo);
+  const double log_hi = std::log(hi);
+  const double step = (log_hi - log_lo) / (num_grid_points - 1);
+  int best = 0;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < num_grid_points; ++k) {
+    const double c = cost(std::exp(log_lo + k * step));
+    if (c < best_cost) {
+      best_cost = c;
+      best = k;
+    }
+  }
+  double a = log_lo + std::max(0, best - 1) * step;
+  double b = log_lo + std::min(num_grid_points - 1, best + 1) * step;
+  const double ratio = (std::sqrt(5.0) - 1) / 2;
+  double x1 = b - ratio * (b - a);
+  double x2 = a + ratio * (b - a);
+  double c1 = cost(std::exp(x1));
+  double c2 = cost(std::exp(x2));
+  for (int iteration = 0; iteration < 40 && b - a > 1e-7; ++iteration) {
+    if (c1 < c2) {
+      b = x2;
+      x2 = x1;
+      c2 = c1;
+      x1 = b - ratio * (b - a);
+      c1 = cost(std::exp(x1));
+    } else {
+      a = x1;
+      x1 = x2;
+      c1 = c2;
+      x2 = a + ratio * (b - a);
+      c2 = cost(std::exp(x2));
+    }
+  }
+  const double x = std::exp((a + b) / 2);
+  // The grid point may still beat the refined one (non-smooth costs).
+  const double grid_x = std::exp(log_lo + best * step);
+  return cost(x) <= best_cost ? x : grid_x;
+}
+
+class Calibrator {
+ public:
+  Calibrator(const std::vector<FocalCalibrationPair>& pairs,
+             const FocalCalibrationOptions& options,
+             const std::map<camera_t, Camera>& cameras)
+      : pairs_(pairs), options_(options), cameras_(cameras) {}
+
+  // Scale of each camera's focal (1 for fixed ones).
+  std::map<camera_t, double> scale;
+
+  double PairCost(size_t i) const {
+    const FocalCalibrationPair& pair = pairs_[i];
+    return EssentialSingularValueCost(
+        pair.F, ScaledK(cameras_.at(pair.camera_id1), Scale(pair.camera_id1)),
+        ScaledK(cameras_.at(pair.camera_id2), Scale(pair.camera_id2)));
+  }
+
+  // Weighted mean Cauchy cost of the pairs with indices in `subset`.
+  double Cost(const std::vector<size_t>& subset) const {
+    double sum = 0;
+    double weight = 0;
+    for (const size_t i : subset) {
+      const FocalCalibrationPair& pair = pairs_[i];
+      const double c = PairCost(i);
+      const double r = c / options_.loss_scale;
+      sum += pair.weight * std::log1p(r * r);
+      weight += pair.weight;
+    }
+    return weight > 0 ? sum / weight : 0.0;
+  }
+
+  // Searches one factor applied to the cameras in `group` (on top of
+  // `base`), over the pairs `subset`; false (scales restored) with a reason
+  // if the minimum is at the range's end or the cost is flat around it.
+  bool Search(const std::vector<camera_t>& group,
+              const std::map<camera_t, double>& base,
+              const std::vector<size_t>& subset, std::string* reason) {
+    const std::map<camera_t, double> before = scale;
+    auto apply = [&](double x) {
+      for (const camera_t id : group) scale[id] = base.at(id) * x;
+    };
+    auto cost = [&](double x) {
+      apply(x);
+      return Cost(subset);
+    };
+    const double lo = options_.min_focal_ratio;
+    const double hi = options_.max_focal_ratio;
+    const double x = Minimize1D(cost, lo, hi, options_.num_grid_points);
+    // Conditioning is judged on the pairs that agree with the minimum
+    // (outliers add a constant floor to the robust cost).
+    apply(x);
+    std::vector<size_t> inliers;
+    for (const size_t i : subset) {
+      if (PairCost(i) < options_.max_agreeing_cost) inliers.push_back(i);
+    }
+    auto inlier_cost = [&](double y) {
+      apply(y);
+      double sum = 0, weight = 0;
+      for (const size_t i : inliers) {
+        sum += pairs_[i].weight * PairCost(i);
+        weight += pairs_[i].weight;
+      }
+      return weight > 0 ? sum / weight : 0.0;
+    };
+    const double at = inlier_cost(x);
+    const double below = inlier_cost(std::max(lo, x / 1.25));
+    const double above = inlier_cost(std::min(hi, x * 1.25));
+    std::ostringstream why;
+    if (x < lo * 1.02 || x > hi / 1.02) {
+      why << "minimum at the end of the search range (x" << x << ")";
+    } else if (static_cast<int>(inliers.size()) < options_.min_num_pairs) {
+      why << "only " << inliers.size() << " of " << subset.size()
+          << " pairs agree with the minimum";
+    } else if (!(below > options_.min_cost_increase * at &&
+                 above > options_.min_cost_increase * at &&
+                 std::min(below, above) - at > 1e-4)) {
+      why << "flat cost (mean " << at << " at the minimum, " << below << " / "
+          << above << " at x/1.25 / x1.25)";
+    }
+    if (!why.str().empty()) {
+      scale = before;
+      *reason = why.str();
+      return false;
+    }
+    apply(x);
+    return true;
+  }
+
+  double Scale(camera_t id) const {
+    const auto it = scale.find(id);
+    return it == scale.end() ? 1.0 : it->second;
+  }
+
+ private:
+  const std::vector<FocalCalibrationPair>& pairs_;
+  const FocalCalibrationOptions& options_;
+  const std::map<camera_t, Camera>& cameras_;
+};
+
+}  // namespace
+
+bool FocalCalibrationOptions::Check() const {
+  if (!(min_focal_ratio > 0 && min_focal_ratio < 1)) {
+    throw InputError("--ViewGraph.calibration_min_focal_ratio",
+                     "must be in (0, 1)");
+  }
+  if (!(max_focal_ratio > 1)) {
+    throw InputError("--ViewGraph.calibration_max_focal_ratio", "must be > 1");
+  }
+  if (num_grid_points < 3) {
+    throw InputError("--ViewGraph.calibration_num_grid_points", "must be >= 3");
+  }
+  if (min_num_pairs < 1) {
+    throw InputError("--ViewGraph.calibration_min_num_pairs", "must be >= 1");
+  }
+  if (!(loss_scale > 0)) {
+    throw InputError("--ViewGraph.calibration_loss_scale", "must be > 0");
+  }
+  if (!(max_agreeing_cost > 0)) {
+    throw InputError("--ViewGraph.calibration_max_agreeing_cost", "must be > 0");
+  }
+  if (num_sweeps < 1) {
+    throw InputError("--ViewGraph.calibration_num_sweeps", "must be >= 1");
+  }
+  if (!(min_cost_increase >= 1)) {
+    throw InputError("--ViewGraph.calibration_min_cost_increase",
+                     "must be >= 1");
+  }
+  return true;
+}
+
+void AddFocalCalibrationOptions(OptionManager* manager,
+                                FocalCalibrationOptions* options) {
+  manager->Add("ViewGraph.calibrate_focal", &options->calibrate_focal,
+               "self-calibrate the focal length of cameras without a prior "
+               "focal from the pairs' fundamental matrices");
+  manager->Add("ViewGraph.calibration_min_focal_ratio",
+               &options->min_focal_ratio,
+               "lower end of the focal search, times the current focal");
+  manager->Add("ViewGraph.calibration_max_focal_ratio",
+               &options->max_focal_ratio,
+               "upper end of the focal search, times the current focal");
+  manager->Add("ViewGraph.calibration_min_num_pairs", &options->min_num_pairs,
+               "a camera is calibrated from at least this many pairs");
+  manager->Add("ViewGraph.calibration_loss_scale", &options->loss_scale,
+               "Cauchy scale of the per-pair singular value cost");
+  manager->Add("ViewGraph.calibration_max_agreeing_cost",
+               &options->max_agreeing_cost,
+               "a pair agrees with a focal if its cost there is below this");
+  manager->Add("ViewGraph.calibration_num_sweeps", &options->num_sweeps,
+               "coordinate-descent sweeps over several cameras");
+  manager->Add("ViewGraph.calibration_min_cost_increase",
+               &options->min_cost_increase,
+               "the cost at 1.25x / 1/1.25x the focal must exceed the minimum "
+               "by this factor, otherwise the focal is kept");
+}
+
+double EssentialSingularValueCost(const Eigen::Matrix3d& F,
+                                  const Eigen::Matrix3d& K1,
+                                  const Eigen::Matrix3d& K2) {
+  const Eigen::Matrix3d E = K2.transpose() * F * K1;
+  const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(E).singularValues();
+  return s(0) + s(1) > 0 ? (s(0) - s(1)) / (s(0) + s(1)) : 1.0;
+}
+
+std::vector<FocalCalibrationResult> CalibrateFocalLengths(
+    const std::vector<FocalCalibrationPair>& pairs,
+    const FocalCalibrationOptions& options,
+    std::map<camera_t, Camera>* cameras) {
+  options.Check();
+  std::vector<FocalCalibrationResult> results;
+  if (!options.calibrate_focal) return results;
+
+  // Free cameras (no prior focal, a model with a focal and principal point)
+  // and the usable pairs touching each.
+  std::map<camera_t, std::vector<size_t>> camera_pairs;
+  std::set<camera_t> unusable;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const FocalCalibrationPair& pair = pairs[i];
+    if (pair.F.isZero() || !(pair.weight > 0) ||
+        !cameras->count(pair.camera_id1) || !cameras->count(pair.camera_id2)) {
+      continue;
+    }
+    for (const camera_t id : {pair.camera_id1, pair.camera_id2}) {
+      const Camera& camera = cameras->at(id);
+      if (camera.has_prior_focal_length) continue;
+      if (!CameraHasValidParams(camera) ||
+          CameraModelFocalLengthIdxs(camera.model_id).empty() ||
+          CameraModelPrincipalPointIdxs(camera.model_id).size() != 2) {
+        unusable.insert(id);
+        continue;
+      }
+      if (camera_pairs[id].empty() || camera_pairs[id].back() != i) {
+        camera_pairs[id].push_back(i);
+      }
+    }
+  }
+  for (const camera_t id : unusable) camera_pairs.erase(id);
+  // The other cameras (priors, too few pairs) stay fixed at scale 1.
+  std::vector<camera_t> free;
+  for (const auto& [id, indices] : camera_pairs) {
+    FocalCalibrationResult result;
+    result.camera_id = id;
+    result.guess_focal = CameraMeanFocalLength(cameras->at(id));
+    result.focal = result.guess_focal;
+    result.num_pairs = static_cast<int>(indices.size());
+    if (result.num_pairs < options.min_num_pairs) {
+      result.reason = "too few pairs with a fundamental matrix (" +
+                      std::to_string(result.num_pairs) + " < " +
+                      std::to_string(options.min_num_pairs) + ")";
+    } else {
+      free.push_back(id);
+    }
+    results.push_back(result);
+  }
+
+  Calibrator calibrator(pairs, options, *cameras);
+  for (const camera_t id : free) calibrator.scale[id] = 1.0;
+  std::map<camera_t, double> common = calibrator.scale;
+  std::string common_reason;
+  std::vector<size_t> common_subset;
+  if (free.size() > 1) {
+    // One factor for all free cameras first (typically one guess for all,
+    // wrong by the same factor), then each camera on its own.
+    std::set<size_t> subset_set;
+    for (const camera_t id : free) {
+      subset_set.insert(camera_pairs[id].begin(), camera_pairs[id].end());
+    }
+    common_subset.assign(subset_set.begin(), subset_set.end());
+    std::map<camera_t, double> ones = calibrator.scale;
+    if (calibrator.Search(free, ones, common_subset, &common_reason)) {
+      common = calibrator.scale;
+    }
+  }
+  std::map<camera_t, std::string> reasons;
+  std::map<camera_t, bool> accepted;
+  const int num_sweeps = free.size() > 1 ? options.num_sweeps : 1;
+  for (int sweep = 0; sweep < num_sweeps; ++sweep) {
+    if (sweep > 0 && !common_subset.empty()) {
+      // A common factor on top of the current ones moves along the valley
+      // that single-camera steps crawl along.
+      std::string reason;
+      const std::map<camera_t, double> current = calibrator.scale;
+      calibrator.Search(free, current, common_subset, &reason);
+    }
+    for (const camera_t id : free) {
+      // Each camera searched relative to its guess: base scale 1.
+      std::map<camera_t, double> base{{id, 1.0}};
+      std::string reason;
+      if (calibrator.Search({id}, base, camera_pairs[id], &reason)) {
+        accepted[id] = true;
+        reasons.erase(id);
+      } else if (!accepted[id]) {
+        calibrator.scale[id] = common.at(id);
+        reasons[id] = reason;
+      }
+    }
+  }
+
+  for (FocalCalibrationResult& result : results) {
+    Camera& camera = cameras->at(result.camera_id);
+    const auto it = calibrator.scale.find(result.camera_id);
+    if (it != calibrator.scale.end() && it->second != 1.0) {
+      for (const int idx : CameraModelFocalLengthIdxs(camera.model_id)) {
+        camera.params[idx] *= it->second;
+      }
+      result.calibrated = true;
+      result.focal = CameraMeanFocalLength(camera);
+      if (reasons.count(result.camera_id)) {
+        result.reason = "own fit rejected (" + reasons[result.camera_id] +
+                        "): the common factor of all cameras is used";
+      }
+    } else if (result.reason.empty()) {
+      result.reason = reasons.count(result.camera_id)
+                          ? reasons[result.camera_id]
+                          : common_reason;
+    }
+    if (result.calibrated) {
+      LOG(INFO) << "Focal calibration: camera " << result.camera_id << " "
+                << result.guess_focal << " -> " << result.focal << " px from "
+                << result.num_pairs << " pairs"
+                << (result.reason.empty() ? "" : "; " + result.reason);
+    } else {
+      LOG(INFO) << "Focal calibration: camera " << result.camera_id
+                << " keeps its focal " << result.guess_focal << " px ("
+                << result.num_pairs << " pairs): " << result.reason;
+    }
+  }
+  return results;
+}
+
+}  // namespace colmap_irav4

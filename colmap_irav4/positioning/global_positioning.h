@@ -11,8 +11,10 @@ namespace colmap_irav4 {
 // tracks (GLOMAP-style global positioning). Each observation of point X_k in
 // image i gives the world-frame bearing d_ik = R_i^T normalise(K^-1 x_ik) and
 // the residual
-//     r_ik = s_ik d_ik - (X_k - c_i),   s_ik >= 1 (a free scale per observation),
-// under a robust loss. The gauge: the first image's centre is held at the
+//     r_ik = s_ik d_ik - (X_k - c_i),   s_ik >= 1 (a scale per observation),
+// under a robust loss. The scales are eliminated in closed form
+// (s_ik = max(1, <d_ik, X_k - c_i>), variable projection), so that Ceres sees
+// only centres and points and Schur-eliminates the points. The gauge: the first image's centre is held at the
 // origin, the rotations fix the orientation and the lower bound of the scales
 // fixes the scale (the nearest points end up about one unit from a camera).
 // Initialisation is random in a box (seeded), so no prior poses are needed.
@@ -36,11 +38,12 @@ struct GlobalPositionerOptions {
   double max_angular_error_deg = 5.0;
   // Ceres.
   int max_num_iterations = 200;
-  // Loose: this is the initialisation of bundle adjustment (tighter
-  // tolerances cost iterations without changing the result after BA).
-  double function_tolerance = 1e-5;
+  // Loose: this is the initialisation of bundle adjustment. On fountain-P11
+  // 1e-3 / 1e-4 take 9 iterations instead of 39 (1.3 s instead of 4.7 s) and
+  // give the same model after bundle adjustment.
+  double function_tolerance = 1e-3;
   double gradient_tolerance = 1e-10;
-  double parameter_tolerance = 1e-6;
+  double parameter_tolerance = 1e-4;
   // -1: the hardware concurrency.
   int num_threads = -1;
   bool print_progress = false;

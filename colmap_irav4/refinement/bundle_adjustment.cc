@@ -193,6 +193,9 @@ void BundleAdjustmentOptions::Check() const {
   }
   if (!(loss_scale > 0)) throw InputError("BundleAdjustment.loss_scale", "must be positive");
   if (num_rounds < 1) throw InputError("BundleAdjustment.num_rounds", "must be at least 1");
+  if (!(min_filtered_fraction >= 0 && min_filtered_fraction < 1)) {
+    throw InputError("BundleAdjustment.min_filtered_fraction", "must be in [0, 1)");
+  }
   if (!(max_reproj_error >= 0)) {
     throw InputError("BundleAdjustment.max_reproj_error", "must be >= 0");
   }
@@ -237,7 +240,10 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     const size_t num_filtered =
         FilterObservationsWithLargeReprojectionError(options.max_reproj_error, reconstruction);
     local_summary.num_observations_filtered += num_filtered;
-    if (num_filtered == 0) break;
+    if (num_filtered == 0 ||
+        num_filtered < options.min_filtered_fraction * NumObservations(*reconstruction)) {
+      break;
+    }
   }
   local_summary.final_mean_reproj_error = UpdateReprojectionErrors(reconstruction);
   local_summary.num_images = reconstruction->images.size();

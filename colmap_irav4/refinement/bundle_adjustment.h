@@ -12,7 +12,7 @@ namespace colmap_irav4 {
 // intrinsics block per camera (shared by its images), Schur elimination of
 // the points, robust loss. Run in rounds: after each, observations with a
 // reprojection error above max_reproj_error are unlinked, and the next round
-// starts from the result (stops early when nothing was removed).
+// starts from the result (stops early when few were removed).
 //
 // Gauge: the first image's pose is held fixed and so is the component of the
 // second image's translation most sensitive to scale, as COLMAP does; with
@@ -38,12 +38,18 @@ struct BundleAdjustmentOptions {
   // removed after each round (0: no filtering, a single round).
   int num_rounds = 3;
   double max_reproj_error = 4.0;
+  // Another round only if the filter removed at least this fraction of the
+  // observations (fountain-P11: 1 round instead of 3, 5.5 s -> 3.7 s for the
+  // stages after rotation averaging, same accuracy).
+  double min_filtered_fraction = 0.01;
   // "auto" (COLMAP's rule: DENSE_SCHUR below 50 images, else SPARSE_SCHUR),
   // "sparse_schur", "dense_schur", "iterative_schur".
   std::string linear_solver = "auto";
   // Ceres.
   int max_num_iterations = 100;
-  double function_tolerance = 1e-6;
+  // 1e-5: on fountain-P11 20 instead of 30 iterations over the two bundle
+  // adjustments of the pipeline, same accuracy against the ground truth.
+  double function_tolerance = 1e-5;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
   int num_threads = -1;  // -1: the hardware concurrency

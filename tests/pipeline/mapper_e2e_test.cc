@@ -50,7 +50,7 @@ std::string ReadText(const std::string& path) {
 }
 
 void CheckStrechaScene(const std::string& scene, int num_images,
-                       bool with_images) {
+                       bool with_images, const std::string& options = "") {
   const std::string dir =
       std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/" + scene;
   const std::string database = dir + "/database.db";
@@ -61,7 +61,7 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   const RunResult run = RunProgram(
       "mapper --database_path " + database +
           (with_images ? " --image_path " + dir + "/images" : "") +
-          " --output_path " + sparse + " --Mapper.num_threads 2",
+          " --output_path " + sparse + " --Mapper.num_threads 2 " + options,
       temp);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_EQ(HashFile(database), hash_before) << "the database was modified";
@@ -92,7 +92,7 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   EXPECT_EQ(comparison.num_inliers, num_images);
   EXPECT_LT(comparison.rotation_error_median_deg, 0.1);
   EXPECT_LT(comparison.center_error_median, 0.01);  // metres
-  std::cout << scene << ": rotation error median "
+  std::cout << scene << " " << options << ": rotation error median "
             << comparison.rotation_error_median_deg << " deg, centre error "
             << "median " << comparison.center_error_median * 1000
             << " mm, mean reprojection error " << mean_error << " px, "
@@ -139,6 +139,13 @@ TEST(MapperE2E, FountainP11MatchesGroundTruth) {
 
 TEST(MapperE2E, HerzJesusP8MatchesGroundTruth) {
   CheckStrechaScene("Herz-Jesus-P8", 8, /*with_images=*/false);
+}
+
+// The alternatives: BATA translation averaging and L1-IRLS rotations.
+TEST(MapperE2E, HerzJesusP8TranslationAveragingAndL1Irls) {
+  CheckStrechaScene("Herz-Jesus-P8", 8, /*with_images=*/false,
+                    "--Mapper.positioning_method translation_averaging "
+                    "--Mapper.rotation_method l1_irls");
 }
 
 // A copy of the bundled example database (ids 1..11) in `temp`.

@@ -50,6 +50,9 @@ TEST(GlobalPositioning, RecoversCentersOfExactScene) {
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   Reconstruction reconstruction = PrepareFromTracks(scene);
   GlobalPositionerOptions options;
+  // Exact data: solved to tight tolerances the cost's minimum is the truth.
+  options.function_tolerance = 1e-10;
+  options.parameter_tolerance = 1e-10;
   GlobalPositionerSummary summary;
   ASSERT_TRUE(RunGlobalPositioning(options, &reconstruction, &summary));
   EXPECT_EQ(summary.num_images, 15);

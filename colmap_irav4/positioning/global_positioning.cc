@@ -13,15 +13,11 @@
 #include "colmap_irav4/positioning/direction_cost.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
-
-int EffectiveNumThreads(int num_threads) {
-  if (num_threads > 0) return num_threads;
-  return std::max(1u, std::thread::hardware_concurrency());
-}
 
 void GlobalPositionerOptions::Check() const {
   if (min_track_length < 2) {
@@ -155,18 +151,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   solver_options.linear_solver_type =
       centers.size() < 50 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   solver_options.linear_solver_ordering = ordering;
-  solver_options.max_num_iterations = options.max_num_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.gradient_tolerance = options.gradient_tolerance;
-  solver_options.parameter_tolerance = options.parameter_tolerance;
-  solver_options.num_threads = EffectiveNumThreads(options.num_threads);
-  solver_options.minimizer_progress_to_stdout = options.print_progress;
-  solver_options.logging_type =
-      options.print_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
-
-  ceres::Solver::Summary solver_summary;
-  ceres::Solve(solver_options, &problem, &solver_summary);
-  if (options.print_progress) LOG(INFO) << solver_summary.FullReport();
+  const ceres::Solver::Summary solver_summary =
+      SolveProblem("global positioning", options, solver_options, &problem);
 
   local_summary.num_observations = observations.size();
   local_summary.num_iterations = solver_summary.iterations.size();

@@ -46,7 +46,8 @@ struct GlobalPositionerOptions {
   double parameter_tolerance = 1e-4;
   // -1: the hardware concurrency.
   int num_threads = -1;
-  bool print_progress = false;
+  bool print_progress = false;     // Ceres' per-iteration log
+  bool show_progress_bar = false;  // progress bar over the iterations
 
   // Throws InputError naming the offending option.
   void Check() const;
@@ -76,6 +77,5 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           GlobalPositionerSummary* summary = nullptr);
 
 // Shared by global positioning and translation averaging.
-int EffectiveNumThreads(int num_threads);
 
 }  // namespace colmap_irav4

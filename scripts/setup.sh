@@ -12,7 +12,7 @@ PACKAGES=(
   libgoogle-glog-dev libgflags-dev
   libgtest-dev libgmock-dev
   libopencv-core-dev libopencv-imgcodecs-dev
-  colmap
+  colmap time
 )
 
 missing=()

@@ -23,6 +23,7 @@
 #include "colmap_irav4/positioning/translation_averaging.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
@@ -474,6 +475,9 @@ void GlobalMapperOptions::Check() const {
   if (num_threads == 0 || num_threads < -1) {
     throw InputError("--Mapper.num_threads", "must be -1 (all cores) or > 0");
   }
+  if (progress < -1 || progress > 1) {
+    throw InputError("--Mapper.progress", "must be -1 (auto), 0 or 1");
+  }
   if (color_image_downscale != 1 && color_image_downscale != 2 &&
       color_image_downscale != 4 && color_image_downscale != 8) {
     throw InputError("--Mapper.color_image_downscale", "must be 1, 2, 4 or 8");
@@ -516,6 +520,9 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "refine distortion parameters in bundle adjustment");
   manager->Add("Mapper.num_threads", &o.num_threads,
                "threads of every stage (-1: all cores)");
+  manager->Add("Mapper.progress", &o.progress,
+               "progress bars: 1 on, 0 off, -1 on a terminal or >= 100 "
+               "images");
   manager->Add("Mapper.num_ba_iterations", &o.num_ba_iterations,
                "rounds of bundle adjustment + filtering");
   manager->Add("Mapper.positioning_tracks_per_image",
@@ -810,6 +817,13 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
   effective.global_positioning.num_threads = options.num_threads;
   effective.bundle_adjustment.num_threads = options.num_threads;
   effective.translation_averaging.num_threads = options.num_threads;
+  const bool show_progress =
+      options.progress == 1 ||
+      (options.progress == -1 &&
+       (isatty(fileno(stderr)) || database.images.size() >= 100));
+  effective.global_positioning.show_progress_bar = show_progress;
+  effective.bundle_adjustment.show_progress_bar = show_progress;
+  effective.translation_averaging.show_progress_bar = show_progress;
   summary->rotation_method = options.rotation_method;
   summary->positioning_method = options.positioning_method;
   summary->num_database_images = static_cast<int>(database.images.size());

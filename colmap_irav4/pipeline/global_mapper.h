@@ -51,6 +51,9 @@ struct GlobalMapperOptions {
   bool ba_refine_extra_params = true;
   // Ceres / worker threads of every stage; -1: all cores.
   int num_threads = -1;
+  // Progress bars on the iterative stages (positioning, bundle adjustment):
+  // 1 on, 0 off, -1 on a terminal or for long work (>= 100 images).
+  int progress = -1;
   // Rounds of (bundle adjustment, filtering) before retriangulation; each
   // bundle adjustment itself filters by reprojection error between its solves.
   int num_ba_iterations = 2;

@@ -11,8 +11,10 @@ namespace colmap_irav4 {
 // tracks (GLOMAP-style global positioning). Each observation of point X_k in
 // image i gives the world-frame bearing d_ik = R_i^T normalise(K^-1 x_ik) and
 // the residual
-//     r_ik = s_ik d_ik - (X_k - c_i),   s_ik >= 1 (a free scale per observation),
-// under a robust loss. The gauge: the first image's centre is held at the
+//     r_ik = s_ik d_ik - (X_k - c_i),   s_ik >= 1 (a scale per observation),
+// under a robust loss. The scales are eliminated in closed form
+// (s_ik = max(1, <d_ik, X_k - c_i>), variable projection), so that Ceres sees
+// only centres and points and Schur-eliminates the points. The gauge: the first image's centre is held at the
 // origin, the rotations fix the orientation and the lower bound of the scales
 // fixes the scale (the nearest points end up about one unit from a camera).
 // Initialisation is random in a box (seeded), so no prior poses are needed.
@@ -44,7 +46,8 @@ struct GlobalPositionerOptions {
   double parameter_tolerance = 1e-4;
   // -1: the hardware concurrency.
   int num_threads = -1;
-  bool print_progress = false;
+  bool print_progress = false;     // Ceres' per-iteration log
+  bool show_progress_bar = false;  // progress bar over the iterations
 
   // Throws InputError naming the offending option.
   void Check() const;
@@ -74,6 +77,5 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           GlobalPositionerSummary* summary = nullptr);
 
 // Shared by global positioning and translation averaging.
-int EffectiveNumThreads(int num_threads);
 
 }  // namespace colmap_irav4

@@ -13,6 +13,7 @@
 #include "colmap_irav4/positioning/direction_cost.h"  // CreateLossFunction
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 
@@ -202,16 +203,8 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
     ceres::Solver::Options solver_options;
     // One block per image and pair: a sparse Cholesky of the normal equations.
     solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    solver_options.max_num_iterations = options.max_num_iterations;
-    solver_options.function_tolerance = options.function_tolerance;
-    solver_options.gradient_tolerance = options.gradient_tolerance;
-    solver_options.parameter_tolerance = options.parameter_tolerance;
-    solver_options.num_threads = EffectiveNumThreads(options.num_threads);
-    solver_options.minimizer_progress_to_stdout = options.print_progress;
-    solver_options.logging_type =
-        options.print_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
-    ceres::Solver::Summary solver_summary;
-    ceres::Solve(solver_options, &problem, &solver_summary);
+    const ceres::Solver::Summary solver_summary = SolveProblem(
+        "translation averaging", options, solver_options, &problem);
     local_summary.num_iterations += solver_summary.iterations.size();
     local_summary.num_pairs = constraints.size();
     if (!solver_summary.IsSolutionUsable()) {

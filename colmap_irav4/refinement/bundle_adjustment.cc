@@ -11,6 +11,7 @@
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 
@@ -169,18 +170,7 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   }
   if (options.refine_points) solver_options.linear_solver_ordering = ordering;
-  solver_options.max_num_iterations = options.max_num_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.gradient_tolerance = options.gradient_tolerance;
-  solver_options.parameter_tolerance = options.parameter_tolerance;
-  solver_options.num_threads = EffectiveNumThreads(options.num_threads);
-  solver_options.minimizer_progress_to_stdout = options.print_progress;
-  solver_options.logging_type =
-      options.print_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  if (options.print_progress) LOG(INFO) << summary.FullReport();
-  return summary;
+  return SolveProblem("bundle adjustment", options, solver_options, &problem);
 }
 
 }  // namespace

@@ -53,7 +53,8 @@ struct BundleAdjustmentOptions {
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
   int num_threads = -1;  // -1: the hardware concurrency
-  bool print_progress = false;
+  bool print_progress = false;     // Ceres' per-iteration log
+  bool show_progress_bar = false;  // progress bar over the iterations
 
   // Throws InputError naming the offending option.
   void Check() const;

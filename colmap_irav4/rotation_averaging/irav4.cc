@@ -1,10 +1,12 @@
 #include "colmap_irav4/rotation_averaging/irav4.h"
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/cds.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
@@ -103,6 +105,63 @@ AlignmentReference EstimateVertexSet(const RotationGraph& graph,
   return reference;
 }
 
+// Re-initialises badly supported vertices from their best-supported
+// pre-computation (see Irav4Options::reseed_vertices), in vertex order,
+// each seeing the previous ones' new rotations. Returns how many changed.
+int ReseedBadlySupportedVertices(const RotationGraph& graph,
+                                 const Irav4Options& options,
+                                 const std::vector<bool>& estimated,
+                                 std::vector<Eigen::Matrix3d>* rotations) {
+  const double cos_threshold =
+      std::cos(DegToRad(options.reseed_threshold_deg));
+  // angle(A, B) < threshold  <=>  trace(A^T B) > 1 + 2 cos(threshold).
+  const double min_trace = 1.0 + 2.0 * cos_threshold;
+  auto agree = [&](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+    return (a.transpose() * b).trace() > min_trace;
+  };
+  std::vector<Eigen::Matrix3d> predictions;
+  int num_reseeded = 0;
+  for (int p = 0; p < graph.NumVertices(); ++p) {
+    if (!estimated[p]) continue;
+    // Pre-computations R_p^m = R_mp R_m (R_mp = R_pm^T for edges stored as
+    // (p, m)), one per estimated neighbour edge.
+    predictions.clear();
+    for (const auto& [m, e] : graph.Neighbors(p)) {
+      if (!estimated[m]) continue;
+      const RelativeRotation& edge = graph.Edge(e);
+      const Eigen::Matrix3d R_mp =
+          edge.i == m ? edge.R_ij : Eigen::Matrix3d(edge.R_ij.transpose());
+      predictions.push_back(R_mp * (*rotations)[m]);
+    }
+    if (predictions.size() < 2) continue;
+    int current_support = 0;
+    for (const Eigen::Matrix3d& P : predictions) {
+      current_support += agree(P, (*rotations)[p]);
+    }
+    if (current_support >=
+        options.reseed_support_fraction * predictions.size()) {
+      continue;
+    }
+    int best_support = current_support;
+    int best = -1;
+    for (size_t a = 0; a < predictions.size(); ++a) {
+      int support = 0;
+      for (const Eigen::Matrix3d& P : predictions) {
+        support += agree(P, predictions[a]);
+      }
+      if (support > best_support) {
+        best_support = support;
+        best = static_cast<int>(a);
+      }
+    }
+    if (best >= 0) {
+      (*rotations)[p] = predictions[best];
+      ++num_reseeded;
+    }
+  }
+  return num_reseeded;
+}
+
 }  // namespace
 
 ReferenceMethod ReferenceMethodFromString(const std::string& name) {
@@ -147,6 +206,21 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
   manager->Add("RotationAveraging.num_final_rounds",
                &options->num_final_rounds,
                "rounds of inlier selection + global optimisation at the end");
+  manager->Add("RotationAveraging.final_refinement",
+               &options->final_refinement,
+               "IRAv4 after its final optimisation: l1_irls (default: L1 "
+               "then Geman-McClure IRLS on all edges) | irls (IRLS only) | "
+               "none (the paper)");
+  manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
+               "IRAv4 refinement: re-initialise badly supported "
+               "vertices from their best pre-computation, refine again");
+  manager->Add("RotationAveraging.reseed_threshold_deg",
+               &options->reseed_threshold_deg,
+               "IRAv4 re-seeding: agreement threshold (deg)");
+  manager->Add("RotationAveraging.reseed_support_fraction",
+               &options->reseed_support_fraction,
+               "IRAv4 re-seeding: vertices agreeing with fewer than this "
+               "fraction of their edges are checked");
 }
 
 bool Irav4Options::Check() const {
@@ -165,6 +239,21 @@ bool Irav4Options::Check() const {
   if (num_final_rounds < 0) {
     throw InputError("--RotationAveraging.num_final_rounds", "must be >= 0");
   }
+  if (final_refinement != "none" && final_refinement != "irls" &&
+      final_refinement != "l1_irls") {
+    throw InputError("--RotationAveraging.final_refinement",
+                     "must be none, irls or l1_irls, got '" +
+                         final_refinement + "'");
+  }
+  if (!(reseed_threshold_deg > 0 && reseed_threshold_deg < 180)) {
+    throw InputError("--RotationAveraging.reseed_threshold_deg",
+                     "must be in (0, 180)");
+  }
+  if (!(reseed_support_fraction >= 0 && reseed_support_fraction <= 1)) {
+    throw InputError("--RotationAveraging.reseed_support_fraction",
+                     "must be in [0, 1]");
+  }
+  refinement.Check();
   return true;
 }
 
@@ -372,6 +461,35 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   LOG_IF(INFO, options_.log_progress)
       << "IRAv4: final optimisation on " << report_.num_final_inlier_edges
       << " inlier edges (" << result.stage_seconds.back().second << " s)";
+
+  // 6. Optional robust refinement over all edges: the truncated least
+  // squares above ignores every edge beyond theta (so a vertex placed via
+  // outlier edges can never come back) and weighs the inliers uniformly
+  // (at sigma 5 deg many inliers lie beyond theta = 3 deg); L1 then a
+  // smooth redescending loss on all edges fixes both.
+  if (options_.final_refinement != "none" && estimated_vertices.size() >= 2) {
+    const bool run_l1_stage = options_.final_refinement == "l1_irls";
+    timer.Restart();
+    L1IrlsOptions refinement = options_.refinement;
+    refinement.log_progress = refinement.log_progress || options_.log_progress;
+    report_.num_refinement_iterations = RefineRotationsIrls(
+        graph, refinement, estimated, estimated_vertices.front(), &rotations,
+        run_l1_stage);
+    if (options_.reseed_vertices) {
+      report_.num_reseeded_vertices =
+          ReseedBadlySupportedVertices(graph, options_, estimated, &rotations);
+      if (report_.num_reseeded_vertices > 0) {
+        report_.num_refinement_iterations +=
+            RefineRotationsIrls(graph, refinement, estimated,
+                                estimated_vertices.front(), &rotations);
+      }
+      LOG_IF(INFO, options_.log_progress)
+          << "IRAv4: re-seeded " << report_.num_reseeded_vertices
+          << " badly supported vertices";
+    }
+    result.stage_seconds.emplace_back("irls_refinement",
+                                      timer.ElapsedSeconds());
+  }
 
   for (int v = 0; v < n; ++v) {
     result.rotations[to_input(v)] = rotations[v];

@@ -169,7 +169,162 @@ class TangentSystem {
       cg_;
 };
 
+// The unknowns and edges of a tangent problem over `order` (vertices to
+// estimate; the `gauge` ones stay fixed) and the IRL1 / Geman-McClure stages
+// that both L1IrlsAverager and RefineRotationsIrls run on it.
+class TangentProblem {
+ public:
+  TangentProblem(const RotationGraph& graph, const std::vector<int>& order,
+                 const std::vector<bool>& gauge, const L1IrlsOptions& options,
+                 std::vector<Eigen::Matrix3d>* rotations)
+      : graph_(graph), order_(order), options_(options),
+        rotations_(*rotations) {
+    std::vector<bool> member(graph.NumVertices(), false);
+    unknown_index_.assign(graph.NumVertices(), -1);
+    for (int v : order_) {
+      member[v] = true;
+      if (!gauge[v]) unknown_index_[v] = num_unknowns_++;
+    }
+    for (int e = 0; e < graph.NumEdges(); ++e) {
+      if (member[graph.Edge(e).i] && member[graph.Edge(e).j]) {
+        edges_.push_back(e);
+      }
+    }
+    system_ = std::make_unique<TangentSystem>(graph, edges_, unknown_index_,
+                                              num_unknowns_, options_);
+    residuals_.resize(edges_.size());
+    weights_.resize(edges_.size());
+  }
+
+  int NumUnknowns() const { return num_unknowns_; }
+  size_t NumEdges() const { return edges_.size(); }
+  bool UsesCholesky() const { return system_->UsesCholesky(); }
+
+  // Relinearised IRLS-L1 steps; returns the number of iterations run.
+  int RunL1(const Timer& timer, Timer* progress_timer) {
+    const double epsilon = DegToRad(options_.l1_epsilon_deg);
+    return Run("L1", options_.l1_max_iterations,
+               options_.l1_step_tolerance_deg, timer, progress_timer,
+               [epsilon](double r2) {
+                 return 1.0 / std::max(std::sqrt(r2), epsilon);
+               });
+  }
+
+  // Geman-McClure IRLS; returns the number of iterations run.
+  int RunGemanMcClure(const Timer& timer, Timer* progress_timer) {
+    const double sigma_squared =
+        DegToRad(options_.gm_sigma_deg) * DegToRad(options_.gm_sigma_deg);
+    return Run("IRLS", options_.irls_max_iterations,
+               options_.irls_step_tolerance_deg, timer, progress_timer,
+               [sigma_squared](double r2) {
+                 const double ratio = r2 / sigma_squared;
+                 return 1.0 / ((1.0 + ratio) * (1.0 + ratio));
+               });
+  }
+
+ private:
+  template <typename WeightOfSquaredResidual>
+  int Run(const char* stage, int max_iterations, double step_tolerance_deg,
+          const Timer& timer, Timer* progress_timer,
+          const WeightOfSquaredResidual& weight_of) {
+    if (num_unknowns_ == 0) return 0;
+    int num_iterations = 0;
+    for (int iteration = 0; iteration < max_iterations; ++iteration) {
+      for (size_t k = 0; k < edges_.size(); ++k) {
+        const RelativeRotation& e = graph_.Edge(edges_[k]);
+        residuals_[k] = RotationToAngleAxis(rotations_[e.j].transpose() *
+                                            e.R_ij * rotations_[e.i]);
+        weights_[k] = weight_of(residuals_[k].squaredNorm());
+      }
+      if (!system_->Solve(weights_, residuals_, &step_)) {
+        LOG(WARNING) << "L1-IRLS: linear solver failed in the " << stage
+                     << " stage";
+        break;
+      }
+      double sum = 0.0;
+      for (int v : order_) {
+        const int u = unknown_index_[v];
+        if (u < 0) continue;
+        const Eigen::Vector3d w = step_.row(u).transpose();
+        rotations_[v] = rotations_[v] * AngleAxisToRotation(w);
+        sum += w.norm();
+      }
+      const double mean_step = sum / num_unknowns_;
+      ++num_iterations;
+      if (options_.log_progress && progress_timer->ElapsedSeconds() >= 1.0) {
+        progress_timer->Restart();
+        LOG(INFO) << "L1-IRLS: " << stage << " iteration " << iteration + 1
+                  << ", mean step " << RadToDeg(mean_step) << " deg, "
+                  << timer.ElapsedSeconds() << " s";
+      }
+      if (RadToDeg(mean_step) < step_tolerance_deg) break;
+    }
+    return num_iterations;
+  }
+
+  const RotationGraph& graph_;
+  const std::vector<int>& order_;
+  const L1IrlsOptions& options_;
+  std::vector<Eigen::Matrix3d>& rotations_;
+  std::vector<int> unknown_index_;
+  int num_unknowns_ = 0;
+  std::vector<int> edges_;
+  std::unique_ptr<TangentSystem> system_;
+  std::vector<Eigen::Vector3d> residuals_;
+  std::vector<double> weights_;
+  Eigen::MatrixX3d step_;
+};
+
 }  // namespace
+
+int RefineRotationsIrls(const RotationGraph& graph,
+                        const L1IrlsOptions& options,
+                        const std::vector<bool>& estimated, int root,
+                        std::vector<Eigen::Matrix3d>* rotations,
+                        bool run_l1_stage) {
+  options.Check();
+  const int n = graph.NumVertices();
+  CHECK_EQ(static_cast<int>(estimated.size()), n);
+  CHECK_EQ(static_cast<int>(rotations->size()), n);
+  // One gauge vertex per connected part of the estimated sub-graph keeps
+  // every part's Laplacian block non-singular. Parts in BFS order from
+  // `root` first, then from the smallest unvisited vertex.
+  std::vector<int> order;
+  std::vector<bool> gauge(n, false);
+  std::vector<bool> visited(n, false);
+  auto visit_part = [&](int start) {
+    gauge[start] = true;
+    visited[start] = true;
+    size_t head = order.size();
+    order.push_back(start);
+    while (head < order.size()) {
+      const int v = order[head++];
+      for (const auto& [u, e] : graph.Neighbors(v)) {
+        if (estimated[u] && !visited[u]) {
+          visited[u] = true;
+          order.push_back(u);
+        }
+      }
+    }
+  };
+  if (root >= 0 && root < n && estimated[root]) visit_part(root);
+  for (int v = 0; v < n; ++v) {
+    if (estimated[v] && !visited[v]) visit_part(v);
+  }
+  TangentProblem problem(graph, order, gauge, options, rotations);
+  Timer timer;
+  Timer progress_timer;
+  int num_iterations = 0;
+  if (run_l1_stage) num_iterations += problem.RunL1(timer, &progress_timer);
+  num_iterations += problem.RunGemanMcClure(timer, &progress_timer);
+  LOG_IF(INFO, options.log_progress)
+      << "IRLS refinement: " << num_iterations << " iterations, "
+      << timer.ElapsedSeconds() << " s (" << order.size() << " cameras, "
+      << problem.NumEdges() << " edges, "
+      << (problem.UsesCholesky() ? "sparse Cholesky" : "conjugate gradients")
+      << ")";
+  return num_iterations;
+}
 
 L1IrlsAverager::L1IrlsAverager(const L1IrlsOptions& options)
     : options_(options) {
@@ -184,101 +339,24 @@ RotationAveragingResult L1IrlsAverager::Estimate(const RotationGraph& graph) {
   if (tree.order.size() < 2) return result;
 
   // Unknowns: the component's vertices except the gauge (the tree's root).
-  std::vector<int> unknown_index(graph.NumVertices(), -1);
-  int num_unknowns = 0;
-  for (int v : tree.order) {
-    if (v != tree.root) unknown_index[v] = num_unknowns++;
-  }
-  std::vector<int> edges;
-  for (int e = 0; e < graph.NumEdges(); ++e) {
-    if (result.estimated[graph.Edge(e).i]) edges.push_back(e);
-  }
+  std::vector<bool> gauge(graph.NumVertices(), false);
+  gauge[tree.root] = true;
   Timer stage_timer;
-  TangentSystem system(graph, edges, unknown_index, num_unknowns, options_);
-  const bool use_cholesky = system.UsesCholesky();
-  std::vector<Eigen::Matrix3d>& rotations = result.rotations;
-
-  std::vector<Eigen::Vector3d> residuals(edges.size());
-  std::vector<double> weights(edges.size());
-  auto compute_residuals = [&]() {
-    for (size_t k = 0; k < edges.size(); ++k) {
-      const RelativeRotation& e = graph.Edge(edges[k]);
-      residuals[k] = RotationToAngleAxis(rotations[e.j].transpose() * e.R_ij *
-                                         rotations[e.i]);
-    }
-  };
-  // Solves for the step and applies it; returns the mean step (rad), or a
-  // negative value if the solver failed.
-  Eigen::MatrixX3d step;
-  auto solve_and_update = [&]() -> double {
-    if (!system.Solve(weights, residuals, &step)) return -1.0;
-    double sum = 0.0;
-    for (int v : tree.order) {
-      const int u = unknown_index[v];
-      if (u < 0) continue;
-      const Eigen::Vector3d w = step.row(u).transpose();
-      rotations[v] = rotations[v] * AngleAxisToRotation(w);
-      sum += w.norm();
-    }
-    return sum / num_unknowns;
-  };
-
+  TangentProblem problem(graph, tree.order, gauge, options_,
+                         &result.rotations);
   // Progress lines at most once a second, and one per stage.
   Timer progress_timer;
-  int num_iterations = 0;
-  const double l1_epsilon = DegToRad(options_.l1_epsilon_deg);
-  for (int iteration = 0; iteration < options_.l1_max_iterations;
-       ++iteration) {
-    compute_residuals();
-    for (size_t k = 0; k < edges.size(); ++k) {
-      weights[k] = 1.0 / std::max(residuals[k].norm(), l1_epsilon);
-    }
-    const double mean_step = solve_and_update();
-    if (mean_step < 0) {
-      LOG(WARNING) << "L1-IRLS: linear solver failed in the L1 stage";
-      break;
-    }
-    ++num_iterations;
-    if (options_.log_progress && progress_timer.ElapsedSeconds() >= 1.0) {
-      progress_timer.Restart();
-      LOG(INFO) << "L1-IRLS: L1 iteration " << iteration + 1
-                << ", mean step " << RadToDeg(mean_step) << " deg, "
-                << timer.ElapsedSeconds() << " s";
-    }
-    if (RadToDeg(mean_step) < options_.l1_step_tolerance_deg) break;
-  }
+  int num_iterations = problem.RunL1(timer, &progress_timer);
   result.stage_seconds.emplace_back("l1", stage_timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
       << "L1-IRLS: L1 stage done, " << num_iterations << " iterations, "
-      << stage_timer.ElapsedSeconds() << " s (" << num_unknowns + 1
-      << " cameras, " << edges.size() << " edges, "
-      << (use_cholesky ? "sparse Cholesky" : "conjugate gradients") << ")";
+      << stage_timer.ElapsedSeconds() << " s (" << problem.NumUnknowns() + 1
+      << " cameras, " << problem.NumEdges() << " edges, "
+      << (problem.UsesCholesky() ? "sparse Cholesky" : "conjugate gradients")
+      << ")";
 
   stage_timer.Restart();
-  num_iterations = 0;
-  const double sigma_squared =
-      DegToRad(options_.gm_sigma_deg) * DegToRad(options_.gm_sigma_deg);
-  for (int iteration = 0; iteration < options_.irls_max_iterations;
-       ++iteration) {
-    compute_residuals();
-    for (size_t k = 0; k < edges.size(); ++k) {
-      const double ratio = residuals[k].squaredNorm() / sigma_squared;
-      weights[k] = 1.0 / ((1.0 + ratio) * (1.0 + ratio));
-    }
-    const double mean_step = solve_and_update();
-    if (mean_step < 0) {
-      LOG(WARNING) << "L1-IRLS: linear solver failed in the IRLS stage";
-      break;
-    }
-    ++num_iterations;
-    if (options_.log_progress && progress_timer.ElapsedSeconds() >= 1.0) {
-      progress_timer.Restart();
-      LOG(INFO) << "L1-IRLS: IRLS iteration " << iteration + 1
-                << ", mean step " << RadToDeg(mean_step) << " deg, "
-                << timer.ElapsedSeconds() << " s";
-    }
-    if (RadToDeg(mean_step) < options_.irls_step_tolerance_deg) break;
-  }
+  num_iterations = problem.RunGemanMcClure(timer, &progress_timer);
   result.stage_seconds.emplace_back("irls", stage_timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
       << "L1-IRLS: IRLS stage done, " << num_iterations << " iterations, "

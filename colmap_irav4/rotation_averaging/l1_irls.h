@@ -1,6 +1,9 @@
 #pragma once
 
 #include <string>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "colmap_irav4/rotation_averaging/rotation_graph.h"
 
@@ -48,6 +51,20 @@ struct L1IrlsOptions {
   // Throws InputError naming the offending option.
   void Check() const;
 };
+
+// The Geman-McClure IRLS stage of L1-IRLS alone (no spanning tree, no L1
+// stage), from the given rotations: refines every vertex v with estimated[v]
+// over all edges between two estimated vertices, with options' irls_* and
+// gm_sigma_deg and linear solver settings. One vertex per connected part of
+// the estimated sub-graph stays fixed as the gauge (`root` for its part, if
+// estimated; else the part's first vertex). With `run_l1_stage`, the L1
+// stage (l1_* options) runs first, as in L1IrlsAverager. Deterministic.
+// Returns the number of iterations run (both stages).
+int RefineRotationsIrls(const RotationGraph& graph,
+                        const L1IrlsOptions& options,
+                        const std::vector<bool>& estimated, int root,
+                        std::vector<Eigen::Matrix3d>* rotations,
+                        bool run_l1_stage = false);
 
 class L1IrlsAverager : public RotationAverager {
  public:

@@ -19,6 +19,18 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
        [](const RotationAveragerOptions& o) {
          Irav4Options irav4 = o.irav4;
          irav4.engine = o.ira.engine;  // one set of engine options
+         irav4.refinement = o.l1_irls;  // one set of IRLS options
+         irav4.log_progress = irav4.log_progress || o.log_progress;
+         return std::make_unique<Irav4>(irav4);
+       }},
+      // IRAv4 exactly as the paper describes it (final_refinement none,
+      // whatever --RotationAveraging.final_refinement says), to compare.
+      {"irav4_paper",
+       [](const RotationAveragerOptions& o) {
+         Irav4Options irav4 = o.irav4;
+         irav4.engine = o.ira.engine;
+         irav4.refinement = o.l1_irls;
+         irav4.final_refinement = "none";
          irav4.log_progress = irav4.log_progress || o.log_progress;
          return std::make_unique<Irav4>(irav4);
        }},
@@ -48,6 +60,7 @@ void RotationAveragerOptions::Check() const {
   ira.Check();
   Irav4Options irav4_with_engine = irav4;
   irav4_with_engine.engine = ira.engine;
+  irav4_with_engine.refinement = l1_irls;
   irav4_with_engine.Check();
   l1_irls.Check();
 }
@@ -85,11 +98,13 @@ void AddRotationAveragerOptions(OptionManager* options,
   options->Add(p + "l1_epsilon_deg", &l1->l1_epsilon_deg,
                "L1-IRLS: residual floor of the L1 weights (deg)");
   options->Add(p + "irls_max_iterations", &l1->irls_max_iterations,
-               "L1-IRLS: Geman-McClure IRLS iterations");
+               "L1-IRLS (and IRAv4's irls refinement): Geman-McClure IRLS "
+               "iterations");
   options->Add(p + "irls_step_tolerance_deg", &l1->irls_step_tolerance_deg,
                "L1-IRLS: IRLS stops below this mean step (deg)");
   options->Add(p + "gm_sigma_deg", &l1->gm_sigma_deg,
-               "L1-IRLS: Geman-McClure scale (deg)");
+               "L1-IRLS (and IRAv4's irls refinement): Geman-McClure scale "
+               "(deg)");
   options->Add(p + "linear_solver", &l1->linear_solver,
                "L1-IRLS: auto, cholesky or cg");
   options->Add(p + "max_cholesky_flops", &l1->max_cholesky_flops,

@@ -167,5 +167,49 @@ TEST(L1Irls, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
 }
 
+// The shared IRLS stage from given rotations: two separate parts (one gauge
+// each, kept fixed), a non-estimated vertex left alone, outliers without
+// noise recovered exactly from a 2 deg perturbation of the truth.
+TEST(L1Irls, RefineRotationsIrlsFromGivenRotations) {
+  const Scene first = MakeScene(40, 150, 0.0, 0.2, 3);
+  const Scene second = MakeScene(30, 100, 0.0, 0.2, 4);
+  RotationGraph graph(71);
+  std::vector<Eigen::Matrix3d> truth(71, Eigen::Matrix3d::Identity());
+  for (int e = 0; e < first.graph.NumEdges(); ++e) {
+    const RelativeRotation& r = first.graph.Edge(e);
+    graph.AddEdge(r.i, r.j, r.R_ij);
+  }
+  for (int e = 0; e < second.graph.NumEdges(); ++e) {
+    const RelativeRotation& r = second.graph.Edge(e);
+    graph.AddEdge(40 + r.i, 40 + r.j, r.R_ij);
+  }
+  graph.AddEdge(0, 70, Eigen::Matrix3d::Identity());
+  for (int v = 0; v < 40; ++v) truth[v] = first.truth[v];
+  for (int v = 0; v < 30; ++v) truth[40 + v] = second.truth[v];
+  std::mt19937_64 rng(9);
+  std::vector<Eigen::Matrix3d> rotations(71, Eigen::Matrix3d::Identity());
+  std::vector<bool> estimated(71, true);
+  estimated[70] = false;
+  for (int v = 0; v < 70; ++v) {
+    rotations[v] = truth[v];
+    // The gauges (5: given root; 40: first of the second part) stay exact.
+    if (v != 5 && v != 40) {
+      rotations[v] = RandomRotationWithAngle(DegToRad(2.0), &rng) * truth[v];
+    }
+  }
+  const std::vector<Eigen::Matrix3d> initial = rotations;
+  const int iterations =
+      RefineRotationsIrls(graph, L1IrlsOptions(), estimated, 5, &rotations);
+  EXPECT_GT(iterations, 0);
+  for (int v : {5, 40, 70}) {
+    EXPECT_TRUE((rotations[v].array() == initial[v].array()).all()) << v;
+  }
+  for (int v = 0; v < 70; ++v) {
+    EXPECT_LT(RadToDeg(RotationAngle(rotations[v] * truth[v].transpose())),
+              0.01)
+        << v;
+  }
+}
+
 }  // namespace
 }  // namespace colmap_irav4

@@ -105,63 +105,6 @@ AlignmentReference EstimateVertexSet(const RotationGraph& graph,
   return reference;
 }
 
-// Re-initialises badly supported vertices from their best-supported
-// pre-computation (see Irav4Options::reseed_vertices), in vertex order,
-// each seeing the previous ones' new rotations. Returns how many changed.
-int ReseedBadlySupportedVertices(const RotationGraph& graph,
-                                 const Irav4Options& options,
-                                 const std::vector<bool>& estimated,
-                                 std::vector<Eigen::Matrix3d>* rotations) {
-  const double cos_threshold =
-      std::cos(DegToRad(options.reseed_threshold_deg));
-  // angle(A, B) < threshold  <=>  trace(A^T B) > 1 + 2 cos(threshold).
-  const double min_trace = 1.0 + 2.0 * cos_threshold;
-  auto agree = [&](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-    return (a.transpose() * b).trace() > min_trace;
-  };
-  std::vector<Eigen::Matrix3d> predictions;
-  int num_reseeded = 0;
-  for (int p = 0; p < graph.NumVertices(); ++p) {
-    if (!estimated[p]) continue;
-    // Pre-computations R_p^m = R_mp R_m (R_mp = R_pm^T for edges stored as
-    // (p, m)), one per estimated neighbour edge.
-    predictions.clear();
-    for (const auto& [m, e] : graph.Neighbors(p)) {
-      if (!estimated[m]) continue;
-      const RelativeRotation& edge = graph.Edge(e);
-      const Eigen::Matrix3d R_mp =
-          edge.i == m ? edge.R_ij : Eigen::Matrix3d(edge.R_ij.transpose());
-      predictions.push_back(R_mp * (*rotations)[m]);
-    }
-    if (predictions.size() < 2) continue;
-    int current_support = 0;
-    for (const Eigen::Matrix3d& P : predictions) {
-      current_support += agree(P, (*rotations)[p]);
-    }
-    if (current_support >=
-        options.reseed_support_fraction * predictions.size()) {
-      continue;
-    }
-    int best_support = current_support;
-    int best = -1;
-    for (size_t a = 0; a < predictions.size(); ++a) {
-      int support = 0;
-      for (const Eigen::Matrix3d& P : predictions) {
-        support += agree(P, predictions[a]);
-      }
-      if (support > best_support) {
-        best_support = support;
-        best = static_cast<int>(a);
-      }
-    }
-    if (best >= 0) {
-      (*rotations)[p] = predictions[best];
-      ++num_reseeded;
-    }
-  }
-  return num_reseeded;
-}
-
 }  // namespace
 
 ReferenceMethod ReferenceMethodFromString(const std::string& name) {
@@ -255,6 +198,60 @@ bool Irav4Options::Check() const {
   }
   refinement.Check();
   return true;
+}
+
+int ReseedBadlySupportedVertices(const RotationGraph& graph,
+                                 const Irav4Options& options,
+                                 const std::vector<bool>& estimated,
+                                 std::vector<Eigen::Matrix3d>* rotations) {
+  const double cos_threshold =
+      std::cos(DegToRad(options.reseed_threshold_deg));
+  // angle(A, B) < threshold  <=>  trace(A^T B) > 1 + 2 cos(threshold).
+  const double min_trace = 1.0 + 2.0 * cos_threshold;
+  auto agree = [&](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+    return (a.transpose() * b).trace() > min_trace;
+  };
+  std::vector<Eigen::Matrix3d> predictions;
+  int num_reseeded = 0;
+  for (int p = 0; p < graph.NumVertices(); ++p) {
+    if (!estimated[p]) continue;
+    // Pre-computations R_p^m = R_mp R_m (R_mp = R_pm^T for edges stored as
+    // (p, m)), one per estimated neighbour edge.
+    predictions.clear();
+    for (const auto& [m, e] : graph.Neighbors(p)) {
+      if (!estimated[m]) continue;
+      const RelativeRotation& edge = graph.Edge(e);
+      const Eigen::Matrix3d R_mp =
+          edge.i == m ? edge.R_ij : Eigen::Matrix3d(edge.R_ij.transpose());
+      predictions.push_back(R_mp * (*rotations)[m]);
+    }
+    if (predictions.size() < 2) continue;
+    int current_support = 0;
+    for (const Eigen::Matrix3d& P : predictions) {
+      current_support += agree(P, (*rotations)[p]);
+    }
+    if (current_support >=
+        options.reseed_support_fraction * predictions.size()) {
+      continue;
+    }
+    int best_support = current_support;
+    int best = -1;
+    for (size_t a = 0; a < predictions.size(); ++a) {
+      int support = 0;
+      for (const Eigen::Matrix3d& P : predictions) {
+        support += agree(P, predictions[a]);
+      }
+      if (support > best_support) {
+        best_support = support;
+        best = static_cast<int>(a);
+      }
+    }
+    if (best >= 0) {
+      (*rotations)[p] = predictions[best];
+      ++num_reseeded;
+    }
+  }
+  return num_reseeded;
 }
 
 AlignmentReference BuildAlignmentReference(const RotationGraph& graph,

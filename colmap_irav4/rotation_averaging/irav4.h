@@ -93,6 +93,16 @@ AlignmentReference BuildAlignmentReference(const RotationGraph& graph,
                                            const Irav4Options& options,
                                            ReferenceMethod method);
 
+// IRAv4's re-seeding step (Irav4Options::reseed_vertices, reseed_*): every
+// estimated vertex agreeing with fewer than reseed_support_fraction of its
+// estimated neighbours' predictions R_mp R_m is set to its best-supported
+// prediction if that has more support. Vertex order, each vertex seeing the
+// previous ones' new rotations. Returns how many vertices changed.
+int ReseedBadlySupportedVertices(const RotationGraph& graph,
+                                 const Irav4Options& options,
+                                 const std::vector<bool>& estimated,
+                                 std::vector<Eigen::Matrix3d>* rotations);
+
 // What the last Estimate did, for reports and benchmarks.
 struct Irav4Report {
   int num_vertices = 0;            // of the largest connected component

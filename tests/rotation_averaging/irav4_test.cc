@@ -176,6 +176,33 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
   EXPECT_THROW(Irav4{refined}, InputError);
 }
 
+// A vertex set far off (as if chained through outlier edges) is put back
+// near the truth from its neighbours; well-supported vertices are left alone.
+TEST(Irav4, ReseedingRestoresAWronglyPlacedVertex) {
+  const SyntheticProblem problem =
+      CommunityProblem(1, 40, 0.2, 0.0, 2.0, 0.25, 12);
+  std::vector<Eigen::Matrix3d> rotations = problem.ground_truth;
+  std::mt19937_64 rng(13);
+  const int wrong = 7;
+  rotations[wrong] =
+      RandomRotationWithAngle(DegToRad(120.0), &rng) * rotations[wrong];
+  std::vector<bool> estimated(40, true);
+  const Irav4Options options;
+  EXPECT_EQ(ReseedBadlySupportedVertices(problem.graph, options, estimated,
+                                         &rotations),
+            1);
+  // One edge's prediction: within a few noise sigmas of the truth.
+  EXPECT_LT(RadToDeg(RotationAngle(rotations[wrong] *
+                                   problem.ground_truth[wrong].transpose())),
+            10.0);
+  for (int v = 0; v < 40; ++v) {
+    if (v == wrong) continue;
+    EXPECT_TRUE(
+        (rotations[v].array() == problem.ground_truth[v].array()).all())
+        << v;
+  }
+}
+
 TEST(Irav4, LargestComponentOnly) {
   SyntheticProblem problem = CommunityProblem(1, 40, 0.5, 0.0, 1.0, 0.0, 4);
   RotationGraph graph = problem.graph;

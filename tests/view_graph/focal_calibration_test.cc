@@ -259,10 +259,10 @@ TEST(FocalCalibration, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
 }
 
-// The fountain database with its focal x1.3 and no prior, as COLMAP would
+// The fountain database with its focal x factor and no prior, as COLMAP would
 // leave it without EXIF focal: the view graph calibrates the focal back and
 // derives accurate relative rotations.
-TEST(FocalCalibration, StrechaFountainPerturbedFocal) {
+void CheckPerturbedFountain(double factor) {
   const std::string scene =
       std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11";
   const std::string shared = scene + "/database.db";
@@ -276,8 +276,8 @@ TEST(FocalCalibration, StrechaFountainPerturbedFocal) {
   ASSERT_EQ(CameraModelIdToName(camera.model_id), "PINHOLE");
   ASSERT_TRUE(camera.has_prior_focal_length);
   std::vector<double> params = camera.params;
-  params[0] *= 1.3;
-  params[1] *= 1.3;
+  params[0] *= factor;
+  params[1] *= factor;
   {
     test::SqliteWriter writer(path);
     writer.Run("UPDATE cameras SET params = ?, prior_focal_length = 0 WHERE camera_id = ?",
@@ -289,7 +289,7 @@ TEST(FocalCalibration, StrechaFountainPerturbedFocal) {
   }
   const DatabaseContents database = ReadDatabase(path);
   ASSERT_FALSE(database.cameras.begin()->second.has_prior_focal_length);
-  ASSERT_NEAR(database.cameras.begin()->second.params[0], 1.3 * camera.params[0], 1e-6);
+  ASSERT_NEAR(database.cameras.begin()->second.params[0], factor * camera.params[0], 1e-6);
 
   std::map<std::string, Rigid3d> gt;
   for (const auto& [name, gt_camera] : ReadStrechaGroundTruth(scene + "/gt_cameras")) {
@@ -308,10 +308,10 @@ TEST(FocalCalibration, StrechaFountainPerturbedFocal) {
   const ViewGraph uncalibrated = BuildViewGraph(database, options, &summary_off);
   const RelativePoseErrors e_off = EvaluateRelativePoses(uncalibrated, gt);
   std::printf(
-      "fountain focal x1.3 (%.1f): calibrated fx %.1f fy %.1f (K.txt 2759.48 "
+      "fountain focal x%.3f (%.1f): calibrated fx %.1f fy %.1f (K.txt 2759.48 "
       "2764.16) from %d pairs; %zu pairs kept, rotation median %.5f max %.3f "
       "deg; without calibration %zu pairs, rotation median %.3f max %.3f deg\n",
-      params[0], calibrated.params[0], calibrated.params[1],
+      factor, params[0], calibrated.params[0], calibrated.params[1],
       summary.focal_calibration[0].num_pairs, view_graph.pairs.size(),
       e.rotation_median_deg, e.rotation_max_deg, uncalibrated.pairs.size(),
       e_off.rotation_median_deg, e_off.rotation_max_deg);
@@ -331,6 +331,10 @@ TEST(FocalCalibration, StrechaFountainPerturbedFocal) {
   EXPECT_TRUE(summary_prior.focal_calibration.empty());
   EXPECT_EQ(with_prior.cameras.at(camera.camera_id).params, camera.params);
 }
+
+TEST(FocalCalibration, StrechaFountainFocalTooLong) { CheckPerturbedFountain(1.3); }
+
+TEST(FocalCalibration, StrechaFountainFocalTooShort) { CheckPerturbedFountain(1 / 1.3); }
 
 }  // namespace
 }  // namespace colmap_irav4

@@ -47,34 +47,14 @@ std::string Rematch(const test::TempDir& dir, bool calibrated) {
   return path;
 }
 
-std::map<std::string, Eigen::Matrix3d> ReferenceRotations() {
-  std::ifstream file(kSample + "/reference_model/images.txt");
-  std::map<std::string, Eigen::Matrix3d> rotations;
-  std::string line;
-  bool header_line = true;
-  while (std::getline(file, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    if (header_line) {
-      std::istringstream stream(line);
-      int image_id, camera_id;
-      Eigen::Vector4d q;
-      Eigen::Vector3d t;
-      std::string name;
-      stream >> image_id >> q(0) >> q(1) >> q(2) >> q(3) >> t(0) >> t(1) >> t(2) >> camera_id >> name;
-      rotations[name] = QuaternionToRotation(q);
-    }
-    header_line = !header_line;
-  }
-  return rotations;
-}
-
 TEST(ColmapStoredPose, CalibratedPosesAreCam2FromCam1) {
   if (!HaveColmap()) GTEST_SKIP() << "no colmap binary";
   test::TempDir dir;
   const std::string path = Rematch(dir, true);
   const DatabaseContents contents = ReadDatabase(path);
   EXPECT_TRUE(contents.schema.has_two_view_pose);  // COLMAP added the columns
-  const auto reference = ReferenceRotations();
+  const auto reference =
+      test::ModelRotationsByName(kSample + "/reference_model");
   ASSERT_EQ(reference.size(), 4u);
   ASSERT_GE(contents.two_view_geometries.size(), 5u);
   for (const TwoViewGeometry& geometry : contents.two_view_geometries) {

@@ -138,42 +138,20 @@ TEST(Database, ReadsOlderSchemaWithoutPoseColumns) {
 }
 
 // Relative rotations of the older-schema database against its reference model
-// (reference_model/images.txt, COLMAP's text format).
+// (reference_model, COLMAP's text format).
 TEST(Database, OlderSchemaRelativePosesMatchReferenceModel) {
-  std::ifstream file(kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model/images.txt");
-  ASSERT_TRUE(file);
-  std::map<std::string, Eigen::Matrix3d> reference;
-  std::string line;
-  bool header_line = true;
-  while (std::getline(file, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    if (header_line) {
-      std::istringstream stream(line);
-      int image_id, camera_id;
-      Eigen::Vector4d q;
-      Eigen::Vector3d t;
-      std::string name;
-      stream >> image_id >> q(0) >> q(1) >> q(2) >> q(3) >> t(0) >> t(1) >> t(2) >> camera_id >> name;
-      reference[name] = QuaternionToRotation(q);
-    }
-    header_line = !header_line;
-  }
+  const std::map<std::string, Eigen::Matrix3d> reference = test::ModelRotationsByName(
+      kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model");
   ASSERT_EQ(reference.size(), 4u);
   DatabaseContents contents = ReadDatabase(kMaupertuis);
   // The database holds COLMAP's initial focal guess (1.2 x 1919 px); F -> E
   // needs the true intrinsics: take the reference model's refined camera.
   EXPECT_NEAR(contents.cameras.at(1).params[0], 1.2 * 1919, 1e-9);
-  std::ifstream cameras_file(kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model/cameras.txt");
-  while (std::getline(cameras_file, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream stream(line);
-    std::string id, model;
-    int width, height;
-    double f, cx, cy;
-    stream >> id >> model >> width >> height >> f >> cx >> cy;
-    ASSERT_EQ(model, "SIMPLE_PINHOLE");
-    contents.cameras.at(1).params = {f, cx, cy};
-  }
+  const Camera reference_camera =
+      ReadReconstruction(kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model")
+          .cameras.at(1);
+  ASSERT_EQ(CameraModelIdToName(reference_camera.model_id), "SIMPLE_PINHOLE");
+  contents.cameras.at(1).params = reference_camera.params;
   ViewGraphSummary summary;
   const ViewGraph view_graph = BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
   ASSERT_EQ(view_graph.pairs.size(), 6u);

@@ -13,8 +13,13 @@
 #include <random>
 #include <string>
 #include <vector>
+#include <map>
+
+#include <Eigen/Core>
 
 #include <gtest/gtest.h>
+
+#include "colmap_irav4/io/model_io.h"
 
 namespace colmap_irav4 {
 namespace test {
@@ -196,6 +201,16 @@ CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY NOT NULL,
   rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
   config INTEGER NOT NULL, F BLOB, E BLOB, H BLOB, qvec BLOB, tvec BLOB);
 )sql";
+}
+
+// cam_from_world rotations of a COLMAP model's images, by image name.
+inline std::map<std::string, Eigen::Matrix3d> ModelRotationsByName(
+    const std::string& model_path) {
+  std::map<std::string, Eigen::Matrix3d> rotations;
+  for (const auto& [image_id, image] : ReadReconstruction(model_path).images) {
+    rotations[image.name] = image.cam_from_world.rotation.toRotationMatrix();
+  }
+  return rotations;
 }
 
 }  // namespace test

@@ -9,27 +9,12 @@
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "tests/test_utils/scene_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
 
-// Largest distance between estimated (similarity-aligned) and true camera
-// centres, relative to the scene radius.
-double MaxRelativeCenterError(const Reconstruction& estimate, const Reconstruction& truth,
-                              double scene_radius) {
-  std::vector<Eigen::Vector3d> src, dst;
-  for (const auto& [image_id, image] : estimate.images) {
-    src.push_back(image.ProjectionCenter());
-    dst.push_back(truth.images.at(image_id).ProjectionCenter());
-  }
-  Sim3d sim;
-  EXPECT_TRUE(EstimateSimilarity(src, dst, &sim));
-  double max_error = 0;
-  for (size_t i = 0; i < src.size(); ++i) {
-    max_error = std::max(max_error, (sim * src[i] - dst[i]).norm());
-  }
-  return max_error / scene_radius;
-}
+using test::MaxRelativeCenterError;
 
 Reconstruction PrepareFromTracks(const SyntheticScene& scene) {
   Reconstruction reconstruction = StripPoints(scene.truth);

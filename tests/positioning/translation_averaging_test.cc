@@ -8,23 +8,12 @@
 #include "colmap_irav4/eval/synthetic_scene.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
+#include "tests/test_utils/scene_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
 
-double MaxRelativeCenterError(const Reconstruction& estimate, const Reconstruction& truth,
-                              double radius) {
-  std::vector<Eigen::Vector3d> src, dst;
-  for (const auto& [image_id, image] : estimate.images) {
-    src.push_back(image.ProjectionCenter());
-    dst.push_back(truth.images.at(image_id).ProjectionCenter());
-  }
-  Sim3d sim;
-  EXPECT_TRUE(EstimateSimilarity(src, dst, &sim));
-  double max_error = 0;
-  for (size_t i = 0; i < src.size(); ++i) max_error = std::max(max_error, (sim * src[i] - dst[i]).norm());
-  return max_error / radius;
-}
+using test::MaxRelativeCenterError;
 
 // All pairs: t_ij of cam_j_from_cam_i, perturbed by noise_deg, a fraction
 // replaced by random directions.

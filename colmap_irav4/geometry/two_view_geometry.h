@@ -119,6 +119,16 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
                                   const FeatureKeypoints& keypoints2,
                                   const RelativePoseOptions& options);
 
+// The same from the keypoints already normalised (undistorted, x/z y/z) by
+// CameraImageToCamera of camera1/camera2, indexed as the keypoints: callers
+// deriving many pairs undistort each image's keypoints once instead of once
+// per pair.
+RelativePose EstimateRelativePoseNormalized(
+    const TwoViewGeometry& geometry, const Camera& camera1,
+    const Camera& camera2, const std::vector<Eigen::Vector2d>& normalized1,
+    const std::vector<Eigen::Vector2d>& normalized2,
+    const RelativePoseOptions& options);
+
 // Building blocks, exposed for tests.
 
 // The four (R, t) of an essential matrix, t unit.

@@ -616,6 +616,9 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "auto, sparse_schur, dense_schur or iterative_schur");
   manager->Add("BundleAdjustment.function_tolerance", &ba.function_tolerance,
                "Ceres function tolerance");
+  manager->Add("BundleAdjustment.initial_trust_region_radius",
+               &ba.initial_trust_region_radius,
+               "Levenberg-Marquardt's initial trust region");
   manager->Add("BundleAdjustment.print_progress", &ba.print_progress,
                "print Ceres' iterations");
 

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <atomic>
+#include <functional>
 #include <numeric>
 #include <sstream>
 #include <thread>
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
@@ -159,28 +161,52 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
         calibration_pairs, options.focal_calibration, &cameras);
   }
 
-  std::vector<RelativePose> candidate_poses(candidates.size());
-  std::atomic<size_t> next(0);
-  auto worker = [&]() {
-    for (size_t i = next++; i < candidates.size(); i = next++) {
-      const TwoViewGeometry& geometry = *candidates[i];
-      const DatabaseImage& image1 = database.images.at(geometry.image_id1);
-      const DatabaseImage& image2 = database.images.at(geometry.image_id2);
-      candidate_poses[i] = EstimateRelativePose(
-          geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
-          database.keypoints.at(geometry.image_id1),
-          database.keypoints.at(geometry.image_id2), options.relative_pose);
-    }
-  };
+  // Each image's keypoints are undistorted once (not once per pair: an
+  // image of a dense capture is in hundreds of pairs), then the relative
+  // poses are derived; both in parallel.
   const int num_threads = std::max<int>(
-      1, std::min<int>(options.num_threads > 0
-                           ? options.num_threads
-                           : std::thread::hardware_concurrency(),
-                       static_cast<int>(candidates.size())));
-  std::vector<std::thread> threads;
-  for (int k = 1; k < num_threads; ++k) threads.emplace_back(worker);
-  worker();
-  for (std::thread& thread : threads) thread.join();
+      1, options.num_threads > 0
+             ? options.num_threads
+             : static_cast<int>(std::thread::hardware_concurrency()));
+  auto parallel_for = [num_threads](size_t count,
+                                    const std::function<void(size_t)>& body) {
+    std::atomic<size_t> next(0);
+    auto worker = [&]() {
+      for (size_t i = next++; i < count; i = next++) body(i);
+    };
+    std::vector<std::thread> threads;
+    const int n = std::min<int>(num_threads, static_cast<int>(count));
+    for (int k = 1; k < n; ++k) threads.emplace_back(worker);
+    worker();
+    for (std::thread& thread : threads) thread.join();
+  };
+  std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
+  for (const TwoViewGeometry* geometry : candidates) {
+    normalized[geometry->image_id1];
+    normalized[geometry->image_id2];
+  }
+  std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
+  for (auto& slot : normalized) slots.push_back(&slot);
+  parallel_for(slots.size(), [&](size_t i) {
+    const image_t image_id = slots[i]->first;
+    const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
+    const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
+    std::vector<Eigen::Vector2d>& points = slots[i]->second;
+    points.reserve(keypoints.size());
+    for (const auto& keypoint : keypoints) {
+      points.push_back(CameraImageToCamera(camera, keypoint.cast<double>()));
+    }
+  });
+  std::vector<RelativePose> candidate_poses(candidates.size());
+  parallel_for(candidates.size(), [&](size_t i) {
+    const TwoViewGeometry& geometry = *candidates[i];
+    const DatabaseImage& image1 = database.images.at(geometry.image_id1);
+    const DatabaseImage& image2 = database.images.at(geometry.image_id2);
+    candidate_poses[i] = EstimateRelativePoseNormalized(
+        geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
+        normalized.at(geometry.image_id1), normalized.at(geometry.image_id2),
+        options.relative_pose);
+  });
 
   std::vector<ImagePairGeometry> pairs;
   std::vector<RelativePose> poses;

@@ -1,16 +1,15 @@
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 
 #include <algorithm>
-#include <atomic>
-#include <functional>
 #include <numeric>
 #include <sstream>
-#include <thread>
 
 #include <glog/logging.h>
 
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/threading.h"
+#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -26,14 +25,6 @@ std::vector<std::string> SplitComma(const std::string& text) {
     items.push_back(item.substr(begin, end - begin + 1));
   }
   return items;
-}
-
-int Find(std::vector<int>* parent, int x) {
-  while ((*parent)[x] != x) {
-    (*parent)[x] = (*parent)[(*parent)[x]];
-    x = (*parent)[x];
-  }
-  return x;
 }
 
 }  // namespace
@@ -164,22 +155,6 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   // Each image's keypoints are undistorted once (not once per pair: an
   // image of a dense capture is in hundreds of pairs), then the relative
   // poses are derived; both in parallel.
-  const int num_threads = std::max<int>(
-      1, options.num_threads > 0
-             ? options.num_threads
-             : static_cast<int>(std::thread::hardware_concurrency()));
-  auto parallel_for = [num_threads](size_t count,
-                                    const std::function<void(size_t)>& body) {
-    std::atomic<size_t> next(0);
-    auto worker = [&]() {
-      for (size_t i = next++; i < count; i = next++) body(i);
-    };
-    std::vector<std::thread> threads;
-    const int n = std::min<int>(num_threads, static_cast<int>(count));
-    for (int k = 1; k < n; ++k) threads.emplace_back(worker);
-    worker();
-    for (std::thread& thread : threads) thread.join();
-  };
   std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
   for (const TwoViewGeometry* geometry : candidates) {
     normalized[geometry->image_id1];
@@ -187,7 +162,7 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   }
   std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
   for (auto& slot : normalized) slots.push_back(&slot);
-  parallel_for(slots.size(), [&](size_t i) {
+  ParallelFor(options.num_threads, slots.size(), [&](size_t i) {
     const image_t image_id = slots[i]->first;
     const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
     const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
@@ -198,7 +173,7 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     }
   });
   std::vector<RelativePose> candidate_poses(candidates.size());
-  parallel_for(candidates.size(), [&](size_t i) {
+  ParallelFor(options.num_threads, candidates.size(), [&](size_t i) {
     const TwoViewGeometry& geometry = *candidates[i];
     const DatabaseImage& image1 = database.images.at(geometry.image_id1);
     const DatabaseImage& image2 = database.images.at(geometry.image_id2);
@@ -230,43 +205,39 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     poses.push_back(pose);
   }
 
-  // Connected components over the kept pairs (union-find on image indices).
+  // Connected components over the kept pairs, on image indices in image id
+  // order. An image without a pair is a singleton component and is not
+  // counted. Largest by images first; ties go to the component of the
+  // smallest image id, for determinism.
   std::map<image_t, int> index;
   std::vector<image_t> ids;
   for (const auto& [image_id, image] : database.images) {
     index[image_id] = static_cast<int>(ids.size());
     ids.push_back(image_id);
   }
-  std::vector<int> parent(ids.size());
-  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(pairs.size());
   for (const ImagePairGeometry& pair : pairs) {
-    const int a = Find(&parent, index.at(pair.image_id1));
-    const int b = Find(&parent, index.at(pair.image_id2));
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    edges.emplace_back(index.at(pair.image_id1), index.at(pair.image_id2));
   }
-  std::map<int, int> component_size;  // root -> images with >= 1 pair
+  const std::vector<std::vector<int>> components =
+      ConnectedComponents(static_cast<int>(ids.size()), edges);
   std::vector<char> has_pair(ids.size(), 0);
-  for (const ImagePairGeometry& pair : pairs) {
-    has_pair[index.at(pair.image_id1)] = 1;
-    has_pair[index.at(pair.image_id2)] = 1;
-  }
-  for (size_t i = 0; i < ids.size(); ++i) {
-    if (has_pair[i]) ++component_size[Find(&parent, static_cast<int>(i))];
-  }
-  summary->num_components = static_cast<int>(component_size.size());
-  // Largest by images; ties go to the component of the smallest image id
-  // (the smallest root), for determinism.
-  int best_root = -1;
-  for (const auto& [root, size] : component_size) {
-    if (best_root < 0 || size > component_size[best_root]) best_root = root;
+  for (const auto& [a, b] : edges) has_pair[a] = has_pair[b] = 1;
+  summary->num_components = static_cast<int>(
+      std::count_if(components.begin(), components.end(),
+                    [](const std::vector<int>& c) { return c.size() > 1; }));
+  std::vector<char> in_best(ids.size(), 0);
+  const bool has_best = !components.empty() && components[0].size() > 1;
+  if (has_best) {
+    for (const int i : components[0]) in_best[i] = 1;
   }
 
   ViewGraph view_graph;
   view_graph.cameras = cameras;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const ImagePairGeometry& pair = pairs[i];
-    const bool in_component =
-        best_root >= 0 && Find(&parent, index.at(pair.image_id1)) == best_root;
+    const bool in_component = in_best[index.at(pair.image_id1)];
     if (options.keep_largest_component && !in_component) {
       ++summary->num_dropped["outside the largest component"];
       continue;
@@ -277,15 +248,12 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   }
   for (size_t i = 0; i < ids.size(); ++i) {
     if (!has_pair[i]) continue;
-    if (options.keep_largest_component &&
-        Find(&parent, static_cast<int>(i)) != best_root) {
-      continue;
-    }
+    if (options.keep_largest_component && !in_best[i]) continue;
     view_graph.image_names[ids[i]] = database.images.at(ids[i]).name;
   }
   summary->num_pairs_kept = static_cast<int>(view_graph.pairs.size());
   summary->num_images_in_component =
-      best_root >= 0 ? component_size[best_root] : 0;
+      has_best ? static_cast<int>(components[0].size()) : 0;
   return view_graph;
 }
 

@@ -46,6 +46,8 @@ struct Candidate {
   // number of matches under the threshold and in front of both cameras.
   double cost = 0;
   int support = 0;
+  // Set by Refine: the rotation's standard deviation at the start (deg).
+  double rotation_std_deg = -1;
 };
 
 // Normalised correspondences of the inlier matches.
@@ -239,6 +241,35 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
   Eigen::Matrix<double, 5, 5> JtJ;
   Eigen::Matrix<double, 5, 1> Jtr;
   double cost = evaluate(R, t, &JtJ, &Jtr);
+  // How well the inliers determine the rotation: the largest standard
+  // deviation of the rotation (first-order covariance at the start, the
+  // translation marginalised, noise estimated from the residuals). Where it
+  // is large the cost is flat along a valley (a near-planar scene, a short
+  // baseline with few matches) and minimising it fits the noise: on the
+  // 100-image synthetic courtyard every refined pose more than 5 deg off (29
+  // of 1,043) came from such a walk away from an exact start.
+  {
+    double sum_weighted_sq = 0;
+    // Cauchy IRLS residuals at the start: b (exp(cost_i / b) - 1) = r_i^2;
+    // the weighted squared residual is approximated by the robust cost.
+    sum_weighted_sq = cost;
+    const double dof = std::max<double>(1.0, used.size() - num_params);
+    const double sigma_sq = std::max(sum_weighted_sq / dof, 1e-12);
+    const Eigen::MatrixXd information =
+        JtJ.topLeftCorner(num_params, num_params) / sigma_sq;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
+    double std_rad = std::numeric_limits<double>::infinity();
+    if (eigen.info() == Eigen::Success && eigen.eigenvalues()(0) > 0) {
+      const Eigen::MatrixXd covariance = information.inverse();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation_eigen(
+          covariance.topLeftCorner<3, 3>());
+      std_rad = std::sqrt(std::max(0.0, rotation_eigen.eigenvalues()(2)));
+    }
+    candidate->rotation_std_deg = RadToDeg(std_rad);
+    if (!(candidate->rotation_std_deg <= options.refine_max_rotation_std_deg)) {
+      return;
+    }
+  }
   double lambda = 1e-4;
   for (int iteration = 0; iteration < options.refine_max_num_iterations;
        ++iteration) {
@@ -348,6 +379,10 @@ bool RelativePoseOptions::Check() const {
   if (!(min_stored_pose_support >= 0 && min_stored_pose_support <= 1)) {
     throw InputError("--RelativePose.min_stored_pose_support",
                      "must be in [0, 1]");
+  }
+  if (!(refine_max_rotation_std_deg > 0)) {
+    throw InputError("--RelativePose.refine_max_rotation_std_deg",
+                     "must be > 0");
   }
   if (!(min_tri_angle_deg >= 0)) {
     throw InputError("--RelativePose.min_tri_angle_deg", "must be >= 0");
@@ -717,11 +752,13 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
   if (options.refine && options.refine_max_num_iterations > 0) {
     Candidate refined = chosen;
     Refine(corrs, supporting, focal, options, &refined);
+    result.rotation_std_deg = refined.rotation_std_deg;
     std::vector<char> refined_supporting;
     Score(corrs, focal, options.max_error_px, &refined, &refined_supporting);
     // Refinement minimises a robust cost, not the truncated one: accept it
     // unless it loses support clearly.
-    if (refined.support >= kMinRefinedSupport * chosen.support) {
+    if (refined.rotation_std_deg <= options.refine_max_rotation_std_deg &&
+        refined.support >= kMinRefinedSupport * chosen.support) {
       chosen = refined;
       supporting = refined_supporting;
       result.refined = true;

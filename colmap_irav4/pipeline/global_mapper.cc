@@ -510,6 +510,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "epipolar error threshold of a supporting match (pixels)");
   manager->Add("RelativePose.refine", &rp.refine,
                "refine each relative pose on its inliers");
+  manager->Add("RelativePose.refine_max_rotation_std_deg",
+               &rp.refine_max_rotation_std_deg,
+               "refine only poses whose rotation the inliers determine to "
+               "this standard deviation (deg)");
   manager->Add("RelativePose.min_tri_angle_deg", &rp.min_tri_angle_deg,
                "median triangulation angle below which t is undefined (deg)");
 

@@ -31,6 +31,16 @@ struct Irav4Options {
   IncrementalOptions engine;
   // Community detection for the cluster seeds.
   CommunityDetectionOptions communities;
+  // IRAv3's potential cluster and vertex pre-selection: a cluster may take
+  // the cameras of its own community, and boundary cameras whose edge weight
+  // into its community is at least their weight into their own; clusters
+  // compete by reward per edge into their potential cluster, not raw sums
+  // (raw sums let the largest cluster take every camera: Madrid 3/380/11).
+  // A fallback pass lets any adjacent cluster take what remains.
+  bool preselect_clusters = true;
+  // A cluster stops competing at this size until the fallback pass; 0 = no
+  // cap.
+  int max_cluster_size = 0;
   // "irav4" (the paper), "greedy_cds" or "random_cds" (baselines).
   std::string reference_method = "irav4";
   // Greedy CDS: count neighbours by inlier count instead of one each.
@@ -109,12 +119,16 @@ struct Irav4Report {
   int num_communities = 0;
   int num_clusters = 0;            // communities that produced a seed
   std::vector<int> cluster_sizes;  // after on-the-fly clustering
+  int num_fallback_vertices = 0;   // affiliated by the fallback pass
+  int num_failed_alignments = 0;   // clusters aligned to nothing
+  int num_individually_placed = 0; // vertices placed one by one instead
   int n_ref = 0;
   AlignmentReference reference;    // indices of the input graph
   int num_vertex_guided_alignments = 0;
   int num_final_inlier_edges = 0;
   int num_refinement_iterations = 0;  // final_refinement irls
   int num_reseeded_vertices = 0;      // reseed_vertices
+  bool refinement_used_l1 = false;    // the kept refinement ran L1
 };
 
 // IRAv4 (the paper's section 4 with DESIGN.md's completions): communities ->

@@ -514,7 +514,10 @@ void IncrementalEngine::RecomputeCandidate(int p) {
 void IncrementalEngine::UpdateCandidate(int p, int x, int edge_idx) {
   CandidateState& state = candidates_[p];
   auto& pre = state.precomputations;
-  if (pre.empty()) {
+  // Stale pre-computations (older rotations) would not support the new one
+  // even where they should: a candidate touched after a global optimisation
+  // is recomputed in full once, then updated incrementally again.
+  if (pre.empty() || state.epoch != epoch_) {
     RecomputeCandidate(p);
     return;
   }
@@ -551,9 +554,31 @@ void IncrementalEngine::PushCandidate(int p) {
   queue_.push({state.precomputations[state.best].reward, p, state.version});
 }
 
+void IncrementalEngine::RecomputeAllCandidates() {
+  std::priority_queue<QueueEntry>().swap(queue_);
+  std::vector<int> frontier;
+  frontier.reserve(frontier_list_.size());
+  for (int p : frontier_list_) {
+    if (in_frontier_[p]) frontier.push_back(p);
+  }
+  std::sort(frontier.begin(), frontier.end());
+  frontier.erase(std::unique(frontier.begin(), frontier.end()), frontier.end());
+  frontier_list_ = frontier;
+  for (int p : frontier) {
+    RecomputeCandidate(p);
+    PushCandidate(p);
+  }
+  full_recompute_epoch_ = epoch_;
+}
+
 IncrementalEngine::Candidate IncrementalEngine::BestCandidate() {
   Candidate candidate;
   if (selected_list_.empty()) return candidate;
+  if (!options_.lazy_reward_recomputation && full_recompute_epoch_ != epoch_) {
+    const Timer timer;
+    RecomputeAllCandidates();
+    stats_.reward_seconds += timer.ElapsedSeconds();
+  }
   while (!queue_.empty()) {
     const QueueEntry top = queue_.top();
     const CandidateState& state = candidates_[top.vertex];
@@ -652,8 +677,8 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
       in_frontier_[q] = true;
       frontier_list_.push_back(q);
     }
-    // A stale candidate gets the new pre-computation too (its reward only
-    // orders it until it is recomputed at the top of the queue).
+    // A stale candidate is recomputed here (UpdateCandidate); one not
+    // touched stays stale until it reaches the top of the queue.
     UpdateCandidate(q, p, e);
     PushCandidate(q);
   }

@@ -62,6 +62,12 @@ struct IncrementalOptions {
   // growth), warm-started from the current rotations; the final ones (and
   // GlobalOptimize() called from outside) run to convergence.
   int intermediate_global_iterations = 2;
+  // After a global optimisation, recompute a candidate's rewards only when it
+  // reaches the top of the queue (its stale reward orders it meanwhile; the
+  // chosen candidate's reward is always fresh). false: recompute every
+  // candidate (exact Eq. 8 argmax, the previous behaviour, O(frontier x K x
+  // deg) per global optimisation).
+  bool lazy_reward_recomputation = true;
   // A converged global optimisation stops when the mean step is below this.
   double global_step_tolerance_deg = 1e-6;
   bool Check() const;  // throws InputError
@@ -218,6 +224,7 @@ class IncrementalEngine {
   // Adds the newly selected x to candidate p's pre-computations.
   void UpdateCandidate(int p, int x, int edge_idx);
   void PushCandidate(int p);
+  void RecomputeAllCandidates();
   void RemoveCandidate(int p);
   int FindEdge(int u, int v) const;  // -1 if none
 
@@ -244,6 +251,7 @@ class IncrementalEngine {
   // reaches the top of the queue (lazy: rewards change little with a global
   // optimisation, so only the few best are recomputed).
   int epoch_ = 0;
+  int full_recompute_epoch_ = 0;  // !lazy_reward_recomputation
 
   // Scratch of the Gauss-Newton triplet problems (one entry per vertex).
   std::vector<Eigen::Matrix3d> scratch_rotations_;

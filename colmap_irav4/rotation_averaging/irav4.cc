@@ -247,9 +247,10 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "rounds of inlier selection + global optimisation at the end");
   manager->Add("RotationAveraging.final_refinement",
                &options->final_refinement,
-               "IRAv4 after its final optimisation: l1_irls (default: L1 "
-               "then Geman-McClure IRLS on all edges) | irls (IRLS only) | "
-               "none (the paper)");
+               "IRAv4 after its final optimisation: guarded (default: "
+               "l1_irls kept only if it lowers the Geman-McClure cost, else "
+               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
+               "irls (IRLS only) | none (the paper)");
   manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
                "IRAv4 refinement: re-initialise badly supported "
                "vertices from their best pre-computation, refine again");
@@ -691,29 +692,34 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
     refinement.log_progress = refinement.log_progress || options_.log_progress;
     const int root = estimated_vertices.front();
     if (options_.final_refinement == "guarded") {
-      // Both refinements from IRAv4's rotations; the one with the lower
-      // Geman-McClure cost over all edges is kept. The L1 stage recovers
-      // cameras placed through random outliers, but under structured
-      // outliers (mirrored twins, mutually consistent) it can turn a group
-      // of correct cameras by 180 deg, which the local IRLS never does; the
-      // robust cost over all edges tells the two apart.
-      std::vector<Eigen::Matrix3d> irls_only = rotations;
+      // L1 then IRLS from IRAv4's rotations, kept only if it lowers the
+      // Geman-McClure cost over all edges below that of IRAv4's own
+      // rotations. The L1 stage recovers cameras placed through random
+      // outliers, but it is global: under structured outliers (mirrored
+      // twins, mutually consistent) it can move a group of correct cameras
+      // into the false basin; IRLS alone from there cannot come back, and the
+      // cost says so. Otherwise IRLS alone refines IRAv4's rotations (local:
+      // it stays in their basin). One cost evaluation, O(E), in the usual
+      // case.
+      const double sigma = DegToRad(options_.refinement.gm_sigma_deg);
+      std::vector<Eigen::Matrix3d> unrefined = rotations;
+      const double cost_before =
+          GemanMcClureCost(graph, estimated, rotations, sigma);
       report_.num_refinement_iterations =
           RefineRotationsIrls(graph, refinement, estimated, root, &rotations,
                               /*run_l1_stage=*/true);
-      report_.num_refinement_iterations += RefineRotationsIrls(
-          graph, refinement, estimated, root, &irls_only, false);
-      const double sigma = DegToRad(options_.refinement.gm_sigma_deg);
-      const double cost_l1 =
+      const double cost_after =
           GemanMcClureCost(graph, estimated, rotations, sigma);
-      const double cost_irls =
-          GemanMcClureCost(graph, estimated, irls_only, sigma);
-      report_.refinement_used_l1 = cost_l1 <= cost_irls;
-      if (!report_.refinement_used_l1) rotations.swap(irls_only);
+      report_.refinement_used_l1 = cost_after <= cost_before;
+      if (!report_.refinement_used_l1) {
+        rotations.swap(unrefined);
+        report_.num_refinement_iterations += RefineRotationsIrls(
+            graph, refinement, estimated, root, &rotations, false);
+      }
       LOG_IF(INFO, options_.log_progress)
-          << "IRAv4: guarded refinement, Geman-McClure cost " << cost_l1
-          << " (L1 + IRLS) vs " << cost_irls << " (IRLS): keeping "
-          << (report_.refinement_used_l1 ? "L1 + IRLS" : "IRLS");
+          << "IRAv4: guarded refinement, Geman-McClure cost " << cost_before
+          << " before, " << cost_after << " after L1 + IRLS: "
+          << (report_.refinement_used_l1 ? "kept" : "rejected, IRLS only");
     } else {
       report_.refinement_used_l1 = options_.final_refinement == "l1_irls";
       report_.num_refinement_iterations =

@@ -145,7 +145,7 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
       CommunityProblem(2, 60, 0.3, 0.03, 5.0, 0.3, 11);
   Irav4Options paper;
   paper.final_refinement = "none";
-  Irav4Options refined;  // the default: final_refinement l1_irls
+  Irav4Options refined;  // the default: final_refinement guarded
   const RotationErrors paper_errors = EvaluateRotations(
       Irav4(paper).Estimate(problem.graph), problem.ground_truth);
   const RotationAveragingResult a = Irav4(refined).Estimate(problem.graph);
@@ -170,6 +170,18 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
   const RotationAveragingResult b = Irav4(refined).Estimate(problem.graph);
   for (size_t v = 0; v < a.rotations.size(); ++v) {
     EXPECT_TRUE((a.rotations[v].array() == b.rotations[v].array()).all())
+        << "vertex " << v;
+  }
+  // Here L1 + IRLS lowers the robust cost, so guarded keeps it: the same
+  // rotations as l1_irls, bit for bit.
+  Irav4Options l1_irls;
+  l1_irls.final_refinement = "l1_irls";
+  Irav4 guarded(refined);
+  const RotationAveragingResult c = guarded.Estimate(problem.graph);
+  EXPECT_TRUE(guarded.LastReport().refinement_used_l1);
+  const RotationAveragingResult d = Irav4(l1_irls).Estimate(problem.graph);
+  for (size_t v = 0; v < c.rotations.size(); ++v) {
+    EXPECT_TRUE((c.rotations[v].array() == d.rotations[v].array()).all())
         << "vertex " << v;
   }
   refined.final_refinement = "bogus";

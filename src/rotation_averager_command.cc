@@ -12,13 +12,15 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/io/onedsfm.h"
-#include "colmap_irav4/io/relpose_io.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/onedsfm.h"
+#include "colmap_irav4/eval/relpose_io.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
+#include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "src/command.h"
@@ -114,15 +116,7 @@ RotationGraph RotationGraphFromDatabase(
   const ViewGraph view_graph =
       BuildViewGraph(database, builder_options, &summary);
   summary.Print(std::cout);
-  RotationGraph graph;
-  std::map<image_t, int> vertex_of;
-  for (const auto& [image_id, name] : view_graph.image_names) {
-    vertex_of[image_id] = graph.AddVertex(name);
-  }
-  for (const ImagePairGeometry& pair : view_graph.pairs) {
-    graph.AddEdge(vertex_of.at(pair.image_id1), vertex_of.at(pair.image_id2),
-                  pair.R, pair.num_inliers);
-  }
+  RotationGraph graph = RotationGraphFromViewGraph(view_graph);
   return graph;
 }
 
@@ -185,6 +179,10 @@ int RunRotationAverager(int argc, char** argv) {
               "--database_path: two-view configurations to drop");
   AddRotationAveragerOptions(&options, &averager_options);
   if (!options.Parse(argc, argv)) return 0;
+  // The user's thread count bounds every stage: the view graph's workers, the
+  // Ceres solves and any BLAS / OpenMP runtime loaded with them.
+  builder_options.num_threads = averager_options.ira.engine.num_threads;
+  LimitBlasThreads(averager_options.ira.engine.num_threads);
   const int num_inputs = !relpose_path.empty() + !database_path.empty() +
                          !eg_path.empty();
   if (num_inputs != 1) {

@@ -7,6 +7,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <glog/logging.h>
@@ -29,6 +30,7 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_images\": " << num_database_images
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
+      << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
   out << ",\n  \"models\": [";
@@ -222,6 +224,14 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
   stage.Add("models", static_cast<double>(models.size()));
   stage.Finish("", &summary->stages);
   summary->total_seconds = total_timer.ElapsedSeconds();
+  {
+    struct rusage usage;
+    if (getrusage(RUSAGE_SELF, &usage) == 0) {
+      summary->peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
+    }
+  }
+  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
+            << summary->peak_memory_mib << " MiB";
   {
     std::ofstream file(temporary / "summary.json");
     file << summary->ToJson();

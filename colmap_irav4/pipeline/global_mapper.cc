@@ -20,6 +20,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/pipeline/fold_resolution.h"
 #include "colmap_irav4/positioning/translation_averaging.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
@@ -498,6 +499,7 @@ void GlobalMapperOptions::Check() const {
   bundle_adjustment.Check();
   filtering.Check();
   normalization.Check();
+  fold.Check();
 }
 
 void AddGlobalMapperOptions(OptionManager* manager,
@@ -626,6 +628,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "(deg)");
   manager->Add("Normalization.extent", &o.normalization.extent,
                "extent of the central part of the normalised scene");
+  AddFoldResolutionOptions(manager, &o.fold);
 }
 
 std::vector<ImagePairGeometry> FilterPairsByRotation(
@@ -795,7 +798,13 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"num_observations\": " << c.num_observations
         << ", \"mean_track_length\": " << JsonNumber(c.mean_track_length)
         << ", \"mean_reprojection_error\": "
-        << JsonNumber(c.mean_reprojection_error) << ",\n     \"stages\": ";
+        << JsonNumber(c.mean_reprojection_error)
+        << ", \"fold_score\": " << JsonNumber(c.fold_score < 0 ? NAN : c.fold_score)
+        << ", \"folded\": " << (c.folded ? "true" : "false")
+        << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
+        << ", \"fold_missing_pairs\": " << c.fold_missing_pairs
+        << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
+        << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
     out << "}";
   }
@@ -885,11 +894,22 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     }
     const std::string prefix =
         components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
-    Reconstruction reconstruction;
-    ComponentReport report;
     std::string failure;
-    if (!MapComponent(effective, database, view_graph.cameras, geometry_index,
-                      components[c], pairs, prefix, &reconstruction, &report, &failure)) {
+    // Mapping with the fold check (and its resolution) around it.
+    const MapComponentFunction map_component =
+        [&](const std::vector<image_t>& map_images,
+            const std::vector<ImagePairGeometry>& map_pairs,
+            const std::string& map_prefix, Reconstruction* reconstruction,
+            ComponentReport* report, std::string* map_failure) {
+          return MapComponent(effective, database, view_graph.cameras,
+                              geometry_index, map_images, map_pairs,
+                              map_prefix, reconstruction, report, map_failure);
+        };
+    std::vector<MappedModel> mapped = MapComponentWithFoldCheck(
+        options.fold, options.min_model_size,
+        BuildFoldEvidence(database, pairs, images), components[c], pairs,
+        prefix, map_component, &summary->notes, &failure);
+    if (mapped.empty()) {
       LOG(WARNING) << prefix << "no model for the component of "
                    << components[c].size() << " images: " << failure;
       summary->notes.push_back("component of " +
@@ -897,7 +917,10 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
                                " images gave no model: " + failure);
       continue;
     }
-    models.emplace_back(std::move(reconstruction), std::move(report));
+    for (MappedModel& model : mapped) {
+      models.emplace_back(std::move(model.reconstruction),
+                          std::move(model.report));
+    }
   }
   if (models.empty()) {
     throw InputError(database.path,

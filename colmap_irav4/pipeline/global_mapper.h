@@ -20,6 +20,7 @@
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
+#include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -86,6 +87,8 @@ struct GlobalMapperOptions {
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Fold check of every model and its resolution (symmetric scenes).
+  FoldResolutionOptions fold;
 
   GlobalMapperOptions();
   // Throws InputError naming the offending option.
@@ -122,6 +125,13 @@ struct ComponentReport {
   int num_observations = 0;
   double mean_track_length = 0;
   double mean_reprojection_error = 0;
+  // Fold check (refinement/fold_detection.h); fold_score -1: not run.
+  double fold_score = -1;
+  bool folded = false;
+  int fold_predicted_pairs = 0;
+  int fold_missing_pairs = 0;
+  // "clean", "resolved (N pairs removed)", "split", "folded (...)".
+  std::string fold_outcome;
   std::vector<StageReport> stages;
 };
 

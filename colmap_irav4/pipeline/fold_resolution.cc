@@ -5,6 +5,7 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
@@ -49,6 +50,25 @@ std::vector<ImagePairGeometry> PairsWithin(
     }
   }
   return kept;
+}
+
+// Whether the model's rotations contradict the pair's measured rotation
+// (false when an image is not in the model).
+bool ContradictedByModel(const ImagePairGeometry& pair,
+                         const Reconstruction& reconstruction,
+                         double max_rotation_error_deg) {
+  const auto image1 = reconstruction.images.find(pair.image_id1);
+  const auto image2 = reconstruction.images.find(pair.image_id2);
+  if (image1 == reconstruction.images.end() ||
+      image2 == reconstruction.images.end()) {
+    return false;
+  }
+  const Eigen::Matrix3d R1 =
+      image1->second.cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Matrix3d R2 =
+      image2->second.cam_from_world.rotation.toRotationMatrix();
+  return AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+         max_rotation_error_deg;
 }
 
 }  // namespace
@@ -184,7 +204,62 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
     return {std::move(first.model)};
   }
 
-  // Remove the suspect pairs and map again.
+  // 1. Re-orientation across the weakest cut. The images on one side of it
+  // sit at their twins' place: across the cut, the pairs the folded model
+  // agrees with are those that folded it, and those it contradicts are the
+  // true ones. Keep only the latter across the cut and map again.
+  {
+    const auto [side1, side2] = FoldCut(
+        options.detection, first.model.reconstruction, evidence, first.fold);
+    if (!side2.empty()) {
+      const std::set<image_t> in_side1(side1.begin(), side1.end());
+      const std::set<image_t> in_side2(side2.begin(), side2.end());
+      std::vector<ImagePairGeometry> reoriented;
+      for (const ImagePairGeometry& pair : pairs) {
+        const bool cross =
+            (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
+            (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
+        if (!cross || ContradictedByModel(pair, first.model.reconstruction,
+                                          options.detection
+                                              .max_rotation_error_deg)) {
+          reoriented.push_back(pair);
+        }
+      }
+      const size_t num_dropped = pairs.size() - reoriented.size();
+      LOG(INFO) << prefix << "fold resolution: cut into " << side1.size()
+                << " and " << side2.size() << " images; " << num_dropped
+                << " pairs across it agree with the fold and are removed, "
+                   "mapping again";
+      const std::vector<std::vector<image_t>> components =
+          PairComponents(reoriented);
+      if (num_dropped > 0 && !components.empty() &&
+          static_cast<int>(components[0].size()) >= min_model_size) {
+        Attempt attempt = run(
+            components[0],
+            PairsWithin(reoriented, std::set<image_t>(components[0].begin(),
+                                                      components[0].end())),
+            prefix);
+        if (attempt.ok && !attempt.fold.folded &&
+            attempt.model.reconstruction.images.size() * 4 >=
+                first.model.reconstruction.images.size() * 3) {
+          attempt.model.report.fold_outcome =
+              "resolved (" + std::to_string(num_dropped) +
+              " pairs across the fold removed)";
+          LOG(INFO) << prefix << "fold resolved: " << attempt.fold.Describe();
+          notes->push_back(prefix + "fold resolved by removing " +
+                           std::to_string(num_dropped) +
+                           " pairs that agree with it across its cut");
+          return {std::move(attempt.model)};
+        }
+        if (attempt.ok) {
+          LOG(INFO) << prefix << "re-oriented model not accepted: "
+                    << attempt.fold.Describe();
+        }
+      }
+    }
+  }
+
+  // 2. Remove the suspect pairs and map again.
   std::vector<ImagePairGeometry> current = pairs;
   Attempt best = std::move(first);
   size_t num_removed = 0;
@@ -233,7 +308,7 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
     }
   }
 
-  // Split at the weakest cut.
+  // 3. Split at the weakest cut.
   const auto [side1, side2] =
       FoldCut(options.detection, best.model.reconstruction, evidence, best.fold);
   if (!side2.empty()) {

@@ -1,5 +1,7 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 
+#include "colmap_irav4/pipeline/fold_resolution.h"
+
 #include <cmath>
 #include <random>
 #include <set>
@@ -275,6 +277,104 @@ TEST(FoldDetection, CheckNamesTheOption) {
   options = FoldResolutionOptions();
   options.max_iterations = -1;
   EXPECT_THROW(options.Check(), InputError);
+}
+
+
+// The resolution around a stand-in mapper that folds the courtyard while
+// enough false pairs join the two halves, and maps it right otherwise.
+TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 6);
+  std::vector<ImagePairGeometry> pairs;
+  std::vector<image_t> images;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    images.push_back(image_id);
+  }
+  for (const PairEvidence& evidence : scene.evidence.pairs) {
+    if (!evidence.has_rotation) continue;
+    ImagePairGeometry pair;
+    pair.image_id1 = evidence.image_id1;
+    pair.image_id2 = evidence.image_id2;
+    pair.R = evidence.R;
+    pair.num_inliers = evidence.num_inliers;
+    pairs.push_back(pair);
+  }
+  int num_runs = 0;
+  const MapComponentFunction map =
+      [&](const std::vector<image_t>& map_images,
+          const std::vector<ImagePairGeometry>& map_pairs,
+          const std::string& prefix, Reconstruction* reconstruction,
+          ComponentReport* report, std::string* failure) {
+        ++num_runs;
+        int num_cross_false = 0;
+        for (const ImagePairGeometry& pair : map_pairs) {
+          num_cross_false +=
+              scene.false_pairs.count({pair.image_id1, pair.image_id2}) &&
+              scene.folded_images.count(pair.image_id1) !=
+                  scene.folded_images.count(pair.image_id2);
+        }
+        const Reconstruction& source =
+            num_cross_false > 5 ? scene.folded : scene.truth;
+        *reconstruction = source;
+        const std::set<image_t> keep(map_images.begin(), map_images.end());
+        for (auto it = reconstruction->images.begin();
+             it != reconstruction->images.end();) {
+          it = keep.count(it->first) ? std::next(it)
+                                     : reconstruction->images.erase(it);
+        }
+        return true;
+      };
+  FoldResolutionOptions options;
+  std::vector<std::string> notes;
+  std::string failure;
+  const std::vector<MappedModel> models = MapComponentWithFoldCheck(
+      options, 3, scene.evidence, images, pairs, "", map, &notes, &failure);
+  ASSERT_FALSE(models.empty()) << failure;
+  for (const MappedModel& model : models) {
+    EXPECT_FALSE(model.report.folded) << model.report.fold_outcome;
+    EXPECT_EQ(model.report.fold_outcome.find("folded"), std::string::npos)
+        << model.report.fold_outcome;
+    EXPECT_GE(model.report.fold_score, 0);
+  }
+  EXPECT_GE(num_runs, 2);
+  EXPECT_FALSE(notes.empty());
+
+  // Without resolution the fold is reported, not hidden.
+  options.resolve = false;
+  notes.clear();
+  const std::vector<MappedModel> unresolved = MapComponentWithFoldCheck(
+      options, 3, scene.evidence, images, pairs, "", map, &notes, &failure);
+  ASSERT_EQ(unresolved.size(), 1u);
+  EXPECT_TRUE(unresolved[0].report.folded);
+  EXPECT_GT(unresolved[0].report.fold_score, 0.1);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("folded"), std::string::npos);
+}
+
+TEST(FoldResolution, CleanModelIsMappedOnce) {
+  const Courtyard scene = MakeCourtyard(40, 0.0, 7);
+  std::vector<image_t> images;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    images.push_back(image_id);
+  }
+  int num_runs = 0;
+  const MapComponentFunction map =
+      [&](const std::vector<image_t>&, const std::vector<ImagePairGeometry>&,
+          const std::string&, Reconstruction* reconstruction,
+          ComponentReport*, std::string*) {
+        ++num_runs;
+        *reconstruction = scene.truth;
+        return true;
+      };
+  std::vector<std::string> notes;
+  std::string failure;
+  const std::vector<MappedModel> models =
+      MapComponentWithFoldCheck(FoldResolutionOptions(), 3, scene.evidence,
+                                images, {}, "", map, &notes, &failure);
+  ASSERT_EQ(models.size(), 1u);
+  EXPECT_EQ(num_runs, 1);
+  EXPECT_EQ(models[0].report.fold_outcome, "clean");
+  EXPECT_LT(models[0].report.fold_score, 0.02);
+  EXPECT_TRUE(notes.empty());
 }
 
 }  // namespace

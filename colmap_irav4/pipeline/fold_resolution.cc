@@ -15,30 +15,24 @@ namespace {
 
 struct Attempt {
   bool ok = false;
-  MappedModel model;
-  FoldReport fold;
+  bool refined = false;
+  FoldCheckedModel model;
   std::string failure;
 };
 
-void RecordFold(const FoldReport& fold, const std::string& outcome,
-                ComponentReport* report, double seconds) {
-  report->fold_score = fold.fold_score;
-  report->folded = fold.folded;
-  report->fold_predicted_pairs = fold.num_predicted_pairs;
-  report->fold_missing_pairs = fold.num_missing_pairs;
-  report->fold_outcome = outcome;
-  StageReport stage{"fold check"};
+StageReport FoldStage(const std::string& name, const FoldReport& fold,
+                      double seconds) {
+  StageReport stage(name);
   stage.seconds = seconds;
-  stage.figures = {
-      {"fold score", fold.fold_score},
-      {"predicted pairs", static_cast<double>(fold.num_predicted_pairs)},
-      {"missing pairs", static_cast<double>(fold.num_missing_pairs)},
-      {"contradicted strong pairs",
-       static_cast<double>(fold.num_strong_inconsistent_pairs)},
-      {"contradictory tracks",
-       static_cast<double>(fold.num_contradictory_tracks)},
-      {"suspect pairs", static_cast<double>(fold.suspect_pairs.size())}};
-  report->stages.push_back(stage);
+  stage.Add("fold score", fold.fold_score);
+  stage.Add("predicted pairs", static_cast<double>(fold.num_predicted_pairs));
+  stage.Add("missing pairs", static_cast<double>(fold.num_missing_pairs));
+  stage.Add("contradicted strong pairs",
+            static_cast<double>(fold.num_strong_inconsistent_pairs));
+  stage.Add("contradictory tracks",
+            static_cast<double>(fold.num_contradictory_tracks));
+  stage.Add("suspect pairs", static_cast<double>(fold.suspect_pairs.size()));
+  return stage;
 }
 
 std::vector<ImagePairGeometry> PairsWithin(
@@ -158,59 +152,118 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
   return evidence;
 }
 
-std::vector<MappedModel> MapComponentWithFoldCheck(
+ComponentStages GlobalMapperStages(const GlobalMapperOptions& options,
+                                   const DatabaseContents& database,
+                                   const std::map<camera_t, Camera>& cameras) {
+  ComponentStages stages;
+  stages.position = [&options, &database, &cameras](
+                        const std::vector<image_t>& images,
+                        const std::vector<ImagePairGeometry>& pairs,
+                        const std::string& prefix, std::string* failure) {
+    auto mapper = std::make_unique<GlobalMapper>(options, database, cameras,
+                                                 images, pairs, prefix);
+    if (mapper->RotationAveraging() && mapper->RotationFilter() &&
+        mapper->BuildTracks() && mapper->Positioning()) {
+      return mapper;
+    }
+    *failure = mapper->failure();
+    return std::unique_ptr<GlobalMapper>();
+  };
+  stages.refine = [](GlobalMapper* mapper, std::string* failure) {
+    if (mapper->IterativeBundleAdjustment() && mapper->Finalize()) return true;
+    *failure = mapper->failure();
+    return false;
+  };
+  return stages;
+}
+
+std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     const FoldResolutionOptions& options, int min_model_size,
     const FoldEvidence& evidence, const std::vector<image_t>& images,
     const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
-    const MapComponentFunction& map_component, std::vector<std::string>* notes,
+    const ComponentStages& stages, std::vector<std::string>* notes,
     std::string* failure) {
+  auto check = [&](Attempt* attempt, const std::string& when,
+                   const std::string& check_prefix) {
+    Timer timer;
+    attempt->model.fold = DetectFold(
+        options.detection, attempt->model.mapper->reconstruction(), evidence);
+    attempt->model.checked = true;
+    const StageReport stage = FoldStage("fold check (" + when + ")",
+                                        attempt->model.fold,
+                                        timer.ElapsedSeconds());
+    attempt->model.stages.push_back(stage);
+    attempt->model.outcome = attempt->model.fold.folded ? "folded" : "clean";
+    LOG(INFO) << check_prefix << "fold check (" << when
+              << "): " << attempt->model.fold.Describe();
+  };
+  auto refine = [&](Attempt* attempt, const std::string& run_prefix) {
+    if (attempt->refined) return attempt->ok;
+    attempt->refined = true;
+    attempt->ok = stages.refine(attempt->model.mapper.get(), &attempt->failure);
+    if (attempt->ok && options.detect) check(attempt, "after refinement", run_prefix);
+    return attempt->ok;
+  };
+  // Positions, checks; refines (and checks again) unless folded and to be
+  // resolved (refining a folded model is wasted time).
   auto run = [&](const std::vector<image_t>& run_images,
                  const std::vector<ImagePairGeometry>& run_pairs,
                  const std::string& run_prefix) {
     Attempt attempt;
-    attempt.ok = map_component(run_images, run_pairs, run_prefix,
-                               &attempt.model.reconstruction,
-                               &attempt.model.report, &attempt.failure);
-    if (attempt.ok && options.detect) {
-      Timer timer;
-      attempt.fold = DetectFold(options.detection,
-                                attempt.model.reconstruction, evidence);
-      const double seconds = timer.ElapsedSeconds();
-      RecordFold(attempt.fold, attempt.fold.folded ? "folded" : "clean",
-                 &attempt.model.report, seconds);
-      LOG(INFO) << run_prefix << "fold check: " << std::fixed
-                << attempt.fold.Describe() << " (" << seconds << " s)";
+    attempt.model.mapper =
+        stages.position(run_images, run_pairs, run_prefix, &attempt.failure);
+    attempt.ok = attempt.model.mapper != nullptr;
+    if (!attempt.ok) return attempt;
+    if (options.detect) {
+      check(&attempt, "after positioning", run_prefix);
+      if (attempt.model.fold.folded && options.resolve) return attempt;
     }
+    refine(&attempt, run_prefix);
     return attempt;
   };
+  auto finish = [&](Attempt* attempt, const std::string& outcome,
+                    std::vector<FoldCheckedModel>* models) {
+    if (!refine(attempt, prefix)) return false;
+    if (!outcome.empty()) attempt->model.outcome = outcome;
+    models->push_back(std::move(attempt->model));
+    return true;
+  };
 
+  std::vector<FoldCheckedModel> models;
   Attempt first = run(images, pairs, prefix);
   if (!first.ok) {
     *failure = first.failure;
     return {};
   }
-  if (!options.detect || !first.fold.folded) {
-    return {std::move(first.model)};
+  if (!options.detect || !first.model.fold.folded || !options.resolve) {
+    if (!first.model.fold.folded) {
+      finish(&first, "", &models);
+    } else {
+      LOG(WARNING) << prefix << "the model of " << images.size()
+                   << " images looks FOLDED (symmetric scene: some cameras "
+                      "may sit at their mirrored twin's place): "
+                   << first.model.fold.Describe();
+      notes->push_back(prefix + "model looks folded (fold score " +
+                       std::to_string(first.model.fold.fold_score) +
+                       "); not resolved (--Fold.resolve 0)");
+      finish(&first, "folded (not resolved)", &models);
+    }
+    if (models.empty()) *failure = first.failure;
+    return models;
   }
   LOG(WARNING) << prefix << "the model of " << images.size()
                << " images looks FOLDED (symmetric scene: some cameras may "
-                  "sit at their mirrored twin's place): "
-               << first.fold.Describe();
-  if (!options.resolve) {
-    notes->push_back(prefix + "model looks folded (fold score " +
-                     std::to_string(first.fold.fold_score) +
-                     "); not resolved (--Fold.resolve 0)");
-    first.model.report.fold_outcome = "folded (not resolved)";
-    return {std::move(first.model)};
-  }
+                  "sit at their mirrored twin's place), resolving: "
+               << first.model.fold.Describe();
+  const Reconstruction& folded = first.model.mapper->reconstruction();
 
   // 1. Re-orientation across the weakest cut. The images on one side of it
   // sit at their twins' place: across the cut, the pairs the folded model
   // agrees with are those that folded it, and those it contradicts are the
   // true ones. Keep only the latter across the cut and map again.
   {
-    const auto [side1, side2] = FoldCut(
-        options.detection, first.model.reconstruction, evidence, first.fold);
+    const auto [side1, side2] =
+        FoldCut(options.detection, folded, evidence, first.model.fold);
     if (!side2.empty()) {
       const std::set<image_t> in_side1(side1.begin(), side1.end());
       const std::set<image_t> in_side2(side2.begin(), side2.end());
@@ -219,9 +272,9 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
         const bool cross =
             (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
             (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
-        if (!cross || ContradictedByModel(pair, first.model.reconstruction,
-                                          options.detection
-                                              .max_rotation_error_deg)) {
+        if (!cross ||
+            ContradictedByModel(pair, folded,
+                                options.detection.max_rotation_error_deg)) {
           reoriented.push_back(pair);
         }
       }
@@ -239,21 +292,24 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
             PairsWithin(reoriented, std::set<image_t>(components[0].begin(),
                                                       components[0].end())),
             prefix);
-        if (attempt.ok && !attempt.fold.folded &&
-            attempt.model.reconstruction.images.size() * 4 >=
-                first.model.reconstruction.images.size() * 3) {
-          attempt.model.report.fold_outcome =
-              "resolved (" + std::to_string(num_dropped) +
-              " pairs across the fold removed)";
-          LOG(INFO) << prefix << "fold resolved: " << attempt.fold.Describe();
+        if (attempt.ok && !attempt.model.fold.folded &&
+            refine(&attempt, prefix) && !attempt.model.fold.folded &&
+            attempt.model.mapper->reconstruction().images.size() * 4 >=
+                folded.images.size() * 3) {
+          LOG(INFO) << prefix << "fold resolved: "
+                    << attempt.model.fold.Describe();
           notes->push_back(prefix + "fold resolved by removing " +
                            std::to_string(num_dropped) +
                            " pairs that agree with it across its cut");
-          return {std::move(attempt.model)};
+          finish(&attempt,
+                 "resolved (" + std::to_string(num_dropped) +
+                     " pairs across the fold removed)",
+                 &models);
+          return models;
         }
         if (attempt.ok) {
           LOG(INFO) << prefix << "re-oriented model not accepted: "
-                    << attempt.fold.Describe();
+                    << attempt.model.fold.Describe();
         }
       }
     }
@@ -265,7 +321,8 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
   size_t num_removed = 0;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     const std::set<std::pair<image_t, image_t>> suspects(
-        best.fold.suspect_pairs.begin(), best.fold.suspect_pairs.end());
+        best.model.fold.suspect_pairs.begin(),
+        best.model.fold.suspect_pairs.end());
     const size_t before = current.size();
     current.erase(
         std::remove_if(current.begin(), current.end(),
@@ -285,36 +342,39 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
         static_cast<int>(components[0].size()) < min_model_size) {
       break;
     }
-    Attempt attempt = run(components[0], PairsWithin(current, std::set<image_t>(
-                                             components[0].begin(),
-                                             components[0].end())),
+    Attempt attempt = run(components[0],
+                          PairsWithin(current, std::set<image_t>(
+                                                   components[0].begin(),
+                                                   components[0].end())),
                           prefix);
     if (!attempt.ok) break;
     // Only a better-supported model replaces the previous one.
     const bool better =
-        attempt.fold.fold_score < best.fold.fold_score &&
-        attempt.model.reconstruction.images.size() * 4 >=
-            best.model.reconstruction.images.size() * 3;
+        attempt.model.fold.fold_score < best.model.fold.fold_score &&
+        attempt.model.mapper->reconstruction().images.size() * 4 >=
+            best.model.mapper->reconstruction().images.size() * 3;
     if (!better) break;
     best = std::move(attempt);
-    if (!best.fold.folded) {
-      best.model.report.fold_outcome =
-          "resolved (" + std::to_string(num_removed) + " pairs removed)";
+    if (!best.model.fold.folded && refine(&best, prefix) &&
+        !best.model.fold.folded) {
       LOG(INFO) << prefix << "fold resolved by removing " << num_removed
-                << " pairs: " << best.fold.Describe();
+                << " pairs: " << best.model.fold.Describe();
       notes->push_back(prefix + "fold resolved by removing " +
                        std::to_string(num_removed) + " suspect pairs");
-      return {std::move(best.model)};
+      finish(&best,
+             "resolved (" + std::to_string(num_removed) + " pairs removed)",
+             &models);
+      return models;
     }
   }
 
-  // 3. Split at the weakest cut.
+  // 3. Split at the weakest cut: separate models rather than a folded one.
   const auto [side1, side2] =
-      FoldCut(options.detection, best.model.reconstruction, evidence, best.fold);
+      FoldCut(options.detection, best.model.mapper->reconstruction(), evidence,
+              best.model.fold);
   if (!side2.empty()) {
     LOG(WARNING) << prefix << "fold not resolved: splitting into "
                  << side1.size() << " and " << side2.size() << " images";
-    std::vector<MappedModel> models;
     for (const std::vector<image_t>* side : {&side1, &side2}) {
       const std::set<image_t> side_images(side->begin(), side->end());
       const std::vector<ImagePairGeometry> side_pairs =
@@ -326,10 +386,16 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
             PairsWithin(side_pairs,
                         std::set<image_t>(component.begin(), component.end())),
             prefix + "[split] ");
-        if (!attempt.ok) continue;
-        attempt.model.report.fold_outcome =
-            std::string("split") + (attempt.fold.folded ? " (still folded)" : "");
-        models.push_back(std::move(attempt.model));
+        if (!attempt.ok || !refine(&attempt, prefix + "[split] ")) continue;
+        if (attempt.model.fold.folded) {
+          LOG(WARNING) << prefix << "[split] part of " << component.size()
+                       << " images still looks folded: "
+                       << attempt.model.fold.Describe();
+        }
+        finish(&attempt,
+               std::string("split") +
+                   (attempt.model.fold.folded ? " (still folded)" : ""),
+               &models);
       }
     }
     if (!models.empty()) {
@@ -341,11 +407,12 @@ std::vector<MappedModel> MapComponentWithFoldCheck(
   LOG(WARNING) << prefix
                << "fold not resolved and no cut found: the model is written "
                   "but is likely FOLDED: "
-               << best.fold.Describe();
+               << best.model.fold.Describe();
   notes->push_back(prefix + "model likely folded (fold score " +
-                   std::to_string(best.fold.fold_score) + "), not resolved");
-  best.model.report.fold_outcome = "folded (unresolved)";
-  return {std::move(best.model)};
+                   std::to_string(best.model.fold.fold_score) +
+                   "), not resolved");
+  if (!finish(&best, "folded (unresolved)", &models)) *failure = best.failure;
+  return models;
 }
 
 }  // namespace colmap_irav4

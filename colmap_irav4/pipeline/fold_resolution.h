@@ -9,6 +9,8 @@
 // with a warning (never silently).
 
 #include <functional>
+#include <map>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -16,6 +18,7 @@
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/refinement/fold_detection.h"
+#include "colmap_irav4/util/run_summary.h"
 #include "colmap_irav4/view_graph/view_graph.h"
 
 namespace colmap_irav4 {
@@ -33,28 +36,44 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
                                const std::vector<ImagePairGeometry>& pairs,
                                const std::set<image_t>& images);
 
-// Maps `images` / `pairs` into a model; false (with the reason) if none.
-typedef std::function<bool(const std::vector<image_t>& images,
-                           const std::vector<ImagePairGeometry>& pairs,
-                           const std::string& prefix,
-                           Reconstruction* reconstruction,
-                           ComponentReport* report, std::string* failure)>
-    MapComponentFunction;
-
-struct MappedModel {
-  Reconstruction reconstruction;
-  ComponentReport report;
+// The stages of one mapping attempt: up to positioning (nullptr, with the
+// reason in *failure, when no model results), then the refinement (bundle
+// adjustment, retriangulation, final filtering; false when it gave up).
+struct ComponentStages {
+  std::function<std::unique_ptr<GlobalMapper>(
+      const std::vector<image_t>& images,
+      const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
+      std::string* failure)>
+      position;
+  std::function<bool(GlobalMapper* mapper, std::string* failure)> refine;
 };
 
-// Maps one component through `map_component`, checks the result and
-// resolves a fold as described above. Returns the models (empty if none);
-// each report carries its fold figures. Notes for summary.json go to
-// *notes; *failure holds the reason when no model results.
-std::vector<MappedModel> MapComponentWithFoldCheck(
+// GlobalMapper's stages on `database` with `cameras` (both must outlive the
+// returned functions' use).
+ComponentStages GlobalMapperStages(const GlobalMapperOptions& options,
+                                   const DatabaseContents& database,
+                                   const std::map<camera_t, Camera>& cameras);
+
+struct FoldCheckedModel {
+  std::unique_ptr<GlobalMapper> mapper;  // refined
+  bool checked = false;
+  FoldReport fold;  // of the model as written
+  // "clean", "resolved (...)", "split", "folded (...)".
+  std::string outcome;
+  // The fold checks (after positioning and after refinement) of this model's
+  // attempt, for its report.
+  std::vector<StageReport> stages;
+};
+
+// Maps one component: positions it, checks it for a fold (after positioning:
+// a folded attempt is not refined; again after refinement) and resolves a
+// fold as described above. Returns the models (empty if none, with the
+// reason in *failure). Notes for summary.json go to *notes.
+std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     const FoldResolutionOptions& options, int min_model_size,
     const FoldEvidence& evidence, const std::vector<image_t>& images,
     const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
-    const MapComponentFunction& map_component, std::vector<std::string>* notes,
+    const ComponentStages& stages, std::vector<std::string>* notes,
     std::string* failure);
 
 }  // namespace colmap_irav4

@@ -3,6 +3,8 @@
 #include "colmap_irav4/pipeline/fold_resolution.h"
 
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -280,6 +282,35 @@ TEST(FoldDetection, CheckNamesTheOption) {
 }
 
 
+// Stand-in stages that "map" a component by copying a given model (the truth
+// or the folded one, as `choose` says from the pairs) onto a GlobalMapper.
+ComponentStages StandInStages(
+    const std::function<const Reconstruction&(
+        const std::vector<ImagePairGeometry>&)>& choose,
+    int* num_runs) {
+  static const DatabaseContents database;
+  static const std::map<camera_t, Camera> cameras;
+  ComponentStages stages;
+  stages.position = [choose, num_runs](
+                        const std::vector<image_t>& images,
+                        const std::vector<ImagePairGeometry>& pairs,
+                        const std::string& prefix, std::string* failure) {
+    ++*num_runs;
+    auto mapper = std::make_unique<GlobalMapper>(GlobalMapperOptions(),
+                                                 database, cameras, images,
+                                                 pairs, prefix);
+    mapper->reconstruction() = choose(pairs);
+    const std::set<image_t> keep(images.begin(), images.end());
+    auto& model_images = mapper->reconstruction().images;
+    for (auto it = model_images.begin(); it != model_images.end();) {
+      it = keep.count(it->first) ? std::next(it) : model_images.erase(it);
+    }
+    return mapper;
+  };
+  stages.refine = [](GlobalMapper*, std::string*) { return true; };
+  return stages;
+}
+
 // The resolution around a stand-in mapper that folds the courtyard while
 // enough false pairs join the two halves, and maps it right otherwise.
 TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
@@ -299,12 +330,9 @@ TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
     pairs.push_back(pair);
   }
   int num_runs = 0;
-  const MapComponentFunction map =
-      [&](const std::vector<image_t>& map_images,
-          const std::vector<ImagePairGeometry>& map_pairs,
-          const std::string& prefix, Reconstruction* reconstruction,
-          ComponentReport* report, std::string* failure) {
-        ++num_runs;
+  const ComponentStages stages = StandInStages(
+      [&](const std::vector<ImagePairGeometry>& map_pairs)
+          -> const Reconstruction& {
         int num_cross_false = 0;
         for (const ImagePairGeometry& pair : map_pairs) {
           num_cross_false +=
@@ -312,28 +340,20 @@ TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
               scene.folded_images.count(pair.image_id1) !=
                   scene.folded_images.count(pair.image_id2);
         }
-        const Reconstruction& source =
-            num_cross_false > 5 ? scene.folded : scene.truth;
-        *reconstruction = source;
-        const std::set<image_t> keep(map_images.begin(), map_images.end());
-        for (auto it = reconstruction->images.begin();
-             it != reconstruction->images.end();) {
-          it = keep.count(it->first) ? std::next(it)
-                                     : reconstruction->images.erase(it);
-        }
-        return true;
-      };
+        return num_cross_false > 5 ? scene.folded : scene.truth;
+      },
+      &num_runs);
   FoldResolutionOptions options;
   std::vector<std::string> notes;
   std::string failure;
-  const std::vector<MappedModel> models = MapComponentWithFoldCheck(
-      options, 3, scene.evidence, images, pairs, "", map, &notes, &failure);
+  const std::vector<FoldCheckedModel> models = MapComponentWithFoldCheck(
+      options, 3, scene.evidence, images, pairs, "", stages, &notes, &failure);
   ASSERT_FALSE(models.empty()) << failure;
-  for (const MappedModel& model : models) {
-    EXPECT_FALSE(model.report.folded) << model.report.fold_outcome;
-    EXPECT_EQ(model.report.fold_outcome.find("folded"), std::string::npos)
-        << model.report.fold_outcome;
-    EXPECT_GE(model.report.fold_score, 0);
+  for (const FoldCheckedModel& model : models) {
+    EXPECT_TRUE(model.checked);
+    EXPECT_FALSE(model.fold.folded) << model.outcome;
+    EXPECT_EQ(model.outcome.find("folded"), std::string::npos)
+        << model.outcome;
   }
   EXPECT_GE(num_runs, 2);
   EXPECT_FALSE(notes.empty());
@@ -341,39 +361,39 @@ TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
   // Without resolution the fold is reported, not hidden.
   options.resolve = false;
   notes.clear();
-  const std::vector<MappedModel> unresolved = MapComponentWithFoldCheck(
-      options, 3, scene.evidence, images, pairs, "", map, &notes, &failure);
+  const std::vector<FoldCheckedModel> unresolved = MapComponentWithFoldCheck(
+      options, 3, scene.evidence, images, pairs, "", stages, &notes, &failure);
   ASSERT_EQ(unresolved.size(), 1u);
-  EXPECT_TRUE(unresolved[0].report.folded);
-  EXPECT_GT(unresolved[0].report.fold_score, 0.1);
+  EXPECT_TRUE(unresolved[0].fold.folded);
+  EXPECT_GT(unresolved[0].fold.fold_score, 0.1);
+  EXPECT_EQ(unresolved[0].outcome, "folded (not resolved)");
   ASSERT_EQ(notes.size(), 1u);
   EXPECT_NE(notes[0].find("folded"), std::string::npos);
 }
 
-TEST(FoldResolution, CleanModelIsMappedOnce) {
+TEST(FoldResolution, CleanModelIsMappedOnceAndCheckedTwice) {
   const Courtyard scene = MakeCourtyard(40, 0.0, 7);
   std::vector<image_t> images;
   for (const auto& [image_id, image] : scene.truth.images) {
     images.push_back(image_id);
   }
   int num_runs = 0;
-  const MapComponentFunction map =
-      [&](const std::vector<image_t>&, const std::vector<ImagePairGeometry>&,
-          const std::string&, Reconstruction* reconstruction,
-          ComponentReport*, std::string*) {
-        ++num_runs;
-        *reconstruction = scene.truth;
-        return true;
-      };
+  const ComponentStages stages = StandInStages(
+      [&](const std::vector<ImagePairGeometry>&) -> const Reconstruction& {
+        return scene.truth;
+      },
+      &num_runs);
   std::vector<std::string> notes;
   std::string failure;
-  const std::vector<MappedModel> models =
+  const std::vector<FoldCheckedModel> models =
       MapComponentWithFoldCheck(FoldResolutionOptions(), 3, scene.evidence,
-                                images, {}, "", map, &notes, &failure);
+                                images, {}, "", stages, &notes, &failure);
   ASSERT_EQ(models.size(), 1u);
   EXPECT_EQ(num_runs, 1);
-  EXPECT_EQ(models[0].report.fold_outcome, "clean");
-  EXPECT_LT(models[0].report.fold_score, 0.02);
+  EXPECT_EQ(models[0].outcome, "clean");
+  EXPECT_LT(models[0].fold.fold_score, 0.02);
+  // After positioning and after refinement.
+  EXPECT_EQ(models[0].stages.size(), 2u);
   EXPECT_TRUE(notes.empty());
 }
 

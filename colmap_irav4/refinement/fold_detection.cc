@@ -413,7 +413,13 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   VLOG(1) << "fold cut: " << positive.size() << " | " << negative_side.size()
           << " images, " << cut_missing << " missing and " << cut_trusted
           << " trusted pairs cut";
-  if (positive.empty() || negative_side.empty() || cut_missing <= cut_trusted) {
+  // The cut explains the fold when most missing pairs cross it (the pairs
+  // it cuts that the model trusts are then the ones that folded it), or when
+  // it separates more missing pairs than it cuts trusted ones.
+  const int num_missing_edges = static_cast<int>(edges.size()) - num_trusted;
+  const bool explains = cut_missing * 5 >= num_missing_edges * 4 ||
+                        cut_missing > cut_trusted;
+  if (positive.empty() || negative_side.empty() || !explains) {
     sides.first = ids;
     return sides;
   }

@@ -139,7 +139,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
 // together the images matched by trusted pairs (the model agrees with them,
 // not suspected; weight: inlier count) and separates the images of missing
 // pairs. Returns the two sides (each sorted; the larger first); one side is
-// empty when no cut separates more missing pairs than it cuts matches.
+// empty when the cut does not explain the fold (fewer than 80% of the missing
+// pairs cross it, and fewer than the trusted pairs it cuts).
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const FoldDetectionOptions& options, const Reconstruction& reconstruction,
     const FoldEvidence& evidence, const FoldReport& report);

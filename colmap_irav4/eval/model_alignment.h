@@ -26,11 +26,13 @@ struct Sim3d {
 bool EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
                         const std::vector<Eigen::Vector3d>& dst, Sim3d* sim);
 
+constexpr double kCollinearRatio = 0.02;
+
 struct SimilarityRansacOptions {
   // Inlier threshold on the aligned distance, as a fraction of the median
   // distance of the dst points to their centroid (scale-free, so that a
   // normalised model can be compared with metric ground truth).
-  double max_relative_error = 0.05;
+  double max_relative_error = 0.05;  // in (0, 1)
   // Random minimal samples; with at most 20 points every triple is tried.
   int num_trials = 2000;
   uint64_t seed = 0;
@@ -57,6 +59,11 @@ struct PoseComparison {
   double rotation_error_max_deg = 0;
   double center_error_median = 0;  // in the reference's units
   double center_error_max = 0;
+  // The inliers' centres are nearly collinear (second singular value of the
+  // centred centres < kCollinearRatio times the first): the similarity's
+  // rotation about their line is then undetermined, and the rotation errors
+  // are measured after aligning the rotations themselves instead.
+  bool centers_nearly_collinear = false;
   std::vector<std::string> names;  // common images, sorted
   std::vector<double> rotation_errors_deg;
   std::vector<double> center_errors;

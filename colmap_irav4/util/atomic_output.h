@@ -89,6 +89,7 @@ class OutputTransaction {
   std::vector<std::string> StaleModelDirectories(int num_models) const;
 
   const std::string& TemporaryPath() const { return temporary_; }
+  const std::string& OutputPath() const { return output_dir_; }
 
  private:
   std::string output_dir_;

@@ -170,12 +170,15 @@ bool IsOwnOutputFileName(const std::string& name) {
   return IsOwnName(name.c_str());
 }
 
-void WriteFileAtomically(const std::string& path, const std::string& bytes) {
-  if (fs::is_directory(path)) {
-    throw InputError(path, "is a directory, cannot write the file");
-  }
-  const std::string temporary =
-      path + kTemporaryMarker + std::to_string(static_cast<long>(getpid()));
+namespace {
+
+std::string TemporaryName(const std::string& path) {
+  return path + kTemporaryMarker + std::to_string(static_cast<long>(getpid()));
+}
+
+// Writes `bytes` to path's temporary name (flushed to disk); returns it.
+std::string WriteTemporary(const std::string& path, const std::string& bytes) {
+  const std::string temporary = TemporaryName(path);
   const int fd =
       open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
   if (fd < 0) throw InputError(path, "cannot write file: " + Errno());
@@ -197,34 +200,61 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes) {
     throw InputError(path, "cannot write file" +
                                (problem.empty() ? "" : ": " + problem));
   }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    const std::string rename_problem = Errno();
-    unlink(temporary.c_str());
-    throw InputError(path, "cannot rename the temporary file into place: " +
-                               rename_problem);
+  return temporary;
+}
+
+}  // namespace
+
+void WriteFileAtomically(const std::string& path, const std::string& bytes) {
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent)) {
+    throw InputError(path, "cannot write file: directory " + parent.string() +
+                               " does not exist");
   }
+  WriteFilesAtomically(parent.string(),
+                       {{fs::path(path).filename().string(), bytes}});
 }
 
 void WriteFilesAtomically(
     const std::string& dir,
     const std::vector<std::pair<std::string, std::string>>& names_and_bytes) {
+  const std::string directory = dir.empty() ? "." : dir;
   std::error_code error;
-  fs::create_directories(dir, error);
-  if (!fs::is_directory(dir)) {
-    throw InputError(dir, "cannot create the output directory" +
-                              (error ? ": " + error.message() : ""));
+  fs::create_directories(directory, error);
+  if (!fs::is_directory(directory)) {
+    throw InputError(directory, "cannot create the output directory" +
+                                    (error ? ": " + error.message() : ""));
   }
-  // A directory in the way would make a later file fail after earlier ones
-  // were replaced.
+  // A directory in the way would make a later rename fail after earlier
+  // ones; every temporary file is complete before the first rename.
   for (const auto& name_and_bytes : names_and_bytes) {
-    const fs::path final_path = fs::path(dir) / name_and_bytes.first;
+    const fs::path final_path = fs::path(directory) / name_and_bytes.first;
     if (fs::is_directory(final_path)) {
       throw InputError(final_path.string(),
                        "is a directory, cannot write the file");
     }
   }
-  for (const auto& [name, bytes] : names_and_bytes) {
-    WriteFileAtomically((fs::path(dir) / name).string(), bytes);
+  std::vector<std::string> temporaries;
+  try {
+    for (const auto& [name, bytes] : names_and_bytes) {
+      temporaries.push_back(
+          WriteTemporary((fs::path(directory) / name).string(), bytes));
+    }
+  } catch (...) {
+    for (const std::string& temporary : temporaries) unlink(temporary.c_str());
+    throw;
+  }
+  for (size_t k = 0; k < names_and_bytes.size(); ++k) {
+    const std::string path =
+        (fs::path(directory) / names_and_bytes[k].first).string();
+    if (std::rename(temporaries[k].c_str(), path.c_str()) != 0) {
+      const std::string problem = Errno();
+      for (size_t i = k; i < temporaries.size(); ++i) {
+        unlink(temporaries[i].c_str());
+      }
+      throw InputError(path, "cannot rename the temporary file into place: " +
+                                 problem);
+    }
   }
 }
 

@@ -38,8 +38,8 @@ constexpr char kTemporaryMarker[] = ".colmap_irav4_tmp.";
 // model files, summary.json, or a temporary name.
 bool IsOwnOutputFileName(const std::string& name);
 
-// Writes `bytes` to `path` through a temporary file in the same directory and
-// an atomic rename. Throws InputError naming the path on failure (the
+// Writes `bytes` to `path` (its directory must exist) through a temporary
+// file in the same directory, flushed to disk, and an atomic rename. Throws InputError naming the path on failure (the
 // temporary file is removed; an existing file at `path` is untouched).
 void WriteFileAtomically(const std::string& path, const std::string& bytes);
 

@@ -23,6 +23,7 @@
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
+#include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -79,6 +80,10 @@ struct GlobalMapperOptions {
   // (1, 2, 4 or 8): JPEG decoding at half size is several times faster and a
   // point's colour is a mean over its track anyway.
   int color_image_downscale = 2;
+  // Cameras with invalid intrinsics (non-positive or non-finite focal,
+  // implausible distortion) are an error; with this flag they start from a
+  // default focal and are refined (see DatabaseReadOptions).
+  bool reset_invalid_cameras = false;
 
   ViewGraphBuilderOptions view_graph;
   RotationAveragerOptions rotation_averaging;
@@ -90,6 +95,8 @@ struct GlobalMapperOptions {
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Fold check of every model and its resolution (symmetric scenes).
+  FoldResolutionOptions fold;
 
   GlobalMapperOptions();
   // Throws InputError naming the offending option.

@@ -13,6 +13,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev
   libopencv-core-dev libopencv-imgcodecs-dev
   colmap time
+  clang-format
 )
 
 missing=()

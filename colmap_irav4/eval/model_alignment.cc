@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -54,15 +55,21 @@ bool EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
   return true;
 }
 
-bool SimilarityRansacOptions::Check() const {
-  return max_relative_error > 0 && num_trials > 0;
+void SimilarityRansacOptions::Check() const {
+  if (!(max_relative_error > 0)) {
+    throw OptionError(&max_relative_error, "Comparer.max_relative_error",
+                      "must be > 0");
+  }
+  if (num_trials < 1) {
+    throw OptionError(&num_trials, "Comparer.num_trials", "must be >= 1");
+  }
 }
 
 bool EstimateSimilarityRansac(const std::vector<Eigen::Vector3d>& src,
                               const std::vector<Eigen::Vector3d>& dst,
                               const SimilarityRansacOptions& options,
                               Sim3d* sim, std::vector<bool>* inliers) {
-  CHECK(options.Check());
+  options.Check();
   CHECK_EQ(src.size(), dst.size());
   const int n = static_cast<int>(src.size());
   if (n < 3) return false;

@@ -51,7 +51,7 @@ struct IncrementalOptions {
   int max_direct_solver_vertices = 400;
   // Ceres threads; 1 keeps the output bit-identical from run to run.
   int num_threads = 1;
-  bool Check() const;  // throws InputError
+  void Check() const;  // throws InputError
 };
 
 struct IncrementalStats {

@@ -23,7 +23,7 @@ struct SyntheticOptions {
   double outlier_ratio = 0.0;
   // Seed of the std::mt19937_64 that draws everything.
   uint64_t seed = 0;
-  bool Check() const;  // throws InputError
+  void Check() const;  // throws InputError
 };
 
 struct SyntheticProblem {

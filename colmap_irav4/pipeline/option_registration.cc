@@ -74,6 +74,15 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
   manager->Add("RotationAveraging.max_community_size",
                &options->communities.max_community_size,
                "larger communities are split (0 = no limit)");
+  manager->Add("RotationAveraging.preselect_clusters",
+               &options->preselect_clusters,
+               "IRAv4 clustering: a cluster takes only its community and "
+               "boundary cameras tied to it at least as strongly as to "
+               "their own (IRAv3's pre-selection); false = any camera");
+  manager->Add("RotationAveraging.max_cluster_size",
+               &options->max_cluster_size,
+               "IRAv4 clustering: a cluster stops competing at this size "
+               "until the fallback pass (0 = no cap)");
   manager->Add("RotationAveraging.reference_method",
                &options->reference_method,
                "alignment reference: irav4 | greedy_cds | random_cds");
@@ -89,9 +98,10 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "rounds of inlier selection + global optimisation at the end");
   manager->Add("RotationAveraging.final_refinement",
                &options->final_refinement,
-               "IRAv4 after its final optimisation: l1_irls (default: L1 "
-               "then Geman-McClure IRLS on all edges) | irls (IRLS only) | "
-               "none (the paper)");
+               "IRAv4 after its final optimisation: guarded (default: "
+               "l1_irls kept only if it lowers the Geman-McClure cost, else "
+               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
+               "irls (IRLS only) | none (the paper)");
   manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
                "IRAv4 refinement: re-initialise badly supported "
                "vertices from their best pre-computation, refine again");
@@ -126,8 +136,17 @@ void AddRotationAveragerOptions(OptionManager* options,
                "IRA: pre-computations evaluated per recomputation (0 = all)");
   options->Add(p + "max_direct_solver_vertices",
                &engine->max_direct_solver_vertices,
-               "IRA: sparse Cholesky up to this many cameras, CG above");
-  options->Add(p + "num_threads", &engine->num_threads, "IRA: Ceres threads");
+               "IRA (use_ceres): sparse Cholesky up to this many cameras, "
+               "CG above");
+  options->Add(p + "num_threads", &engine->num_threads,
+               "IRA: Ceres threads (with use_ceres)");
+  options->Add(p + "use_ceres", &engine->use_ceres,
+               "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
+               "sparse Laplacian (the previous, slower engine)");
+  options->Add(p + "intermediate_global_iterations",
+               &engine->intermediate_global_iterations,
+               "IRA: Gauss-Newton steps of an intermediate global "
+               "optimisation (the final ones converge)");
   AddIrav4Options(options, &o->irav4);
   L1IrlsOptions* l1 = &o->l1_irls;
   options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,

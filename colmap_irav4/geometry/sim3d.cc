@@ -55,9 +55,9 @@ bool EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
 }
 
 void SimilarityRansacOptions::Check() const {
-  if (!(max_relative_error > 0)) {
+  if (!(max_relative_error > 0 && max_relative_error < 1)) {
     throw OptionError(&max_relative_error, "Comparer.max_relative_error",
-                      "must be > 0");
+                      "must be in (0, 1)");
   }
   if (num_trials < 1) {
     throw OptionError(&num_trials, "Comparer.num_trials", "must be >= 1");

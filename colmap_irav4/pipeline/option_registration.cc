@@ -282,6 +282,9 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "refine principal points in bundle adjustment");
   manager->Add("Mapper.ba_refine_extra_params", &ba.refine_extra_params,
                "refine distortion parameters in bundle adjustment");
+  manager->Add("Mapper.reset_invalid_cameras", &o.reset_invalid_cameras,
+               "start cameras with invalid intrinsics from a default focal "
+               "(refined) instead of failing");
   manager->Add("Mapper.num_threads", &o.num_threads,
                "threads of every stage (-1: all cores)");
   manager->Add("Mapper.progress", &o.progress,

@@ -24,6 +24,7 @@ void PrintUsage() {
                "rotation averaging\n\n"
                "Usage:\n"
                "  colmap_irav4 help\n"
+               "  colmap_irav4 help <command>\n"
                "  colmap_irav4 <command> -h\n"
                "  colmap_irav4 <command> [--option value ...]\n\n"
                "Commands:\n";
@@ -46,17 +47,27 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string command = argv[1];
-  if (command == "help" || command == "-h" || command == "--help") {
+  if ((command == "help" || command == "-h" || command == "--help") &&
+      argc < 3) {
     PrintUsage();
     return 0;
   }
-  const auto it = CommandRegistry().find(command);
+  // `colmap_irav4 help mapper`: the command's own help (as `mapper -h`).
+  const bool command_help = command == "help" || command == "-h" ||
+                            command == "--help";
+  const std::string name = command_help ? argv[2] : command;
+  const auto it = CommandRegistry().find(name);
   if (it == CommandRegistry().end()) {
-    std::cerr << "ERROR: unknown command '" << command
+    std::cerr << "ERROR: unknown command '" << name
               << "' (see colmap_irav4 help)" << std::endl;
     return 1;
   }
   try {
+    if (command_help) {
+      std::string help_flag = "-h";
+      char* help_argv[] = {argv[2], help_flag.data(), nullptr};
+      return it->second.function(2, help_argv);
+    }
     return it->second.function(argc - 1, argv + 1);
   } catch (const InputError& error) {
     std::cerr << "ERROR: " << error.what() << std::endl;

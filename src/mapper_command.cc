@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "colmap_irav4/pipeline/global_pipeline.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
 #include "src/command.h"
@@ -35,7 +36,7 @@ int RunMapper(int argc, char** argv) {
   manager.Add("output_type", &output_type, "BIN or TXT");
   AddGlobalMapperOptions(&manager, &options);
   if (!manager.Parse(argc, argv)) return 0;
-  options.Check();
+  manager.Check([&] { options.Check(); });
   // Before any solve: a BLAS / OpenMP runtime loaded with Ceres would
   // otherwise start one thread per core.
   LimitBlasThreads(options.num_threads);

@@ -55,9 +55,7 @@ int RunModelComparer(int argc, char** argv) {
   if (input_path2.empty() == gt_path.empty()) {
     throw InputError("--input_path2/--gt_path", "give exactly one of them");
   }
-  if (!ransac.Check()) {
-    throw InputError("--Comparer.max_relative_error", "must be in (0, 1)");
-  }
+  manager.Check([&] { ransac.Check(); });
 
   Reconstruction model1 = ReadReconstruction(input_path1);
   std::map<std::string, Rigid3d> reference;

@@ -20,6 +20,7 @@
 #include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/timer.h"
@@ -172,12 +173,10 @@ int RunRotationAverager(int argc, char** argv) {
               "seconds per stage, reference_size, cluster_sizes");
   options.Add("log_progress", &averager_options.log_progress,
               "progress lines during long runs");
-  options.Add("ViewGraph.min_num_inliers", &builder_options.min_num_inliers,
-              "--database_path: minimum inlier matches of a pair");
-  options.Add("ViewGraph.min_inlier_ratio", &builder_options.min_inlier_ratio,
-              "--database_path: minimum inliers / raw matches");
-  options.Add("ViewGraph.drop_configs", &builder_options.drop_configs,
-              "--database_path: two-view configurations to drop");
+  // --database_path: the view graph's options (its threads are
+  // --RotationAveraging.num_threads).
+  AddViewGraphOptions(&options, &builder_options, "ViewGraph.min_num_inliers",
+                      /*with_threads_and_components=*/false);
   AddRotationAveragerOptions(&options, &averager_options);
   if (!options.Parse(argc, argv)) return 0;
   // The user's thread count bounds every stage: the view graph's workers, the
@@ -191,7 +190,10 @@ int RunRotationAverager(int argc, char** argv) {
                      "give exactly one of --relpose_path, --database_path "
                      "and --eg_path");
   }
-  builder_options.Check();
+  options.Check([&] {
+    builder_options.Check();
+    averager_options.Check();
+  });
   if (!output_path.empty()) CheckFileWritable(output_path);  // before work
   if (output_path.empty() && gt_path.empty()) {
     LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "

@@ -13,6 +13,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
@@ -49,44 +50,9 @@ int RunViewGraph(int argc, char** argv) {
   manager.AddRequired("database_path", &database_path,
                       "COLMAP database (opened read-only)");
   manager.AddRequired("output_path", &output_path, "relative poses file");
-  manager.Add("ViewGraph.min_num_inliers", &options.min_num_inliers,
-              "minimum inlier matches of a pair");
-  manager.Add("ViewGraph.min_inlier_ratio", &options.min_inlier_ratio,
-              "minimum inliers / raw matches (where raw matches are stored)");
-  manager.Add("ViewGraph.drop_configs", &options.drop_configs,
-              "comma-separated two-view configurations to drop");
-  manager.Add("ViewGraph.keep_largest_component",
-              &options.keep_largest_component,
-              "keep only the largest connected component");
-  manager.Add("ViewGraph.num_threads", &options.num_threads,
-              "threads deriving the relative poses (-1: all cores)");
-  AddFocalCalibrationOptions(&manager, &options.focal_calibration);
-  manager.Add("RelativePose.max_error_px", &options.relative_pose.max_error_px,
-              "epipolar error threshold of a supporting match (pixels)");
-  manager.Add("RelativePose.refine", &options.relative_pose.refine,
-              "refine each pose on its inliers (robust Sampson error)");
-  manager.Add("RelativePose.refine_loss_scale_px",
-              &options.relative_pose.refine_loss_scale_px,
-              "Cauchy loss scale of the refinement (pixels)");
-  manager.Add("RelativePose.refine_max_num_iterations",
-              &options.relative_pose.refine_max_num_iterations,
-              "refinement iterations");
-  manager.Add("RelativePose.refine_max_rotation_std_deg",
-              &options.relative_pose.refine_max_rotation_std_deg,
-              "refine only poses whose rotation the inliers determine to "
-              "this standard deviation (deg)");
-  manager.Add("RelativePose.refine_max_num_matches",
-              &options.relative_pose.refine_max_num_matches,
-              "refine on at most this many matches (0: all)");
-  manager.Add("RelativePose.min_stored_pose_support",
-              &options.relative_pose.min_stored_pose_support,
-              "use a stored qvec/tvec if it has this fraction of the best "
-              "derived pose's support");
-  manager.Add("RelativePose.min_tri_angle_deg",
-              &options.relative_pose.min_tri_angle_deg,
-              "median triangulation angle below which t is undefined (deg)");
+  AddViewGraphOptions(&manager, &options);
   if (!manager.Parse(argc, argv)) return 0;
-  options.Check();
+  manager.Check([&] { options.Check(); });
   CheckFileWritable(output_path);  // before any work
 
   Timer timer;

@@ -40,6 +40,7 @@
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
 

@@ -9,6 +9,8 @@
 #include <Eigen/SVD>
 #include <glog/logging.h>
 
+#include "colmap_irav4/util/error.h"
+
 namespace colmap_irav4 {
 namespace {
 
@@ -52,15 +54,21 @@ bool EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
   return true;
 }
 
-bool SimilarityRansacOptions::Check() const {
-  return max_relative_error > 0 && max_relative_error < 1 && num_trials > 0;
+void SimilarityRansacOptions::Check() const {
+  if (!(max_relative_error > 0 && max_relative_error < 1)) {
+    throw OptionError(&max_relative_error, "Comparer.max_relative_error",
+                      "must be in (0, 1)");
+  }
+  if (num_trials < 1) {
+    throw OptionError(&num_trials, "Comparer.num_trials", "must be >= 1");
+  }
 }
 
 bool EstimateSimilarityRansac(const std::vector<Eigen::Vector3d>& src,
                               const std::vector<Eigen::Vector3d>& dst,
                               const SimilarityRansacOptions& options,
                               Sim3d* sim, std::vector<bool>* inliers) {
-  CHECK(options.Check());
+  options.Check();
   CHECK_EQ(src.size(), dst.size());
   const int n = static_cast<int>(src.size());
   if (n < 3) return false;

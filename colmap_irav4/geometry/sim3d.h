@@ -31,7 +31,7 @@ struct SimilarityRansacOptions {
   // Random minimal samples; with at most 20 points every triple is tried.
   int num_trials = 2000;
   uint64_t seed = 0;
-  bool Check() const;
+  void Check() const;  // throws OptionError naming the option
 };
 
 // RANSAC over minimal sets of 3 points, then least squares on the inliers.

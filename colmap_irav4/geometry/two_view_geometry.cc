@@ -362,32 +362,31 @@ int TwoViewConfigFromName(const std::string& name) {
   return -1;
 }
 
-bool RelativePoseOptions::Check() const {
+void RelativePoseOptions::Check() const {
   if (!(max_error_px > 0)) {
-    throw InputError("--RelativePose.max_error_px", "must be > 0");
+    throw OptionError(&max_error_px, "RelativePose.max_error_px", "must be > 0");
   }
   if (!(refine_loss_scale_px > 0)) {
-    throw InputError("--RelativePose.refine_loss_scale_px", "must be > 0");
+    throw OptionError(&refine_loss_scale_px, "RelativePose.refine_loss_scale_px", "must be > 0");
   }
   if (refine_max_num_matches < 0) {
-    throw InputError("--RelativePose.refine_max_num_matches", "must be >= 0");
+    throw OptionError(&refine_max_num_matches, "RelativePose.refine_max_num_matches", "must be >= 0");
   }
   if (refine_max_num_iterations < 0) {
-    throw InputError("--RelativePose.refine_max_num_iterations",
+    throw OptionError(&refine_max_num_iterations, "RelativePose.refine_max_num_iterations",
                      "must be >= 0");
   }
   if (!(min_stored_pose_support >= 0 && min_stored_pose_support <= 1)) {
-    throw InputError("--RelativePose.min_stored_pose_support",
+    throw OptionError(&min_stored_pose_support, "RelativePose.min_stored_pose_support",
                      "must be in [0, 1]");
   }
   if (!(refine_max_rotation_std_deg > 0)) {
-    throw InputError("--RelativePose.refine_max_rotation_std_deg",
-                     "must be > 0");
+    throw OptionError(&refine_max_rotation_std_deg,
+                      "RelativePose.refine_max_rotation_std_deg", "must be > 0");
   }
   if (!(min_tri_angle_deg >= 0)) {
-    throw InputError("--RelativePose.min_tri_angle_deg", "must be >= 0");
+    throw OptionError(&min_tri_angle_deg, "RelativePose.min_tri_angle_deg", "must be >= 0");
   }
-  return true;
 }
 
 std::string RelativePoseSourceName(RelativePoseSource source) {

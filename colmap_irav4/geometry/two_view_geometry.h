@@ -86,7 +86,7 @@ struct RelativePoseOptions {
   // translation direction is marked unreliable (near pure rotation).
   double min_tri_angle_deg = 0.5;
 
-  bool Check() const;  // throws InputError naming the option
+  void Check() const;  // throws InputError naming the option
 };
 
 // Where a relative pose came from.

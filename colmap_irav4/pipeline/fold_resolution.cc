@@ -7,7 +7,6 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
-#include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -68,29 +67,6 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
 }  // namespace
 
 
-void AddFoldResolutionOptions(OptionManager* manager,
-                              FoldResolutionOptions* options) {
-  FoldResolutionOptions& o = *options;
-  FoldDetectionOptions& d = o.detection;
-  manager->Add("Fold.detect", &o.detect,
-               "test every model for a fold (symmetric scenes)");
-  manager->Add("Fold.resolve", &o.resolve,
-               "resolve a detected fold: remove the suspect pairs and map "
-               "again, else split the model at the weakest cut");
-  manager->Add("Fold.max_iterations", &o.max_iterations,
-               "rounds of removing suspect pairs before a split");
-  manager->Add("Fold.max_fold_score", &d.max_fold_score,
-               "models with a larger fraction of predicted overlapping pairs "
-               "without matches are folded");
-  manager->Add("Fold.min_missing_pairs", &d.min_missing_pairs,
-               "... and at least this many such pairs");
-  manager->Add("Fold.max_view_angle_deg", &d.max_view_angle_deg,
-               "two cameras are expected to match a point only from rays "
-               "closer than this (deg)");
-  manager->Add("Fold.min_overlap_fraction", &d.min_overlap_fraction,
-               "a pair is predicted to overlap when each image expects this "
-               "fraction of the other's points");
-}
 
 FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
                                const std::vector<ImagePairGeometry>& pairs,

@@ -23,11 +23,7 @@
 
 namespace colmap_irav4 {
 
-class OptionManager;
 
-
-void AddFoldResolutionOptions(OptionManager* manager,
-                              FoldResolutionOptions* options);
 
 // The database's evidence about the pairs of `images`: every verified
 // geometry (with its inlier count), every pair the raw matches table records

@@ -14,7 +14,7 @@
 #include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
-#include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/threading.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -378,7 +378,7 @@ int GlobalMapper::ColorPoints(const std::string& image_path) {
 
 void RotationFilterOptions::Check() const {
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
-    throw InputError("--RotationFilter.max_rotation_error_deg",
+    throw OptionError(&max_rotation_error_deg, "RotationFilter.max_rotation_error_deg",
                      "must be in (0, 180]");
   }
 }
@@ -406,33 +406,33 @@ GlobalMapperOptions::GlobalMapperOptions()
 
 void GlobalMapperOptions::Check() const {
   if (min_model_size < 3) {
-    throw InputError("--Mapper.min_model_size", "must be >= 3");
+    throw OptionError(&min_model_size, "Mapper.min_model_size", "must be >= 3");
   }
   const std::vector<std::string> methods = RotationAveragerMethods();
   if (std::find(methods.begin(), methods.end(), rotation_method) ==
       methods.end()) {
-    throw InputError("--Mapper.rotation_method",
+    throw OptionError(&rotation_method, "Mapper.rotation_method",
                      "unknown method '" + rotation_method + "' (one of " +
                          RotationAveragerMethodList() + ")");
   }
   if (positioning_method != "global_positioning" &&
       positioning_method != "translation_averaging") {
-    throw InputError("--Mapper.positioning_method",
+    throw OptionError(&positioning_method, "Mapper.positioning_method",
                      "unknown method '" + positioning_method +
                          "' (global_positioning or translation_averaging)");
   }
   if (num_threads == 0 || num_threads < -1) {
-    throw InputError("--Mapper.num_threads", "must be -1 (all cores) or > 0");
+    throw OptionError(&num_threads, "Mapper.num_threads", "must be -1 (all cores) or > 0");
   }
   if (progress < -1 || progress > 1) {
-    throw InputError("--Mapper.progress", "must be -1 (auto), 0 or 1");
+    throw OptionError(&progress, "Mapper.progress", "must be -1 (auto), 0 or 1");
   }
   if (color_image_downscale != 1 && color_image_downscale != 2 &&
       color_image_downscale != 4 && color_image_downscale != 8) {
-    throw InputError("--Mapper.color_image_downscale", "must be 1, 2, 4 or 8");
+    throw OptionError(&color_image_downscale, "Mapper.color_image_downscale", "must be 1, 2, 4 or 8");
   }
   if (num_ba_iterations < 0) {
-    throw InputError("--Mapper.num_ba_iterations", "must be >= 0");
+    throw OptionError(&num_ba_iterations, "Mapper.num_ba_iterations", "must be >= 0");
   }
   view_graph.Check();
   rotation_averaging.Check();
@@ -442,7 +442,7 @@ void GlobalMapperOptions::Check() const {
   translation_averaging.Check();
   triangulation.Check();
   if (positioning_tracks_per_image < 0) {
-    throw InputError("--Mapper.positioning_tracks_per_image", "must be >= 0");
+    throw OptionError(&positioning_tracks_per_image, "Mapper.positioning_tracks_per_image", "must be >= 0");
   }
   bundle_adjustment.Check();
   filtering.Check();
@@ -456,156 +456,18 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.global_positioning.num_threads = num_threads;
   stages.bundle_adjustment.num_threads = num_threads;
   stages.translation_averaging.num_threads = num_threads;
+  stages.rotation_averaging.ira.engine.num_threads =
+      ResolveNumThreads(num_threads);
   const bool show_progress =
       progress == 1 ||
       (progress == -1 && (isatty(fileno(stderr)) || num_images >= 100));
   stages.global_positioning.show_progress_bar = show_progress;
   stages.bundle_adjustment.show_progress_bar = show_progress;
   stages.translation_averaging.show_progress_bar = show_progress;
-  stages.bundle_adjustment.refine_focal_length = ba_refine_focal_length;
-  stages.bundle_adjustment.refine_principal_point = ba_refine_principal_point;
-  stages.bundle_adjustment.refine_extra_params = ba_refine_extra_params;
+  stages.rotation_averaging.log_progress = show_progress;
   return stages;
 }
 
-void AddGlobalMapperOptions(OptionManager* manager,
-                            GlobalMapperOptions* options) {
-  GlobalMapperOptions& o = *options;
-  manager->Add("Mapper.min_num_matches", &o.view_graph.min_num_inliers,
-               "minimum inlier matches of an image pair");
-  manager->Add("Mapper.min_model_size", &o.min_model_size,
-               "components with fewer images give no model");
-  manager->Add("Mapper.rotation_method", &o.rotation_method,
-               "rotation averaging: " + RotationAveragerMethodList());
-  manager->Add("Mapper.positioning_method", &o.positioning_method,
-               "global_positioning or translation_averaging");
-  manager->Add("Mapper.ba_refine_focal_length", &o.ba_refine_focal_length,
-               "refine focal lengths in bundle adjustment");
-  manager->Add("Mapper.ba_refine_principal_point",
-               &o.ba_refine_principal_point,
-               "refine principal points in bundle adjustment");
-  manager->Add("Mapper.ba_refine_extra_params", &o.ba_refine_extra_params,
-               "refine distortion parameters in bundle adjustment");
-  manager->Add("Mapper.reset_invalid_cameras", &o.reset_invalid_cameras,
-               "start cameras with invalid intrinsics from a default focal "
-               "(refined) instead of failing");
-  manager->Add("Mapper.num_threads", &o.num_threads,
-               "threads of every stage (-1: all cores)");
-  manager->Add("Mapper.progress", &o.progress,
-               "progress bars: 1 on, 0 off, -1 on a terminal or >= 100 "
-               "images");
-  manager->Add("Mapper.num_ba_iterations", &o.num_ba_iterations,
-               "rounds of bundle adjustment + filtering");
-  manager->Add("Mapper.positioning_tracks_per_image",
-               &o.positioning_tracks_per_image,
-               "global positioning uses the longest tracks until each image "
-               "has this many observations (0: all tracks)");
-  manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
-               "skip the rotation-consistency filter");
-  manager->Add("Mapper.skip_bundle_adjustment", &o.skip_bundle_adjustment,
-               "skip bundle adjustment");
-  manager->Add("Mapper.skip_retriangulation", &o.skip_retriangulation,
-               "skip retriangulation");
-  manager->Add("Mapper.skip_filtering", &o.skip_filtering,
-               "skip the final filtering");
-  manager->Add("Mapper.skip_normalization", &o.skip_normalization,
-               "skip normalising the scene's centre and scale");
-  manager->Add("Mapper.color_image_downscale", &o.color_image_downscale,
-               "images are decoded at 1/1, 1/2, 1/4 or 1/8 of their size for "
-               "the point colours");
-  manager->Add("Mapper.skip_colors", &o.skip_colors,
-               "do not read images for point colours (grey)");
-
-  manager->Add("ViewGraph.min_inlier_ratio", &o.view_graph.min_inlier_ratio,
-               "minimum inliers / raw matches (where raw matches are stored)");
-  manager->Add("ViewGraph.drop_configs", &o.view_graph.drop_configs,
-               "comma-separated two-view configurations to drop");
-  AddFocalCalibrationOptions(manager, &o.view_graph.focal_calibration);
-  RelativePoseOptions& rp = o.view_graph.relative_pose;
-  manager->Add("RelativePose.max_error_px", &rp.max_error_px,
-               "epipolar error threshold of a supporting match (pixels)");
-  manager->Add("RelativePose.refine", &rp.refine,
-               "refine each relative pose on its inliers");
-  manager->Add("RelativePose.refine_max_rotation_std_deg",
-               &rp.refine_max_rotation_std_deg,
-               "refine only poses whose rotation the inliers determine to "
-               "this standard deviation (deg)");
-  manager->Add("RelativePose.min_tri_angle_deg", &rp.min_tri_angle_deg,
-               "median triangulation angle below which t is undefined (deg)");
-
-  AddRotationAveragerOptions(manager, &o.rotation_averaging);
-  manager->Add("RotationFilter.max_rotation_error_deg",
-               &o.rotation_filter.max_rotation_error_deg,
-               "drop pairs disagreeing with the averaged rotations (deg)");
-
-  manager->Add("Tracks.min_track_length", &o.tracks.min_track_length,
-               "shorter tracks are dropped");
-  manager->Add("Tracks.max_track_length", &o.tracks.max_track_length,
-               "longer tracks are dropped");
-  manager->Add("Tracks.max_duplicate_distance",
-               &o.tracks.max_duplicate_distance,
-               "two observations of a track in one image closer than this "
-               "(px) are merged, farther: the track is dropped");
-
-  GlobalPositionerOptions& gp = o.global_positioning;
-  manager->Add("GlobalPositioning.min_track_length", &gp.min_track_length,
-               "tracks positioned (shorter: retriangulated later)");
-  manager->Add("GlobalPositioning.loss_function", &gp.loss_function,
-               "huber, cauchy or trivial");
-  manager->Add("GlobalPositioning.loss_scale", &gp.loss_scale,
-               "robust loss scale");
-  manager->Add("GlobalPositioning.max_angular_error_deg",
-               &gp.max_angular_error_deg,
-               "observations disagreeing more are unlinked (deg)");
-  manager->Add("GlobalPositioning.max_num_iterations", &gp.max_num_iterations,
-               "Ceres iterations");
-  manager->Add("GlobalPositioning.function_tolerance", &gp.function_tolerance,
-               "Ceres function tolerance");
-  manager->Add("GlobalPositioning.print_progress", &gp.print_progress,
-               "print Ceres' iterations");
-
-  TranslationAveragingOptions& ta = o.translation_averaging;
-  manager->Add("TranslationAveraging.cost", &ta.cost, "bata or chordal");
-  manager->Add("TranslationAveraging.loss_function", &ta.loss_function,
-               "huber, cauchy or trivial");
-  manager->Add("TranslationAveraging.loss_scale", &ta.loss_scale,
-               "robust loss scale");
-  manager->Add("Triangulation.max_reproj_error",
-               &o.triangulation.max_reproj_error,
-               "inlier threshold of (re)triangulation (px)");
-  manager->Add("Triangulation.min_tri_angle", &o.triangulation.min_tri_angle,
-               "minimum triangulation angle (deg)");
-
-  BundleAdjustmentOptions& ba = o.bundle_adjustment;
-  manager->Add("BundleAdjustment.loss_function", &ba.loss_function,
-               "huber, cauchy or trivial");
-  manager->Add("BundleAdjustment.loss_scale", &ba.loss_scale,
-               "robust loss scale (px)");
-  manager->Add("BundleAdjustment.num_rounds", &ba.num_rounds,
-               "solve + filter rounds per bundle adjustment");
-  manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
-               "observations over this error are removed between rounds (px)");
-  manager->Add("BundleAdjustment.max_num_iterations", &ba.max_num_iterations,
-               "Ceres iterations per round");
-  manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
-               "auto, sparse_schur, dense_schur or iterative_schur");
-  manager->Add("BundleAdjustment.function_tolerance", &ba.function_tolerance,
-               "Ceres function tolerance");
-  manager->Add("BundleAdjustment.initial_trust_region_radius",
-               &ba.initial_trust_region_radius,
-               "Levenberg-Marquardt's initial trust region");
-  manager->Add("BundleAdjustment.print_progress", &ba.print_progress,
-               "print Ceres' iterations");
-
-  manager->Add("Filter.max_reproj_error", &o.filtering.max_reproj_error,
-               "observations over this reprojection error are removed (px)");
-  manager->Add("Filter.min_tri_angle", &o.filtering.min_tri_angle,
-               "points with a smaller largest triangulation angle are removed "
-               "(deg)");
-  manager->Add("Normalization.extent", &o.normalization.extent,
-               "extent of the central part of the normalised scene");
-  AddFoldResolutionOptions(manager, &o.fold);
-}
 
 std::vector<ImagePairGeometry> FilterPairsByRotation(
     const std::vector<ImagePairGeometry>& pairs,

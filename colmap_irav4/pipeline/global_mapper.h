@@ -31,8 +31,6 @@
 
 namespace colmap_irav4 {
 
-class OptionManager;
-
 // The rotation-consistency filter between rotation averaging and tracks.
 struct RotationFilterOptions {
   // Pairs whose relative rotation disagrees with the averaged rotations
@@ -50,10 +48,6 @@ struct GlobalMapperOptions {
   std::string rotation_method;
   // global_positioning or translation_averaging.
   std::string positioning_method = "global_positioning";
-  // Intrinsics refined by bundle adjustment (COLMAP's names and defaults).
-  bool ba_refine_focal_length = true;
-  bool ba_refine_principal_point = false;
-  bool ba_refine_extra_params = true;
   // Ceres / worker threads of every stage; -1: all cores.
   int num_threads = -1;
   // Progress bars on the iterative stages (positioning, bundle adjustment):
@@ -102,18 +96,13 @@ struct GlobalMapperOptions {
   // Throws InputError naming the offending option.
   void Check() const;
 
-  // A copy whose stage options carry the mapper-wide settings (num_threads,
-  // progress bars) and the bundle adjustment's refine flags, for a run on
-  // `num_images` images (progress -1: bars from 100 images or on a
-  // terminal).
+  // A copy whose stage options carry the mapper-wide settings (num_threads:
+  // view graph, rotation averaging, Ceres solves, colours; progress bars and
+  // progress lines), for a run on `num_images` images (progress -1: on from
+  // 100 images or on a terminal).
   GlobalMapperOptions ForStages(size_t num_images) const;
 };
 
-// Registers the options in COLMAP's dotted style (--Mapper.*, --ViewGraph.*,
-// --RelativePose.*, --RotationAveraging.*, --Tracks.*, --GlobalPositioning.*,
-// --BundleAdjustment.*, --Filter.*, --Normalization.*).
-void AddGlobalMapperOptions(OptionManager* manager,
-                            GlobalMapperOptions* options);
 
 // The rotation method used when none is given: irav4 when registered in the
 // factory, else the best available baseline.

@@ -48,7 +48,11 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"num_points\": " << c.num_points
         << ", \"num_observations\": " << c.num_observations
         << ", \"mean_track_length\": " << JsonNumber(c.mean_track_length)
-        << ", \"mean_reprojection_error\": "
+        << ",\n     \"mean_reprojection_error_per_observation\": "
+        << JsonNumber(c.mean_reprojection_error)
+        << ", \"mean_reprojection_error_per_point\": "
+        << JsonNumber(c.mean_reprojection_error_per_point)
+        << ",\n     \"mean_reprojection_error\": "
         << JsonNumber(c.mean_reprojection_error)
         << ", \"fold_score\": "
         << JsonNumber(c.fold_score < 0 ? std::nan("") : c.fold_score)
@@ -202,6 +206,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
       report.fold_outcome = fold_check.outcome;
     }
     report.mean_reprojection_error = UpdateReprojectionErrors(&reconstruction);
+    report.mean_reprojection_error_per_point =
+        MeanPointReprojectionError(reconstruction);
     report.num_registered_images = static_cast<int>(reconstruction.images.size());
     report.num_points = static_cast<int>(reconstruction.points3D.size());
     report.num_observations = static_cast<int>(NumObservations(reconstruction));
@@ -212,7 +218,9 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
               << report.num_observations << " observations, mean track length "
               << std::fixed << std::setprecision(2) << report.mean_track_length
               << ", mean reprojection error " << std::setprecision(3)
-              << report.mean_reprojection_error << " px";
+              << report.mean_reprojection_error << " px per observation, "
+              << report.mean_reprojection_error_per_point
+              << " px per point (COLMAP model_analyzer's figure)";
     summary->components.push_back(report);
     reconstructions.push_back(std::move(reconstruction));
   }

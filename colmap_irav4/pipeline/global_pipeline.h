@@ -26,7 +26,13 @@ struct ComponentReport {
   int num_points = 0;
   int num_observations = 0;
   double mean_track_length = 0;
-  double mean_reprojection_error = 0;
+  // Mean reprojection error (px) over all observations (what bundle
+  // adjustment minimises) and over points (each point's mean over its track
+  // first: COLMAP model_analyzer's "Mean reprojection error"). The
+  // per-observation mean is larger: long tracks, seen from more angles, tend
+  // to have larger errors.
+  double mean_reprojection_error = 0;  // per observation
+  double mean_reprojection_error_per_point = 0;
   // Fold check (refinement/fold_detection.h) of the model as written;
   // fold_score -1: not run.
   double fold_score = -1;

@@ -20,25 +20,29 @@ namespace colmap_irav4 {
 
 void GlobalPositionerOptions::Check() const {
   if (min_track_length < 2) {
-    throw InputError("GlobalPositioning.min_track_length", "must be at least 2");
+    throw OptionError(&min_track_length, "GlobalPositioning.min_track_length", "must be at least 2");
   }
   if (loss_function != "huber" && loss_function != "cauchy" &&
       loss_function != "trivial") {
-    throw InputError("GlobalPositioning.loss_function",
+    throw OptionError(&loss_function, "GlobalPositioning.loss_function",
                      "must be huber, cauchy or trivial, not '" + loss_function + "'");
   }
   if (!(loss_scale > 0)) {
-    throw InputError("GlobalPositioning.loss_scale", "must be positive");
+    throw OptionError(&loss_scale, "GlobalPositioning.loss_scale", "must be positive");
   }
   if (!(initialization_box > 0)) {
-    throw InputError("GlobalPositioning.initialization_box", "must be positive");
+    throw OptionError(&initialization_box, "GlobalPositioning.initialization_box", "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
-    throw InputError("GlobalPositioning.max_angular_error_deg",
+    throw OptionError(&max_angular_error_deg, "GlobalPositioning.max_angular_error_deg",
                      "must be in [0, 180)");
   }
   if (max_num_iterations < 1) {
-    throw InputError("GlobalPositioning.max_num_iterations", "must be positive");
+    throw OptionError(&max_num_iterations, "GlobalPositioning.max_num_iterations", "must be positive");
+  }
+  if (!(function_tolerance >= 0)) {
+    throw OptionError(&function_tolerance, "GlobalPositioning.function_tolerance",
+                      "must be >= 0");
   }
 }
 

@@ -26,14 +26,14 @@ bool ElementLess(const TrackElement& a, const TrackElement& b) {
 
 void TrackBuilderOptions::Check() const {
   if (min_track_length < 2) {
-    throw InputError("TrackBuilder.min_track_length", "must be at least 2");
+    throw OptionError(&min_track_length, "Tracks.min_track_length", "must be at least 2");
   }
   if (max_track_length < min_track_length) {
-    throw InputError("TrackBuilder.max_track_length",
+    throw OptionError(&max_track_length, "Tracks.max_track_length",
                      "must be at least min_track_length");
   }
   if (!(max_duplicate_distance >= 0.0)) {
-    throw InputError("TrackBuilder.max_duplicate_distance", "must be >= 0");
+    throw OptionError(&max_duplicate_distance, "Tracks.max_duplicate_distance", "must be >= 0");
   }
 }
 

@@ -112,21 +112,21 @@ bool LinearInitialization(
 
 void TranslationAveragingOptions::Check() const {
   if (loss_function != "huber" && loss_function != "cauchy" && loss_function != "trivial") {
-    throw InputError("TranslationAveraging.loss_function",
+    throw OptionError(&loss_function, "TranslationAveraging.loss_function",
                      "must be huber, cauchy or trivial, not '" + loss_function + "'");
   }
   if (cost != "bata" && cost != "chordal") {
-    throw InputError("TranslationAveraging.cost", "must be bata or chordal, not '" + cost + "'");
+    throw OptionError(&cost, "TranslationAveraging.cost", "must be bata or chordal, not '" + cost + "'");
   }
-  if (!(loss_scale > 0)) throw InputError("TranslationAveraging.loss_scale", "must be positive");
+  if (!(loss_scale > 0)) throw OptionError(&loss_scale, "TranslationAveraging.loss_scale", "must be positive");
   if (!(initialization_box > 0)) {
-    throw InputError("TranslationAveraging.initialization_box", "must be positive");
+    throw OptionError(&initialization_box, "TranslationAveraging.initialization_box", "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
-    throw InputError("TranslationAveraging.max_angular_error_deg", "must be in [0, 180)");
+    throw OptionError(&max_angular_error_deg, "TranslationAveraging.max_angular_error_deg", "must be in [0, 180)");
   }
   if (max_num_iterations < 1) {
-    throw InputError("TranslationAveraging.max_num_iterations", "must be positive");
+    throw OptionError(&max_num_iterations, "TranslationAveraging.max_num_iterations", "must be positive");
   }
 }
 

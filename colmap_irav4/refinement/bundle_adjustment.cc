@@ -178,27 +178,33 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
 void BundleAdjustmentOptions::Check() const {
   if (loss_function != "huber" && loss_function != "huber_ceres" &&
       loss_function != "cauchy" && loss_function != "trivial") {
-    throw InputError("BundleAdjustment.loss_function",
+    throw OptionError(&loss_function, "BundleAdjustment.loss_function",
                      "must be huber, huber_ceres, cauchy or trivial, not '" + loss_function + "'");
   }
-  if (!(loss_scale > 0)) throw InputError("BundleAdjustment.loss_scale", "must be positive");
-  if (num_rounds < 1) throw InputError("BundleAdjustment.num_rounds", "must be at least 1");
+  if (!(loss_scale > 0)) throw OptionError(&loss_scale, "BundleAdjustment.loss_scale", "must be positive");
+  if (num_rounds < 1) throw OptionError(&num_rounds, "BundleAdjustment.num_rounds", "must be at least 1");
   if (!(min_filtered_fraction >= 0 && min_filtered_fraction < 1)) {
-    throw InputError("BundleAdjustment.min_filtered_fraction", "must be in [0, 1)");
+    throw OptionError(&min_filtered_fraction, "BundleAdjustment.min_filtered_fraction", "must be in [0, 1)");
   }
   if (!(max_reproj_error >= 0)) {
-    throw InputError("BundleAdjustment.max_reproj_error", "must be >= 0");
+    throw OptionError(&max_reproj_error, "BundleAdjustment.max_reproj_error", "must be >= 0");
   }
   if (linear_solver != "auto" && linear_solver != "sparse_schur" &&
       linear_solver != "dense_schur" && linear_solver != "iterative_schur") {
-    throw InputError("BundleAdjustment.linear_solver",
+    throw OptionError(&linear_solver, "BundleAdjustment.linear_solver",
                      "must be auto, sparse_schur, dense_schur or iterative_schur");
   }
   if (max_num_iterations < 1) {
-    throw InputError("BundleAdjustment.max_num_iterations", "must be positive");
+    throw OptionError(&max_num_iterations, "BundleAdjustment.max_num_iterations", "must be positive");
+  }
+  if (!(function_tolerance >= 0)) {
+    throw OptionError(&function_tolerance, "BundleAdjustment.function_tolerance",
+                      "must be >= 0");
   }
   if (!(initial_trust_region_radius > 0)) {
-    throw InputError("BundleAdjustment.initial_trust_region_radius", "must be positive");
+    throw OptionError(&initial_trust_region_radius,
+                      "BundleAdjustment.initial_trust_region_radius",
+                      "must be positive");
   }
 }
 

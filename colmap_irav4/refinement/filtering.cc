@@ -63,13 +63,13 @@ size_t FilterPointsWithSmallTriangulationAngle(double min_tri_angle_deg,
 
 void FilterOptions::Check() const {
   if (!(max_reproj_error > 0)) {
-    throw InputError("Filter.max_reproj_error", "must be positive");
+    throw OptionError(&max_reproj_error, "Filter.max_reproj_error", "must be positive");
   }
   if (!(min_tri_angle >= 0 && min_tri_angle < 180)) {
-    throw InputError("Filter.min_tri_angle", "must be in [0, 180)");
+    throw OptionError(&min_tri_angle, "Filter.min_tri_angle", "must be in [0, 180)");
   }
   if (min_num_observations_per_image < 0) {
-    throw InputError("Filter.min_num_observations_per_image", "must be >= 0");
+    throw OptionError(&min_num_observations_per_image, "Filter.min_num_observations_per_image", "must be >= 0");
   }
 }
 
@@ -112,9 +112,9 @@ void TransformReconstruction(const Sim3d& new_from_old, Reconstruction* reconstr
 }
 
 void NormalizationOptions::Check() const {
-  if (!(extent > 0)) throw InputError("Normalization.extent", "must be positive");
+  if (!(extent > 0)) throw OptionError(&extent, "Normalization.extent", "must be positive");
   if (!(min_percentile >= 0 && min_percentile < max_percentile && max_percentile <= 1)) {
-    throw InputError("Normalization.min_percentile/max_percentile",
+    throw OptionError(&min_percentile, "Normalization.min_percentile",
                      "need 0 <= min_percentile < max_percentile <= 1");
   }
 }

@@ -127,14 +127,14 @@ bool TriangulateDLT(const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_wo
 
 void TriangulationOptions::Check() const {
   if (!(max_reproj_error > 0)) {
-    throw InputError("Triangulation.max_reproj_error", "must be positive");
+    throw OptionError(&max_reproj_error, "Triangulation.max_reproj_error", "must be positive");
   }
   if (!(min_tri_angle >= 0 && min_tri_angle < 180)) {
-    throw InputError("Triangulation.min_tri_angle", "must be in [0, 180)");
+    throw OptionError(&min_tri_angle, "Triangulation.min_tri_angle", "must be in [0, 180)");
   }
-  if (max_num_trials < 1) throw InputError("Triangulation.max_num_trials", "must be positive");
+  if (max_num_trials < 1) throw OptionError(&max_num_trials, "Triangulation.max_num_trials", "must be positive");
   if (max_points_per_track < 1) {
-    throw InputError("Triangulation.max_points_per_track", "must be positive");
+    throw OptionError(&max_points_per_track, "Triangulation.max_points_per_track", "must be positive");
   }
 }
 

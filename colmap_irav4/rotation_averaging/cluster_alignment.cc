@@ -6,6 +6,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -29,9 +30,19 @@ int CountSupport(const Eigen::Matrix3d& candidate,
 
 }  // namespace
 
-bool ClusterAlignmentOptions::Check() const {
-  return theta_deg > 0 && theta_deg < 180 && num_refinements >= 0 &&
-         max_vote_candidates > 0;
+void ClusterAlignmentOptions::Check() const {
+  if (!(theta_deg > 0 && theta_deg < 180)) {
+    throw OptionError(&theta_deg, "ClusterAlignment.theta_deg",
+                      "must be in (0, 180)");
+  }
+  if (num_refinements < 0) {
+    throw OptionError(&num_refinements, "ClusterAlignment.num_refinements",
+                      "must be >= 0");
+  }
+  if (max_vote_candidates < 1) {
+    throw OptionError(&max_vote_candidates,
+                      "ClusterAlignment.max_vote_candidates", "must be >= 1");
+  }
 }
 
 Eigen::Matrix3d GeodesicMean(const std::vector<Eigen::Matrix3d>& rotations,
@@ -58,7 +69,7 @@ ClusterAlignment AlignClusterToReference(
     const std::vector<Eigen::Matrix3d>& reference_rotations,
     const std::vector<bool>& in_reference,
     const ClusterAlignmentOptions& options) {
-  CHECK(options.Check());
+  options.Check();
   const int n = graph.NumVertices();
   CHECK_EQ(static_cast<int>(cluster_rotations.size()), n);
   CHECK_EQ(static_cast<int>(reference_rotations.size()), n);

@@ -25,7 +25,7 @@ struct ClusterAlignmentOptions {
   // spread, deterministic) to bound the quadratic cost.
   int max_vote_candidates = 500;
 
-  bool Check() const;
+  void Check() const;
 };
 
 struct ClusterAlignment {

@@ -8,6 +8,8 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/util/error.h"
+
 namespace colmap_irav4 {
 namespace {
 
@@ -210,11 +212,28 @@ std::vector<std::vector<int>> BfsChunks(const RotationGraph& graph,
 
 }  // namespace
 
-bool CommunityDetectionOptions::Check() const {
-  return resolution > 0 && max_community_size >= 0 &&
-         min_community_size >= 0 && max_passes > 0 &&
-         (max_community_size == 0 || max_community_size >= 3) &&
-         (max_community_size == 0 || min_community_size <= max_community_size);
+void CommunityDetectionOptions::Check() const {
+  if (!(resolution > 0)) {
+    throw OptionError(&resolution, "RotationAveraging.community_resolution",
+                      "must be > 0");
+  }
+  if (max_community_size < 0 ||
+      (max_community_size > 0 && max_community_size < 3)) {
+    throw OptionError(&max_community_size,
+                      "RotationAveraging.max_community_size",
+                      "must be 0 (no limit) or >= 3");
+  }
+  if (min_community_size < 0 ||
+      (max_community_size > 0 && min_community_size > max_community_size)) {
+    throw OptionError(&min_community_size,
+                      "RotationAveraging.min_community_size",
+                      "must be >= 0 and <= --RotationAveraging."
+                      "max_community_size (unless that is 0)");
+  }
+  if (max_passes < 1) {
+    throw OptionError(&max_passes, "RotationAveraging.community_max_passes",
+                      "must be >= 1");
+  }
 }
 
 std::vector<int> LouvainCommunities(const RotationGraph& graph,
@@ -273,7 +292,7 @@ bool ContainsTriangle(const RotationGraph& graph,
 
 std::vector<std::vector<int>> DetectCommunities(
     const RotationGraph& graph, const CommunityDetectionOptions& options) {
-  CHECK(options.Check());
+  options.Check();
   std::vector<int> all(graph.NumVertices());
   std::iota(all.begin(), all.end(), 0);
   std::vector<std::vector<int>> communities =

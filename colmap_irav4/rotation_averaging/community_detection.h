@@ -27,7 +27,7 @@ struct CommunityDetectionOptions {
   // Minimum modularity gain of a level to go on aggregating.
   double min_modularity_gain = 1e-7;
 
-  bool Check() const;
+  void Check() const;
 };
 
 // Louvain on the whole graph: one label per vertex (0..k-1, numbered by their

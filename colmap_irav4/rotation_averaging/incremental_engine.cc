@@ -19,35 +19,37 @@
 
 namespace colmap_irav4 {
 
-bool IncrementalOptions::Check() const {
-  const auto fail = [](const std::string& name, const std::string& problem) {
-    throw InputError("IncrementalOptions." + name, problem);
+void IncrementalOptions::Check() const {
+  const auto fail = [](const void* field, const std::string& name,
+                       const std::string& problem) {
+    throw OptionError(field, "RotationAveraging." + name, problem);
   };
   if (!(theta_deg > 0.0 && theta_deg < 180.0)) {
-    fail("theta_deg", "must be in (0, 180), got " + std::to_string(theta_deg));
+    fail(&theta_deg, "theta_deg", "must be in (0, 180), got " + std::to_string(theta_deg));
   }
   if (!(global_growth_ratio >= 0.0)) {
-    fail("global_growth_ratio",
+    fail(&global_growth_ratio, "global_growth_ratio",
          "must be >= 0, got " + std::to_string(global_growth_ratio));
   }
-  if (max_num_iterations < 1) fail("max_num_iterations", "must be >= 1");
+  if (max_num_iterations < 1) fail(&max_num_iterations, "max_num_iterations", "must be >= 1");
   if (max_num_local_iterations < 1) {
-    fail("max_num_local_iterations", "must be >= 1");
+    fail(&max_num_local_iterations, "max_num_local_iterations", "must be >= 1");
   }
-  if (!(function_tolerance > 0.0)) fail("function_tolerance", "must be > 0");
-  if (max_seed_triplets < 0) fail("max_seed_triplets", "must be >= 0");
-  if (max_precomputations < 0) fail("max_precomputations", "must be >= 0");
+  if (!(function_tolerance > 0.0)) fail(&function_tolerance, "function_tolerance", "must be > 0");
+  if (max_seed_triplets < 0) fail(&max_seed_triplets, "max_seed_triplets", "must be >= 0");
+  if (max_precomputations < 0) fail(&max_precomputations, "max_precomputations", "must be >= 0");
   if (max_direct_solver_vertices < 0) {
-    fail("max_direct_solver_vertices", "must be >= 0");
+    fail(&max_direct_solver_vertices, "max_direct_solver_vertices", "must be >= 0");
   }
-  if (num_threads < 1) fail("num_threads", "must be >= 1");
+  if (num_threads < 1) fail(&num_threads, "num_threads", "must be >= 1");
   if (intermediate_global_iterations < 1) {
-    fail("intermediate_global_iterations", "must be >= 1");
+    fail(&intermediate_global_iterations, "intermediate_global_iterations",
+         "must be >= 1");
   }
   if (!(global_step_tolerance_deg >= 0.0)) {
-    fail("global_step_tolerance_deg", "must be >= 0");
+    fail(&global_step_tolerance_deg, "global_step_tolerance_deg",
+         "must be >= 0");
   }
-  return true;
 }
 
 namespace {

@@ -70,7 +70,7 @@ struct IncrementalOptions {
   bool lazy_reward_recomputation = true;
   // A converged global optimisation stops when the mean step is below this.
   double global_step_tolerance_deg = 1e-6;
-  bool Check() const;  // throws InputError
+  void Check() const;  // throws OptionError naming the option
 };
 
 struct IncrementalStats {

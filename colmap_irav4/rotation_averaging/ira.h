@@ -11,7 +11,7 @@ struct IraOptions {
   IncrementalOptions engine;
   // Log a progress line every 10% of the vertices (long runs).
   bool progress = false;
-  bool Check() const { return engine.Check(); }
+  void Check() const { engine.Check(); }
 };
 
 // IRA (Gao et al., IJCV 2021; the paper's section 3): the incremental engine

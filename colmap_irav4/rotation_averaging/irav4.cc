@@ -211,89 +211,35 @@ std::string ReferenceMethodToString(ReferenceMethod method) {
   return "?";
 }
 
-void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
-  manager->Add("RotationAveraging.min_community_size",
-               &options->communities.min_community_size,
-               "smaller communities merge into their best-connected "
-               "neighbour");
-  manager->Add("RotationAveraging.max_community_size",
-               &options->communities.max_community_size,
-               "larger communities are split (0 = no limit)");
-  manager->Add("RotationAveraging.preselect_clusters",
-               &options->preselect_clusters,
-               "IRAv4 clustering: a cluster takes only its community and "
-               "boundary cameras tied to it at least as strongly as to "
-               "their own (IRAv3's pre-selection); false = any camera");
-  manager->Add("RotationAveraging.max_cluster_size",
-               &options->max_cluster_size,
-               "IRAv4 clustering: a cluster stops competing at this size "
-               "until the fallback pass (0 = no cap)");
-  manager->Add("RotationAveraging.reference_method",
-               &options->reference_method,
-               "alignment reference: irav4 | greedy_cds | random_cds");
-  manager->Add("RotationAveraging.weighted_greedy_cds",
-               &options->weighted_greedy_cds,
-               "greedy CDS counts neighbours by inlier count");
-  manager->Add("RotationAveraging.num_random_cds", &options->num_random_cds,
-               "random CDSs united in the random_cds reference");
-  manager->Add("RotationAveraging.seed", &options->seed,
-               "seed of the random choices (random_cds)");
-  manager->Add("RotationAveraging.num_final_rounds",
-               &options->num_final_rounds,
-               "rounds of inlier selection + global optimisation at the end");
-  manager->Add("RotationAveraging.final_refinement",
-               &options->final_refinement,
-               "IRAv4 after its final optimisation: guarded (default: "
-               "l1_irls kept only if it lowers the Geman-McClure cost, else "
-               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
-               "irls (IRLS only) | none (the paper)");
-  manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
-               "IRAv4 refinement: re-initialise badly supported "
-               "vertices from their best pre-computation, refine again");
-  manager->Add("RotationAveraging.reseed_threshold_deg",
-               &options->reseed_threshold_deg,
-               "IRAv4 re-seeding: agreement threshold (deg)");
-  manager->Add("RotationAveraging.reseed_support_fraction",
-               &options->reseed_support_fraction,
-               "IRAv4 re-seeding: vertices agreeing with fewer than this "
-               "fraction of their edges are checked");
-}
 
-bool Irav4Options::Check() const {
-  if (!engine.Check()) {
-    throw InputError("--RotationAveraging.*",
-                     "invalid incremental engine options");
-  }
-  if (!communities.Check()) {
-    throw InputError("--RotationAveraging.*",
-                     "invalid community sizes (min <= max, max 0 or >= 3)");
-  }
+void Irav4Options::Check() const {
+  engine.Check();
+  communities.Check();
   ReferenceMethodFromString(reference_method);
   if (num_random_cds < 1) {
-    throw InputError("--RotationAveraging.num_random_cds", "must be >= 1");
+    throw OptionError(&num_random_cds, "RotationAveraging.num_random_cds", "must be >= 1");
   }
   if (max_cluster_size < 0) {
-    throw InputError("--RotationAveraging.max_cluster_size", "must be >= 0");
+    throw OptionError(&max_cluster_size, "RotationAveraging.max_cluster_size", "must be >= 0");
   }
   if (num_final_rounds < 0) {
-    throw InputError("--RotationAveraging.num_final_rounds", "must be >= 0");
+    throw OptionError(&num_final_rounds, "RotationAveraging.num_final_rounds", "must be >= 0");
   }
   if (final_refinement != "none" && final_refinement != "irls" &&
       final_refinement != "l1_irls" && final_refinement != "guarded") {
-    throw InputError("--RotationAveraging.final_refinement",
+    throw OptionError(&final_refinement, "RotationAveraging.final_refinement",
                      "must be none, irls, l1_irls or guarded, got '" +
                          final_refinement + "'");
   }
   if (!(reseed_threshold_deg > 0 && reseed_threshold_deg < 180)) {
-    throw InputError("--RotationAveraging.reseed_threshold_deg",
+    throw OptionError(&reseed_threshold_deg, "RotationAveraging.reseed_threshold_deg",
                      "must be in (0, 180)");
   }
   if (!(reseed_support_fraction >= 0 && reseed_support_fraction <= 1)) {
-    throw InputError("--RotationAveraging.reseed_support_fraction",
+    throw OptionError(&reseed_support_fraction, "RotationAveraging.reseed_support_fraction",
                      "must be in [0, 1]");
   }
   refinement.Check();
-  return true;
 }
 
 int ReseedBadlySupportedVertices(const RotationGraph& graph,

@@ -11,7 +11,6 @@
 #include "colmap_irav4/rotation_averaging/incremental_engine.h"
 #include "colmap_irav4/rotation_averaging/l1_irls.h"
 #include "colmap_irav4/rotation_averaging/rotation_graph.h"
-#include "colmap_irav4/util/option_manager.h"
 
 namespace colmap_irav4 {
 
@@ -83,15 +82,9 @@ struct Irav4Options {
   // Log a line per stage and every 10% of the on-the-fly clustering.
   bool log_progress = false;
 
-  bool Check() const;  // throws InputError naming the option
+  void Check() const;  // throws InputError naming the option
 };
 
-// Registers IRAv4's own options in COLMAP's dotted style under
-// RotationAveraging.* (min/max_community_size, reference_method,
-// weighted_greedy_cds, num_random_cds, seed, num_final_rounds); the engine's
-// (theta_deg, global_growth_ratio, ...) are shared with IRA and registered
-// by the rotation averager factory.
-void AddIrav4Options(OptionManager* manager, Irav4Options* options);
 
 // A reference: the selected vertices and their rotations (one entry per
 // graph vertex, meaningful where `selected`).

@@ -18,27 +18,26 @@
 namespace colmap_irav4 {
 
 void L1IrlsOptions::Check() const {
-  auto require = [](bool condition, const std::string& name,
-                    const std::string& problem) {
+  auto require = [](bool condition, const void* field,
+                    const std::string& name, const std::string& problem) {
     if (!condition) {
-      throw InputError("--RotationAveraging." + name, problem);
+      throw OptionError(field, "RotationAveraging." + name, problem);
     }
   };
-  require(l1_max_iterations >= 0, "l1_max_iterations", "must be >= 0");
-  require(l1_step_tolerance_deg >= 0, "l1_step_tolerance_deg",
+  require(l1_max_iterations >= 0, &l1_max_iterations, "l1_max_iterations", "must be >= 0");
+  require(l1_step_tolerance_deg >= 0, &l1_step_tolerance_deg, "l1_step_tolerance_deg",
           "must be >= 0");
-  require(l1_epsilon_deg > 0, "l1_epsilon_deg", "must be > 0");
-  require(irls_max_iterations >= 0, "irls_max_iterations", "must be >= 0");
-  require(irls_step_tolerance_deg >= 0, "irls_step_tolerance_deg",
+  require(l1_epsilon_deg > 0, &l1_epsilon_deg, "l1_epsilon_deg", "must be > 0");
+  require(irls_max_iterations >= 0, &irls_max_iterations, "irls_max_iterations", "must be >= 0");
+  require(irls_step_tolerance_deg >= 0, &irls_step_tolerance_deg, "irls_step_tolerance_deg",
           "must be >= 0");
-  require(gm_sigma_deg > 0, "gm_sigma_deg", "must be > 0");
+  require(gm_sigma_deg > 0, &gm_sigma_deg, "gm_sigma_deg", "must be > 0");
   require(linear_solver == "auto" || linear_solver == "cholesky" ||
-              linear_solver == "cg",
-          "linear_solver", "must be auto, cholesky or cg, got '" +
+              linear_solver == "cg", &linear_solver, "linear_solver", "must be auto, cholesky or cg, got '" +
                                linear_solver + "'");
-  require(max_cholesky_flops >= 0, "max_cholesky_flops", "must be >= 0");
-  require(cg_tolerance > 0, "cg_tolerance", "must be > 0");
-  require(cg_max_iterations > 0, "cg_max_iterations", "must be > 0");
+  require(max_cholesky_flops >= 0, &max_cholesky_flops, "max_cholesky_flops", "must be >= 0");
+  require(cg_tolerance > 0, &cg_tolerance, "cg_tolerance", "must be > 0");
+  require(cg_max_iterations > 0, &cg_max_iterations, "cg_max_iterations", "must be > 0");
 }
 
 namespace {

@@ -4,7 +4,6 @@
 
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"
-#include "colmap_irav4/util/option_manager.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -65,60 +64,6 @@ void RotationAveragerOptions::Check() const {
   l1_irls.Check();
 }
 
-void AddRotationAveragerOptions(OptionManager* options,
-                                RotationAveragerOptions* o) {
-  const std::string p = "RotationAveraging.";
-  // The incremental engine (IRA and the methods built on it).
-  IncrementalOptions* engine = &o->ira.engine;
-  options->Add(p + "theta_deg", &engine->theta_deg,
-               "IRA: outlier threshold theta (deg)");
-  options->Add(p + "global_growth_ratio", &engine->global_growth_ratio,
-               "IRA: global optimisation each time the set grows by this");
-  options->Add(p + "max_num_iterations", &engine->max_num_iterations,
-               "IRA: Ceres iterations of a global optimisation");
-  options->Add(p + "max_num_local_iterations",
-               &engine->max_num_local_iterations,
-               "IRA: Ceres iterations of a local optimisation");
-  options->Add(p + "function_tolerance", &engine->function_tolerance,
-               "IRA: Ceres function tolerance of the global problems");
-  options->Add(p + "max_seed_triplets", &engine->max_seed_triplets,
-               "IRA: seed triangles optimised (0 = all)");
-  options->Add(p + "max_precomputations", &engine->max_precomputations,
-               "IRA: pre-computations evaluated per recomputation (0 = all)");
-  options->Add(p + "max_direct_solver_vertices",
-               &engine->max_direct_solver_vertices,
-               "IRA (use_ceres): sparse Cholesky up to this many cameras, "
-               "CG above");
-  options->Add(p + "num_threads", &engine->num_threads,
-               "IRA: Ceres threads (with use_ceres)");
-  options->Add(p + "use_ceres", &engine->use_ceres,
-               "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
-               "sparse Laplacian (the previous, slower engine)");
-  options->Add(p + "intermediate_global_iterations",
-               &engine->intermediate_global_iterations,
-               "IRA: Gauss-Newton steps of an intermediate global "
-               "optimisation (the final ones converge)");
-  AddIrav4Options(options, &o->irav4);
-  L1IrlsOptions* l1 = &o->l1_irls;
-  options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,
-               "L1-IRLS: relinearised L1 steps");
-  options->Add(p + "l1_step_tolerance_deg", &l1->l1_step_tolerance_deg,
-               "L1-IRLS: L1 stops below this mean step (deg)");
-  options->Add(p + "l1_epsilon_deg", &l1->l1_epsilon_deg,
-               "L1-IRLS: residual floor of the L1 weights (deg)");
-  options->Add(p + "irls_max_iterations", &l1->irls_max_iterations,
-               "L1-IRLS (and IRAv4's irls refinement): Geman-McClure IRLS "
-               "iterations");
-  options->Add(p + "irls_step_tolerance_deg", &l1->irls_step_tolerance_deg,
-               "L1-IRLS: IRLS stops below this mean step (deg)");
-  options->Add(p + "gm_sigma_deg", &l1->gm_sigma_deg,
-               "L1-IRLS (and IRAv4's irls refinement): Geman-McClure scale "
-               "(deg)");
-  options->Add(p + "linear_solver", &l1->linear_solver,
-               "L1-IRLS: auto, cholesky or cg");
-  options->Add(p + "max_cholesky_flops", &l1->max_cholesky_flops,
-               "L1-IRLS: auto uses Cholesky up to this factorisation cost");
-}
 
 std::vector<std::string> RotationAveragerMethods() {
   std::vector<std::string> names;

@@ -11,8 +11,6 @@
 
 namespace colmap_irav4 {
 
-class OptionManager;
-
 // The options of every rotation averaging method, exposed on the command
 // line as --RotationAveraging.<name>.
 struct RotationAveragerOptions {
@@ -26,9 +24,6 @@ struct RotationAveragerOptions {
   void Check() const;
 };
 
-// Registers every method's options as --RotationAveraging.<name>.
-void AddRotationAveragerOptions(OptionManager* options,
-                                RotationAveragerOptions* averager_options);
 
 // The methods, in the order the help text lists them.
 std::vector<std::string> RotationAveragerMethods();

@@ -11,13 +11,13 @@
 
 namespace colmap_irav4 {
 
-bool SyntheticOptions::Check() const {
+void SyntheticOptions::Check() const {
   if (!(noise_sigma_deg >= 0.0)) {
-    throw InputError("SyntheticOptions.noise_sigma_deg",
+    throw OptionError(&noise_sigma_deg, "sigmas",
                      "must be >= 0, got " + std::to_string(noise_sigma_deg));
   }
   if (!(outlier_ratio >= 0.0 && outlier_ratio <= 1.0)) {
-    throw InputError("SyntheticOptions.outlier_ratio",
+    throw OptionError(&outlier_ratio, "outlier_ratios",
                      "must be in [0, 1], got " + std::to_string(outlier_ratio));
   }
   if (!(structured_outlier_ratio >= 0.0 && structured_outlier_ratio <= 1.0)) {
@@ -33,7 +33,6 @@ bool SyntheticOptions::Check() const {
   if (!(upright_sigma_deg >= 0.0)) {
     throw InputError("SyntheticOptions.upright_sigma_deg", "must be >= 0");
   }
-  return true;
 }
 
 Eigen::Matrix3d MirrorRotation() {

@@ -36,7 +36,7 @@ struct SyntheticOptions {
   double structured_outlier_ratio = 0.0;
   double twin_overlap_deg = 60.0;
   double upright_sigma_deg = 5.0;
-  bool Check() const;  // throws InputError
+  void Check() const;  // throws InputError
 };
 
 struct SyntheticProblem {

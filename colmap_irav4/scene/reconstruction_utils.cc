@@ -80,6 +80,17 @@ double ReprojectionError(const Camera& camera, const Image& image,
   return (projected - xy).norm();
 }
 
+double MeanPointReprojectionError(const Reconstruction& reconstruction) {
+  double sum = 0.0;
+  size_t count = 0;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    if (point.track.empty()) continue;
+    sum += point.error;
+    ++count;
+  }
+  return count == 0 ? 0.0 : sum / count;
+}
+
 double UpdateReprojectionErrors(Reconstruction* reconstruction) {
   double sum = 0.0;
   size_t count = 0;

@@ -30,6 +30,9 @@ double ReprojectionError(const Camera& camera, const Image& image,
 // Sets every point's `error` (mean over its track) and returns the mean over
 // all observations (0 without observations).
 double UpdateReprojectionErrors(Reconstruction* reconstruction);
+// Mean over the points with observations of their `error` (set by
+// UpdateReprojectionErrors): COLMAP model_analyzer's mean reprojection error.
+double MeanPointReprojectionError(const Reconstruction& reconstruction);
 size_t NumObservations(const Reconstruction& reconstruction);
 // Mean over points of the number of observations (0 without points).
 double MeanTrackLength(const Reconstruction& reconstruction);

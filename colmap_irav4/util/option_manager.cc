@@ -34,11 +34,15 @@ OptionManager::OptionManager(std::string command_name, std::string description)
 
 OptionManager::Option& OptionManager::AddOption(
     const std::string& name, const std::string& help, const std::string& type,
-    std::string default_value,
+    std::string default_value, const void* address,
     std::function<void(const std::string&)> assign) {
   for (const Option& option : options_) {
     if (option.name == name) {
       throw std::logic_error("option --" + name + " registered twice");
+    }
+    if (address != nullptr && option.address == address) {
+      throw std::logic_error("option --" + name + " is --" + option.name +
+                             " registered a second time");
     }
   }
   Option option;
@@ -46,6 +50,7 @@ OptionManager::Option& OptionManager::AddOption(
   option.help = help;
   option.type = type;
   option.default_value = std::move(default_value);
+  option.address = address;
   option.assign = std::move(assign);
   options_.push_back(std::move(option));
   return options_.back();
@@ -53,7 +58,7 @@ OptionManager::Option& OptionManager::AddOption(
 
 void OptionManager::Add(const std::string& name, bool* value,
                         const std::string& help) {
-  AddOption(name, help, "bool", *value ? "1" : "0",
+  AddOption(name, help, "bool", *value ? "1" : "0", value,
             [name, value](const std::string& text) {
               if (!ParseBool(text, value)) {
                 throw InputError("--" + name,
@@ -64,7 +69,7 @@ void OptionManager::Add(const std::string& name, bool* value,
 
 void OptionManager::Add(const std::string& name, int* value,
                         const std::string& help) {
-  AddOption(name, help, "int", std::to_string(*value),
+  AddOption(name, help, "int", std::to_string(*value), value,
             [name, value](const std::string& text) {
               size_t end = 0;
               try {
@@ -83,7 +88,7 @@ void OptionManager::Add(const std::string& name, int* value,
 
 void OptionManager::Add(const std::string& name, double* value,
                         const std::string& help) {
-  AddOption(name, help, "double", FormatDouble(*value),
+  AddOption(name, help, "double", FormatDouble(*value), value,
             [name, value](const std::string& text) {
               size_t end = 0;
               try {
@@ -101,13 +106,13 @@ void OptionManager::Add(const std::string& name, double* value,
 
 void OptionManager::Add(const std::string& name, std::string* value,
                         const std::string& help) {
-  AddOption(name, help, "string", *value,
+  AddOption(name, help, "string", *value, value,
             [value](const std::string& text) { *value = text; });
 }
 
 void OptionManager::AddRequired(const std::string& name, std::string* value,
                                 const std::string& help) {
-  AddOption(name, help, "string", *value,
+  AddOption(name, help, "string", *value, value,
             [value](const std::string& text) { *value = text; })
       .required = true;
 }
@@ -164,6 +169,28 @@ bool OptionManager::Parse(int argc, char** argv) {
     }
   }
   return true;
+}
+
+void OptionManager::Check(const std::function<void()>& check) const {
+  try {
+    check();
+  } catch (const OptionError& error) {
+    for (const Option& option : options_) {
+      if (option.address == error.field()) {
+        throw InputError("--" + option.name, error.problem());
+      }
+    }
+    throw;
+  }
+}
+
+std::vector<std::pair<std::string, std::string>> OptionManager::Options()
+    const {
+  std::vector<std::pair<std::string, std::string>> options;
+  for (const Option& option : options_) {
+    options.emplace_back(option.name, option.type);
+  }
+  return options;
 }
 
 bool OptionManager::IsSet(const std::string& name) const {

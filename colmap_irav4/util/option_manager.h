@@ -3,6 +3,7 @@
 #include <functional>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace colmap_irav4 {
@@ -15,7 +16,10 @@ namespace colmap_irav4 {
 //               "outlier threshold (deg)");
 //   if (!options.Parse(argc, argv)) return 0;  // -h / --help was printed
 // Unknown options, missing values, malformed numbers and missing required
-// options throw InputError naming the option.
+// options throw InputError naming the option. Every member is registered
+// once (a second registration, by name or by address, is a programming
+// error), and Check() runs the structs' Check() so that their errors name
+// the flag under which the member was registered.
 class OptionManager {
  public:
   explicit OptionManager(std::string command_name,
@@ -35,6 +39,14 @@ class OptionManager {
   // Whether the option was given on the command line by the last Parse.
   bool IsSet(const std::string& name) const;
 
+  // Runs `check` (the options structs' Check()); an OptionError about a
+  // registered member is rethrown as an InputError naming that member's flag.
+  void Check(const std::function<void()>& check) const;
+
+  // The registered flags (without "--") and their types (bool, int, double,
+  // string), in registration order.
+  std::vector<std::pair<std::string, std::string>> Options() const;
+
   void PrintHelp(std::ostream& stream) const;
 
  private:
@@ -45,10 +57,12 @@ class OptionManager {
     std::string type;
     bool required = false;
     bool set = false;
+    const void* address = nullptr;
     std::function<void(const std::string&)> assign;
   };
   Option& AddOption(const std::string& name, const std::string& help,
                     const std::string& type, std::string default_value,
+                    const void* address,
                     std::function<void(const std::string&)> assign);
 
   std::string command_name_;

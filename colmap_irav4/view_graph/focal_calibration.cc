@@ -170,61 +170,35 @@ class Calibrator {
 
 }  // namespace
 
-bool FocalCalibrationOptions::Check() const {
+void FocalCalibrationOptions::Check() const {
   if (!(min_focal_ratio > 0 && min_focal_ratio < 1)) {
-    throw InputError("--ViewGraph.calibration_min_focal_ratio",
+    throw OptionError(&min_focal_ratio, "ViewGraph.calibration_min_focal_ratio",
                      "must be in (0, 1)");
   }
   if (!(max_focal_ratio > 1)) {
-    throw InputError("--ViewGraph.calibration_max_focal_ratio", "must be > 1");
+    throw OptionError(&max_focal_ratio, "ViewGraph.calibration_max_focal_ratio", "must be > 1");
   }
   if (num_grid_points < 3) {
-    throw InputError("--ViewGraph.calibration_num_grid_points", "must be >= 3");
+    throw OptionError(&num_grid_points, "ViewGraph.calibration_num_grid_points", "must be >= 3");
   }
   if (min_num_pairs < 1) {
-    throw InputError("--ViewGraph.calibration_min_num_pairs", "must be >= 1");
+    throw OptionError(&min_num_pairs, "ViewGraph.calibration_min_num_pairs", "must be >= 1");
   }
   if (!(loss_scale > 0)) {
-    throw InputError("--ViewGraph.calibration_loss_scale", "must be > 0");
+    throw OptionError(&loss_scale, "ViewGraph.calibration_loss_scale", "must be > 0");
   }
   if (!(max_agreeing_cost > 0)) {
-    throw InputError("--ViewGraph.calibration_max_agreeing_cost", "must be > 0");
+    throw OptionError(&max_agreeing_cost, "ViewGraph.calibration_max_agreeing_cost", "must be > 0");
   }
   if (num_sweeps < 1) {
-    throw InputError("--ViewGraph.calibration_num_sweeps", "must be >= 1");
+    throw OptionError(&num_sweeps, "ViewGraph.calibration_num_sweeps", "must be >= 1");
   }
   if (!(min_cost_increase >= 1)) {
-    throw InputError("--ViewGraph.calibration_min_cost_increase",
+    throw OptionError(&min_cost_increase, "ViewGraph.calibration_min_cost_increase",
                      "must be >= 1");
   }
-  return true;
 }
 
-void AddFocalCalibrationOptions(OptionManager* manager,
-                                FocalCalibrationOptions* options) {
-  manager->Add("ViewGraph.calibrate_focal", &options->calibrate_focal,
-               "self-calibrate the focal length of cameras without a prior "
-               "focal from the pairs' fundamental matrices");
-  manager->Add("ViewGraph.calibration_min_focal_ratio",
-               &options->min_focal_ratio,
-               "lower end of the focal search, times the current focal");
-  manager->Add("ViewGraph.calibration_max_focal_ratio",
-               &options->max_focal_ratio,
-               "upper end of the focal search, times the current focal");
-  manager->Add("ViewGraph.calibration_min_num_pairs", &options->min_num_pairs,
-               "a camera is calibrated from at least this many pairs");
-  manager->Add("ViewGraph.calibration_loss_scale", &options->loss_scale,
-               "Cauchy scale of the per-pair singular value cost");
-  manager->Add("ViewGraph.calibration_max_agreeing_cost",
-               &options->max_agreeing_cost,
-               "a pair agrees with a focal if its cost there is below this");
-  manager->Add("ViewGraph.calibration_num_sweeps", &options->num_sweeps,
-               "coordinate-descent sweeps over several cameras");
-  manager->Add("ViewGraph.calibration_min_cost_increase",
-               &options->min_cost_increase,
-               "the cost at 1.25x / 1/1.25x the focal must exceed the minimum "
-               "by this factor, otherwise the focal is kept");
-}
 
 double EssentialSingularValueCost(const Eigen::Matrix3d& F,
                                   const Eigen::Matrix3d& K1,

@@ -15,7 +15,6 @@
 
 #include "colmap_irav4/scene/camera.h"
 #include "colmap_irav4/scene/types.h"
-#include "colmap_irav4/util/option_manager.h"
 
 namespace colmap_irav4 {
 
@@ -48,13 +47,9 @@ struct FocalCalibrationOptions {
   double min_cost_increase = 1.5;
 
   // Throws InputError naming the option if invalid.
-  bool Check() const;
+  void Check() const;
 };
 
-// Registers the options as --ViewGraph.calibrate_focal and
-// --ViewGraph.calibration_*.
-void AddFocalCalibrationOptions(OptionManager* manager,
-                                FocalCalibrationOptions* options);
 
 // One pair's fundamental matrix (x2^T F x1 = 0, pixels) between two cameras.
 struct FocalCalibrationPair {

@@ -29,19 +29,19 @@ std::vector<std::string> SplitComma(const std::string& text) {
 
 }  // namespace
 
-bool ViewGraphBuilderOptions::Check() const {
+void ViewGraphBuilderOptions::Check() const {
   if (min_num_inliers < 0) {
-    throw InputError("--ViewGraph.min_num_inliers", "must be >= 0");
+    throw OptionError(&min_num_inliers, "ViewGraph.min_num_inliers", "must be >= 0");
   }
   if (num_threads == 0 || num_threads < -1) {
-    throw InputError("--ViewGraph.num_threads", "must be -1 (all cores) or >= 1");
+    throw OptionError(&num_threads, "ViewGraph.num_threads", "must be -1 (all cores) or >= 1");
   }
   if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1)) {
-    throw InputError("--ViewGraph.min_inlier_ratio", "must be in [0, 1]");
+    throw OptionError(&min_inlier_ratio, "ViewGraph.min_inlier_ratio", "must be in [0, 1]");
   }
   for (const std::string& name : SplitComma(drop_configs)) {
     if (TwoViewConfigFromName(name) < 0) {
-      throw InputError("--ViewGraph.drop_configs",
+      throw OptionError(&drop_configs, "ViewGraph.drop_configs",
                        "unknown configuration '" + name +
                            "' (UNDEFINED, DEGENERATE, CALIBRATED, "
                            "UNCALIBRATED, PLANAR, PANORAMIC, "
@@ -49,7 +49,7 @@ bool ViewGraphBuilderOptions::Check() const {
     }
   }
   focal_calibration.Check();
-  return relative_pose.Check();
+  relative_pose.Check();
 }
 
 std::vector<int> ViewGraphBuilderOptions::DropConfigs() const {

@@ -30,7 +30,7 @@ struct ViewGraphBuilderOptions {
   RelativePoseOptions relative_pose;
 
   // Throws InputError naming the option if invalid.
-  bool Check() const;
+  void Check() const;
   // The parsed drop_configs (CHECKs validity: call Check() first).
   std::vector<int> DropConfigs() const;
 };

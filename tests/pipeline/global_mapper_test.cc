@@ -137,9 +137,9 @@ TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {
   EXPECT_NO_THROW(options.Check());
   EXPECT_EQ(options.rotation_method, DefaultRotationMethod());
   EXPECT_EQ(options.rotation_method, "irav4");
-  EXPECT_TRUE(options.ba_refine_focal_length);
-  EXPECT_FALSE(options.ba_refine_principal_point);
-  EXPECT_TRUE(options.ba_refine_extra_params);
+  EXPECT_TRUE(options.bundle_adjustment.refine_focal_length);
+  EXPECT_FALSE(options.bundle_adjustment.refine_principal_point);
+  EXPECT_TRUE(options.bundle_adjustment.refine_extra_params);
   options.min_model_size = 2;
   try {
     options.Check();
@@ -167,12 +167,35 @@ TEST(GlobalMapperSummary, JsonHasTheFiguresAndEscapesStrings) {
   ComponentReport component;
   component.num_registered_images = 11;
   component.mean_reprojection_error = 0.4;
+  component.mean_reprojection_error_per_point = 0.35;
   summary.components.push_back(component);
   const std::string json = summary.ToJson();
   EXPECT_NE(json.find("\"a \\\"quoted\\\" path\""), std::string::npos) << json;
   EXPECT_NE(json.find("\"pairs kept\": 55"), std::string::npos) << json;
   EXPECT_NE(json.find("\"num_registered_images\": 11"), std::string::npos);
   EXPECT_NE(json.find("\"mean_reprojection_error\": 0.4"), std::string::npos);
+  EXPECT_NE(json.find("\"mean_reprojection_error_per_observation\": 0.4"),
+            std::string::npos);
+  EXPECT_NE(json.find("\"mean_reprojection_error_per_point\": 0.35"),
+            std::string::npos);
+}
+
+TEST(ReprojectionError, PerPointIsTheMeanOfTheTrackMeans) {
+  Reconstruction model;
+  model.cameras[1].camera_id = 1;
+  for (image_t id = 1; id <= 3; ++id) {
+    model.images[id].image_id = id;
+    model.images[id].camera_id = 1;
+    model.images[id].points2D.resize(2);
+  }
+  const point3D_t a = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  const point3D_t b =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}, {3, 1}}, &model);
+  model.points3D.at(a).error = 1.0;
+  model.points3D.at(b).error = 0.5;
+  // Per point: (1 + 0.5) / 2; per observation it would be (2 + 1.5) / 5.
+  EXPECT_DOUBLE_EQ(MeanPointReprojectionError(model), 0.75);
+  EXPECT_DOUBLE_EQ(MeanPointReprojectionError(Reconstruction()), 0.0);
 }
 
 }  // namespace

@@ -251,7 +251,7 @@ TEST(FocalCalibration, GuardsKeepTheGuess) {
 
 TEST(FocalCalibration, OptionsCheck) {
   FocalCalibrationOptions options;
-  EXPECT_TRUE(options.Check());
+  EXPECT_NO_THROW(options.Check());
   options.min_focal_ratio = 1.5;
   EXPECT_THROW(options.Check(), InputError);
   options = FocalCalibrationOptions();

@@ -124,7 +124,7 @@ TEST(ViewGraphBuilder, FiltersAndKeepsLargestComponent) {
 
 TEST(ViewGraphBuilder, OptionsCheck) {
   ViewGraphBuilderOptions options;
-  EXPECT_TRUE(options.Check());
+  EXPECT_NO_THROW(options.Check());
   EXPECT_EQ(options.DropConfigs().size(), 4u);
   options.drop_configs = "WATERMARK,BOGUS";
   EXPECT_THROW(options.Check(), InputError);

@@ -1,0 +1,367 @@
+#include "colmap_irav4/pipeline/option_registration.h"
+
+#include "colmap_irav4/pipeline/fold_resolution.h"
+
+namespace colmap_irav4 {
+
+void AddFocalCalibrationOptions(OptionManager* manager,
+                                FocalCalibrationOptions* options) {
+  manager->Add("ViewGraph.calibrate_focal", &options->calibrate_focal,
+               "self-calibrate the focal length of cameras without a prior "
+               "focal from the pairs' fundamental matrices");
+  manager->Add("ViewGraph.calibration_min_focal_ratio",
+               &options->min_focal_ratio,
+               "lower end of the focal search, times the current focal");
+  manager->Add("ViewGraph.calibration_max_focal_ratio",
+               &options->max_focal_ratio,
+               "upper end of the focal search, times the current focal");
+  manager->Add("ViewGraph.calibration_min_num_pairs", &options->min_num_pairs,
+               "a camera is calibrated from at least this many pairs");
+  manager->Add("ViewGraph.calibration_loss_scale", &options->loss_scale,
+               "Cauchy scale of the per-pair singular value cost");
+  manager->Add("ViewGraph.calibration_max_agreeing_cost",
+               &options->max_agreeing_cost,
+               "a pair agrees with a focal if its cost there is below this");
+  manager->Add("ViewGraph.calibration_num_sweeps", &options->num_sweeps,
+               "coordinate-descent sweeps over several cameras");
+  manager->Add("ViewGraph.calibration_min_cost_increase",
+               &options->min_cost_increase,
+               "the cost at 1.25x / 1/1.25x the focal must exceed the minimum "
+               "by this factor, otherwise the focal is kept");
+}
+
+void AddViewGraphOptions(OptionManager* manager,
+                         ViewGraphBuilderOptions* options,
+                         const std::string& min_num_inliers_flag,
+                         bool with_threads_and_components) {
+  manager->Add(min_num_inliers_flag, &options->min_num_inliers,
+               "minimum inlier matches of an image pair");
+  manager->Add("ViewGraph.min_inlier_ratio", &options->min_inlier_ratio,
+               "minimum inliers / raw matches (where raw matches are stored)");
+  manager->Add("ViewGraph.drop_configs", &options->drop_configs,
+               "comma-separated two-view configurations to drop");
+  if (with_threads_and_components) {
+    manager->Add("ViewGraph.keep_largest_component",
+                 &options->keep_largest_component,
+                 "keep only the largest connected component");
+    manager->Add("ViewGraph.num_threads", &options->num_threads,
+                 "threads deriving the relative poses (-1: all cores)");
+  }
+  AddFocalCalibrationOptions(manager, &options->focal_calibration);
+  RelativePoseOptions& rp = options->relative_pose;
+  manager->Add("RelativePose.max_error_px", &rp.max_error_px,
+               "epipolar error threshold of a supporting match (pixels)");
+  manager->Add("RelativePose.refine", &rp.refine,
+               "refine each pose on its inliers (robust Sampson error)");
+  manager->Add("RelativePose.refine_loss_scale_px", &rp.refine_loss_scale_px,
+               "Cauchy loss scale of the refinement (pixels)");
+  manager->Add("RelativePose.refine_max_num_iterations",
+               &rp.refine_max_num_iterations, "refinement iterations");
+  manager->Add("RelativePose.refine_max_num_matches",
+               &rp.refine_max_num_matches,
+               "refine on at most this many matches (0: all)");
+  manager->Add("RelativePose.min_stored_pose_support",
+               &rp.min_stored_pose_support,
+               "use a stored qvec/tvec if it has this fraction of the best "
+               "derived pose's support");
+  manager->Add("RelativePose.min_tri_angle_deg", &rp.min_tri_angle_deg,
+               "median triangulation angle below which t is undefined (deg)");
+  manager->Add("RelativePose.refine_max_rotation_std_deg",
+               &rp.refine_max_rotation_std_deg,
+               "refine a pose only where its inliers determine the rotation "
+               "to this first-order standard deviation (deg)");
+}
+
+void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
+  manager->Add("RotationAveraging.min_community_size",
+               &options->communities.min_community_size,
+               "smaller communities merge into their best-connected "
+               "neighbour");
+  manager->Add("RotationAveraging.max_community_size",
+               &options->communities.max_community_size,
+               "larger communities are split (0 = no limit)");
+  manager->Add("RotationAveraging.preselect_clusters",
+               &options->preselect_clusters,
+               "IRAv4 clustering: a cluster takes only its community and "
+               "boundary cameras tied to it at least as strongly as to "
+               "their own (IRAv3's pre-selection); false = any camera");
+  manager->Add("RotationAveraging.max_cluster_size",
+               &options->max_cluster_size,
+               "IRAv4 clustering: a cluster stops competing at this size "
+               "until the fallback pass (0 = no cap)");
+  manager->Add("RotationAveraging.reference_method",
+               &options->reference_method,
+               "alignment reference: irav4 | greedy_cds | random_cds");
+  manager->Add("RotationAveraging.weighted_greedy_cds",
+               &options->weighted_greedy_cds,
+               "greedy CDS counts neighbours by inlier count");
+  manager->Add("RotationAveraging.num_random_cds", &options->num_random_cds,
+               "random CDSs united in the random_cds reference");
+  manager->Add("RotationAveraging.seed", &options->seed,
+               "seed of the random choices (random_cds)");
+  manager->Add("RotationAveraging.num_final_rounds",
+               &options->num_final_rounds,
+               "rounds of inlier selection + global optimisation at the end");
+  manager->Add("RotationAveraging.final_refinement",
+               &options->final_refinement,
+               "IRAv4 after its final optimisation: guarded (default: "
+               "l1_irls kept only if it lowers the Geman-McClure cost, else "
+               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
+               "irls (IRLS only) | none (the paper)");
+  manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
+               "IRAv4 refinement: re-initialise badly supported "
+               "vertices from their best pre-computation, refine again");
+  manager->Add("RotationAveraging.reseed_threshold_deg",
+               &options->reseed_threshold_deg,
+               "IRAv4 re-seeding: agreement threshold (deg)");
+  manager->Add("RotationAveraging.reseed_support_fraction",
+               &options->reseed_support_fraction,
+               "IRAv4 re-seeding: vertices agreeing with fewer than this "
+               "fraction of their edges are checked");
+}
+
+void AddRotationAveragerOptions(OptionManager* options,
+                                RotationAveragerOptions* o) {
+  const std::string p = "RotationAveraging.";
+  // The incremental engine (IRA and the methods built on it).
+  IncrementalOptions* engine = &o->ira.engine;
+  options->Add(p + "theta_deg", &engine->theta_deg,
+               "IRA: outlier threshold theta (deg)");
+  options->Add(p + "global_growth_ratio", &engine->global_growth_ratio,
+               "IRA: global optimisation each time the set grows by this");
+  options->Add(p + "max_num_iterations", &engine->max_num_iterations,
+               "IRA: Ceres iterations of a global optimisation");
+  options->Add(p + "max_num_local_iterations",
+               &engine->max_num_local_iterations,
+               "IRA: Ceres iterations of a local optimisation");
+  options->Add(p + "function_tolerance", &engine->function_tolerance,
+               "IRA: Ceres function tolerance of the global problems");
+  options->Add(p + "max_seed_triplets", &engine->max_seed_triplets,
+               "IRA: seed triangles optimised (0 = all)");
+  options->Add(p + "max_precomputations", &engine->max_precomputations,
+               "IRA: pre-computations evaluated per recomputation (0 = all)");
+  options->Add(p + "max_direct_solver_vertices",
+               &engine->max_direct_solver_vertices,
+               "IRA (use_ceres): sparse Cholesky up to this many cameras, "
+               "CG above");
+  options->Add(p + "num_threads", &engine->num_threads,
+               "IRA: Ceres threads (with use_ceres)");
+  options->Add(p + "use_ceres", &engine->use_ceres,
+               "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
+               "sparse Laplacian (the previous, slower engine)");
+  options->Add(p + "intermediate_global_iterations",
+               &engine->intermediate_global_iterations,
+               "IRA: Gauss-Newton steps of an intermediate global "
+               "optimisation (the final ones converge)");
+  AddIrav4Options(options, &o->irav4);
+  L1IrlsOptions* l1 = &o->l1_irls;
+  options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,
+               "L1-IRLS: relinearised L1 steps");
+  options->Add(p + "l1_step_tolerance_deg", &l1->l1_step_tolerance_deg,
+               "L1-IRLS: L1 stops below this mean step (deg)");
+  options->Add(p + "l1_epsilon_deg", &l1->l1_epsilon_deg,
+               "L1-IRLS: residual floor of the L1 weights (deg)");
+  options->Add(p + "irls_max_iterations", &l1->irls_max_iterations,
+               "L1-IRLS (and IRAv4's irls refinement): Geman-McClure IRLS "
+               "iterations");
+  options->Add(p + "irls_step_tolerance_deg", &l1->irls_step_tolerance_deg,
+               "L1-IRLS: IRLS stops below this mean step (deg)");
+  options->Add(p + "gm_sigma_deg", &l1->gm_sigma_deg,
+               "L1-IRLS (and IRAv4's irls refinement): Geman-McClure scale "
+               "(deg)");
+  options->Add(p + "linear_solver", &l1->linear_solver,
+               "L1-IRLS: auto, cholesky or cg");
+  options->Add(p + "max_cholesky_flops", &l1->max_cholesky_flops,
+               "L1-IRLS: auto uses Cholesky up to this factorisation cost");
+}
+
+void AddRotationFilterOptions(OptionManager* manager,
+                              RotationFilterOptions* o) {
+  manager->Add("RotationFilter.max_rotation_error_deg",
+               &o->max_rotation_error_deg,
+               "drop pairs disagreeing with the averaged rotations (deg)");
+
+}
+
+void AddTrackOptions(OptionManager* manager, TrackBuilderOptions* o) {
+  manager->Add("Tracks.min_track_length", &o->min_track_length,
+               "shorter tracks are dropped");
+  manager->Add("Tracks.max_track_length", &o->max_track_length,
+               "longer tracks are dropped");
+  manager->Add("Tracks.max_duplicate_distance",
+               &o->max_duplicate_distance,
+               "two observations of a track in one image closer than this "
+               "(px) are merged, farther: the track is dropped");
+
+}
+
+void AddGlobalPositioningOptions(OptionManager* manager,
+                                 GlobalPositionerOptions* o) {
+  GlobalPositionerOptions& gp = *o;
+  manager->Add("GlobalPositioning.min_track_length", &gp.min_track_length,
+               "tracks positioned (shorter: retriangulated later)");
+  manager->Add("GlobalPositioning.loss_function", &gp.loss_function,
+               "huber, cauchy or trivial");
+  manager->Add("GlobalPositioning.loss_scale", &gp.loss_scale,
+               "robust loss scale");
+  manager->Add("GlobalPositioning.max_angular_error_deg",
+               &gp.max_angular_error_deg,
+               "observations disagreeing more are unlinked (deg)");
+  manager->Add("GlobalPositioning.max_num_iterations", &gp.max_num_iterations,
+               "Ceres iterations");
+  manager->Add("GlobalPositioning.function_tolerance", &gp.function_tolerance,
+               "Ceres function tolerance");
+  manager->Add("GlobalPositioning.print_progress", &gp.print_progress,
+               "print Ceres' iterations");
+
+}
+
+void AddTranslationAveragingOptions(OptionManager* manager,
+                                    TranslationAveragingOptions* o) {
+  TranslationAveragingOptions& ta = *o;
+  manager->Add("TranslationAveraging.cost", &ta.cost, "bata or chordal");
+  manager->Add("TranslationAveraging.loss_function", &ta.loss_function,
+               "huber, cauchy or trivial");
+  manager->Add("TranslationAveraging.loss_scale", &ta.loss_scale,
+               "robust loss scale");
+}
+
+void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
+  manager->Add("Triangulation.max_reproj_error",
+               &o->max_reproj_error,
+               "inlier threshold of (re)triangulation (px)");
+  manager->Add("Triangulation.min_tri_angle", &o->min_tri_angle,
+               "minimum triangulation angle (deg)");
+
+}
+
+void AddBundleAdjustmentOptions(OptionManager* manager,
+                                BundleAdjustmentOptions* o) {
+  BundleAdjustmentOptions& ba = *o;
+  manager->Add("BundleAdjustment.loss_function", &ba.loss_function,
+               "huber, cauchy or trivial");
+  manager->Add("BundleAdjustment.loss_scale", &ba.loss_scale,
+               "robust loss scale (px)");
+  manager->Add("BundleAdjustment.num_rounds", &ba.num_rounds,
+               "solve + filter rounds per bundle adjustment");
+  manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
+               "observations over this error are removed between rounds (px)");
+  manager->Add("BundleAdjustment.max_num_iterations", &ba.max_num_iterations,
+               "Ceres iterations per round");
+  manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
+               "auto, sparse_schur, dense_schur or iterative_schur");
+  manager->Add("BundleAdjustment.function_tolerance", &ba.function_tolerance,
+               "Ceres function tolerance");
+  manager->Add("BundleAdjustment.print_progress", &ba.print_progress,
+               "print Ceres' iterations");
+  manager->Add("BundleAdjustment.initial_trust_region_radius",
+               &ba.initial_trust_region_radius,
+               "Levenberg-Marquardt's initial trust region radius (large: "
+               "solves reach the optimum's flat directions)");
+
+}
+
+void AddFilterOptions(OptionManager* manager, FilterOptions* o) {
+  manager->Add("Filter.max_reproj_error", &o->max_reproj_error,
+               "observations over this reprojection error are removed (px)");
+  manager->Add("Filter.min_tri_angle", &o->min_tri_angle,
+               "points with a smaller largest triangulation angle are removed "
+               "(deg)");
+}
+
+void AddNormalizationOptions(OptionManager* manager, NormalizationOptions* o) {
+  manager->Add("Normalization.extent", &o->extent,
+               "extent of the central part of the normalised scene");
+}
+
+void AddFoldResolutionOptions(OptionManager* manager,
+                              FoldResolutionOptions* options) {
+  FoldResolutionOptions& o = *options;
+  FoldDetectionOptions& d = o.detection;
+  manager->Add("Fold.detect", &o.detect,
+               "test every model for a fold (symmetric scenes)");
+  manager->Add("Fold.resolve", &o.resolve,
+               "resolve a detected fold: remove the suspect pairs and map "
+               "again, else split the model at the weakest cut");
+  manager->Add("Fold.max_iterations", &o.max_iterations,
+               "rounds of removing suspect pairs before a split");
+  manager->Add("Fold.max_fold_score", &d.max_fold_score,
+               "models with a larger fraction of predicted overlapping pairs "
+               "without matches are folded");
+  manager->Add("Fold.min_missing_pairs", &d.min_missing_pairs,
+               "... and at least this many such pairs");
+  manager->Add("Fold.max_view_angle_deg", &d.max_view_angle_deg,
+               "two cameras are expected to match a point only from rays "
+               "closer than this (deg)");
+  manager->Add("Fold.min_overlap_fraction", &d.min_overlap_fraction,
+               "a pair is predicted to overlap when each image expects this "
+               "fraction of the other's points");
+}
+
+void AddGlobalMapperOptions(OptionManager* manager,
+                            GlobalMapperOptions* options) {
+  GlobalMapperOptions& o = *options;
+  manager->Add("Mapper.min_model_size", &o.min_model_size,
+               "components with fewer images give no model");
+  manager->Add("Mapper.rotation_method", &o.rotation_method,
+               "rotation averaging: " + RotationAveragerMethodList());
+  manager->Add("Mapper.positioning_method", &o.positioning_method,
+               "global_positioning or translation_averaging");
+  // COLMAP's names for the bundle adjustment's intrinsics flags.
+  BundleAdjustmentOptions& ba = o.bundle_adjustment;
+  manager->Add("Mapper.ba_refine_focal_length", &ba.refine_focal_length,
+               "refine focal lengths in bundle adjustment");
+  manager->Add("Mapper.ba_refine_principal_point",
+               &ba.refine_principal_point,
+               "refine principal points in bundle adjustment");
+  manager->Add("Mapper.ba_refine_extra_params", &ba.refine_extra_params,
+               "refine distortion parameters in bundle adjustment");
+  manager->Add("Mapper.reset_invalid_cameras", &o.reset_invalid_cameras,
+               "start cameras with invalid intrinsics from a default focal "
+               "(refined) instead of failing");
+  manager->Add("Mapper.num_threads", &o.num_threads,
+               "threads of every stage (-1: all cores)");
+  manager->Add("Mapper.progress", &o.progress,
+               "progress bars: 1 on, 0 off, -1 on a terminal or >= 100 "
+               "images");
+  manager->Add("Mapper.num_ba_iterations", &o.num_ba_iterations,
+               "rounds of bundle adjustment + filtering");
+  manager->Add("Mapper.positioning_tracks_per_image",
+               &o.positioning_tracks_per_image,
+               "global positioning uses the longest tracks until each image "
+               "has this many observations (0: all tracks)");
+  manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
+               "skip the rotation-consistency filter");
+  manager->Add("Mapper.skip_bundle_adjustment", &o.skip_bundle_adjustment,
+               "skip bundle adjustment");
+  manager->Add("Mapper.skip_retriangulation", &o.skip_retriangulation,
+               "skip retriangulation");
+  manager->Add("Mapper.skip_filtering", &o.skip_filtering,
+               "skip the final filtering");
+  manager->Add("Mapper.skip_normalization", &o.skip_normalization,
+               "skip normalising the scene's centre and scale");
+  manager->Add("Mapper.color_image_downscale", &o.color_image_downscale,
+               "images are decoded at 1/1, 1/2, 1/4 or 1/8 of their size for "
+               "the point colours");
+  manager->Add("Mapper.skip_colors", &o.skip_colors,
+               "do not read images for point colours (grey)");
+
+
+  // The stages' structs, each under its own prefix; the view graph's
+  // min_num_inliers under COLMAP's --Mapper.min_num_matches, its threads are
+  // --Mapper.num_threads.
+  AddViewGraphOptions(manager, &o.view_graph, "Mapper.min_num_matches",
+                      /*with_threads_and_components=*/false);
+  AddRotationAveragerOptions(manager, &o.rotation_averaging);
+  AddRotationFilterOptions(manager, &o.rotation_filter);
+  AddTrackOptions(manager, &o.tracks);
+  AddGlobalPositioningOptions(manager, &o.global_positioning);
+  AddTranslationAveragingOptions(manager, &o.translation_averaging);
+  AddTriangulationOptions(manager, &o.triangulation);
+  AddBundleAdjustmentOptions(manager, &o.bundle_adjustment);
+  AddFilterOptions(manager, &o.filtering);
+  AddNormalizationOptions(manager, &o.normalization);
+  AddFoldResolutionOptions(manager, &o.fold);
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,57 @@
+#pragma once
+
+// The one place where options structs become command-line flags (COLMAP's
+// dotted style, --Prefix.name). Every struct has one registration function,
+// used by every command that exposes it, so a flag has one name and one help
+// text everywhere; the structs' Check() name these flags (OptionError), and
+// OptionManager::Check() renames a member registered under another flag.
+// Algorithm headers never include the option manager: only this file and the
+// commands do.
+
+#include <string>
+
+#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/util/option_manager.h"
+
+namespace colmap_irav4 {
+
+// --ViewGraph.calibrate_focal, --ViewGraph.calibration_*.
+void AddFocalCalibrationOptions(OptionManager* manager,
+                                FocalCalibrationOptions* options);
+// --ViewGraph.* (filters; focal self-calibration) and --RelativePose.*.
+// min_num_inliers is registered as `min_num_inliers_flag`;
+// keep_largest_component and num_threads only with
+// with_threads_and_components (the mapper sets both itself).
+void AddViewGraphOptions(
+    OptionManager* manager, ViewGraphBuilderOptions* options,
+    const std::string& min_num_inliers_flag = "ViewGraph.min_num_inliers",
+    bool with_threads_and_components = true);
+// --RotationAveraging.*: IRAv4's own settings.
+void AddIrav4Options(OptionManager* manager, Irav4Options* options);
+// --RotationAveraging.*: every rotation averaging method's settings.
+void AddRotationAveragerOptions(OptionManager* options,
+                                RotationAveragerOptions* averager_options);
+// --RotationFilter.*, --Tracks.*, --GlobalPositioning.*,
+// --TranslationAveraging.*, --Triangulation.*, --BundleAdjustment.*,
+// --Filter.*, --Normalization.*.
+void AddRotationFilterOptions(OptionManager* manager,
+                              RotationFilterOptions* options);
+void AddTrackOptions(OptionManager* manager, TrackBuilderOptions* options);
+void AddGlobalPositioningOptions(OptionManager* manager,
+                                 GlobalPositionerOptions* options);
+void AddTranslationAveragingOptions(OptionManager* manager,
+                                    TranslationAveragingOptions* options);
+void AddTriangulationOptions(OptionManager* manager,
+                             TriangulationOptions* options);
+void AddBundleAdjustmentOptions(OptionManager* manager,
+                                BundleAdjustmentOptions* options);
+void AddFilterOptions(OptionManager* manager, FilterOptions* options);
+void AddNormalizationOptions(OptionManager* manager,
+                             NormalizationOptions* options);
+// The mapper: --Mapper.* and every stage's struct above.
+void AddFoldResolutionOptions(OptionManager* manager,
+                              FoldResolutionOptions* options);
+void AddGlobalMapperOptions(OptionManager* manager,
+                            GlobalMapperOptions* options);
+
+}  // namespace colmap_irav4

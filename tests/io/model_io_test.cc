@@ -14,6 +14,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/io/model_test_utils.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -25,7 +26,7 @@ using test::SyntheticModel;
 using test::TempDir;
 using test::WriteBytes;
 
-const std::string kDataDir = COLMAP_IRAV4_DATA_DIR;
+const std::string kDataDir = DataDir();
 
 std::vector<std::string> StrechaModelDirs() {
   return {kDataDir + "/strecha/fountain-P11/colmap38_incremental",
@@ -77,6 +78,7 @@ BinaryRecords SplitBinary(const std::string& bytes, const std::string& kind) {
 }
 
 TEST(ModelIO, ReadsCOLMAP38ModelsAndRoundTripsBinaryAndText) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   for (const std::string& dir : StrechaModelDirs()) {
     SCOPED_TRACE(dir);
     const Reconstruction model = ReadReconstruction(dir);
@@ -124,6 +126,7 @@ TEST(ModelIO, ReadsCOLMAP38ModelsAndRoundTripsBinaryAndText) {
 // happens to be in increasing id order (cameras and images here) the whole
 // files are byte-identical.
 TEST(ModelIO, BinaryWriteIsByteIdenticalToCOLMAP) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   for (const std::string& dir : StrechaModelDirs()) {
     SCOPED_TRACE(dir);
     const Reconstruction model = ReadReconstruction(dir);
@@ -168,6 +171,7 @@ double HeaderNumber(const std::string& path, const std::string& prefix) {
 }
 
 TEST(ModelIO, ReadsCOLMAP37TextModel) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37/reference_model");
   const std::string dir =
       kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model";
   ASSERT_FALSE(ExistsBinaryModel(dir));

@@ -125,10 +125,26 @@ AlignmentReference EstimateVertexSet(const RotationGraph& graph,
   return reference;
 }
 
-// Places every unestimated vertex with an estimated neighbour at its
-// best-supported prediction R_mp R_m (Eq. 5-8 with `theta_deg`), in rounds
-// of ascending vertex index, until no vertex can be placed; returns how many
-// were placed. On a connected graph with one estimated vertex, all are.
+// sum over edges between estimated vertices of rho(r) = r^2 / (r^2 + s^2),
+// r the residual angle (Geman-McClure, scale s in radians).
+double GemanMcClureCost(const RotationGraph& graph,
+                        const std::vector<bool>& estimated,
+                        const std::vector<Eigen::Matrix3d>& rotations,
+                        double sigma) {
+  double cost = 0.0;
+  const double s2 = sigma * sigma;
+  for (const RelativeRotation& e : graph.Edges()) {
+    if (!estimated[e.i] || !estimated[e.j]) continue;
+    const double r =
+        RotationAngle(e.R_ij.transpose() * rotations[e.j] *
+                      rotations[e.i].transpose());
+    cost += r * r / (r * r + s2);
+  }
+  return cost;
+}
+
+}  // namespace
+
 int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
                            std::vector<bool>* estimated,
                            std::vector<Eigen::Matrix3d>* rotations) {
@@ -173,26 +189,6 @@ int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
   }
   return num_placed;
 }
-
-// sum over edges between estimated vertices of rho(r) = r^2 / (r^2 + s^2),
-// r the residual angle (Geman-McClure, scale s in radians).
-double GemanMcClureCost(const RotationGraph& graph,
-                        const std::vector<bool>& estimated,
-                        const std::vector<Eigen::Matrix3d>& rotations,
-                        double sigma) {
-  double cost = 0.0;
-  const double s2 = sigma * sigma;
-  for (const RelativeRotation& e : graph.Edges()) {
-    if (!estimated[e.i] || !estimated[e.j]) continue;
-    const double r =
-        RotationAngle(e.R_ij.transpose() * rotations[e.j] *
-                      rotations[e.i].transpose());
-    cost += r * r / (r * r + s2);
-  }
-  return cost;
-}
-
-}  // namespace
 
 ReferenceMethod ReferenceMethodFromString(const std::string& name) {
   if (name == "irav4") return ReferenceMethod::kIrav4;

@@ -118,6 +118,16 @@ int ReseedBadlySupportedVertices(const RotationGraph& graph,
                                  const std::vector<bool>& estimated,
                                  std::vector<Eigen::Matrix3d>* rotations);
 
+// IRAv4's last resort for the vertices of a cluster that aligned to nothing
+// (so that no camera is lost): every unestimated vertex with an estimated
+// neighbour is placed at its best-supported prediction R_mp R_m (Eq. 5-8
+// with `theta_deg`), in rounds of ascending vertex index (a round sees only
+// the previous rounds' placements), until none can be placed. Returns how
+// many were placed; on a connected graph with one estimated vertex, all.
+int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
+                           std::vector<bool>* estimated,
+                           std::vector<Eigen::Matrix3d>* rotations);
+
 // What the last Estimate did, for reports and benchmarks.
 struct Irav4Report {
   int num_vertices = 0;            // of the largest connected component

@@ -316,3 +316,40 @@ TEST(Irav4, GaussNewtonEngineMatchesCeres) {
 
 }  // namespace
 }  // namespace colmap_irav4
+
+namespace colmap_irav4 {
+namespace {
+
+// The last resort for a cluster that aligned to nothing: from one estimated
+// vertex, every vertex of a connected graph is placed, and by the
+// best-supported prediction, so a few outlier edges do not misplace it.
+TEST(Irav4, PlaceRemainingVerticesLosesNoCamera) {
+  SyntheticOptions synthetic;
+  synthetic.noise_sigma_deg = 0.0;
+  synthetic.outlier_ratio = 0.1;
+  synthetic.seed = 12;
+  const SyntheticProblem problem = MakeSyntheticProblem(
+      60, RandomConnectedGraph(60, 600, 12), synthetic);
+  std::vector<bool> estimated(60, false);
+  std::vector<Eigen::Matrix3d> rotations(60, Eigen::Matrix3d::Identity());
+  estimated[7] = true;
+  rotations[7] = problem.ground_truth[7];
+  EXPECT_EQ(PlaceRemainingVertices(problem.graph, 3.0, &estimated,
+                                   &rotations),
+            59);
+  for (bool e : estimated) EXPECT_TRUE(e);
+  // Noise-free inliers: the ground truth itself (no alignment needed, the
+  // seed vertex carries the truth) for the vertices whose best-supported
+  // prediction comes through inlier edges, i.e. nearly all.
+  int num_exact = 0;
+  for (int v = 0; v < 60; ++v) {
+    num_exact += (rotations[v] - problem.ground_truth[v]).norm() < 1e-6;
+  }
+  EXPECT_GE(num_exact, 55);
+  // Nothing estimated: nothing can be placed.
+  std::vector<bool> none(60, false);
+  EXPECT_EQ(PlaceRemainingVertices(problem.graph, 3.0, &none, &rotations), 0);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -302,6 +302,7 @@ TEST(ModelIO, MissingFilesAndDirectories) {
 }
 
 TEST(ModelIO, TruncatedAndGarbageBinaryFiles) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   const std::string source = StrechaModelDirs()[1];
   for (const std::string name : {"cameras.bin", "images.bin", "points3D.bin"}) {
     const std::string original = ReadBytes(source + "/" + name);

@@ -32,5 +32,7 @@ if [ ${#missing[@]} -gt 0 ]; then
     --no-install-recommends "${missing[@]}"
 fi
 
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+# COLMAP_IRAV4_WERROR=ON (as .ci/run sets it) turns warnings into errors.
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release \
+  -DCOLMAP_IRAV4_WERROR="${COLMAP_IRAV4_WERROR:-OFF}"
 cmake --build build -j"$(nproc)"

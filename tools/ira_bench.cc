@@ -2,8 +2,8 @@
 // (sigma, outlier ratio), on the graph structure of a 1DSfM scene (its
 // measurements are replaced by the protocol's) or on a connected random graph.
 //   ira_bench --eg_path ../shared/data/1dsfm/Madrid_Metropolis
-//   /usr/bin/time -v ira_bench --num_vertices 5000 --num_edges 700000 \
-//       --sigmas 5 --outlier_ratios 0.3
+//   /usr/bin/time -v ira_bench --num_vertices 5000 --num_edges 700000
+//       --sigmas 5 --outlier_ratios 0.3   (one command line)
 // The side-by-side comparison with the baselines is tools/rotation_benchmark.
 
 #include <cstdio>

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -41,9 +42,10 @@ double FigureAfter(const std::string& text, const std::string& label) {
 }
 
 const std::string kScene =
-    std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11";
+    DataDir() + "/strecha/fountain-P11";
 
 TEST(ModelComparerCommand, ColmapModelAgainstGroundTruth) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   test::TempDir temp;
   const RunResult run = RunComparer("--input_path1 " + kScene +
                                 "/colmap38_incremental --gt_path " + kScene +
@@ -63,6 +65,7 @@ TEST(ModelComparerCommand, ColmapModelAgainstGroundTruth) {
 }
 
 TEST(ModelComparerCommand, ModelAgainstItselfHasNoError) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   test::TempDir temp;
   const std::string model = kScene + "/colmap38_incremental";
   const RunResult run =
@@ -74,6 +77,7 @@ TEST(ModelComparerCommand, ModelAgainstItselfHasNoError) {
 }
 
 TEST(ModelComparerCommand, NeedsExactlyOneReference) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   test::TempDir temp;
   const std::string model = kScene + "/colmap38_incremental";
   RunResult run = RunComparer("--input_path1 " + model, temp);

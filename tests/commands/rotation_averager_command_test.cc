@@ -15,6 +15,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/eval/relpose_io.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -167,9 +168,10 @@ TEST(RotationAveragerCommand, SummaryJsonPerMethod) {
 }
 
 TEST(RotationAveragerCommand, MadridEgPath) {
+  COLMAP_IRAV4_REQUIRE_DATA("1dsfm/Madrid_Metropolis");
   const std::string output = (TempDir() / "madrid.txt").string();
   const CommandRun run = RunCommand(
-      "--eg_path " + std::string(COLMAP_IRAV4_DATA_DIR) +
+      "--eg_path " + DataDir() +
       "/1dsfm/Madrid_Metropolis --method l1_irls --output_path " + output);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("Estimated 394 of 394 rotations"), std::string::npos);
@@ -177,10 +179,11 @@ TEST(RotationAveragerCommand, MadridEgPath) {
 }
 
 TEST(RotationAveragerCommand, StrechaDatabaseAgainstGtCameras) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   // The real path: COLMAP database -> view graph -> rotations, evaluated
   // against the LIDAR ground truth directory.
   const std::string scene =
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11";
+      DataDir() + "/strecha/fountain-P11";
   for (const std::string method :
        {"irav4", "ira", "l1_irls", "spanning_tree"}) {
     const std::string output =
@@ -342,7 +345,9 @@ TEST(RotationAveragerCommand, MalformedInputGivesOneLineError) {
                    eg_dir.string());
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("exactly one of"), std::string::npos);
-  run = RunCommand("--database_path " + std::string(COLMAP_IRAV4_DATA_DIR) +
+  // The rest needs the shared data (the checks above have run).
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/t265_fisheye/database.db");
+  run = RunCommand("--database_path " + DataDir() +
                    "/colmap_samples/t265_fisheye/database.db");  // no pairs
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("t265_fisheye/database.db: the graph has no edges"),

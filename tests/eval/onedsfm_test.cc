@@ -10,12 +10,14 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
 
 const std::string kMadrid =
-    std::string(COLMAP_IRAV4_DATA_DIR) + "/1dsfm/Madrid_Metropolis";
+    DataDir() + "/1dsfm/Madrid_Metropolis";
 
 std::string TempPath(const std::string& name) {
   const std::filesystem::path dir =
@@ -75,6 +77,7 @@ double FractionBelow(const std::vector<double>& sorted, double value) {
 }
 
 TEST(OneDsfm, MadridRotationDirectionFromTripletCycles) {
+  COLMAP_IRAV4_REQUIRE_DATA("1dsfm/Madrid_Metropolis");
   // With R_ij = R_j R_i^T every triangle of good edges closes:
   // R_jk R_ij = R_ik. The transposed reading closes only up to the
   // commutator of the relative rotations. Madrid's measured epipolar
@@ -90,7 +93,7 @@ TEST(OneDsfm, MadridRotationDirectionFromTripletCycles) {
   const std::vector<double> transposed = TriangleCycleErrors(stored);
   ASSERT_EQ(ours.size(), transposed.size());
   EXPECT_GT(ours.size(), 1000000u);
-  std::cout << ours.size() << " triangles, cycle error (deg) with R_ij = "
+  COLMAP_IRAV4_FIGURES << ours.size() << " triangles, cycle error (deg) with R_ij = "
             << "R_j R_i^T / with its transpose: median " << Quantile(ours, 0.5)
             << " / " << Quantile(transposed, 0.5) << ", 10% quantile "
             << Quantile(ours, 0.1) << " / " << Quantile(transposed, 0.1)
@@ -102,6 +105,7 @@ TEST(OneDsfm, MadridRotationDirectionFromTripletCycles) {
 }
 
 TEST(OneDsfm, MadridScene) {
+  COLMAP_IRAV4_REQUIRE_DATA("1dsfm/Madrid_Metropolis");
   const OneDsfmScene scene = ReadOneDsfmScene(kMadrid);
   EXPECT_EQ(scene.graph.NumVertices(), 394);
   EXPECT_EQ(scene.graph.NumEdges(), 23784);  // all edges are inside cc.txt
@@ -119,7 +123,7 @@ TEST(OneDsfm, BundlerCamerasLookDownMinusZ) {
   const Eigen::Matrix3d R_bundler = D * R_opencv;
   const Eigen::Vector3d t_bundler = D * t_opencv;
   std::vector<Eigen::Vector3d> points;
-  for (const Eigen::Vector3d cam_point :
+  for (const Eigen::Vector3d& cam_point :
        {Eigen::Vector3d(0.1, 0.2, 4.0), Eigen::Vector3d(-1, 0.5, 7.0)}) {
     points.push_back(R_opencv.transpose() * (cam_point - t_opencv));
     // Bundler's convention: a visible point has negative z in its camera.

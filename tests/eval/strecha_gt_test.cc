@@ -7,13 +7,15 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
 
-const std::string kDataDir = COLMAP_IRAV4_DATA_DIR;
+const std::string kDataDir = DataDir();
 
 TEST(StrechaGroundTruth, ReadsFountainCameras) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11/gt_cameras");
   const auto cameras = ReadStrechaGroundTruth(kDataDir + "/strecha/fountain-P11/gt_cameras");
   ASSERT_EQ(cameras.size(), 11u);
   ASSERT_TRUE(cameras.count("0000.jpg"));

@@ -6,6 +6,7 @@
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "tests/test_utils/synthetic_two_view.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -148,7 +149,9 @@ void ExpectRecovered(const Case& c, double noise_px, double max_rotation_deg,
   } else {
     EXPECT_EQ(pose.t.norm(), 0);
   }
-  if (noise_px == 0) EXPECT_EQ(pose.source, expected_source);
+  if (noise_px == 0) {
+    EXPECT_EQ(pose.source, expected_source);
+  }
   EXPECT_GT(pose.num_supporting, 280);
   // The reversed pair gives the inverse pose.
   const RelativePose reverse = EstimateRelativePose(pair.geometry.Inverse(), camera2, camera1,
@@ -222,7 +225,7 @@ TEST(TwoViewGeometry, RefinementImprovesNoisyPoses) {
     error_plain += AngularDistanceDeg(plain.R, R);
     error_refined += AngularDistanceDeg(refined.R, R);
   }
-  std::printf("mean rotation error over 20 noisy pairs: eight-point %.4f deg, refined %.4f deg\n",
+  ::colmap_irav4::test::RecordFiguresF("mean rotation error over 20 noisy pairs: eight-point %.4f deg, refined %.4f deg\n",
               error_plain / 20, error_refined / 20);
   EXPECT_LT(error_refined, 0.8 * error_plain);
 }

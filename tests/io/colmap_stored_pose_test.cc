@@ -15,11 +15,13 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
 
-const std::string kSample = std::string(COLMAP_IRAV4_DATA_DIR) + "/colmap_samples/maupertuis_colmap37";
+const std::string kSample = DataDir() + "/colmap_samples/maupertuis_colmap37";
 
 bool HaveColmap() { return std::system("command -v colmap > /dev/null 2>&1") == 0; }
 
@@ -48,6 +50,7 @@ std::string Rematch(const test::TempDir& dir, bool calibrated) {
 }
 
 TEST(ColmapStoredPose, CalibratedPosesAreCam2FromCam1) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37");
   if (!HaveColmap()) GTEST_SKIP() << "no colmap binary";
   test::TempDir dir;
   const std::string path = Rematch(dir, true);
@@ -75,7 +78,7 @@ TEST(ColmapStoredPose, CalibratedPosesAreCam2FromCam1) {
     const Eigen::Matrix3d R1 = reference.at(contents.images.at(geometry.image_id1).name);
     const Eigen::Matrix3d R2 = reference.at(contents.images.at(geometry.image_id2).name);
     const Eigen::Matrix3d truth = R2 * R1.transpose();
-    std::printf("pair (%u, %u): stored vs derived %.3f deg, stored vs reference %.3f deg, "
+    ::colmap_irav4::test::RecordFiguresF("pair (%u, %u): stored vs derived %.3f deg, stored vs reference %.3f deg, "
                 "derived vs reference %.3f deg, used (stored, refined) vs reference %.3f deg, "
                 "stored t vs derived t %.3f deg\n",
                 geometry.image_id1, geometry.image_id2, AngularDistanceDeg(stored, derived.R),
@@ -99,6 +102,7 @@ TEST(ColmapStoredPose, CalibratedPosesAreCam2FromCam1) {
 }
 
 TEST(ColmapStoredPose, InconsistentStoredPosesAreIgnored) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37");
   if (!HaveColmap()) GTEST_SKIP() << "no colmap binary";
   test::TempDir dir;
   const std::string path = Rematch(dir, false);
@@ -126,7 +130,7 @@ TEST(ColmapStoredPose, InconsistentStoredPosesAreIgnored) {
       EXPECT_LT(AngularDistanceDeg(pose.R, derived.R), 1e-9);
     }
   }
-  std::printf("%d of %zu stored poses ignored as inconsistent with the matches\n", num_ignored,
+  ::colmap_irav4::test::RecordFiguresF("%d of %zu stored poses ignored as inconsistent with the matches\n", num_ignored,
               contents.two_view_geometries.size());
   // COLMAP 3.8 writes the same meaningless pose for every uncalibrated pair.
   EXPECT_GT(num_ignored, 0);

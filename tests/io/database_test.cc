@@ -12,6 +12,8 @@
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/synthetic_two_view.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -22,7 +24,7 @@ using test::TempDir;
 using test::ToBlob;
 using Value = SqliteWriter::Value;
 
-const std::string kDataDir = COLMAP_IRAV4_DATA_DIR;
+const std::string kDataDir = DataDir();
 const std::string kFountain = kDataDir + "/strecha/fountain-P11/database.db";
 const std::string kHerzJesus = kDataDir + "/strecha/Herz-Jesus-P8/database.db";
 const std::string kMaupertuis =
@@ -45,6 +47,7 @@ double MedianFundamentalErrorPx(const TwoViewGeometry& geometry,
 }
 
 TEST(Database, ReadsColmap38StrechaDatabase) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11/database.db");
   const uint64_t hash = HashFile(kFountain);
   {
     Database database(kFountain);
@@ -120,6 +123,7 @@ TEST(Database, ReadsColmap38StrechaDatabase) {
 }
 
 TEST(Database, ReadsOlderSchemaWithoutPoseColumns) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37");
   const uint64_t hash = HashFile(kMaupertuis);
   const DatabaseContents contents = ReadDatabase(kMaupertuis);
   EXPECT_FALSE(contents.schema.has_two_view_pose);
@@ -140,6 +144,7 @@ TEST(Database, ReadsOlderSchemaWithoutPoseColumns) {
 // Relative rotations of the older-schema database against its reference model
 // (reference_model, COLMAP's text format).
 TEST(Database, OlderSchemaRelativePosesMatchReferenceModel) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37");
   const std::map<std::string, Eigen::Matrix3d> reference = test::ModelRotationsByName(
       kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model");
   ASSERT_EQ(reference.size(), 4u);
@@ -159,7 +164,7 @@ TEST(Database, OlderSchemaRelativePosesMatchReferenceModel) {
     const Eigen::Matrix3d R1 = reference.at(view_graph.image_names.at(pair.image_id1));
     const Eigen::Matrix3d R2 = reference.at(view_graph.image_names.at(pair.image_id2));
     const double error = AngularDistanceDeg(pair.R, R2 * R1.transpose());
-    std::printf("maupertuis %s-%s: relative rotation error %.3f deg (%d inliers)\n",
+    ::colmap_irav4::test::RecordFiguresF("maupertuis %s-%s: relative rotation error %.3f deg (%d inliers)\n",
                 view_graph.image_names.at(pair.image_id1).c_str(),
                 view_graph.image_names.at(pair.image_id2).c_str(), error, pair.num_inliers);
     EXPECT_LT(error, 1.0);
@@ -167,6 +172,7 @@ TEST(Database, OlderSchemaRelativePosesMatchReferenceModel) {
 }
 
 TEST(Database, FisheyeCamerasWithoutMatchesGiveEmptyGraph) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/t265_fisheye/database.db");
   const uint64_t hash = HashFile(kT265);
   const DatabaseContents contents = ReadDatabase(kT265);
   ASSERT_EQ(contents.cameras.size(), 2u);
@@ -193,6 +199,7 @@ TEST(Database, FisheyeCamerasWithoutMatchesGiveEmptyGraph) {
 }
 
 TEST(Database, ImmutableOpenLeavesWalDatabaseAndDirectoryUntouched) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/database.db");
   // Herz-Jesus is in WAL mode without a -shm file, in a read-only directory:
   // only an immutable open can read it.
   const DatabaseContents contents = ReadDatabase(kHerzJesus);
@@ -366,13 +373,15 @@ void ExpectBadDatabase(const std::string& path, const std::string& problem) {
     ADD_FAILURE() << "no error for " << path;
   } catch (const InputError& error) {
     const std::string message = error.what();
-    std::printf("  %s\n", message.c_str());
+    ::colmap_irav4::test::RecordFiguresF("  %s\n", message.c_str());
     EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
     EXPECT_NE(message.find(problem), std::string::npos) << message;
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
   }
   EXPECT_EQ(std::filesystem::exists(path), existed);
-  if (existed) EXPECT_EQ(HashFile(path), hash);
+  if (existed) {
+    EXPECT_EQ(HashFile(path), hash);
+  }
   EXPECT_FALSE(std::filesystem::exists(path + "-journal"));
   EXPECT_FALSE(std::filesystem::exists(path + "-wal"));
 }

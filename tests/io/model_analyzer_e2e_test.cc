@@ -13,6 +13,7 @@
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/io/model_test_utils.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -135,12 +136,13 @@ class ColmapEndToEnd : public ::testing::Test {
  protected:
   void SetUp() override {
     if (!fs::exists(kColmap)) GTEST_SKIP() << kColmap << " is not installed";
+    COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   }
 };
 
 TEST_F(ColmapEndToEnd, ModelAnalyzerReadsOurBinaryAndTextModels) {
   const Reconstruction strecha = ReadReconstruction(
-      std::string(COLMAP_IRAV4_DATA_DIR) +
+      DataDir() +
       "/strecha/fountain-P11/colmap38_incremental");
   ExpectAnalyzerAgrees(strecha, "BIN");
   ExpectAnalyzerAgrees(strecha, "TXT");
@@ -153,7 +155,7 @@ TEST_F(ColmapEndToEnd, ModelAnalyzerReadsOurBinaryAndTextModels) {
 // identically, and its text files hold exactly our text writer's lines.
 TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
   const std::vector<Reconstruction> models = {
-      ReadReconstruction(std::string(COLMAP_IRAV4_DATA_DIR) +
+      ReadReconstruction(DataDir() +
                          "/strecha/Herz-Jesus-P8/colmap38_incremental"),
       SyntheticModel(/*name_with_space=*/false)};
   for (const Reconstruction& model : models) {
@@ -200,7 +202,8 @@ TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
 // Our model_converter command: BIN -> TXT -> BIN gives COLMAP's cameras and
 // images files byte for byte; bad input fails with one line naming the file.
 TEST(ModelConverterCommand, ConvertsAndReportsBadInput) {
-  const std::string source = std::string(COLMAP_IRAV4_DATA_DIR) +
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
+  const std::string source = DataDir() +
                              "/strecha/Herz-Jesus-P8/colmap38_incremental";
   const std::string binary = COLMAP_IRAV4_BINARY;
   TempDir temp;

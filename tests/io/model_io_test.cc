@@ -15,6 +15,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/io/model_test_utils.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -26,7 +27,7 @@ using test::SyntheticModel;
 using test::TempDir;
 using test::WriteBytes;
 
-const std::string kDataDir = COLMAP_IRAV4_DATA_DIR;
+const std::string kDataDir = DataDir();
 
 std::vector<std::string> StrechaModelDirs() {
   return {kDataDir + "/strecha/fountain-P11/colmap38_incremental",
@@ -78,6 +79,7 @@ BinaryRecords SplitBinary(const std::string& bytes, const std::string& kind) {
 }
 
 TEST(ModelIO, ReadsCOLMAP38ModelsAndRoundTripsBinaryAndText) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   for (const std::string& dir : StrechaModelDirs()) {
     SCOPED_TRACE(dir);
     const Reconstruction model = ReadReconstruction(dir);
@@ -125,6 +127,7 @@ TEST(ModelIO, ReadsCOLMAP38ModelsAndRoundTripsBinaryAndText) {
 // happens to be in increasing id order (cameras and images here) the whole
 // files are byte-identical.
 TEST(ModelIO, BinaryWriteIsByteIdenticalToCOLMAP) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   for (const std::string& dir : StrechaModelDirs()) {
     SCOPED_TRACE(dir);
     const Reconstruction model = ReadReconstruction(dir);
@@ -169,6 +172,7 @@ double HeaderNumber(const std::string& path, const std::string& prefix) {
 }
 
 TEST(ModelIO, ReadsCOLMAP37TextModel) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37/reference_model");
   const std::string dir =
       kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model";
   ASSERT_FALSE(ExistsBinaryModel(dir));
@@ -298,6 +302,7 @@ TEST(ModelIO, MissingFilesAndDirectories) {
 }
 
 TEST(ModelIO, TruncatedAndGarbageBinaryFiles) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   const std::string source = StrechaModelDirs()[1];
   for (const std::string name : {"cameras.bin", "images.bin", "points3D.bin"}) {
     const std::string original = ReadBytes(source + "/" + name);

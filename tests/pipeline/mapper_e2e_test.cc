@@ -15,6 +15,8 @@
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -52,7 +54,7 @@ std::string ReadText(const std::string& path) {
 void CheckStrechaScene(const std::string& scene, int num_images,
                        bool with_images, const std::string& options = "") {
   const std::string dir =
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/" + scene;
+      DataDir() + "/strecha/" + scene;
   const std::string database = dir + "/database.db";
   ASSERT_TRUE(fs::exists(database)) << database;
   const uint64_t hash_before = HashFile(database);
@@ -92,7 +94,7 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   EXPECT_EQ(comparison.num_inliers, num_images);
   EXPECT_LT(comparison.rotation_error_median_deg, 0.1);
   EXPECT_LT(comparison.center_error_median, 0.01);  // metres
-  std::cout << scene << " " << options << ": rotation error median "
+  COLMAP_IRAV4_FIGURES << scene << " " << options << ": rotation error median "
             << comparison.rotation_error_median_deg << " deg, centre error "
             << "median " << comparison.center_error_median * 1000
             << " mm, mean reprojection error " << mean_error << " px, "
@@ -139,15 +141,18 @@ void CheckStrechaScene(const std::string& scene, int num_images,
 }
 
 TEST(MapperE2E, FountainP11MatchesGroundTruth) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   CheckStrechaScene("fountain-P11", 11, /*with_images=*/true);
 }
 
 TEST(MapperE2E, HerzJesusP8MatchesGroundTruth) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8");
   CheckStrechaScene("Herz-Jesus-P8", 8, /*with_images=*/false);
 }
 
 // The alternatives: BATA translation averaging and L1-IRLS rotations.
 TEST(MapperE2E, HerzJesusP8TranslationAveragingAndL1Irls) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8");
   CheckStrechaScene("Herz-Jesus-P8", 8, /*with_images=*/false,
                     "--Mapper.positioning_method translation_averaging "
                     "--Mapper.rotation_method l1_irls");

@@ -22,12 +22,14 @@
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/timer.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
 
 void RunScene(const std::string& scene) {
-  const std::string dir = std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/" + scene;
+  const std::string dir = DataDir() + "/strecha/" + scene;
   const DatabaseContents database = ReadDatabase(dir + "/database.db");
   const std::map<std::string, StrechaCamera> gt = ReadStrechaGroundTruth(dir + "/gt_cameras");
 
@@ -84,7 +86,7 @@ void RunScene(const std::string& scene) {
   PoseComparison comparison;
   ASSERT_TRUE(ComparePoses(PosesByName(reconstruction), reference, SimilarityRansacOptions(),
                            &comparison));
-  std::cout << scene << ": " << tracks.size() << " tracks (" << tracks_seconds
+  COLMAP_IRAV4_FIGURES << scene << ": " << tracks.size() << " tracks (" << tracks_seconds
             << " s), positioning " << positioning.num_points << " points " << positioning.seconds
             << " s, BA " << ba1.initial_mean_reproj_error << " -> "
             << ba1.final_mean_reproj_error << " px " << ba1.seconds << " s, retriangulation "
@@ -100,7 +102,7 @@ void RunScene(const std::string& scene) {
   PoseComparison colmap_comparison;
   ASSERT_TRUE(ComparePoses(PosesByName(ReadReconstruction(dir + "/colmap38_incremental")),
                            reference, SimilarityRansacOptions(), &colmap_comparison));
-  std::cout << scene << " COLMAP 3.8 incremental: rotation error median/max "
+  COLMAP_IRAV4_FIGURES << scene << " COLMAP 3.8 incremental: rotation error median/max "
             << colmap_comparison.rotation_error_median_deg << " / "
             << colmap_comparison.rotation_error_max_deg << " deg, centre error median/max "
             << 1000 * colmap_comparison.center_error_median << " / "
@@ -118,8 +120,14 @@ void RunScene(const std::string& scene) {
   EXPECT_LT(mean_reproj_error, 1.0);
 }
 
-TEST(StrechaPositioning, FountainP11) { RunScene("fountain-P11"); }
-TEST(StrechaPositioning, HerzJesusP8) { RunScene("Herz-Jesus-P8"); }
+TEST(StrechaPositioning, FountainP11) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
+  RunScene("fountain-P11");
+}
+TEST(StrechaPositioning, HerzJesusP8) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8");
+  RunScene("Herz-Jesus-P8");
+}
 
 }  // namespace
 }  // namespace colmap_irav4

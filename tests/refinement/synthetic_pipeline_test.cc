@@ -18,6 +18,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/timer.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -92,7 +93,7 @@ TEST(SyntheticPipeline, RecoversTheSceneFromNoisyRotationsAndMatches) {
   PoseComparison comparison;
   ASSERT_TRUE(ComparePoses(PosesByName(reconstruction), PosesByName(truth),
                            SimilarityRansacOptions(), &comparison));
-  std::cout << "tracks " << tracks.size() << " (of " << truth.points3D.size()
+  COLMAP_IRAV4_FIGURES << "tracks " << tracks.size() << " (of " << truth.points3D.size()
             << " true points; inconsistent " << track_stats.num_inconsistent << ")\n"
             << "positioning: " << positioning.num_images << " images, " << positioning.num_points
             << " points, " << positioning.num_observations_filtered << " observations filtered, "

@@ -9,6 +9,7 @@
 #include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
+#include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -107,11 +108,12 @@ TEST(Ira, LargestComponentOnlyAndTreeGraphs) {
 }
 
 TEST(Ira, SyntheticProtocolOnTheMadridGraph) {
+  COLMAP_IRAV4_REQUIRE_DATA("1dsfm/Madrid_Metropolis");
   // The paper's protocol on the real Madrid_Metropolis structure (394
   // cameras, 23,784 edges), sigma 5 deg, 30% outliers. Measured median
   // 0.39 deg (tools/ira_bench); breadth-first chaining is far worse.
   const OneDsfmScene scene = ReadOneDsfmScene(
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/1dsfm/Madrid_Metropolis");
+      DataDir() + "/1dsfm/Madrid_Metropolis");
   ASSERT_EQ(scene.graph.NumVertices(), 394);
   SyntheticOptions options;
   options.noise_sigma_deg = 5.0;
@@ -129,11 +131,12 @@ TEST(Ira, SyntheticProtocolOnTheMadridGraph) {
 }
 
 TEST(Ira, RealMadridMeasurementsAreExplained) {
+  COLMAP_IRAV4_REQUIRE_DATA("1dsfm/Madrid_Metropolis");
   // No ground truth ships with the scene; the real measurements must still
   // be explained: many more edges within theta of the estimate than
   // spanning-tree chaining manages (a random estimate explains almost none).
   const OneDsfmScene scene = ReadOneDsfmScene(
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/1dsfm/Madrid_Metropolis");
+      DataDir() + "/1dsfm/Madrid_Metropolis");
   const auto explained_ratio = [&](const RotationAveragingResult& result) {
     int explained = 0;
     for (const RelativeRotation& e : scene.graph.Edges()) {

@@ -10,6 +10,7 @@
 #include "colmap_irav4/rotation_averaging/cds.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -151,7 +152,7 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
   const RotationAveragingResult a = Irav4(refined).Estimate(problem.graph);
   const RotationErrors refined_errors =
       EvaluateRotations(a, problem.ground_truth);
-  std::cout << "median paper " << paper_errors.median_deg << " refined "
+  COLMAP_IRAV4_FIGURES << "median paper " << paper_errors.median_deg << " refined "
             << refined_errors.median_deg << "; mean paper "
             << paper_errors.mean_deg << " refined " << refined_errors.mean_deg
             << std::endl;
@@ -164,7 +165,7 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
   irls_only.final_refinement = "irls";
   const RotationErrors irls_errors = EvaluateRotations(
       Irav4(irls_only).Estimate(problem.graph), problem.ground_truth);
-  std::cout << "irls only: median " << irls_errors.median_deg << " mean "
+  COLMAP_IRAV4_FIGURES << "irls only: median " << irls_errors.median_deg << " mean "
             << irls_errors.mean_deg << std::endl;
   EXPECT_LT(irls_errors.median_deg, 0.85 * paper_errors.median_deg);
   const RotationAveragingResult b = Irav4(refined).Estimate(problem.graph);

@@ -12,6 +12,8 @@
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -114,20 +116,21 @@ TEST(L1Irls, FarBetterThanSpanningTreeWithNoiseAndOutliers) {
       L1IrlsAverager().Estimate(scene.graph).rotations, scene.truth));
   // 2500 edges on 150 vertices: averaging reduces the 5 deg edge noise well
   // below one edge's noise, while chaining accumulates noise and outliers.
-  std::cout << "median error: spanning tree " << tree_median
+  COLMAP_IRAV4_FIGURES << "median error: spanning tree " << tree_median
             << " deg, L1-IRLS " << l1_median << " deg" << std::endl;
   EXPECT_LT(l1_median, 2.0);
   EXPECT_LT(l1_median * 5, tree_median);
 }
 
 TEST(L1Irls, MadridStructureWithNoiseAndOutliers) {
+  COLMAP_IRAV4_REQUIRE_DATA("1dsfm/Madrid_Metropolis");
   // The paper's protocol on the real Madrid graph: sigma 5 deg, 30% outliers.
   SyntheticOptions options;
   options.noise_sigma_deg = 5.0;
   options.outlier_ratio = 0.3;
   options.seed = 8;
   const SyntheticProblem problem = MakeSyntheticProblem(
-      ReadOneDsfmScene(std::string(COLMAP_IRAV4_DATA_DIR) +
+      ReadOneDsfmScene(DataDir() +
                        "/1dsfm/Madrid_Metropolis")
           .graph,
       options);
@@ -135,7 +138,7 @@ TEST(L1Irls, MadridStructureWithNoiseAndOutliers) {
       SpanningTreeAverager().Estimate(problem.graph), problem.ground_truth);
   const RotationErrors l1 = EvaluateRotations(
       L1IrlsAverager().Estimate(problem.graph), problem.ground_truth);
-  std::cout << "Madrid, sigma 5, 30% outliers: median error spanning tree "
+  COLMAP_IRAV4_FIGURES << "Madrid, sigma 5, 30% outliers: median error spanning tree "
             << tree.median_deg << " deg, L1-IRLS " << l1.median_deg << " deg"
             << std::endl;
   EXPECT_EQ(l1.num_compared, 394);

@@ -18,6 +18,7 @@
 
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/scene/camera_models.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -159,7 +160,7 @@ TEST(CameraModelsColmap, ImageUndistorterAgreesWithOurProjection) {
       max_error = std::max(max_error, (weighted / sum - expected).norm());
     }
     EXPECT_LT(max_error, 0.15);
-    std::printf("%-22s max blob offset %.3f px\n",
+    ::colmap_irav4::test::RecordFiguresF("%-22s max blob offset %.3f px\n",
                 CameraModelIdToName(camera.model_id).c_str(), max_error);
   }
   fs::remove_all(root);

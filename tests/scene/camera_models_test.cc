@@ -141,7 +141,9 @@ TEST(CameraModels, ImageToCameraToImageRoundTrip) {
     }
     EXPECT_LT(max_error, 1e-8) << CameraModelIdToName(camera.model_id);
     // The T265 lens sees beyond 90 degrees in its corners.
-    if (camera.model_id == kOpenCVFisheye) EXPECT_GT(num_beyond_90, 0);
+    if (camera.model_id == kOpenCVFisheye) {
+      EXPECT_GT(num_beyond_90, 0);
+    }
   }
 }
 

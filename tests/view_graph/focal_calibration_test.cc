@@ -21,6 +21,8 @@
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -161,7 +163,7 @@ TEST(FocalCalibration, SharedCameraGuessOff30Percent) {
     EXPECT_TRUE(results[0].calibrated) << results[0].reason;
     EXPECT_EQ(results[0].num_pairs, 15);
     EXPECT_NEAR(results[0].guess_focal, 1500 * factor, 1e-9);
-    std::printf("guess %.1f -> %.2f (true 1500)\n", 1500 * factor,
+    ::colmap_irav4::test::RecordFiguresF("guess %.1f -> %.2f (true 1500)\n", 1500 * factor,
                 cameras.at(1).params[0]);
     EXPECT_NEAR(cameras.at(1).params[0] / 1500, 1.0, 0.02);
     EXPECT_NEAR(cameras.at(1).params[1] / 1500, 1.0, 0.02);
@@ -185,7 +187,7 @@ TEST(FocalCalibration, TwoCamerasCoordinateDescent) {
   for (const FocalCalibrationResult& result : results) {
     EXPECT_TRUE(result.calibrated) << result.reason;
   }
-  std::printf("camera 1: 1950 -> %.2f (true 1500); camera 2: 1700 -> %.2f (true 2200)\n",
+  ::colmap_irav4::test::RecordFiguresF("camera 1: 1950 -> %.2f (true 1500); camera 2: 1700 -> %.2f (true 2200)\n",
               cameras.at(1).params[0], cameras.at(2).params[0]);
   EXPECT_NEAR(cameras.at(1).params[0] / 1500, 1.0, 0.02);
   EXPECT_NEAR(cameras.at(2).params[0] / 2200, 1.0, 0.02);
@@ -264,7 +266,7 @@ TEST(FocalCalibration, OptionsCheck) {
 // derives accurate relative rotations.
 void CheckPerturbedFountain(double factor) {
   const std::string scene =
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11";
+      DataDir() + "/strecha/fountain-P11";
   const std::string shared = scene + "/database.db";
   const uint64_t hash = test::HashFile(shared);
   test::TempDir dir;
@@ -307,7 +309,7 @@ void CheckPerturbedFountain(double factor) {
   ViewGraphSummary summary_off;
   const ViewGraph uncalibrated = BuildViewGraph(database, options, &summary_off);
   const RelativePoseErrors e_off = EvaluateRelativePoses(uncalibrated, gt);
-  std::printf(
+  ::colmap_irav4::test::RecordFiguresF(
       "fountain focal x%.3f (%.1f): calibrated fx %.1f fy %.1f (K.txt 2759.48 "
       "2764.16) from %d pairs; %zu pairs kept, rotation median %.5f max %.3f "
       "deg; without calibration %zu pairs, rotation median %.3f max %.3f deg\n",
@@ -332,9 +334,15 @@ void CheckPerturbedFountain(double factor) {
   EXPECT_EQ(with_prior.cameras.at(camera.camera_id).params, camera.params);
 }
 
-TEST(FocalCalibration, StrechaFountainFocalTooLong) { CheckPerturbedFountain(1.3); }
+TEST(FocalCalibration, StrechaFountainFocalTooLong) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
+  CheckPerturbedFountain(1.3);
+}
 
-TEST(FocalCalibration, StrechaFountainFocalTooShort) { CheckPerturbedFountain(1 / 1.3); }
+TEST(FocalCalibration, StrechaFountainFocalTooShort) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
+  CheckPerturbedFountain(1 / 1.3);
+}
 
 }  // namespace
 }  // namespace colmap_irav4

@@ -9,11 +9,13 @@
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
 
-const std::string kStrecha = std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/";
+const std::string kStrecha = DataDir() + "/strecha/";
 
 RelativePoseErrors Evaluate(const std::string& scene, bool refine, int expected_pairs) {
   const std::string database_path = kStrecha + scene + "/database.db";
@@ -31,7 +33,7 @@ RelativePoseErrors Evaluate(const std::string& scene, bool refine, int expected_
   EXPECT_EQ(static_cast<int>(view_graph.pairs.size()), expected_pairs);
   const RelativePoseErrors e = EvaluateRelativePoses(view_graph, gt);
   EXPECT_EQ(e.num_pairs, expected_pairs);
-  std::printf("%-14s refine %-3s: %d pairs, rotation error median %.4f mean %.4f max %.4f deg, "
+  ::colmap_irav4::test::RecordFiguresF("%-14s refine %-3s: %d pairs, rotation error median %.4f mean %.4f max %.4f deg, "
               "%d > 5 deg; translation direction median %.4f mean %.4f max %.4f deg "
               "(%zu pairs); transposed-R median %.2f deg\n",
               scene.c_str(), refine ? "on" : "off", e.num_pairs, e.rotation_median_deg,
@@ -53,12 +55,14 @@ void ExpectAccurate(const RelativePoseErrors& e) {
 }
 
 TEST(RelposeStrecha, FountainP11) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   // Every one of the 55 verified pairs is kept (all have >= 15 inliers).
   ExpectAccurate(Evaluate("fountain-P11", true, 55));
   ExpectAccurate(Evaluate("fountain-P11", false, 55));
 }
 
 TEST(RelposeStrecha, HerzJesusP8) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8");
   ExpectAccurate(Evaluate("Herz-Jesus-P8", true, 28));
   ExpectAccurate(Evaluate("Herz-Jesus-P8", false, 28));
 }

@@ -12,6 +12,8 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "tests/test_utils/database_test_utils.h"
+#include "tests/test_utils/data.h"
+#include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -20,7 +22,7 @@ using test::HashFile;
 using test::TempDir;
 
 const std::string kBinary = COLMAP_IRAV4_BINARY;
-const std::string kDataDir = COLMAP_IRAV4_DATA_DIR;
+const std::string kDataDir = DataDir();
 const std::string kSourceDir = COLMAP_IRAV4_SOURCE_DIR;
 
 struct RunResult {
@@ -57,6 +59,7 @@ RunResult RunCommand(const TempDir& dir, const std::string& args) {
 }
 
 TEST(ViewGraphCommand, BundledExampleWritesRelativePoses) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11/gt_cameras");
   TempDir dir;
   const std::string database = kSourceDir + "/tests/data/fountain-P11.db";
   const uint64_t hash = HashFile(database);
@@ -91,7 +94,7 @@ TEST(ViewGraphCommand, BundledExampleWritesRelativePoses) {
     errors.push_back(AngularDistanceDeg(QuaternionToRotation(q), R2 * R1.transpose()));
   }
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-  std::printf("bundled example: median relative rotation error %.4f deg over %zu pairs\n",
+  ::colmap_irav4::test::RecordFiguresF("bundled example: median relative rotation error %.4f deg over %zu pairs\n",
               errors[errors.size() / 2], errors.size());
   EXPECT_LT(errors[errors.size() / 2], 0.5);
   // Dotted options reach the builder.
@@ -104,6 +107,7 @@ TEST(ViewGraphCommand, BundledExampleWritesRelativePoses) {
 }
 
 TEST(ViewGraphCommand, EmptyGraphIsReportedClearly) {
+  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/t265_fisheye/database.db");
   TempDir dir;
   const std::string output = dir.File("relpose.txt");
   const RunResult result =
@@ -127,7 +131,7 @@ void ExpectCleanFailure(const TempDir& dir, const std::string& database,
   EXPECT_TRUE(result.exit_code > 0 && result.exit_code < 128) << "crash? " << result.exit_code;
   const std::vector<std::string> lines = Lines(result.err);
   ASSERT_EQ(lines.size(), 1u) << result.err;
-  std::printf("  exit %d, stderr: %s\n", result.exit_code, lines[0].c_str());
+  ::colmap_irav4::test::RecordFiguresF("  exit %d, stderr: %s\n", result.exit_code, lines[0].c_str());
   EXPECT_NE(lines[0].find(database), std::string::npos);
   EXPECT_NE(lines[0].find(problem), std::string::npos);
   EXPECT_EQ(HashFile(database), hash);

@@ -1,6 +1,7 @@
 #include "colmap_irav4/eval/scene_generator.h"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <random>
 #include <unordered_map>
@@ -477,12 +478,19 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     const int64_t iz0 = static_cast<int64_t>(std::floor((center.z() - range) / cell));
     const int64_t iz1 = static_cast<int64_t>(std::floor((center.z() + range) / cell));
     const Eigen::Vector2d forward_ground(forward.x(), forward.z());
+    // Half the horizontal field of view plus 25 deg (roll, pitch, cell size).
+    const double min_cos = std::cos(std::min(DegToRad(89.0), std::atan(max_u) + DegToRad(25.0)));
     for (int64_t ix = ix0; ix <= ix1; ++ix) {
       for (int64_t iz = iz0; iz <= iz1; ++iz) {
         // Skip cells wholly behind the camera.
         const Eigen::Vector2d cell_centre((ix + 0.5) * cell - center.x(),
                                           (iz + 0.5) * cell - center.z());
         if (cell_centre.dot(forward_ground.normalized()) < -cell) continue;
+        // ... and cells far outside the horizontal field of view.
+        if (cell_centre.norm() > 2 * cell &&
+            cell_centre.normalized().dot(forward_ground.normalized()) < min_cos) {
+          continue;
+        }
         const auto it = grid.find(cell_key(ix, iz));
         if (it == grid.end()) continue;
         for (const int k : it->second) {
@@ -556,19 +564,21 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     image_t image_id1, image_id2;
     int count;
   };
+  std::vector<const std::vector<TrackElement>*> track_of(num_cloud_points + 1, nullptr);
+  for (const auto& [point3D_id, point] : truth.points3D) track_of[point3D_id] = &point.track;
   std::vector<Candidate> true_pairs, mirror_candidates;
   std::vector<int> count(n + 1, 0), mirror_count(n + 1, 0);
   std::vector<image_t> touched, mirror_touched;
   for (const auto& [image_id, image] : truth.images) {
     for (const Point2D& point2D : image.points2D) {
       if (point2D.point3D_id == kInvalidPoint3DId) continue;
-      for (const TrackElement& element : truth.points3D.at(point2D.point3D_id).track) {
+      for (const TrackElement& element : *track_of[point2D.point3D_id]) {
         if (element.image_id <= image_id) continue;
         if (count[element.image_id]++ == 0) touched.push_back(element.image_id);
       }
       const point3D_t twin = scene.twin_of_point[point2D.point3D_id];
       if (twin == kInvalidPoint3DId) continue;
-      for (const TrackElement& element : truth.points3D.at(twin).track) {
+      for (const TrackElement& element : *track_of[twin]) {
         if (element.image_id <= image_id) continue;
         if (mirror_count[element.image_id]++ == 0) {
           mirror_touched.push_back(element.image_id);
@@ -760,8 +770,39 @@ Rigid3d PairRelativePose(const GeneratedScene& scene, const GeneratedPair& pair)
   return relative;
 }
 
-TwoViewGeometry PairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
-                             FeatureMatches* raw_matches) {
+namespace {
+
+// Track of a point, through a lookup the caller chooses (the model's map for
+// one pair, a flat table when writing every pair).
+using TrackLookup = std::function<const std::vector<TrackElement>&(point3D_t)>;
+
+// image1's keypoint of X (true pair) or of M X (mirror pair) with image2's
+// keypoint of X, in image1's keypoint order.
+FeatureMatches CandidateMatches(const GeneratedScene& scene, const GeneratedPair& pair,
+                                const TrackLookup& track_of) {
+  FeatureMatches matches;
+  const Image& image1 = scene.truth.images.at(pair.image_id1);
+  for (point2D_t idx1 = 0; idx1 < image1.points2D.size(); ++idx1) {
+    point3D_t point3D_id = image1.points2D[idx1].point3D_id;
+    if (point3D_id == kInvalidPoint3DId) continue;
+    if (pair.kind == PairKind::kMirror) {
+      point3D_id = scene.twin_of_point[point3D_id];
+      if (point3D_id == kInvalidPoint3DId) continue;
+    }
+    for (const TrackElement& element : track_of(point3D_id)) {
+      if (element.image_id == pair.image_id2) {
+        matches.push_back({idx1, element.point2D_idx});
+        break;
+      }
+    }
+  }
+  return matches;
+}
+
+// The stored geometry from the pair's candidate matches (ignored for random
+// pairs, whose inliers are fixed).
+TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
+                                   FeatureMatches candidates, FeatureMatches* raw_matches) {
   const SceneGeneratorOptions& options = scene.options;
   std::mt19937_64 rng(Mix(options.seed ^ Mix(ImagePairToPairId(pair.image_id1,
                                                                pair.image_id2))));
@@ -771,25 +812,10 @@ TwoViewGeometry PairGeometry(const GeneratedScene& scene, const GeneratedPair& p
   geometry.image_id1 = pair.image_id1;
   geometry.image_id2 = pair.image_id2;
   geometry.config = TwoViewGeometry::CALIBRATED;
-
   if (pair.kind == PairKind::kRandom) {
     geometry.inlier_matches = pair.random_inliers;
   } else {
-    // image1's keypoint of X (true) or of M X (mirror) with image2's of X.
-    for (point2D_t idx1 = 0; idx1 < image1.points2D.size(); ++idx1) {
-      point3D_t point3D_id = image1.points2D[idx1].point3D_id;
-      if (point3D_id == kInvalidPoint3DId) continue;
-      if (pair.kind == PairKind::kMirror) {
-        point3D_id = scene.twin_of_point[point3D_id];
-        if (point3D_id == kInvalidPoint3DId) continue;
-      }
-      for (const TrackElement& element : scene.truth.points3D.at(point3D_id).track) {
-        if (element.image_id == pair.image_id2) {
-          geometry.inlier_matches.push_back({idx1, element.point2D_idx});
-          break;
-        }
-      }
-    }
+    geometry.inlier_matches = std::move(candidates);
     if (pair.kind == PairKind::kMirror) {
       // A false pair matches only part of what its geometry allows.
       std::shuffle(geometry.inlier_matches.begin(), geometry.inlier_matches.end(), rng);
@@ -835,6 +861,19 @@ TwoViewGeometry PairGeometry(const GeneratedScene& scene, const GeneratedPair& p
   return geometry;
 }
 
+}  // namespace
+
+TwoViewGeometry PairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
+                             FeatureMatches* raw_matches) {
+  FeatureMatches candidates;
+  if (pair.kind != PairKind::kRandom) {
+    candidates = CandidateMatches(scene, pair, [&](point3D_t id) -> const std::vector<TrackElement>& {
+      return scene.truth.points3D.at(id).track;
+    });
+  }
+  return FinishPairGeometry(scene, pair, std::move(candidates), raw_matches);
+}
+
 void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
   DatabaseWriter writer(path);
   for (const auto& [camera_id, camera] : scene.truth.cameras) writer.WriteCamera(camera);
@@ -845,11 +884,53 @@ void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
     for (const Point2D& point2D : image.points2D) keypoints.push_back(point2D.xy.cast<float>());
     writer.WriteKeypoints(image_id, keypoints);
   }
+  // Flat track table (the model's map costs a cache miss per level), and the
+  // candidates of all pairs of one first image in one pass over its
+  // keypoints: O(observations * track length) in all.
+  point3D_t max_id = 0;
+  for (const auto& [point3D_id, point] : scene.truth.points3D) max_id = point3D_id;
+  std::vector<const std::vector<TrackElement>*> tracks(max_id + 1, nullptr);
+  for (const auto& [point3D_id, point] : scene.truth.points3D) tracks[point3D_id] = &point.track;
   FeatureMatches raw_matches;
-  for (const GeneratedPair& pair : scene.pairs) {
-    const TwoViewGeometry geometry = PairGeometry(scene, pair, &raw_matches);
-    writer.WriteMatches(pair.image_id1, pair.image_id2, raw_matches);
-    writer.WriteTwoViewGeometry(geometry);
+  std::unordered_map<image_t, FeatureMatches> true_candidates, mirror_candidates;
+  for (size_t begin = 0; begin < scene.pairs.size();) {
+    const image_t image_id1 = scene.pairs[begin].image_id1;
+    size_t end = begin;
+    true_candidates.clear();
+    mirror_candidates.clear();
+    for (; end < scene.pairs.size() && scene.pairs[end].image_id1 == image_id1; ++end) {
+      const GeneratedPair& pair = scene.pairs[end];
+      if (pair.kind == PairKind::kTrue) true_candidates[pair.image_id2];
+      if (pair.kind == PairKind::kMirror) mirror_candidates[pair.image_id2];
+    }
+    const Image& image1 = scene.truth.images.at(image_id1);
+    for (point2D_t idx1 = 0; idx1 < image1.points2D.size(); ++idx1) {
+      const point3D_t point3D_id = image1.points2D[idx1].point3D_id;
+      if (point3D_id == kInvalidPoint3DId) continue;
+      for (const TrackElement& element : *tracks[point3D_id]) {
+        const auto it = true_candidates.find(element.image_id);
+        if (it != true_candidates.end()) it->second.push_back({idx1, element.point2D_idx});
+      }
+      const point3D_t twin = scene.twin_of_point[point3D_id];
+      if (twin == kInvalidPoint3DId || mirror_candidates.empty()) continue;
+      for (const TrackElement& element : *tracks[twin]) {
+        const auto it = mirror_candidates.find(element.image_id);
+        if (it != mirror_candidates.end()) it->second.push_back({idx1, element.point2D_idx});
+      }
+    }
+    for (size_t k = begin; k < end; ++k) {
+      const GeneratedPair& pair = scene.pairs[k];
+      FeatureMatches candidates;
+      if (pair.kind == PairKind::kTrue) candidates = std::move(true_candidates[pair.image_id2]);
+      if (pair.kind == PairKind::kMirror) {
+        candidates = std::move(mirror_candidates[pair.image_id2]);
+      }
+      const TwoViewGeometry geometry =
+          FinishPairGeometry(scene, pair, std::move(candidates), &raw_matches);
+      writer.WriteMatches(pair.image_id1, pair.image_id2, raw_matches);
+      writer.WriteTwoViewGeometry(geometry);
+    }
+    begin = end;
   }
   writer.Commit();
 }

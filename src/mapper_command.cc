@@ -6,8 +6,9 @@
 
 #include <iostream>
 
-#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/pipeline/global_pipeline.h"
 #include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/threading.h"
 #include "src/command.h"
 
 namespace colmap_irav4 {
@@ -35,6 +36,9 @@ int RunMapper(int argc, char** argv) {
   AddGlobalMapperOptions(&manager, &options);
   if (!manager.Parse(argc, argv)) return 0;
   options.Check();
+  // Before any solve: a BLAS / OpenMP runtime loaded with Ceres would
+  // otherwise start one thread per core.
+  LimitBlasThreads(options.num_threads);
   const GlobalMapperSummary summary = RunGlobalMapperOnDatabase(
       options, database_path, image_path, output_path, output_type);
   return summary.components.empty() ? 1 : 0;

@@ -15,6 +15,7 @@
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "src/command.h"
@@ -106,6 +107,10 @@ int RunRotationAverager(int argc, char** argv) {
               "--database_path: two-view configurations to drop");
   AddRotationAveragerOptions(&options, &averager_options);
   if (!options.Parse(argc, argv)) return 0;
+  // The user's thread count bounds every stage: the view graph's workers, the
+  // Ceres solves and any BLAS / OpenMP runtime loaded with them.
+  builder_options.num_threads = averager_options.ira.engine.num_threads;
+  LimitBlasThreads(averager_options.ira.engine.num_threads);
   const int num_inputs = !relpose_path.empty() + !database_path.empty() +
                          !eg_path.empty();
   if (num_inputs != 1) {

@@ -1,106 +1,22 @@
 #include "colmap_irav4/pipeline/global_mapper.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <ctime>
-#include <filesystem>
 #include <functional>
-#include <fstream>
-#include <iomanip>
 #include <numeric>
 #include <set>
-#include <sstream>
-#include <thread>
 #include <unistd.h>
 
 #include <glog/logging.h>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/positioning/translation_averaging.h"
-#include "colmap_irav4/refinement/triangulation.h"
+#include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
-#include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
-#include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
 namespace {
-
-namespace fs = std::filesystem;
-
-std::string FormatFigure(double value) {
-  std::ostringstream stream;
-  if (value == std::floor(value) && std::abs(value) < 1e15) {
-    stream << static_cast<long long>(value);
-  } else {
-    stream << std::fixed << std::setprecision(3) << value;
-  }
-  return stream.str();
-}
-
-// Logs the stage's line: "[component] name: 1.23 s, pairs 55, ...".
-void LogStage(const std::string& prefix, const StageReport& stage) {
-  // Process CPU time so far: wall time alone misleads on a loaded machine.
-  static double last_cpu = 0;
-  const double cpu = static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
-  std::ostringstream line;
-  line << prefix << stage.name << ": " << std::fixed << std::setprecision(2)
-       << stage.seconds << " s (cpu " << cpu - last_cpu << " s)";
-  last_cpu = cpu;
-  for (const auto& [name, value] : stage.figures) {
-    line << ", " << name << " " << FormatFigure(value);
-  }
-  LOG(INFO) << line.str();
-}
-
-std::string JsonString(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buffer[8];
-          std::snprintf(buffer, sizeof(buffer), "\\u%04x", c);
-          out += buffer;
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
-}
-
-std::string JsonNumber(double value) {
-  if (!std::isfinite(value)) return "null";
-  std::ostringstream stream;
-  stream << std::setprecision(10) << value;
-  return stream.str();
-}
-
-void AppendStagesJson(const std::vector<StageReport>& stages,
-                      const std::string& indent, std::ostringstream* out) {
-  *out << "[";
-  for (size_t i = 0; i < stages.size(); ++i) {
-    const StageReport& stage = stages[i];
-    *out << (i ? "," : "") << "\n" << indent << "  {\"name\": "
-         << JsonString(stage.name)
-         << ", \"seconds\": " << JsonNumber(stage.seconds);
-    for (const auto& [name, value] : stage.figures) {
-      *out << ", " << JsonString(name) << ": " << JsonNumber(value);
-    }
-    *out << "}";
-  }
-  *out << (stages.empty() ? "" : "\n" + indent) << "]";
-}
 
 // The images of the model with their rotations and all their keypoints.
 Reconstruction MakeReconstruction(
@@ -140,15 +56,6 @@ void RemoveUnusedCameras(Reconstruction* reconstruction) {
   }
 }
 
-void AddModelFigures(Reconstruction* reconstruction, StageReport* stage) {
-  const double error = UpdateReprojectionErrors(reconstruction);
-  stage->figures.push_back(
-      {"registered images", static_cast<double>(reconstruction->images.size())});
-  stage->figures.push_back(
-      {"points", static_cast<double>(reconstruction->points3D.size())});
-  stage->figures.push_back({"mean reprojection error px", error});
-}
-
 // The longest tracks first, each kept while one of its images has fewer
 // than `per_image` observations from the tracks kept so far: every image
 // gets enough constraints, long (well-triangulated) tracks are preferred.
@@ -178,94 +85,117 @@ std::vector<Track> SelectTracksForPositioning(const std::vector<Track>& tracks,
   return subset;
 }
 
-// Maps one component (its images and pairs). Returns false with the reason
-// in *failure when no model of min_model_size images results.
-bool MapComponent(const GlobalMapperOptions& options,
-                  const DatabaseContents& database,
-                  const std::map<camera_t, Camera>& cameras,
-                  const std::map<image_pair_t, size_t>& geometry_index,
-                  const std::vector<image_t>& component_images,
-                  const std::vector<ImagePairGeometry>& component_pairs,
-                  const std::string& prefix, Reconstruction* reconstruction,
-                  ComponentReport* report, std::string* failure) {
-  report->num_images_in_graph = static_cast<int>(component_images.size());
-  report->num_pairs_in_graph = static_cast<int>(component_pairs.size());
+}  // namespace
 
-  // Rotation averaging.
-  Timer timer;
-  StageReport stage{"rotation averaging (" + options.rotation_method + ")"};
+GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
+                           const DatabaseContents& database,
+                           const std::map<camera_t, Camera>& cameras,
+                           std::vector<image_t> images,
+                           std::vector<ImagePairGeometry> pairs,
+                           std::string log_prefix)
+    : options_(options.ForStages(database.images.size())),
+      database_(database),
+      cameras_(cameras),
+      images_(std::move(images)),
+      num_component_pairs_(pairs.size()),
+      log_prefix_(std::move(log_prefix)),
+      pairs_(std::move(pairs)),
+      retriangulated_(options.skip_retriangulation) {}
+
+bool GlobalMapper::Fail(const std::string& reason) {
+  failure_ = reason;
+  return false;
+}
+
+void GlobalMapper::AddModelFigures(StageTimer* stage) {
+  const double error = UpdateReprojectionErrors(&reconstruction_);
+  stage->Add("registered images",
+             static_cast<double>(reconstruction_.images.size()));
+  stage->Add("points", static_cast<double>(reconstruction_.points3D.size()));
+  stage->Add("mean reprojection error px", error);
+}
+
+bool GlobalMapper::Run() {
+  return RotationAveraging() && RotationFilter() && BuildTracks() &&
+         Positioning() && IterativeBundleAdjustment() && Finalize();
+}
+
+bool GlobalMapper::RotationAveraging() {
+  StageTimer stage("rotation averaging (" + options_.rotation_method + ")");
   RotationGraph graph;
   std::map<image_t, int> vertex;
-  for (const image_t image_id : component_images) {
-    vertex[image_id] = graph.AddVertex(database.images.at(image_id).name);
+  for (const image_t image_id : images_) {
+    vertex[image_id] = graph.AddVertex(database_.images.at(image_id).name);
   }
-  for (const ImagePairGeometry& pair : component_pairs) {
+  for (const ImagePairGeometry& pair : pairs_) {
     graph.AddEdge(vertex.at(pair.image_id1), vertex.at(pair.image_id2), pair.R,
                   pair.num_inliers);
   }
   const std::unique_ptr<RotationAverager> averager = CreateRotationAverager(
-      options.rotation_method, options.rotation_averaging);
+      options_.rotation_method, options_.rotation_averaging);
   const RotationAveragingResult result = averager->Estimate(graph);
-  std::map<image_t, Eigen::Matrix3d> rotations;
-  for (const image_t image_id : component_images) {
+  rotations_.clear();
+  for (const image_t image_id : images_) {
     const int v = vertex.at(image_id);
-    if (result.estimated[v]) rotations[image_id] = result.rotations[v];
+    if (result.estimated[v]) rotations_[image_id] = result.rotations[v];
   }
-  stage.seconds = timer.ElapsedSeconds();
-  stage.figures = {{"images", static_cast<double>(graph.NumVertices())},
-                   {"pairs", static_cast<double>(graph.NumEdges())},
-                   {"rotations", static_cast<double>(rotations.size())}};
-  LogStage(prefix, stage);
-  report->stages.push_back(stage);
+  stage.Add("images", static_cast<double>(graph.NumVertices()));
+  stage.Add("pairs", static_cast<double>(graph.NumEdges()));
+  stage.Add("rotations", static_cast<double>(rotations_.size()));
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
 
-  // Rotation-consistency filter; the largest remaining component is kept.
-  std::vector<ImagePairGeometry> pairs;
-  timer.Restart();
-  stage = StageReport{"rotation filter"};
-  if (options.skip_rotation_filter) {
-    pairs = FilterPairsByRotation(component_pairs, rotations, 180.0);
-  } else {
-    pairs = FilterPairsByRotation(component_pairs, rotations,
-                                  options.rotation_filter.max_rotation_error_deg);
-  }
-  const std::vector<std::vector<image_t>> components = PairComponents(pairs);
+bool GlobalMapper::RotationFilter() {
+  StageTimer stage(options_.skip_rotation_filter ? "rotation filter (skipped)"
+                                                 : "rotation filter");
+  const size_t num_pairs = pairs_.size();
+  pairs_ = FilterPairsByRotation(
+      pairs_, rotations_,
+      options_.skip_rotation_filter
+          ? 180.0
+          : options_.rotation_filter.max_rotation_error_deg);
+  // The largest connected part remains.
+  const std::vector<std::vector<image_t>> components = PairComponents(pairs_);
   std::set<image_t> kept_images;
   if (!components.empty()) {
     kept_images.insert(components[0].begin(), components[0].end());
   }
-  const size_t num_consistent = pairs.size();
-  pairs.erase(std::remove_if(pairs.begin(), pairs.end(),
-                             [&](const ImagePairGeometry& pair) {
-                               return !kept_images.count(pair.image_id1);
-                             }),
-              pairs.end());
-  for (auto it = rotations.begin(); it != rotations.end();) {
-    it = kept_images.count(it->first) ? std::next(it) : rotations.erase(it);
+  const size_t num_consistent = pairs_.size();
+  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
+                              [&](const ImagePairGeometry& pair) {
+                                return !kept_images.count(pair.image_id1);
+                              }),
+               pairs_.end());
+  for (auto it = rotations_.begin(); it != rotations_.end();) {
+    it = kept_images.count(it->first) ? std::next(it) : rotations_.erase(it);
   }
-  stage.seconds = timer.ElapsedSeconds();
-  stage.figures = {
-      {"pairs kept", static_cast<double>(pairs.size())},
-      {"pairs dropped (rotation)",
-       static_cast<double>(component_pairs.size() - num_consistent)},
-      {"images", static_cast<double>(kept_images.size())}};
-  if (options.skip_rotation_filter) stage.name += " (skipped)";
-  LogStage(prefix, stage);
-  report->stages.push_back(stage);
-  if (static_cast<int>(rotations.size()) < options.min_model_size) {
-    *failure = "only " + std::to_string(rotations.size()) +
-               " images with consistent rotations";
-    return false;
+  stage.Add("pairs kept", static_cast<double>(pairs_.size()));
+  stage.Add("pairs dropped (rotation)",
+            static_cast<double>(num_pairs - num_consistent));
+  stage.Add("images", static_cast<double>(kept_images.size()));
+  stage.Finish(log_prefix_, &stages_);
+  if (static_cast<int>(rotations_.size()) < options_.min_model_size) {
+    return Fail("only " + std::to_string(rotations_.size()) +
+                " images with consistent rotations");
   }
+  return true;
+}
 
-  // Tracks from the inlier matches of the kept pairs.
-  timer.Restart();
-  stage = StageReport{"tracks"};
-  *reconstruction = MakeReconstruction(database, cameras, rotations);
+bool GlobalMapper::BuildTracks() {
+  StageTimer stage("tracks");
+  reconstruction_ = MakeReconstruction(database_, cameras_, rotations_);
+  // The inlier matches of the kept pairs, in the pairs' order.
+  std::map<image_pair_t, const TwoViewGeometry*> geometries;
+  for (const TwoViewGeometry& geometry : database_.two_view_geometries) {
+    geometries[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
+        &geometry;
+  }
   std::vector<ImagePairMatches> matches;
-  matches.reserve(pairs.size());
-  for (const ImagePairGeometry& pair : pairs) {
-    const TwoViewGeometry& geometry = database.two_view_geometries.at(
-        geometry_index.at(ImagePairToPairId(pair.image_id1, pair.image_id2)));
+  matches.reserve(pairs_.size());
+  for (const ImagePairGeometry& pair : pairs_) {
+    const TwoViewGeometry& geometry =
+        *geometries.at(ImagePairToPairId(pair.image_id1, pair.image_id2));
     ImagePairMatches pair_matches;
     pair_matches.image_id1 = geometry.image_id1;
     pair_matches.image_id2 = geometry.image_id2;
@@ -277,155 +207,162 @@ bool MapComponent(const GlobalMapperOptions& options,
     matches.push_back(std::move(pair_matches));
   }
   TrackBuilderStats track_stats;
-  const std::vector<Track> tracks = BuildTracks(
-      options.tracks, matches, reconstruction->images, &track_stats);
+  tracks_ = colmap_irav4::BuildTracks(options_.tracks, matches,
+                                      reconstruction_.images, &track_stats);
   const bool global_positioning =
-      options.positioning_method == "global_positioning";
-  // Global positioning needs only enough tracks to tie every camera down;
-  // the others are triangulated from the refined poses afterwards.
-  const std::vector<Track> positioning_tracks =
-      global_positioning && !options.skip_retriangulation
-          ? SelectTracksForPositioning(
-                tracks, options.positioning_tracks_per_image)
-          : tracks;
+      options_.positioning_method == "global_positioning";
+  size_t num_positioning_tracks = 0;
   if (global_positioning) {
-    AddTracksToReconstruction(positioning_tracks, reconstruction);
+    // Global positioning needs only enough tracks to tie every camera down;
+    // the others are triangulated from the refined poses afterwards.
+    const std::vector<Track> positioning_tracks =
+        !options_.skip_retriangulation
+            ? SelectTracksForPositioning(
+                  tracks_, options_.positioning_tracks_per_image)
+            : tracks_;
+    AddTracksToReconstruction(positioning_tracks, &reconstruction_);
+    num_positioning_tracks = positioning_tracks.size();
   }
-  stage.seconds = timer.ElapsedSeconds();
-  stage.figures = {
-      {"tracks", static_cast<double>(track_stats.num_tracks)},
-      {"tracks for positioning",
-       static_cast<double>(global_positioning ? positioning_tracks.size() : 0)},
-      {"dropped inconsistent", static_cast<double>(track_stats.num_inconsistent)},
-      {"dropped short", static_cast<double>(track_stats.num_too_short)},
-      {"dropped long", static_cast<double>(track_stats.num_too_long)}};
-  LogStage(prefix, stage);
-  report->stages.push_back(stage);
+  stage.Add("tracks", static_cast<double>(track_stats.num_tracks));
+  stage.Add("tracks for positioning",
+            static_cast<double>(num_positioning_tracks));
+  stage.Add("dropped inconsistent",
+            static_cast<double>(track_stats.num_inconsistent));
+  stage.Add("dropped short", static_cast<double>(track_stats.num_too_short));
+  stage.Add("dropped long", static_cast<double>(track_stats.num_too_long));
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
 
-  // Positioning of camera centres (and points).
-  timer.Restart();
-  stage = StageReport{options.positioning_method};
-  if (global_positioning) {
+bool GlobalMapper::Positioning() {
+  StageTimer stage(options_.positioning_method);
+  if (options_.positioning_method == "global_positioning") {
     GlobalPositionerSummary positioner_summary;
-    if (!RunGlobalPositioning(options.global_positioning, reconstruction,
+    if (!RunGlobalPositioning(options_.global_positioning, &reconstruction_,
                               &positioner_summary)) {
-      *failure = "global positioning failed";
-      return false;
+      return Fail("global positioning failed");
     }
-    stage.figures = {
-        {"iterations", static_cast<double>(positioner_summary.num_iterations)},
-        {"observations filtered",
-         static_cast<double>(positioner_summary.num_observations_filtered)}};
+    stage.Add("iterations",
+              static_cast<double>(positioner_summary.num_iterations));
+    stage.Add("observations filtered",
+              static_cast<double>(positioner_summary.num_observations_filtered));
   } else {
     TranslationAveragingSummary averaging_summary;
-    if (!RunTranslationAveraging(options.translation_averaging, pairs,
-                                 reconstruction, &averaging_summary)) {
-      *failure = "translation averaging failed";
-      return false;
+    if (!RunTranslationAveraging(options_.translation_averaging, pairs_,
+                                 &reconstruction_, &averaging_summary)) {
+      return Fail("translation averaging failed");
     }
     const TriangulationSummary triangulation =
-        TriangulateTracks(options.triangulation, tracks, reconstruction);
-    stage.figures = {
-        {"iterations", static_cast<double>(averaging_summary.num_iterations)},
-        {"outlier pairs", static_cast<double>(averaging_summary.num_outlier_pairs)},
-        {"points triangulated",
-         static_cast<double>(triangulation.num_points_added)}};
+        TriangulateTracks(options_.triangulation, tracks_, &reconstruction_);
+    stage.Add("iterations",
+              static_cast<double>(averaging_summary.num_iterations));
+    stage.Add("outlier pairs",
+              static_cast<double>(averaging_summary.num_outlier_pairs));
+    stage.Add("points triangulated",
+              static_cast<double>(triangulation.num_points_added));
   }
-  stage.seconds = timer.ElapsedSeconds();
-  AddModelFigures(reconstruction, &stage);
-  LogStage(prefix, stage);
-  report->stages.push_back(stage);
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
 
-  // Bundle adjustment rounds, each followed by filtering; retriangulation of
-  // every track after the first (then the poses are good enough).
-  BundleAdjustmentOptions ba_options = options.bundle_adjustment;
-  ba_options.refine_focal_length = options.ba_refine_focal_length;
-  ba_options.refine_principal_point = options.ba_refine_principal_point;
-  ba_options.refine_extra_params = options.ba_refine_extra_params;
-  const int num_ba = options.skip_bundle_adjustment ? 0 : options.num_ba_iterations;
-  bool retriangulated = options.skip_retriangulation;
+bool GlobalMapper::IterativeBundleAdjustment() {
+  const int num_ba =
+      options_.skip_bundle_adjustment ? 0 : options_.num_ba_iterations;
   for (int iteration = 0; iteration < std::max(num_ba, 1); ++iteration) {
     if (iteration < num_ba) {
-      timer.Restart();
-      stage = StageReport{"bundle adjustment " + std::to_string(iteration + 1)};
-      BundleAdjustmentSummary ba_summary;
+      StageTimer stage("bundle adjustment " + std::to_string(iteration + 1));
       // After retriangulation the model is nearly clean: the last bundle
       // adjustment is one solve (a second one for the few observations its
       // filter removes changes nothing); the filtering below follows it.
-      BundleAdjustmentOptions round_options = ba_options;
-      if (retriangulated && iteration + 1 == num_ba) round_options.num_rounds = 1;
-      if (!RunBundleAdjustment(round_options, reconstruction, &ba_summary)) {
-        *failure = "bundle adjustment failed";
-        return false;
+      BundleAdjustmentOptions round_options = options_.bundle_adjustment;
+      if (retriangulated_ && iteration + 1 == num_ba) {
+        round_options.num_rounds = 1;
+      }
+      BundleAdjustmentSummary ba_summary;
+      if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
+        return Fail("bundle adjustment failed");
       }
       const FilterSummary filter_summary =
-          RunFiltering(options.filtering, reconstruction);
-      stage.seconds = timer.ElapsedSeconds();
-      stage.figures = {
-          {"iterations", static_cast<double>(ba_summary.num_iterations)},
-          {"observations filtered",
-           static_cast<double>(ba_summary.num_observations_filtered +
-                               filter_summary.num_observations_filtered)},
-          {"points filtered (angle)",
-           static_cast<double>(filter_summary.num_points_filtered)}};
-      AddModelFigures(reconstruction, &stage);
-      LogStage(prefix, stage);
-      report->stages.push_back(stage);
+          RunFiltering(options_.filtering, &reconstruction_);
+      stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
+      stage.Add("observations filtered",
+                static_cast<double>(ba_summary.num_observations_filtered +
+                                    filter_summary.num_observations_filtered));
+      stage.Add("points filtered (angle)",
+                static_cast<double>(filter_summary.num_points_filtered));
+      AddModelFigures(&stage);
+      stage.Finish(log_prefix_, &stages_);
     }
-    if (!retriangulated) {
-      timer.Restart();
-      stage = StageReport{"retriangulation"};
-      const TriangulationSummary triangulation =
-          TriangulateTracks(options.triangulation, tracks, reconstruction);
-      retriangulated = true;
-      stage.seconds = timer.ElapsedSeconds();
-      stage.figures = {
-          {"tracks tried", static_cast<double>(triangulation.num_tracks_tried)},
-          {"points added", static_cast<double>(triangulation.num_points_added)},
-          {"observations added",
-           static_cast<double>(triangulation.num_observations_added)}};
-      AddModelFigures(reconstruction, &stage);
-      LogStage(prefix, stage);
-      report->stages.push_back(stage);
-    }
-  }
-
-  if (!options.skip_filtering) {
-    timer.Restart();
-    stage = StageReport{"final filtering"};
-    const FilterSummary filter_summary =
-        RunFiltering(options.filtering, reconstruction);
-    stage.seconds = timer.ElapsedSeconds();
-    stage.figures = {
-        {"observations filtered",
-         static_cast<double>(filter_summary.num_observations_filtered)},
-        {"points filtered (angle)",
-         static_cast<double>(filter_summary.num_points_filtered)},
-        {"images filtered",
-         static_cast<double>(filter_summary.num_images_filtered)}};
-    AddModelFigures(reconstruction, &stage);
-    LogStage(prefix, stage);
-    report->stages.push_back(stage);
-  }
-  RemoveUnusedCameras(reconstruction);
-  if (static_cast<int>(reconstruction->images.size()) < options.min_model_size) {
-    *failure = "only " + std::to_string(reconstruction->images.size()) +
-               " images left after refinement";
-    return false;
-  }
-
-  if (!options.skip_normalization) {
-    timer.Restart();
-    stage = StageReport{"normalisation"};
-    NormalizeReconstruction(options.normalization, reconstruction);
-    stage.seconds = timer.ElapsedSeconds();
-    LogStage(prefix, stage);
-    report->stages.push_back(stage);
+    // Every track is triangulated once, after the first round: then the
+    // poses are good enough.
+    if (!retriangulated_ && !Retriangulation()) return false;
   }
   return true;
 }
 
-}  // namespace
+bool GlobalMapper::Retriangulation() {
+  StageTimer stage("retriangulation");
+  const TriangulationSummary triangulation =
+      TriangulateTracks(options_.triangulation, tracks_, &reconstruction_);
+  retriangulated_ = true;
+  stage.Add("tracks tried", static_cast<double>(triangulation.num_tracks_tried));
+  stage.Add("points added", static_cast<double>(triangulation.num_points_added));
+  stage.Add("observations added",
+            static_cast<double>(triangulation.num_observations_added));
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
+
+bool GlobalMapper::Finalize() {
+  if (!options_.skip_filtering) {
+    StageTimer stage("final filtering");
+    const FilterSummary filter_summary =
+        RunFiltering(options_.filtering, &reconstruction_);
+    stage.Add("observations filtered",
+              static_cast<double>(filter_summary.num_observations_filtered));
+    stage.Add("points filtered (angle)",
+              static_cast<double>(filter_summary.num_points_filtered));
+    stage.Add("images filtered",
+              static_cast<double>(filter_summary.num_images_filtered));
+    AddModelFigures(&stage);
+    stage.Finish(log_prefix_, &stages_);
+  }
+  RemoveUnusedCameras(&reconstruction_);
+  if (static_cast<int>(reconstruction_.images.size()) <
+      options_.min_model_size) {
+    return Fail("only " + std::to_string(reconstruction_.images.size()) +
+                " images left after refinement");
+  }
+  if (!options_.skip_normalization) {
+    StageTimer stage("normalisation");
+    NormalizeReconstruction(options_.normalization, &reconstruction_);
+    stage.Finish(log_prefix_, &stages_);
+  }
+  return true;
+}
+
+int GlobalMapper::ColorPoints(const std::string& image_path) {
+  StageTimer stage("colours");
+  int num_missing = 0;
+  if (!image_path.empty() && !options_.skip_colors) {
+    num_missing =
+        ColorPointsFromImages(image_path, &reconstruction_,
+                              options_.color_image_downscale,
+                              options_.num_threads);
+    stage.Add("images read", static_cast<double>(
+                                 reconstruction_.images.size() - num_missing));
+    stage.Add("images missing", static_cast<double>(num_missing));
+  } else {
+    for (auto& [point3D_id, point] : reconstruction_.points3D) {
+      point.color.setConstant(128);
+    }
+    stage.report().name += " (grey: no --image_path)";
+  }
+  stage.Finish(log_prefix_, &stages_);
+  return num_missing;
+}
 
 void RotationFilterOptions::Check() const {
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
@@ -498,6 +435,24 @@ void GlobalMapperOptions::Check() const {
   bundle_adjustment.Check();
   filtering.Check();
   normalization.Check();
+}
+
+GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
+  GlobalMapperOptions stages = *this;
+  stages.view_graph.num_threads = num_threads;
+  stages.global_positioning.num_threads = num_threads;
+  stages.bundle_adjustment.num_threads = num_threads;
+  stages.translation_averaging.num_threads = num_threads;
+  const bool show_progress =
+      progress == 1 ||
+      (progress == -1 && (isatty(fileno(stderr)) || num_images >= 100));
+  stages.global_positioning.show_progress_bar = show_progress;
+  stages.bundle_adjustment.show_progress_bar = show_progress;
+  stages.translation_averaging.show_progress_bar = show_progress;
+  stages.bundle_adjustment.refine_focal_length = ba_refine_focal_length;
+  stages.bundle_adjustment.refine_principal_point = ba_refine_principal_point;
+  stages.bundle_adjustment.refine_extra_params = ba_refine_extra_params;
+  return stages;
 }
 
 void AddGlobalMapperOptions(OptionManager* manager,
@@ -677,382 +632,6 @@ std::vector<std::vector<image_t>> PairComponents(
                      return a.size() > b.size();
                    });
   return components;
-}
-
-int ColorPointsFromImages(const std::string& image_path,
-                          Reconstruction* reconstruction, int downscale) {
-  CHECK(downscale == 1 || downscale == 2 || downscale == 4 || downscale == 8)
-      << downscale;
-  // JPEG decoders scale by 2, 4 or 8 inside the DCT: much faster, and the
-  // colour of a point (a mean over its track) barely changes.
-  const int flags = downscale == 1   ? cv::IMREAD_COLOR
-                    : downscale == 2 ? cv::IMREAD_REDUCED_COLOR_2
-                    : downscale == 4 ? cv::IMREAD_REDUCED_COLOR_4
-                                     : cv::IMREAD_REDUCED_COLOR_8;
-  // Per image, the colour at each observation (read in parallel, summed
-  // serially so that the result does not depend on the thread count).
-  std::vector<const Image*> images;
-  for (const auto& [image_id, image] : reconstruction->images) {
-    images.push_back(&image);
-  }
-  std::vector<std::vector<std::pair<point3D_t, Eigen::Vector3d>>> colors(
-      images.size());
-  std::vector<char> missing(images.size(), 0);
-  std::atomic<size_t> next(0);
-  auto worker = [&]() {
-    for (size_t i = next++; i < images.size(); i = next++) {
-      const Image& image = *images[i];
-      const cv::Mat bgr =
-          cv::imread((fs::path(image_path) / image.name).string(), flags);
-      if (bgr.empty()) {
-        missing[i] = 1;
-        continue;
-      }
-      for (const Point2D& point2D : image.points2D) {
-        if (point2D.point3D_id == kInvalidPoint3DId) continue;
-        // Keypoints put the centre of the top-left pixel at (0.5, 0.5):
-        // bilinear interpolation between the four nearest pixel centres.
-        const double x = point2D.xy.x() / downscale - 0.5;
-        const double y = point2D.xy.y() / downscale - 0.5;
-        const int x0 = static_cast<int>(std::floor(x));
-        const int y0 = static_cast<int>(std::floor(y));
-        if (x0 < 0 || y0 < 0 || x0 + 1 >= bgr.cols || y0 + 1 >= bgr.rows) {
-          continue;
-        }
-        const double dx = x - x0;
-        const double dy = y - y0;
-        Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
-        const double w[4] = {(1 - dx) * (1 - dy), dx * (1 - dy),
-                             (1 - dx) * dy, dx * dy};
-        const cv::Vec3b* pixels[4] = {&bgr.at<cv::Vec3b>(y0, x0),
-                                      &bgr.at<cv::Vec3b>(y0, x0 + 1),
-                                      &bgr.at<cv::Vec3b>(y0 + 1, x0),
-                                      &bgr.at<cv::Vec3b>(y0 + 1, x0 + 1)};
-        for (int k = 0; k < 4; ++k) {
-          rgb += w[k] * Eigen::Vector3d((*pixels[k])[2], (*pixels[k])[1],
-                                        (*pixels[k])[0]);
-        }
-        colors[i].emplace_back(point2D.point3D_id, rgb);
-      }
-    }
-  };
-  const int num_threads = std::max(
-      1, std::min<int>(EffectiveNumThreads(-1), static_cast<int>(images.size())));
-  std::vector<std::thread> threads;
-  for (int t = 1; t < num_threads; ++t) threads.emplace_back(worker);
-  worker();
-  for (std::thread& thread : threads) thread.join();
-
-  std::map<point3D_t, std::pair<Eigen::Vector3d, int>> sums;
-  int num_missing = 0;
-  for (size_t i = 0; i < images.size(); ++i) {
-    if (missing[i]) {
-      ++num_missing;
-      LOG(WARNING) << (fs::path(image_path) / images[i]->name).string()
-                   << ": cannot read the image; its points stay grey";
-    }
-    for (const auto& [point3D_id, rgb] : colors[i]) {
-      auto& sum = sums[point3D_id];
-      if (sum.second == 0) sum.first.setZero();
-      sum.first += rgb;
-      ++sum.second;
-    }
-  }
-  for (auto& [point3D_id, point] : reconstruction->points3D) {
-    const auto it = sums.find(point3D_id);
-    if (it == sums.end()) {
-      point.color.setConstant(128);
-      continue;
-    }
-    const Eigen::Vector3d mean = it->second.first / it->second.second;
-    for (int c = 0; c < 3; ++c) {
-      point.color[c] = static_cast<uint8_t>(
-          std::clamp(std::round(mean[c]), 0.0, 255.0));
-    }
-  }
-  return num_missing;
-}
-
-std::string GlobalMapperSummary::ToJson() const {
-  std::ostringstream out;
-  out << "{\n  \"database_path\": " << JsonString(database_path)
-      << ",\n  \"rotation_method\": " << JsonString(rotation_method)
-      << ",\n  \"positioning_method\": " << JsonString(positioning_method)
-      << ",\n  \"num_database_images\": " << num_database_images
-      << ",\n  \"num_database_pairs\": " << num_database_pairs
-      << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
-      << ",\n  \"stages\": ";
-  AppendStagesJson(stages, "  ", &out);
-  out << ",\n  \"models\": [";
-  for (size_t i = 0; i < components.size(); ++i) {
-    const ComponentReport& c = components[i];
-    out << (i ? "," : "") << "\n    {\"index\": " << c.index
-        << ", \"path\": " << JsonString(std::to_string(c.index))
-        << ", \"num_images_in_graph\": " << c.num_images_in_graph
-        << ", \"num_pairs_in_graph\": " << c.num_pairs_in_graph
-        << ", \"num_registered_images\": " << c.num_registered_images
-        << ", \"num_points\": " << c.num_points
-        << ", \"num_observations\": " << c.num_observations
-        << ", \"mean_track_length\": " << JsonNumber(c.mean_track_length)
-        << ", \"mean_reprojection_error\": "
-        << JsonNumber(c.mean_reprojection_error) << ",\n     \"stages\": ";
-    AppendStagesJson(c.stages, "     ", &out);
-    out << "}";
-  }
-  out << (components.empty() ? "" : "\n  ") << "],\n  \"notes\": [";
-  for (size_t i = 0; i < notes.size(); ++i) {
-    out << (i ? ", " : "") << JsonString(notes[i]);
-  }
-  out << "]\n}\n";
-  return out.str();
-}
-
-std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
-                                            const DatabaseContents& database,
-                                            const std::string& image_path,
-                                            GlobalMapperSummary* summary) {
-  options.Check();
-  Timer total_timer;
-  GlobalMapperOptions effective = options;
-  effective.global_positioning.num_threads = options.num_threads;
-  effective.bundle_adjustment.num_threads = options.num_threads;
-  effective.translation_averaging.num_threads = options.num_threads;
-  const bool show_progress =
-      options.progress == 1 ||
-      (options.progress == -1 &&
-       (isatty(fileno(stderr)) || database.images.size() >= 100));
-  effective.global_positioning.show_progress_bar = show_progress;
-  effective.bundle_adjustment.show_progress_bar = show_progress;
-  effective.translation_averaging.show_progress_bar = show_progress;
-  summary->rotation_method = options.rotation_method;
-  summary->positioning_method = options.positioning_method;
-  summary->num_database_images = static_cast<int>(database.images.size());
-  summary->num_database_pairs =
-      static_cast<int>(database.two_view_geometries.size());
-  if (options.skip_retriangulation) {
-    summary->notes.push_back("retriangulation skipped");
-  }
-
-  Timer timer;
-  ViewGraphSummary view_graph_summary;
-  const ViewGraph view_graph =
-      BuildViewGraph(database, effective.view_graph, &view_graph_summary);
-  const std::vector<std::vector<image_t>> components =
-      PairComponents(view_graph.pairs);
-  StageReport stage{"view graph"};
-  stage.seconds = timer.ElapsedSeconds();
-  int num_dropped = 0;
-  for (const auto& [reason, count] : view_graph_summary.num_dropped) {
-    num_dropped += count;
-  }
-  stage.figures = {
-      {"pairs read", static_cast<double>(view_graph_summary.num_pairs_read)},
-      {"pairs kept", static_cast<double>(view_graph.pairs.size())},
-      {"pairs dropped", static_cast<double>(num_dropped)},
-      {"connected images", static_cast<double>(view_graph.image_names.size())},
-      {"components", static_cast<double>(components.size())},
-      {"largest component",
-       components.empty() ? 0.0 : static_cast<double>(components[0].size())}};
-  LogStage("", stage);
-  summary->stages.push_back(stage);
-
-  if (components.empty() ||
-      static_cast<int>(components[0].size()) < options.min_model_size) {
-    throw InputError(
-        database.path,
-        "no model: the largest connected group of images has " +
-            std::to_string(components.empty() ? 0 : components[0].size()) +
-            " image(s), at least " + std::to_string(options.min_model_size) +
-            " are needed (" + std::to_string(view_graph.pairs.size()) +
-            " usable verified pairs of " +
-            std::to_string(database.two_view_geometries.size()) +
-            "; run a matcher, or lower --Mapper.min_num_matches)");
-  }
-
-  std::map<image_pair_t, size_t> geometry_index;
-  for (size_t i = 0; i < database.two_view_geometries.size(); ++i) {
-    const TwoViewGeometry& g = database.two_view_geometries[i];
-    geometry_index[ImagePairToPairId(g.image_id1, g.image_id2)] = i;
-  }
-
-  std::vector<std::pair<Reconstruction, ComponentReport>> models;
-  for (size_t c = 0; c < components.size(); ++c) {
-    if (static_cast<int>(components[c].size()) < options.min_model_size) break;
-    const std::set<image_t> images(components[c].begin(), components[c].end());
-    std::vector<ImagePairGeometry> pairs;
-    for (const ImagePairGeometry& pair : view_graph.pairs) {
-      if (images.count(pair.image_id1)) pairs.push_back(pair);
-    }
-    const std::string prefix =
-        components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
-    Reconstruction reconstruction;
-    ComponentReport report;
-    std::string failure;
-    if (!MapComponent(effective, database, view_graph.cameras, geometry_index,
-                      components[c], pairs, prefix, &reconstruction, &report, &failure)) {
-      LOG(WARNING) << prefix << "no model for the component of "
-                   << components[c].size() << " images: " << failure;
-      summary->notes.push_back("component of " +
-                               std::to_string(components[c].size()) +
-                               " images gave no model: " + failure);
-      continue;
-    }
-    models.emplace_back(std::move(reconstruction), std::move(report));
-  }
-  if (models.empty()) {
-    throw InputError(database.path,
-                     "no model: no component could be reconstructed (see the "
-                     "warnings above)");
-  }
-  // Largest first, by registered images (stable: graph order on ties).
-  std::stable_sort(models.begin(), models.end(),
-                   [](const auto& a, const auto& b) {
-                     return a.first.images.size() > b.first.images.size();
-                   });
-
-  std::vector<Reconstruction> reconstructions;
-  for (size_t k = 0; k < models.size(); ++k) {
-    Reconstruction& reconstruction = models[k].first;
-    ComponentReport& report = models[k].second;
-    report.index = static_cast<int>(k);
-    timer.Restart();
-    StageReport colors{"colours"};
-    if (!image_path.empty() && !options.skip_colors) {
-      const int num_missing = ColorPointsFromImages(
-          image_path, &reconstruction, options.color_image_downscale);
-      colors.figures = {{"images read", static_cast<double>(
-                                            reconstruction.images.size() -
-                                            num_missing)},
-                        {"images missing", static_cast<double>(num_missing)}};
-      if (num_missing > 0) {
-        summary->notes.push_back(std::to_string(num_missing) +
-                                 " image(s) missing under " + image_path +
-                                 ": their points are grey");
-      }
-    } else {
-      for (auto& [point3D_id, point] : reconstruction.points3D) {
-        point.color.setConstant(128);
-      }
-      colors.name += " (grey: no --image_path)";
-    }
-    colors.seconds = timer.ElapsedSeconds();
-    LogStage(models.size() > 1 ? "[model " + std::to_string(k) + "] " : "",
-             colors);
-    report.stages.push_back(colors);
-
-    report.mean_reprojection_error = UpdateReprojectionErrors(&reconstruction);
-    report.num_registered_images = static_cast<int>(reconstruction.images.size());
-    report.num_points = static_cast<int>(reconstruction.points3D.size());
-    report.num_observations = static_cast<int>(NumObservations(reconstruction));
-    report.mean_track_length = MeanTrackLength(reconstruction);
-    LOG(INFO) << "Model " << k << ": " << report.num_registered_images
-              << " registered images (of " << report.num_images_in_graph
-              << " in the component), " << report.num_points << " points, "
-              << report.num_observations << " observations, mean track length "
-              << std::fixed << std::setprecision(2) << report.mean_track_length
-              << ", mean reprojection error " << std::setprecision(3)
-              << report.mean_reprojection_error << " px";
-    summary->components.push_back(report);
-    reconstructions.push_back(std::move(reconstruction));
-  }
-  summary->total_seconds += total_timer.ElapsedSeconds();
-  return reconstructions;
-}
-
-GlobalMapperSummary RunGlobalMapperOnDatabase(
-    const GlobalMapperOptions& options, const std::string& database_path,
-    const std::string& image_path, const std::string& output_path,
-    const std::string& output_type) {
-  options.Check();
-  if (output_type != "BIN" && output_type != "TXT" && output_type != "bin" &&
-      output_type != "txt") {
-    throw InputError("--output_type", "must be BIN or TXT");
-  }
-  if (!image_path.empty() && !fs::is_directory(image_path)) {
-    throw InputError(image_path, "image directory does not exist");
-  }
-  std::error_code error;
-  fs::create_directories(output_path, error);
-  if (!fs::is_directory(output_path)) {
-    throw InputError(output_path, "cannot create the output directory");
-  }
-
-  Timer total_timer;
-  GlobalMapperSummary summary;
-  summary.database_path = database_path;
-  Timer timer;
-  const DatabaseContents database = ReadDatabase(database_path);
-  StageReport stage{"database"};
-  stage.seconds = timer.ElapsedSeconds();
-  size_t num_keypoints = 0;
-  for (const auto& [image_id, keypoints] : database.keypoints) {
-    num_keypoints += keypoints.size();
-  }
-  stage.figures = {{"cameras", static_cast<double>(database.cameras.size())},
-                   {"images", static_cast<double>(database.images.size())},
-                   {"keypoints", static_cast<double>(num_keypoints)},
-                   {"verified pairs",
-                    static_cast<double>(database.two_view_geometries.size())}};
-  LogStage("", stage);
-  summary.stages.push_back(stage);
-
-  std::vector<Reconstruction> models =
-      RunGlobalMapper(options, database, image_path, &summary);
-
-  // Everything goes to a temporary directory first; each model directory is
-  // renamed into place once every file is complete.
-  timer.Restart();
-  const fs::path temporary =
-      fs::path(output_path) /
-      (".colmap_irav4_tmp." + std::to_string(static_cast<long>(getpid())));
-  fs::remove_all(temporary, error);
-  fs::create_directories(temporary);
-  for (size_t k = 0; k < models.size(); ++k) {
-    WriteReconstruction(models[k], (temporary / std::to_string(k)).string(),
-                        output_type);
-  }
-  summary.total_seconds = total_timer.ElapsedSeconds();
-  for (size_t k = 0; k < models.size(); ++k) {
-    const fs::path target = fs::path(output_path) / std::to_string(k);
-    if (fs::exists(target)) {
-      // Replace a previous model, never anything else.
-      const bool is_model = ExistsBinaryModel(target.string()) ||
-                            ExistsTextModel(target.string()) ||
-                            fs::is_empty(target);
-      if (!is_model) {
-        fs::remove_all(temporary, error);
-        throw InputError(target.string(),
-                         "exists and is not a COLMAP model; not replaced");
-      }
-      fs::remove_all(target);
-    }
-    fs::rename(temporary / std::to_string(k), target);
-  }
-  for (size_t k = models.size();; ++k) {
-    const fs::path stale = fs::path(output_path) / std::to_string(k);
-    if (!fs::exists(stale)) break;
-    LOG(WARNING) << stale.string()
-                 << ": left over from an earlier run (this run made "
-                 << models.size() << " model(s))";
-    summary.notes.push_back(stale.string() + " is left over from an earlier run");
-  }
-  stage = StageReport{"writing"};
-  stage.seconds = timer.ElapsedSeconds();
-  stage.figures = {{"models", static_cast<double>(models.size())}};
-  LogStage("", stage);
-  summary.stages.push_back(stage);
-  summary.total_seconds = total_timer.ElapsedSeconds();
-  {
-    std::ofstream file(temporary / "summary.json");
-    file << summary.ToJson();
-    if (!file) throw InputError(output_path, "cannot write summary.json");
-  }
-  fs::rename(temporary / "summary.json", fs::path(output_path) / "summary.json");
-  fs::remove_all(temporary, error);
-  LOG(INFO) << "Wrote " << models.size() << " model(s) and summary.json to "
-            << output_path << " in " << std::fixed << std::setprecision(2)
-            << summary.total_seconds << " s total";
-  return summary;
 }
 
 }  // namespace colmap_irav4

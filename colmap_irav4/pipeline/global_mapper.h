@@ -1,12 +1,15 @@
 #pragma once
 
-// The global mapper: from a COLMAP database to COLMAP sparse models.
-//   view graph (filters, connected components)
-//   -> per component: rotation averaging -> rotation-consistency filter
+// The global mapper of one connected component (COLMAP's sfm/global_mapper):
+//   rotation averaging -> rotation-consistency filter
 //   -> tracks from the inlier matches -> global positioning
-//   -> bundle adjustment rounds with filtering -> retriangulation
-//   -> final filtering -> normalisation -> point colours.
-// Every stage lives in its own folder; this file only wires them together.
+//   -> bundle adjustment rounds with filtering, retriangulation after the
+//      first -> final filtering and normalisation -> point colours.
+// One public method per stage, callable (and testable) one by one; every
+// stage's algorithm lives in its own folder, this class holds the state
+// between them. Reading the database, building the view graph, looping over
+// its components and writing the models is the pipeline's
+// (pipeline/global_pipeline.h).
 
 #include <map>
 #include <string>
@@ -22,6 +25,7 @@
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/run_summary.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 
 namespace colmap_irav4 {
@@ -90,6 +94,12 @@ struct GlobalMapperOptions {
   GlobalMapperOptions();
   // Throws InputError naming the offending option.
   void Check() const;
+
+  // A copy whose stage options carry the mapper-wide settings (num_threads,
+  // progress bars) and the bundle adjustment's refine flags, for a run on
+  // `num_images` images (progress -1: bars from 100 images or on a
+  // terminal).
+  GlobalMapperOptions ForStages(size_t num_images) const;
 };
 
 // Registers the options in COLMAP's dotted style (--Mapper.*, --ViewGraph.*,
@@ -102,67 +112,87 @@ void AddGlobalMapperOptions(OptionManager* manager,
 // factory, else the best available baseline.
 std::string DefaultRotationMethod();
 
-// One stage's figures (also the log line and the summary.json entry).
-struct StageReport {
-  StageReport() = default;
-  explicit StageReport(std::string stage_name) : name(std::move(stage_name)) {}
-  std::string name;
-  double seconds = 0;
-  // Named counts in order, e.g. {"pairs", 55}, {"points", 1234}.
-  std::vector<std::pair<std::string, double>> figures;
+// Maps one connected component of the view graph. Stages run in the order of
+// Run(); each returns false (with failure() saying why) when no model of
+// min_model_size images can result, and appends its figures to stages().
+class GlobalMapper {
+ public:
+  // `database` (keypoints, inlier matches, image names) and `cameras` (the
+  // view graph's, possibly self-calibrated) must outlive the mapper. `images`
+  // and `pairs`: the component. `log_prefix` starts every log line (e.g.
+  // "[component 1] ").
+  GlobalMapper(const GlobalMapperOptions& options,
+               const DatabaseContents& database,
+               const std::map<camera_t, Camera>& cameras,
+               std::vector<image_t> images,
+               std::vector<ImagePairGeometry> pairs,
+               std::string log_prefix = "");
+
+  // Every stage below in order; false when a stage gave up.
+  bool Run();
+
+  // Absolute rotations of the component's images (those the method
+  // estimated) -> rotations().
+  bool RotationAveraging();
+  // Drops the pairs disagreeing with the rotations (all pairs kept with
+  // skip_rotation_filter), then keeps the largest connected part.
+  bool RotationFilter();
+  // The model's images (rotations, keypoints) and the tracks of the inlier
+  // matches of the kept pairs; with global positioning, the tracks it uses
+  // become the model's points.
+  bool BuildTracks();
+  // Camera centres (and points): global positioning, or translation
+  // averaging followed by triangulation of every track.
+  bool Positioning();
+  // num_ba_iterations rounds of bundle adjustment followed by filtering;
+  // retriangulation after the first (or alone when there is none).
+  bool IterativeBundleAdjustment();
+  // Triangulates every track from the current poses (completes the points of
+  // tracks positioning did not use).
+  bool Retriangulation();
+  // Final filtering, cameras no image uses removed, normalisation.
+  bool Finalize();
+  // Point colours from the images under image_path (empty: grey). Returns
+  // the number of images that could not be read.
+  int ColorPoints(const std::string& image_path);
+
+  const GlobalMapperOptions& options() const { return options_; }
+  const std::vector<image_t>& images() const { return images_; }
+  // Pairs of the component as given (before the rotation filter).
+  size_t num_component_pairs() const { return num_component_pairs_; }
+  // The component's pairs; after RotationFilter() the kept ones.
+  const std::vector<ImagePairGeometry>& pairs() const { return pairs_; }
+  const std::map<image_t, Eigen::Matrix3d>& rotations() const {
+    return rotations_;
+  }
+  const std::vector<Track>& tracks() const { return tracks_; }
+  Reconstruction& reconstruction() { return reconstruction_; }
+  const Reconstruction& reconstruction() const { return reconstruction_; }
+  const std::vector<StageReport>& stages() const { return stages_; }
+  const std::string& failure() const { return failure_; }
+  void set_log_prefix(const std::string& prefix) { log_prefix_ = prefix; }
+
+ private:
+  bool Fail(const std::string& reason);
+  // Adds the model's registered images, points and reprojection errors to
+  // the stage's figures.
+  void AddModelFigures(StageTimer* stage);
+
+  const GlobalMapperOptions options_;  // with the mapper-wide settings applied
+  const DatabaseContents& database_;
+  const std::map<camera_t, Camera>& cameras_;
+  const std::vector<image_t> images_;
+  const size_t num_component_pairs_;
+  std::string log_prefix_;
+
+  std::vector<ImagePairGeometry> pairs_;
+  std::map<image_t, Eigen::Matrix3d> rotations_;
+  std::vector<Track> tracks_;
+  Reconstruction reconstruction_;
+  bool retriangulated_ = false;
+  std::vector<StageReport> stages_;
+  std::string failure_;
 };
-
-// One model (connected component) of the run.
-struct ComponentReport {
-  int index = 0;  // output directory SPARSE/<index>
-  int num_images_in_graph = 0;
-  int num_pairs_in_graph = 0;
-  int num_registered_images = 0;
-  int num_points = 0;
-  int num_observations = 0;
-  double mean_track_length = 0;
-  double mean_reprojection_error = 0;
-  std::vector<StageReport> stages;
-};
-
-struct GlobalMapperSummary {
-  std::string database_path;
-  std::string rotation_method;
-  std::string positioning_method;
-  int num_database_images = 0;
-  int num_database_pairs = 0;
-  std::vector<StageReport> stages;  // database reading, view graph
-  std::vector<ComponentReport> components;
-  double total_seconds = 0;
-  std::vector<std::string> notes;  // warnings, skipped stages
-
-  std::string ToJson() const;
-};
-
-// Maps every component with >= min_model_size images into its own model,
-// largest first. `image_path` (may be empty) is where point colours are read
-// from. Throws InputError when no component is large enough.
-std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
-                                            const DatabaseContents& database,
-                                            const std::string& image_path,
-                                            GlobalMapperSummary* summary);
-
-// The whole command: reads the database read-only, maps, writes
-// SPARSE/<k>/{cameras,images,points3D}.bin and SPARSE/summary.json through a
-// temporary directory renamed into place once complete.
-GlobalMapperSummary RunGlobalMapperOnDatabase(
-    const GlobalMapperOptions& options, const std::string& database_path,
-    const std::string& image_path, const std::string& output_path,
-    const std::string& output_type = "BIN");
-
-// Point colours: mean over each track of the image pixel at the observation
-// (images read from image_path with OpenCV); points whose images are all
-// missing stay grey (128). Returns the number of images that could not be
-// read (each logged once).
-// `downscale` (1, 2, 4, 8): the images are decoded at that fraction of their
-// size (JPEG's DCT scaling) and sampled at the scaled positions.
-int ColorPointsFromImages(const std::string& image_path,
-                          Reconstruction* reconstruction, int downscale = 1);
 
 // Drops pairs whose rotation disagrees with the averaged rotations by more
 // than max_rotation_error_deg (rotations: cam_from_world by image id; pairs

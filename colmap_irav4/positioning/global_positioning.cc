@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
-#include <thread>
 #include <unordered_map>
 
 #include <ceres/ceres.h>

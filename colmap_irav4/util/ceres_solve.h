@@ -6,11 +6,9 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/util/progress_bar.h"
+#include "colmap_irav4/util/threading.h"
 
 namespace colmap_irav4 {
-
-// Number of threads to use: num_threads if > 0, else the hardware concurrency.
-int EffectiveNumThreads(int num_threads);
 
 // Advances a ProgressBar by the iterations of a Ceres solve (out of its
 // max_num_iterations; finished when the solver stops early).
@@ -41,7 +39,7 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.gradient_tolerance = options.gradient_tolerance;
   solver_options.parameter_tolerance = options.parameter_tolerance;
-  solver_options.num_threads = EffectiveNumThreads(options.num_threads);
+  solver_options.num_threads = ResolveNumThreads(options.num_threads);
   solver_options.minimizer_progress_to_stdout = options.print_progress;
   solver_options.logging_type =
       options.print_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;

@@ -1,14 +1,13 @@
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 
 #include <algorithm>
-#include <atomic>
 #include <numeric>
 #include <sstream>
-#include <thread>
 
 #include <glog/logging.h>
 
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/threading.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -160,27 +159,15 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   }
 
   std::vector<RelativePose> candidate_poses(candidates.size());
-  std::atomic<size_t> next(0);
-  auto worker = [&]() {
-    for (size_t i = next++; i < candidates.size(); i = next++) {
-      const TwoViewGeometry& geometry = *candidates[i];
-      const DatabaseImage& image1 = database.images.at(geometry.image_id1);
-      const DatabaseImage& image2 = database.images.at(geometry.image_id2);
-      candidate_poses[i] = EstimateRelativePose(
-          geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
-          database.keypoints.at(geometry.image_id1),
-          database.keypoints.at(geometry.image_id2), options.relative_pose);
-    }
-  };
-  const int num_threads = std::max<int>(
-      1, std::min<int>(options.num_threads > 0
-                           ? options.num_threads
-                           : std::thread::hardware_concurrency(),
-                       static_cast<int>(candidates.size())));
-  std::vector<std::thread> threads;
-  for (int k = 1; k < num_threads; ++k) threads.emplace_back(worker);
-  worker();
-  for (std::thread& thread : threads) thread.join();
+  ParallelFor(options.num_threads, candidates.size(), [&](size_t i) {
+    const TwoViewGeometry& geometry = *candidates[i];
+    const DatabaseImage& image1 = database.images.at(geometry.image_id1);
+    const DatabaseImage& image2 = database.images.at(geometry.image_id2);
+    candidate_poses[i] = EstimateRelativePose(
+        geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
+        database.keypoints.at(geometry.image_id1),
+        database.keypoints.at(geometry.image_id2), options.relative_pose);
+  });
 
   std::vector<ImagePairGeometry> pairs;
   std::vector<RelativePose> poses;

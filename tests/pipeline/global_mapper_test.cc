@@ -10,6 +10,8 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/pipeline/global_pipeline.h"
+#include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/test_utils/database_test_utils.h"

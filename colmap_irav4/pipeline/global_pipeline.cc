@@ -1,0 +1,278 @@
+#include "colmap_irav4/pipeline/global_pipeline.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <unistd.h>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/timer.h"
+#include "colmap_irav4/view_graph/view_graph_builder.h"
+
+namespace colmap_irav4 {
+
+namespace fs = std::filesystem;
+
+std::string GlobalMapperSummary::ToJson() const {
+  std::ostringstream out;
+  out << "{\n  \"database_path\": " << JsonString(database_path)
+      << ",\n  \"rotation_method\": " << JsonString(rotation_method)
+      << ",\n  \"positioning_method\": " << JsonString(positioning_method)
+      << ",\n  \"num_database_images\": " << num_database_images
+      << ",\n  \"num_database_pairs\": " << num_database_pairs
+      << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
+      << ",\n  \"stages\": ";
+  AppendStagesJson(stages, "  ", &out);
+  out << ",\n  \"models\": [";
+  for (size_t i = 0; i < components.size(); ++i) {
+    const ComponentReport& c = components[i];
+    out << (i ? "," : "") << "\n    {\"index\": " << c.index
+        << ", \"path\": " << JsonString(std::to_string(c.index))
+        << ", \"num_images_in_graph\": " << c.num_images_in_graph
+        << ", \"num_pairs_in_graph\": " << c.num_pairs_in_graph
+        << ", \"num_registered_images\": " << c.num_registered_images
+        << ", \"num_points\": " << c.num_points
+        << ", \"num_observations\": " << c.num_observations
+        << ", \"mean_track_length\": " << JsonNumber(c.mean_track_length)
+        << ", \"mean_reprojection_error\": "
+        << JsonNumber(c.mean_reprojection_error) << ",\n     \"stages\": ";
+    AppendStagesJson(c.stages, "     ", &out);
+    out << "}";
+  }
+  out << (components.empty() ? "" : "\n  ") << "],\n  \"notes\": [";
+  for (size_t i = 0; i < notes.size(); ++i) {
+    out << (i ? ", " : "") << JsonString(notes[i]);
+  }
+  out << "]\n}\n";
+  return out.str();
+}
+
+std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
+                                            const DatabaseContents& database,
+                                            const std::string& image_path,
+                                            GlobalMapperSummary* summary) {
+  options.Check();
+  Timer total_timer;
+  const GlobalMapperOptions stage_options =
+      options.ForStages(database.images.size());
+  summary->rotation_method = options.rotation_method;
+  summary->positioning_method = options.positioning_method;
+  summary->num_database_images = static_cast<int>(database.images.size());
+  summary->num_database_pairs =
+      static_cast<int>(database.two_view_geometries.size());
+  if (options.skip_retriangulation) {
+    summary->notes.push_back("retriangulation skipped");
+  }
+
+  StageTimer stage("view graph");
+  ViewGraphSummary view_graph_summary;
+  const ViewGraph view_graph =
+      BuildViewGraph(database, stage_options.view_graph, &view_graph_summary);
+  const std::vector<std::vector<image_t>> components =
+      PairComponents(view_graph.pairs);
+  int num_dropped = 0;
+  for (const auto& [reason, count] : view_graph_summary.num_dropped) {
+    num_dropped += count;
+  }
+  stage.Add("pairs read", static_cast<double>(view_graph_summary.num_pairs_read));
+  stage.Add("pairs kept", static_cast<double>(view_graph.pairs.size()));
+  stage.Add("pairs dropped", static_cast<double>(num_dropped));
+  stage.Add("connected images",
+            static_cast<double>(view_graph.image_names.size()));
+  stage.Add("components", static_cast<double>(components.size()));
+  stage.Add("largest component",
+            components.empty() ? 0.0 : static_cast<double>(components[0].size()));
+  stage.Finish("", &summary->stages);
+
+  if (components.empty() ||
+      static_cast<int>(components[0].size()) < options.min_model_size) {
+    throw InputError(
+        database.path,
+        "no model: the largest connected group of images has " +
+            std::to_string(components.empty() ? 0 : components[0].size()) +
+            " image(s), at least " + std::to_string(options.min_model_size) +
+            " are needed (" + std::to_string(view_graph.pairs.size()) +
+            " usable verified pairs of " +
+            std::to_string(database.two_view_geometries.size()) +
+            "; run a matcher, or lower --Mapper.min_num_matches)");
+  }
+
+  // One mapper per component; the finished ones keep their model and stages.
+  std::vector<std::unique_ptr<GlobalMapper>> mappers;
+  for (size_t c = 0; c < components.size(); ++c) {
+    if (static_cast<int>(components[c].size()) < options.min_model_size) break;
+    const std::set<image_t> images(components[c].begin(), components[c].end());
+    std::vector<ImagePairGeometry> pairs;
+    for (const ImagePairGeometry& pair : view_graph.pairs) {
+      if (images.count(pair.image_id1)) pairs.push_back(pair);
+    }
+    const std::string prefix =
+        components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
+    auto mapper = std::make_unique<GlobalMapper>(
+        options, database, view_graph.cameras, components[c], std::move(pairs),
+        prefix);
+    if (!mapper->Run()) {
+      LOG(WARNING) << prefix << "no model for the component of "
+                   << components[c].size() << " images: " << mapper->failure();
+      summary->notes.push_back("component of " +
+                               std::to_string(components[c].size()) +
+                               " images gave no model: " + mapper->failure());
+      continue;
+    }
+    mappers.push_back(std::move(mapper));
+  }
+  if (mappers.empty()) {
+    throw InputError(database.path,
+                     "no model: no component could be reconstructed (see the "
+                     "warnings above)");
+  }
+  // Largest first, by registered images (stable: graph order on ties).
+  std::stable_sort(mappers.begin(), mappers.end(),
+                   [](const auto& a, const auto& b) {
+                     return a->reconstruction().images.size() >
+                            b->reconstruction().images.size();
+                   });
+
+  std::vector<Reconstruction> reconstructions;
+  for (size_t k = 0; k < mappers.size(); ++k) {
+    GlobalMapper& mapper = *mappers[k];
+    mapper.set_log_prefix(
+        mappers.size() > 1 ? "[model " + std::to_string(k) + "] " : "");
+    const int num_missing = mapper.ColorPoints(image_path);
+    if (num_missing > 0) {
+      summary->notes.push_back(std::to_string(num_missing) +
+                               " image(s) missing under " + image_path +
+                               ": their points are grey");
+    }
+    Reconstruction& reconstruction = mapper.reconstruction();
+    ComponentReport report;
+    report.index = static_cast<int>(k);
+    report.num_images_in_graph = static_cast<int>(mapper.images().size());
+    report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
+    report.stages = mapper.stages();
+    report.mean_reprojection_error = UpdateReprojectionErrors(&reconstruction);
+    report.num_registered_images = static_cast<int>(reconstruction.images.size());
+    report.num_points = static_cast<int>(reconstruction.points3D.size());
+    report.num_observations = static_cast<int>(NumObservations(reconstruction));
+    report.mean_track_length = MeanTrackLength(reconstruction);
+    LOG(INFO) << "Model " << k << ": " << report.num_registered_images
+              << " registered images (of " << report.num_images_in_graph
+              << " in the component), " << report.num_points << " points, "
+              << report.num_observations << " observations, mean track length "
+              << std::fixed << std::setprecision(2) << report.mean_track_length
+              << ", mean reprojection error " << std::setprecision(3)
+              << report.mean_reprojection_error << " px";
+    summary->components.push_back(report);
+    reconstructions.push_back(std::move(reconstruction));
+  }
+  summary->total_seconds += total_timer.ElapsedSeconds();
+  return reconstructions;
+}
+
+void WriteMapperOutput(const std::vector<Reconstruction>& models,
+                       const std::string& output_path,
+                       const std::string& output_type, const Timer& total_timer,
+                       GlobalMapperSummary* summary) {
+  // Everything goes to a temporary directory first; each model directory is
+  // renamed into place once every file is complete.
+  StageTimer stage("writing");
+  std::error_code error;
+  const fs::path temporary =
+      fs::path(output_path) /
+      (".colmap_irav4_tmp." + std::to_string(static_cast<long>(getpid())));
+  fs::remove_all(temporary, error);
+  fs::create_directories(temporary);
+  for (size_t k = 0; k < models.size(); ++k) {
+    WriteReconstruction(models[k], (temporary / std::to_string(k)).string(),
+                        output_type);
+  }
+  summary->total_seconds = total_timer.ElapsedSeconds();
+  for (size_t k = 0; k < models.size(); ++k) {
+    const fs::path target = fs::path(output_path) / std::to_string(k);
+    if (fs::exists(target)) {
+      // Replace a previous model, never anything else.
+      const bool is_model = ExistsBinaryModel(target.string()) ||
+                            ExistsTextModel(target.string()) ||
+                            fs::is_empty(target);
+      if (!is_model) {
+        fs::remove_all(temporary, error);
+        throw InputError(target.string(),
+                         "exists and is not a COLMAP model; not replaced");
+      }
+      fs::remove_all(target);
+    }
+    fs::rename(temporary / std::to_string(k), target);
+  }
+  for (size_t k = models.size();; ++k) {
+    const fs::path stale = fs::path(output_path) / std::to_string(k);
+    if (!fs::exists(stale)) break;
+    LOG(WARNING) << stale.string()
+                 << ": left over from an earlier run (this run made "
+                 << models.size() << " model(s))";
+    summary->notes.push_back(stale.string() + " is left over from an earlier run");
+  }
+  stage.Add("models", static_cast<double>(models.size()));
+  stage.Finish("", &summary->stages);
+  summary->total_seconds = total_timer.ElapsedSeconds();
+  {
+    std::ofstream file(temporary / "summary.json");
+    file << summary->ToJson();
+    if (!file) throw InputError(output_path, "cannot write summary.json");
+  }
+  fs::rename(temporary / "summary.json", fs::path(output_path) / "summary.json");
+  fs::remove_all(temporary, error);
+  LOG(INFO) << "Wrote " << models.size() << " model(s) and summary.json to "
+            << output_path << " in " << std::fixed << std::setprecision(2)
+            << summary->total_seconds << " s total";
+}
+
+GlobalMapperSummary RunGlobalMapperOnDatabase(
+    const GlobalMapperOptions& options, const std::string& database_path,
+    const std::string& image_path, const std::string& output_path,
+    const std::string& output_type) {
+  options.Check();
+  if (output_type != "BIN" && output_type != "TXT" && output_type != "bin" &&
+      output_type != "txt") {
+    throw InputError("--output_type", "must be BIN or TXT");
+  }
+  if (!image_path.empty() && !fs::is_directory(image_path)) {
+    throw InputError(image_path, "image directory does not exist");
+  }
+  std::error_code error;
+  fs::create_directories(output_path, error);
+  if (!fs::is_directory(output_path)) {
+    throw InputError(output_path, "cannot create the output directory");
+  }
+
+  Timer total_timer;
+  GlobalMapperSummary summary;
+  summary.database_path = database_path;
+  StageTimer stage("database");
+  const DatabaseContents database = ReadDatabase(database_path);
+  size_t num_keypoints = 0;
+  for (const auto& [image_id, keypoints] : database.keypoints) {
+    num_keypoints += keypoints.size();
+  }
+  stage.Add("cameras", static_cast<double>(database.cameras.size()));
+  stage.Add("images", static_cast<double>(database.images.size()));
+  stage.Add("keypoints", static_cast<double>(num_keypoints));
+  stage.Add("verified pairs",
+            static_cast<double>(database.two_view_geometries.size()));
+  stage.Finish("", &summary.stages);
+
+  std::vector<Reconstruction> models =
+      RunGlobalMapper(options, database, image_path, &summary);
+
+  WriteMapperOutput(models, output_path, output_type, total_timer, &summary);
+  return summary;
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,71 @@
+#pragma once
+
+// The global mapping pipeline (COLMAP's controllers/global_pipeline): reads a
+// COLMAP database (read-only), builds the view graph (filters, relative
+// poses, connected components), maps every large enough component with a
+// GlobalMapper, colours the points, and writes one COLMAP sparse model per
+// component and summary.json.
+
+#include <string>
+#include <vector>
+
+#include "colmap_irav4/io/database.h"
+#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/run_summary.h"
+
+namespace colmap_irav4 {
+
+// One model (connected component) of the run.
+struct ComponentReport {
+  int index = 0;  // output directory SPARSE/<index>
+  int num_images_in_graph = 0;
+  int num_pairs_in_graph = 0;
+  int num_registered_images = 0;
+  int num_points = 0;
+  int num_observations = 0;
+  double mean_track_length = 0;
+  double mean_reprojection_error = 0;
+  std::vector<StageReport> stages;
+};
+
+struct GlobalMapperSummary {
+  std::string database_path;
+  std::string rotation_method;
+  std::string positioning_method;
+  int num_database_images = 0;
+  int num_database_pairs = 0;
+  std::vector<StageReport> stages;  // database reading, view graph, writing
+  std::vector<ComponentReport> components;
+  double total_seconds = 0;
+  std::vector<std::string> notes;  // warnings, skipped stages
+
+  std::string ToJson() const;
+};
+
+// Maps every component with >= min_model_size images into its own model,
+// largest first. `image_path` (may be empty) is where point colours are read
+// from. Throws InputError when no component is large enough.
+std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
+                                            const DatabaseContents& database,
+                                            const std::string& image_path,
+                                            GlobalMapperSummary* summary);
+
+// Writes OUTPUT/<k>/{cameras,images,points3D}.<bin|txt> for every model and
+// OUTPUT/summary.json: everything goes to a temporary directory under
+// output_path first, each model directory is renamed into place once every
+// file is complete (replacing a previous model, never anything else), then
+// summary.json. Appends the "writing" stage to the summary.
+void WriteMapperOutput(const std::vector<Reconstruction>& models,
+                       const std::string& output_path,
+                       const std::string& output_type, const Timer& total_timer,
+                       GlobalMapperSummary* summary);
+
+// The whole command: reads the database read-only, maps, writes the output
+// with WriteMapperOutput.
+GlobalMapperSummary RunGlobalMapperOnDatabase(
+    const GlobalMapperOptions& options, const std::string& database_path,
+    const std::string& image_path, const std::string& output_path,
+    const std::string& output_type = "BIN");
+
+}  // namespace colmap_irav4

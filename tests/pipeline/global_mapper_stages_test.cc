@@ -1,0 +1,240 @@
+// The mapper's stages one by one, in-process, on a small synthetic scene with
+// known poses: what each stage leaves in the GlobalMapper's state, and that
+// Run() is exactly the stages in order.
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "tests/test_utils/scene_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// A synthetic scene as the mapper sees it: a database (cameras, images,
+// keypoints, inlier matches) and the view graph's pairs (relative poses from
+// the truth, 0.3 deg of rotation noise; one pair's rotation 40 deg off).
+struct StageScene {
+  SyntheticScene scene;
+  DatabaseContents database;
+  std::vector<image_t> images;
+  std::vector<ImagePairGeometry> pairs;
+  image_pair_t wrong_pair = 0;
+};
+
+StageScene MakeStageScene() {
+  StageScene s;
+  SyntheticSceneOptions options;
+  options.num_images = 8;
+  options.num_points = 600;
+  options.visibility = 0.8;
+  options.noise_px = 0.5;
+  options.seed = 3;
+  s.scene = GenerateSyntheticScene(options);
+  const Reconstruction& truth = s.scene.truth;
+  s.database.path = "synthetic";
+  s.database.cameras = truth.cameras;
+  for (const auto& [image_id, image] : truth.images) {
+    DatabaseImage& row = s.database.images[image_id];
+    row.image_id = image_id;
+    row.name = image.name;
+    row.camera_id = image.camera_id;
+    FeatureKeypoints& keypoints = s.database.keypoints[image_id];
+    for (const Point2D& point2D : image.points2D) {
+      keypoints.push_back(point2D.xy.cast<float>());
+    }
+    s.images.push_back(image_id);
+  }
+  std::mt19937_64 rng(5);
+  for (const ImagePairMatches& matches : s.scene.matches) {
+    if (matches.matches.size() < 30) continue;
+    TwoViewGeometry geometry;
+    geometry.image_id1 = matches.image_id1;
+    geometry.image_id2 = matches.image_id2;
+    geometry.config = TwoViewGeometry::CALIBRATED;
+    for (const auto& [idx1, idx2] : matches.matches) {
+      geometry.inlier_matches.push_back(FeatureMatch{idx1, idx2});
+    }
+    s.database.two_view_geometries.push_back(geometry);
+
+    const Rigid3d& pose1 = truth.images.at(matches.image_id1).cam_from_world;
+    const Rigid3d& pose2 = truth.images.at(matches.image_id2).cam_from_world;
+    const Eigen::Matrix3d R1 = pose1.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R2 = pose2.rotation.toRotationMatrix();
+    ImagePairGeometry pair;
+    pair.image_id1 = matches.image_id1;
+    pair.image_id2 = matches.image_id2;
+    pair.R = RandomRotationWithAngle(DegToRad(0.3), &rng) * R2 *
+             R1.transpose();
+    pair.t = (pose2.translation - R2 * R1.transpose() * pose1.translation)
+                 .normalized();
+    pair.num_inliers = static_cast<int>(matches.matches.size());
+    pair.config = TwoViewGeometry::CALIBRATED;
+    s.pairs.push_back(pair);
+  }
+  // One wrong relative rotation: the rotation filter must drop it.
+  ImagePairGeometry& wrong = s.pairs[s.pairs.size() / 2];
+  wrong.R = RandomRotationWithAngle(DegToRad(40.0), &rng) * wrong.R;
+  s.wrong_pair = ImagePairToPairId(wrong.image_id1, wrong.image_id2);
+  return s;
+}
+
+GlobalMapperOptions TestOptions() {
+  GlobalMapperOptions options;
+  // One thread: Ceres' results are then bit-identical between two runs.
+  options.num_threads = 1;
+  options.progress = 0;
+  return options;
+}
+
+double MaxRelativeRotationErrorDeg(
+    const std::map<image_t, Eigen::Matrix3d>& rotations,
+    const Reconstruction& truth) {
+  double max_error = 0;
+  for (const auto& [id1, R1] : rotations) {
+    for (const auto& [id2, R2] : rotations) {
+      if (id2 <= id1) continue;
+      const Eigen::Matrix3d T1 =
+          truth.images.at(id1).cam_from_world.rotation.toRotationMatrix();
+      const Eigen::Matrix3d T2 =
+          truth.images.at(id2).cam_from_world.rotation.toRotationMatrix();
+      max_error = std::max(max_error, AngularDistanceDeg(R2 * R1.transpose(),
+                                                         T2 * T1.transpose()));
+    }
+  }
+  return max_error;
+}
+
+TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
+  const StageScene s = MakeStageScene();
+  const size_t num_pairs = s.pairs.size();
+  ASSERT_GE(num_pairs, 20u);
+  GlobalMapper mapper(TestOptions(), s.database, s.database.cameras, s.images,
+                      s.pairs);
+  EXPECT_EQ(mapper.num_component_pairs(), num_pairs);
+
+  ASSERT_TRUE(mapper.RotationAveraging());
+  ASSERT_EQ(mapper.rotations().size(), s.images.size());
+  EXPECT_LT(MaxRelativeRotationErrorDeg(mapper.rotations(), s.scene.truth),
+            1.0);
+  EXPECT_EQ(mapper.stages().back().name, "rotation averaging (irav4)");
+
+  ASSERT_TRUE(mapper.RotationFilter());
+  EXPECT_EQ(mapper.pairs().size(), num_pairs - 1);
+  for (const ImagePairGeometry& pair : mapper.pairs()) {
+    EXPECT_NE(ImagePairToPairId(pair.image_id1, pair.image_id2), s.wrong_pair);
+  }
+  EXPECT_EQ(mapper.stages().back().figures[1].first,
+            "pairs dropped (rotation)");
+  EXPECT_EQ(mapper.stages().back().figures[1].second, 1.0);
+
+  ASSERT_TRUE(mapper.BuildTracks());
+  EXPECT_GT(mapper.tracks().size(), 400u);
+  EXPECT_EQ(mapper.reconstruction().images.size(), s.images.size());
+  // Global positioning's tracks are the model's points before positioning.
+  EXPECT_GT(mapper.reconstruction().points3D.size(), 0u);
+  EXPECT_LE(mapper.reconstruction().points3D.size(), mapper.tracks().size());
+
+  ASSERT_TRUE(mapper.Positioning());
+  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(),
+                                         s.scene.truth, 10.0),
+            0.02);
+
+  ASSERT_TRUE(mapper.IterativeBundleAdjustment());
+  std::vector<std::string> names;
+  for (const StageReport& stage : mapper.stages()) names.push_back(stage.name);
+  EXPECT_EQ(names, (std::vector<std::string>{
+                       "rotation averaging (irav4)", "rotation filter",
+                       "tracks", "global_positioning", "bundle adjustment 1",
+                       "retriangulation", "bundle adjustment 2"}));
+  // 0.5 px keypoint noise: mean reprojection error near 0.5 * sqrt(pi/2).
+  const double error = UpdateReprojectionErrors(&mapper.reconstruction());
+  EXPECT_LT(error, 0.8);
+  EXPECT_GT(error, 0.3);
+  // Retriangulation completed the tracks positioning did not use.
+  EXPECT_GT(mapper.reconstruction().points3D.size(),
+            0.9 * mapper.tracks().size());
+  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(),
+                                         s.scene.truth, 10.0),
+            0.002);
+
+  ASSERT_TRUE(mapper.Finalize());
+  EXPECT_EQ(mapper.stages().back().name, "normalisation");
+  EXPECT_EQ(mapper.reconstruction().images.size(), s.images.size());
+
+  // Without images every point is grey.
+  EXPECT_EQ(mapper.ColorPoints(""), 0);
+  for (const auto& [point3D_id, point] : mapper.reconstruction().points3D) {
+    ASSERT_EQ(point.color.cast<int>(), Eigen::Vector3i(128, 128, 128));
+  }
+  EXPECT_EQ(mapper.stages().back().name, "colours (grey: no --image_path)");
+}
+
+TEST(GlobalMapperStages, RunIsTheStagesInOrder) {
+  const StageScene s = MakeStageScene();
+  GlobalMapper by_stage(TestOptions(), s.database, s.database.cameras, s.images,
+                        s.pairs);
+  ASSERT_TRUE(by_stage.RotationAveraging() && by_stage.RotationFilter() &&
+              by_stage.BuildTracks() && by_stage.Positioning() &&
+              by_stage.IterativeBundleAdjustment() && by_stage.Finalize());
+  GlobalMapper whole(TestOptions(), s.database, s.database.cameras, s.images,
+                     s.pairs);
+  ASSERT_TRUE(whole.Run());
+  ASSERT_EQ(whole.stages().size(), by_stage.stages().size());
+  for (size_t k = 0; k < whole.stages().size(); ++k) {
+    EXPECT_EQ(whole.stages()[k].name, by_stage.stages()[k].name);
+    ASSERT_EQ(whole.stages()[k].figures.size(),
+              by_stage.stages()[k].figures.size());
+    for (size_t f = 0; f < whole.stages()[k].figures.size(); ++f) {
+      EXPECT_EQ(whole.stages()[k].figures[f].first,
+                by_stage.stages()[k].figures[f].first);
+      EXPECT_NEAR(whole.stages()[k].figures[f].second,
+                  by_stage.stages()[k].figures[f].second, 1e-9);
+    }
+  }
+  ASSERT_EQ(whole.reconstruction().images.size(),
+            by_stage.reconstruction().images.size());
+  for (const auto& [image_id, image] : whole.reconstruction().images) {
+    const Image& other = by_stage.reconstruction().images.at(image_id);
+    // Equal up to floating-point noise (Eigen's vectorised sums may differ in
+    // the last bits between two runs).
+    EXPECT_LT((image.cam_from_world.translation -
+               other.cam_from_world.translation)
+                  .norm(),
+              1e-9);
+  }
+}
+
+TEST(GlobalMapperStages, StagesSkippedByOptionsAndFailureReason) {
+  const StageScene s = MakeStageScene();
+  GlobalMapperOptions options = TestOptions();
+  options.skip_bundle_adjustment = true;
+  options.skip_normalization = true;
+  GlobalMapper mapper(options, s.database, s.database.cameras, s.images,
+                      s.pairs);
+  ASSERT_TRUE(mapper.Run());
+  std::vector<std::string> names;
+  for (const StageReport& stage : mapper.stages()) names.push_back(stage.name);
+  EXPECT_EQ(names, (std::vector<std::string>{
+                       "rotation averaging (irav4)", "rotation filter",
+                       "tracks", "global_positioning", "retriangulation",
+                       "final filtering"}));
+
+  // More images needed than the component has: the rotation filter stops.
+  options = TestOptions();
+  options.min_model_size = static_cast<int>(s.images.size()) + 1;
+  GlobalMapper too_small(options, s.database, s.database.cameras, s.images,
+                         s.pairs);
+  EXPECT_FALSE(too_small.Run());
+  EXPECT_NE(too_small.failure().find("images with consistent rotations"),
+            std::string::npos)
+      << too_small.failure();
+  EXPECT_EQ(too_small.stages().size(), 2u);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

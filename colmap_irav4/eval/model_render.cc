@@ -138,7 +138,7 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
     for (const auto& [point3D_id, point] : model.points3D) {
       cv::Point pixel = panels[p].ToPixel(point.xyz);
       pixel -= panels[p].area.tl();
-      if (!panel_view.size().contains(pixel)) continue;
+      if (!cv::Rect(0, 0, panel_view.cols, panel_view.rows).contains(pixel)) continue;
       cv::Scalar color;
       if (all_grey) {
         const double t = h_hi > h_lo ? (point.xyz.dot(up) - h_lo) / (h_hi - h_lo) : 0.5;

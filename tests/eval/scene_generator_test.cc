@@ -11,7 +11,7 @@
 #include "colmap_irav4/eval/scene_generator.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/pipeline/global_pipeline.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/test_utils/database_test_utils.h"

@@ -14,7 +14,7 @@
 #include "colmap_irav4/eval/model_alignment.h"
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"

@@ -9,10 +9,11 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/io/onedsfm.h"
-#include "colmap_irav4/io/relpose_io.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/onedsfm.h"
+#include "colmap_irav4/eval/relpose_io.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
+#include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
@@ -40,15 +41,7 @@ RotationGraph RotationGraphFromDatabase(
   const ViewGraph view_graph =
       BuildViewGraph(database, builder_options, &summary);
   summary.Print(std::cout);
-  RotationGraph graph;
-  std::map<image_t, int> vertex_of;
-  for (const auto& [image_id, name] : view_graph.image_names) {
-    vertex_of[image_id] = graph.AddVertex(name);
-  }
-  for (const ImagePairGeometry& pair : view_graph.pairs) {
-    graph.AddEdge(vertex_of.at(pair.image_id1), vertex_of.at(pair.image_id2),
-                  pair.R, pair.num_inliers);
-  }
+  RotationGraph graph = RotationGraphFromViewGraph(view_graph);
   return graph;
 }
 

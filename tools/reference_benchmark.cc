@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "colmap_irav4/eval/rotation_eval.h"
-#include "colmap_irav4/io/onedsfm.h"
+#include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"

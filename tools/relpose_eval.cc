@@ -17,7 +17,7 @@
 
 #include "colmap_irav4/eval/relative_pose_eval.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"

@@ -25,7 +25,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/eval/rotation_eval.h"
-#include "colmap_irav4/io/onedsfm.h"
+#include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "colmap_irav4/positioning/track_builder.h"
+#include "colmap_irav4/scene/features.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {

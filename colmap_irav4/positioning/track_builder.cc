@@ -8,6 +8,7 @@
 
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -15,35 +16,6 @@ namespace {
 uint64_t ObservationKey(image_t image_id, point2D_t point2D_idx) {
   return (static_cast<uint64_t>(image_id) << 32) | point2D_idx;
 }
-
-// Union-find with path halving and union by size.
-class UnionFind {
- public:
-  size_t Add() {
-    parent_.push_back(parent_.size());
-    size_.push_back(1);
-    return parent_.size() - 1;
-  }
-  size_t Find(size_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  void Union(size_t a, size_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a == b) return;
-    if (size_[a] < size_[b]) std::swap(a, b);
-    parent_[b] = a;
-    size_[a] += size_[b];
-  }
-
- private:
-  std::vector<size_t> parent_;
-  std::vector<size_t> size_;
-};
 
 bool ElementLess(const TrackElement& a, const TrackElement& b) {
   return a.image_id != b.image_id ? a.image_id < b.image_id

@@ -4,22 +4,12 @@
 #include <utility>
 #include <vector>
 
+#include "colmap_irav4/scene/features.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/types.h"
 
 namespace colmap_irav4 {
-
-// The inlier matches of one verified image pair: (point2D_idx in image_id1,
-// point2D_idx in image_id2).
-struct ImagePairMatches {
-  image_t image_id1 = kInvalidImageId;
-  image_t image_id2 = kInvalidImageId;
-  std::vector<std::pair<point2D_t, point2D_t>> matches;
-};
-
-// A feature track: observations of one scene point, at most one per image,
-// sorted by (image_id, point2D_idx).
-typedef std::vector<TrackElement> Track;
 
 struct TrackBuilderOptions {
   // Tracks observed in fewer images are dropped.

@@ -7,7 +7,6 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
-#include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/geometry/sim3d.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {

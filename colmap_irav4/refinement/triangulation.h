@@ -5,7 +5,7 @@
 
 #include <Eigen/Core>
 
-#include "colmap_irav4/positioning/track_builder.h"
+#include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {

@@ -4,6 +4,8 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/util/union_find.h"
+
 namespace colmap_irav4 {
 
 RotationGraph::RotationGraph(int num_vertices)
@@ -38,32 +40,10 @@ Eigen::Matrix3d RotationGraph::RotationFrom(int edge_idx, int from) const {
 }
 
 std::vector<std::vector<int>> RotationGraph::ConnectedComponents() const {
-  std::vector<int> component(NumVertices(), -1);
-  std::vector<std::vector<int>> components;
-  for (int start = 0; start < NumVertices(); ++start) {
-    if (component[start] >= 0) continue;
-    const int id = static_cast<int>(components.size());
-    components.emplace_back();
-    std::vector<int> stack = {start};
-    component[start] = id;
-    while (!stack.empty()) {
-      const int v = stack.back();
-      stack.pop_back();
-      components[id].push_back(v);
-      for (const auto& [neighbor, edge_idx] : adjacency_[v]) {
-        if (component[neighbor] < 0) {
-          component[neighbor] = id;
-          stack.push_back(neighbor);
-        }
-      }
-    }
-    std::sort(components[id].begin(), components[id].end());
-  }
-  std::stable_sort(components.begin(), components.end(),
-                   [](const std::vector<int>& a, const std::vector<int>& b) {
-                     return a.size() > b.size();
-                   });
-  return components;
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(edges_.size());
+  for (const RelativeRotation& e : edges_) pairs.emplace_back(e.i, e.j);
+  return colmap_irav4::ConnectedComponents(NumVertices(), pairs);
 }
 
 RotationGraph RotationGraph::InducedSubgraph(

@@ -4,20 +4,9 @@
 #include <numeric>
 
 #include "colmap_irav4/util/timer.h"
+#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
-namespace {
-
-int FindRoot(std::vector<int>* parent, int v) {
-  while ((*parent)[v] != v) {
-    (*parent)[v] = (*parent)[(*parent)[v]];  // path halving
-    v = (*parent)[v];
-  }
-  return v;
-}
-
-}  // namespace
-
 SpanningTree MaximumSpanningTree(const RotationGraph& graph) {
   const int num_vertices = graph.NumVertices();
   SpanningTree tree;
@@ -52,15 +41,11 @@ SpanningTree MaximumSpanningTree(const RotationGraph& graph) {
   std::stable_sort(edge_order.begin(), edge_order.end(), [&](int a, int b) {
     return graph.Edge(a).weight > graph.Edge(b).weight;
   });
-  std::vector<int> union_find(num_vertices);
-  std::iota(union_find.begin(), union_find.end(), 0);
+  UnionFind union_find(num_vertices);
   std::vector<std::vector<std::pair<int, int>>> tree_adjacency(num_vertices);
   for (int e : edge_order) {
     const RelativeRotation& edge = graph.Edge(e);
-    const int root_i = FindRoot(&union_find, edge.i);
-    const int root_j = FindRoot(&union_find, edge.j);
-    if (root_i == root_j) continue;
-    union_find[root_i] = root_j;
+    if (!union_find.Union(edge.i, edge.j)) continue;  // would close a cycle
     tree.edges.push_back(e);
     tree_adjacency[edge.i].emplace_back(edge.j, e);
     tree_adjacency[edge.j].emplace_back(edge.i, e);

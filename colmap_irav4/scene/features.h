@@ -1,5 +1,6 @@
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -20,5 +21,13 @@ struct FeatureMatch {
   point2D_t point2D_idx2 = kInvalidPoint2DIdx;
 };
 typedef std::vector<FeatureMatch> FeatureMatches;
+
+// The inlier matches of one verified image pair: (point2D_idx in image_id1,
+// point2D_idx in image_id2).
+struct ImagePairMatches {
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  std::vector<std::pair<point2D_t, point2D_t>> matches;
+};
 
 }  // namespace colmap_irav4

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "colmap_irav4/scene/camera.h"
+#include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/types.h"
 
 namespace colmap_irav4 {
@@ -45,11 +46,6 @@ struct Image {
   Eigen::Vector3d ProjectionCenter() const {
     return cam_from_world.Inverse().translation;
   }
-};
-
-struct TrackElement {
-  image_t image_id = kInvalidImageId;
-  point2D_t point2D_idx = kInvalidPoint2DIdx;
 };
 
 struct Point3D {

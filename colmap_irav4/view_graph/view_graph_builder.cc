@@ -8,6 +8,7 @@
 
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/threading.h"
+#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -23,14 +24,6 @@ std::vector<std::string> SplitComma(const std::string& text) {
     items.push_back(item.substr(begin, end - begin + 1));
   }
   return items;
-}
-
-int Find(std::vector<int>* parent, int x) {
-  while ((*parent)[x] != x) {
-    (*parent)[x] = (*parent)[(*parent)[x]];
-    x = (*parent)[x];
-  }
-  return x;
 }
 
 }  // namespace
@@ -191,43 +184,39 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     poses.push_back(pose);
   }
 
-  // Connected components over the kept pairs (union-find on image indices).
+  // Connected components over the kept pairs, on image indices in image id
+  // order. An image without a pair is a singleton component and is not
+  // counted. Largest by images first; ties go to the component of the
+  // smallest image id, for determinism.
   std::map<image_t, int> index;
   std::vector<image_t> ids;
   for (const auto& [image_id, image] : database.images) {
     index[image_id] = static_cast<int>(ids.size());
     ids.push_back(image_id);
   }
-  std::vector<int> parent(ids.size());
-  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(pairs.size());
   for (const ImagePairGeometry& pair : pairs) {
-    const int a = Find(&parent, index.at(pair.image_id1));
-    const int b = Find(&parent, index.at(pair.image_id2));
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    edges.emplace_back(index.at(pair.image_id1), index.at(pair.image_id2));
   }
-  std::map<int, int> component_size;  // root -> images with >= 1 pair
+  const std::vector<std::vector<int>> components =
+      ConnectedComponents(static_cast<int>(ids.size()), edges);
   std::vector<char> has_pair(ids.size(), 0);
-  for (const ImagePairGeometry& pair : pairs) {
-    has_pair[index.at(pair.image_id1)] = 1;
-    has_pair[index.at(pair.image_id2)] = 1;
-  }
-  for (size_t i = 0; i < ids.size(); ++i) {
-    if (has_pair[i]) ++component_size[Find(&parent, static_cast<int>(i))];
-  }
-  summary->num_components = static_cast<int>(component_size.size());
-  // Largest by images; ties go to the component of the smallest image id
-  // (the smallest root), for determinism.
-  int best_root = -1;
-  for (const auto& [root, size] : component_size) {
-    if (best_root < 0 || size > component_size[best_root]) best_root = root;
+  for (const auto& [a, b] : edges) has_pair[a] = has_pair[b] = 1;
+  summary->num_components = static_cast<int>(
+      std::count_if(components.begin(), components.end(),
+                    [](const std::vector<int>& c) { return c.size() > 1; }));
+  std::vector<char> in_best(ids.size(), 0);
+  const bool has_best = !components.empty() && components[0].size() > 1;
+  if (has_best) {
+    for (const int i : components[0]) in_best[i] = 1;
   }
 
   ViewGraph view_graph;
   view_graph.cameras = cameras;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const ImagePairGeometry& pair = pairs[i];
-    const bool in_component =
-        best_root >= 0 && Find(&parent, index.at(pair.image_id1)) == best_root;
+    const bool in_component = in_best[index.at(pair.image_id1)];
     if (options.keep_largest_component && !in_component) {
       ++summary->num_dropped["outside the largest component"];
       continue;
@@ -238,15 +227,12 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   }
   for (size_t i = 0; i < ids.size(); ++i) {
     if (!has_pair[i]) continue;
-    if (options.keep_largest_component &&
-        Find(&parent, static_cast<int>(i)) != best_root) {
-      continue;
-    }
+    if (options.keep_largest_component && !in_best[i]) continue;
     view_graph.image_names[ids[i]] = database.images.at(ids[i]).name;
   }
   summary->num_pairs_kept = static_cast<int>(view_graph.pairs.size());
   summary->num_images_in_component =
-      best_root >= 0 ? component_size[best_root] : 0;
+      has_best ? static_cast<int>(components[0].size()) : 0;
   return view_graph;
 }
 

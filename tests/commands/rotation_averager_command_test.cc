@@ -13,7 +13,7 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/io/relpose_io.h"
+#include "colmap_irav4/eval/relpose_io.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 
 namespace colmap_irav4 {

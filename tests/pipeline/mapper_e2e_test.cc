@@ -12,7 +12,7 @@
 
 #include "colmap_irav4/eval/model_alignment.h"
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "tests/test_utils/database_test_utils.h"
 

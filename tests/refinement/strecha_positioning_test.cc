@@ -14,7 +14,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"

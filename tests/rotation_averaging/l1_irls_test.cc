@@ -8,7 +8,7 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/io/onedsfm.h"
+#include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"

@@ -16,7 +16,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"

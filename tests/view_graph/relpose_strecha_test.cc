@@ -6,7 +6,7 @@
 
 #include "colmap_irav4/eval/relative_pose_eval.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 #include "tests/test_utils/database_test_utils.h"
 

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "tests/test_utils/database_test_utils.h"
 
 namespace colmap_irav4 {

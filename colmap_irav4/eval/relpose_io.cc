@@ -1,4 +1,4 @@
-#include "colmap_irav4/io/relpose_io.h"
+#include "colmap_irav4/eval/relpose_io.h"
 
 #include <cstdio>
 #include <fstream>
@@ -10,7 +10,7 @@
 #include <unistd.h>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/io/text_parsing.h"
+#include "colmap_irav4/eval/text_parsing.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {

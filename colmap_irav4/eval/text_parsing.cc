@@ -1,4 +1,4 @@
-#include "colmap_irav4/io/text_parsing.h"
+#include "colmap_irav4/eval/text_parsing.h"
 
 #include <cerrno>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "colmap_irav4/io/relpose_io.h"
+#include "colmap_irav4/eval/relpose_io.h"
 
 #include <filesystem>
 #include <fstream>

@@ -1,4 +1,4 @@
-#include "colmap_irav4/io/onedsfm.h"
+#include "colmap_irav4/eval/onedsfm.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -7,7 +7,7 @@
 
 #include <glog/logging.h>
 
-#include "colmap_irav4/io/text_parsing.h"
+#include "colmap_irav4/eval/text_parsing.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {

@@ -1,4 +1,4 @@
-#include "colmap_irav4/io/strecha_gt.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 
 #include <fstream>
 

@@ -1,4 +1,4 @@
-#include "colmap_irav4/io/onedsfm.h"
+#include "colmap_irav4/eval/onedsfm.h"
 
 #include <algorithm>
 #include <filesystem>

@@ -33,6 +33,9 @@ global_mapper=""
 global_mapper_max_images=1000
 timeout_seconds=7200
 data_dir=$(cd "$root/.." && pwd)/shared/data
+# Debian's python3 (python3-matplotlib), not a python3 earlier on the PATH.
+python=${PYTHON:-python3}
+[ -x /usr/bin/python3 ] && python=${PYTHON:-/usr/bin/python3}
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=$2; shift 2 ;;
@@ -160,7 +163,7 @@ bench_scene() {
       --image_path "$image_path" --output_path "$runs/irav4" \
       --Mapper.num_threads "$threads"
   if [ -f "$runs/irav4/summary.json" ]; then
-    python3 - "$runs/irav4/summary.json" "$scene" >> "$out/stages.csv" <<'EOF'
+    "$python" - "$runs/irav4/summary.json" "$scene" >> "$out/stages.csv" <<'EOF'
 import json, sys
 summary = json.load(open(sys.argv[1]))
 stages = list(summary.get("stages", []))
@@ -223,7 +226,7 @@ echo "load at end: $(cut -d' ' -f1-3 /proc/loadavg)" >> "$out/machine.txt"
 
 # One row per scene: ours beside COLMAP 3.8 (and COLMAP 4's global mapper),
 # ratios = theirs / ours (time, memory).
-python3 - "$results" "$out/comparison.csv" "$out/results.json" <<'EOF'
+"$python" - "$results" "$out/comparison.csv" "$out/results.json" <<'EOF'
 import csv, json, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 json.dump(rows, open(sys.argv[3], "w"), indent=1)
@@ -271,8 +274,8 @@ with open(sys.argv[2], "w", newline="") as f:
 print(open(sys.argv[2]).read())
 EOF
 
-if python3 -c "import matplotlib" 2> /dev/null; then
-  python3 "$root/scripts/plot_benchmarks.py" --results "$results" --out "$out"
+if "$python" -c "import matplotlib" 2> /dev/null; then
+  "$python" "$root/scripts/plot_benchmarks.py" --results "$results" --out "$out"
 else
   echo "matplotlib missing (apt-get install python3-matplotlib): no plots" >&2
 fi

@@ -98,14 +98,26 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
     panel.area = cv::Rect(p * panel_width + margin, margin + margin,
                           panel_width - 2 * margin, options.height - 3 * margin);
     std::vector<double> us, vs;
-    for (const Eigen::Vector3d& X : cloud) {
+    for (const auto& [point3D_id, point] : model.points3D) {
+      us.push_back(point.xyz.dot(panel.axis_u));
+      vs.push_back(point.xyz.dot(panel.axis_v));
+    }
+    for (const Eigen::Vector3d& X : model.points3D.empty() ? cloud
+                                                           : std::vector<Eigen::Vector3d>()) {
       us.push_back(X.dot(panel.axis_u));
       vs.push_back(X.dot(panel.axis_v));
     }
-    const double u_lo = Percentile(us, options.extent_percentile);
-    const double u_hi = Percentile(us, 100 - options.extent_percentile);
-    const double v_lo = Percentile(vs, options.extent_percentile);
-    const double v_hi = Percentile(vs, 100 - options.extent_percentile);
+    double u_lo = Percentile(us, options.extent_percentile);
+    double u_hi = Percentile(us, 100 - options.extent_percentile);
+    double v_lo = Percentile(vs, options.extent_percentile);
+    double v_hi = Percentile(vs, 100 - options.extent_percentile);
+    // Every camera stays in view (a few cameras are not outliers).
+    for (const Eigen::Vector3d& center : centers) {
+      u_lo = std::min(u_lo, center.dot(panel.axis_u));
+      u_hi = std::max(u_hi, center.dot(panel.axis_u));
+      v_lo = std::min(v_lo, center.dot(panel.axis_v));
+      v_hi = std::max(v_hi, center.dot(panel.axis_v));
+    }
     panel.u0 = 0.5 * (u_lo + u_hi);
     panel.v0 = 0.5 * (v_lo + v_hi);
     const double span_u = std::max(1e-9, 1.1 * (u_hi - u_lo));

@@ -224,59 +224,7 @@ done
 
 echo "load at end: $(cut -d' ' -f1-3 /proc/loadavg)" >> "$out/machine.txt"
 
-# One row per scene: ours beside COLMAP 3.8 (and COLMAP 4's global mapper),
-# ratios = theirs / ours (time, memory).
-"$python" - "$results" "$out/comparison.csv" "$out/results.json" <<'EOF'
-import csv, json, sys
-rows = list(csv.DictReader(open(sys.argv[1])))
-json.dump(rows, open(sys.argv[3], "w"), indent=1)
-scenes = []
-for row in rows:
-    if row["scene"] not in scenes:
-        scenes.append(row["scene"])
-def get(scene, mapper):
-    for row in rows:
-        if row["scene"] == scene and row["mapper"] == mapper:
-            return row
-    return {}
-def ratio(a, b):
-    try:
-        return "%.2f" % (float(a) / float(b))
-    except (ValueError, ZeroDivisionError):
-        return ""
-fields = ["scene", "num_images"]
-for m in ["ours", "colmap", "global"]:
-    fields += [m + "_status", m + "_seconds", m + "_peak_mib", m + "_registered",
-               m + "_rotation_median_deg", m + "_center_median_mm", m + "_center_max_mm"]
-fields += ["colmap_time_ratio", "colmap_memory_ratio", "global_time_ratio", "global_memory_ratio"]
-with open(sys.argv[2], "w", newline="") as f:
-    writer = csv.DictWriter(f, fieldnames=fields)
-    writer.writeheader()
-    for scene in scenes:
-        ours = get(scene, "colmap_irav4")
-        out = {"scene": scene, "num_images": ours.get("num_images", "")}
-        for m, name in [("ours", "colmap_irav4"), ("colmap", "colmap38_incremental"),
-                        ("global", "colmap4_global_mapper")]:
-            r = get(scene, name)
-            out[m + "_status"] = r.get("status", "not_run")
-            out[m + "_seconds"] = r.get("seconds", "")
-            out[m + "_peak_mib"] = r.get("peak_mib", "")
-            out[m + "_registered"] = r.get("registered", "")
-            out[m + "_rotation_median_deg"] = r.get("rotation_median_deg", "")
-            out[m + "_center_median_mm"] = r.get("center_median_mm", "")
-            out[m + "_center_max_mm"] = r.get("center_max_mm", "")
-        for m, name in [("colmap", "colmap38_incremental"), ("global", "colmap4_global_mapper")]:
-            r = get(scene, name)
-            ok = r.get("status") == "ok" and ours.get("status") == "ok"
-            out[m + "_time_ratio"] = ratio(r.get("seconds"), ours.get("seconds")) if ok else ""
-            out[m + "_memory_ratio"] = ratio(r.get("peak_mib"), ours.get("peak_mib")) if ok else ""
-        writer.writerow(out)
-print(open(sys.argv[2]).read())
-EOF
-
-if "$python" -c "import matplotlib" 2> /dev/null; then
-  "$python" "$root/scripts/plot_benchmarks.py" --results "$results" --out "$out"
-else
-  echo "matplotlib missing (apt-get install python3-matplotlib): no plots" >&2
-fi
+# One row per scene, ours beside COLMAP (ratios), JSON, and the plots when
+# matplotlib is installed.
+"$python" "$root/scripts/plot_benchmarks.py" --results "$results" --out "$out"
 echo "Results in $out (results.csv, comparison.csv, results.json, stages.csv, machine.txt)"

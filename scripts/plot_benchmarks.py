@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """Plots of a scripts/benchmark.sh run (Debian's python3-matplotlib).
 
-  scripts/plot_benchmarks.py --results DIR/results.csv --out DIR
+  scripts/plot_benchmarks.py --results DIR/results.csv [MORE.csv ...] --out DIR
       [--rotation_table rotation_benchmark_output.txt ...]
 
-Writes DIR/time_vs_images.png (wall time against the number of images on
+Writes DIR/comparison.csv (one row per scene: ours beside COLMAP 3.8's
+incremental mapper and COLMAP 4's global_mapper, with the time and memory
+ratios theirs / ours), DIR/results.json, DIR/time_vs_images.png (wall time against the number of images on
 log-log axes, per mapper, with the growth exponent fitted by least squares on
 the synthetic scenes), DIR/errors.png (median camera-centre and rotation
 errors per scene and mapper) and, given tables printed by
@@ -14,15 +16,19 @@ against the outlier percentage, per method and noise level).
 
 import argparse
 import csv
+import json
 import math
 import os
 import re
 import sys
 
-import matplotlib
+try:
+    import matplotlib
 
-matplotlib.use("Agg")  # no display
-import matplotlib.pyplot as plt  # noqa: E402
+    matplotlib.use("Agg")  # no display
+    import matplotlib.pyplot as plt
+except ImportError:  # tables only
+    plt = None
 
 LABELS = {
     "colmap_irav4": "colmap_irav4 mapper",
@@ -41,6 +47,54 @@ def as_float(text):
         return float(text)
     except (TypeError, ValueError):
         return None
+
+
+def write_comparison(rows, out_dir):
+    """comparison.csv and results.json; returns the comparison rows."""
+    json.dump(rows, open(os.path.join(out_dir, "results.json"), "w"), indent=1)
+    scenes = []
+    for row in rows:
+        if row["scene"] not in scenes:
+            scenes.append(row["scene"])
+
+    def get(scene, mapper):
+        return next((r for r in rows if r["scene"] == scene and r["mapper"] == mapper), {})
+
+    def ratio(a, b):
+        try:
+            return "%.2f" % (float(a) / float(b))
+        except (TypeError, ValueError, ZeroDivisionError):
+            return ""
+
+    names = [("ours", "colmap_irav4"), ("colmap", "colmap38_incremental"),
+             ("global", "colmap4_global_mapper")]
+    fields = ["scene", "num_images"]
+    for m, _ in names:
+        fields += [m + "_status", m + "_seconds", m + "_peak_mib", m + "_registered",
+                   m + "_rotation_median_deg", m + "_center_median_mm", m + "_center_max_mm"]
+    fields += ["colmap_time_ratio", "colmap_memory_ratio", "global_time_ratio",
+               "global_memory_ratio"]
+    table = []
+    for scene in scenes:
+        ours = get(scene, "colmap_irav4")
+        out = {"scene": scene, "num_images": ours.get("num_images", "")}
+        for m, name in names:
+            r = get(scene, name)
+            out[m + "_status"] = r.get("status", "not_run")
+            for column in ["seconds", "peak_mib", "registered", "rotation_median_deg",
+                           "center_median_mm", "center_max_mm"]:
+                out[m + "_" + column] = r.get(column, "")
+        for m, name in names[1:]:
+            r = get(scene, name)
+            ok = r.get("status") == "ok" and ours.get("status") == "ok"
+            out[m + "_time_ratio"] = ratio(r.get("seconds"), ours.get("seconds")) if ok else ""
+            out[m + "_memory_ratio"] = ratio(r.get("peak_mib"), ours.get("peak_mib")) if ok else ""
+        table.append(out)
+    with open(os.path.join(out_dir, "comparison.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(table)
+    return table
 
 
 def growth_exponent(points):
@@ -156,10 +210,13 @@ def plot_rotation(data, path):
         for g, s, _, m, _ in data:
             if (g, s) == (graph, sigma) and m not in methods:
                 methods.append(m)
-        for method in methods:
+        styles = ["-", "--", ":", "-."]
+        for k, method in enumerate(methods):
             points = sorted((p, e) for g, s, p, m, e in data
                             if (g, s, m) == (graph, sigma, method))
-            ax.plot([p for p, _ in points], [e for _, e in points], "o-", label=method)
+            # Distinct line styles: methods that agree draw on top of each other.
+            ax.plot([p for p, _ in points], [e for _, e in points],
+                    marker="o", linestyle=styles[k % len(styles)], label=method)
         ax.set_yscale("log")
         ax.set_xlabel("outlier edges [%]")
         ax.set_ylabel("median rotation error [deg]")
@@ -173,22 +230,41 @@ def plot_rotation(data, path):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--results", help="results.csv of scripts/benchmark.sh")
+    parser.add_argument("--results", nargs="*", default=[],
+                        help="results.csv of scripts/benchmark.sh (several are merged)")
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--rotation_table", nargs="*", default=[],
                         help="saved output of tools/rotation_benchmark")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     if args.results:
-        if not os.path.exists(args.results):
-            sys.exit("ERROR: %s: no such file" % args.results)
-        rows = list(csv.DictReader(open(args.results)))
+        for path in args.results:
+            if not os.path.exists(path):
+                sys.exit("ERROR: %s: no such file" % path)
+        rows = []
+        for path in args.results:
+            rows += list(csv.DictReader(open(path)))
+        table = write_comparison(rows, args.out)
+        print("%-16s %6s %9s %9s %6s %9s %9s %11s %11s" % (
+            "scene", "images", "ours [s]", "COLMAP", "ratio", "ours MiB", "COLMAP",
+            "ours mm", "COLMAP mm"))
+        for r in table:
+            print("%-16s %6s %9s %9s %6s %9s %9s %11s %11s" % (
+                r["scene"], r["num_images"], r["ours_seconds"] or r["ours_status"],
+                r["colmap_seconds"] or r["colmap_status"], r["colmap_time_ratio"],
+                r["ours_peak_mib"], r["colmap_peak_mib"], r["ours_center_median_mm"],
+                r["colmap_center_median_mm"]))
+        if plt is None:
+            print("matplotlib missing (apt-get install python3-matplotlib): no plots")
+            return
         exponents = plot_time(rows, os.path.join(args.out, "time_vs_images.png"))
         plot_errors(rows, os.path.join(args.out, "errors.png"))
         for mapper, k in exponents.items():
             if k is not None:
                 print("growth exponent %s: %.2f" % (mapper, k))
     if args.rotation_table:
+        if plt is None:
+            sys.exit("ERROR: matplotlib missing (apt-get install python3-matplotlib)")
         data = read_rotation_tables(args.rotation_table)
         if not data:
             sys.exit("ERROR: no rotation_benchmark rows in %s" % ", ".join(args.rotation_table))

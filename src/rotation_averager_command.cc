@@ -1,9 +1,12 @@
 // colmap_irav4 rotation_averager: absolute rotations from relative ones.
 
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <sstream>
 
 #include <glog/logging.h>
 
@@ -12,6 +15,7 @@
 #include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/eval/relpose_io.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
 #include "colmap_irav4/util/error.h"
@@ -25,10 +29,81 @@ namespace colmap_irav4 {
 namespace {
 
 void PrintErrors(const std::string& label, const RotationErrors& errors) {
+  int num_far = 0;
+  for (double error : errors.errors_deg) num_far += error > 30.0;
   std::cout << std::fixed << std::setprecision(3) << "Rotation errors vs "
             << label << ": " << errors.num_compared << " cameras, median "
             << errors.median_deg << " deg, mean " << errors.mean_deg
-            << " deg, max " << errors.max_deg << " deg" << std::endl;
+            << " deg, max " << errors.max_deg << " deg, " << num_far
+            << " cameras > 30 deg off" << std::endl;
+}
+
+std::string JsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buffer[8];
+      std::snprintf(buffer, sizeof(buffer), "\\u%04x", c);
+      out += buffer;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+// The run summary: method, cameras and edges used, seconds per stage, the
+// IRAv4 reference size and cluster sizes (0 and [] for other methods).
+// Written to a temporary file and renamed: complete or absent.
+void WriteSummary(const std::string& path, const std::string& method,
+                  const RotationGraph& graph,
+                  const RotationAveragingResult& result, double seconds,
+                  const RotationAverager& averager) {
+  const auto* irav4 = dynamic_cast<const Irav4*>(&averager);
+  int num_edges_used = 0;
+  for (const RelativeRotation& edge : graph.Edges()) {
+    num_edges_used += result.estimated[edge.i] && result.estimated[edge.j];
+  }
+  std::ostringstream json;
+  json << std::setprecision(6);
+  json << "{\n  \"method\": " << JsonString(method)
+       << ",\n  \"num_cameras\": " << graph.NumVertices()
+       << ",\n  \"num_edges\": " << graph.NumEdges()
+       << ",\n  \"num_cameras_estimated\": " << result.NumEstimated()
+       << ",\n  \"num_edges_used\": " << num_edges_used
+       << ",\n  \"seconds\": " << seconds << ",\n  \"stage_seconds\": {";
+  for (size_t k = 0; k < result.stage_seconds.size(); ++k) {
+    json << (k ? ", " : "") << JsonString(result.stage_seconds[k].first)
+         << ": " << result.stage_seconds[k].second;
+  }
+  json << "},\n  \"reference_size\": "
+       << (irav4 ? irav4->LastReport().n_ref : 0)
+       << ",\n  \"cluster_sizes\": [";
+  if (irav4) {
+    const std::vector<int>& sizes = irav4->LastReport().cluster_sizes;
+    for (size_t k = 0; k < sizes.size(); ++k) {
+      json << (k ? ", " : "") << sizes[k];
+    }
+  }
+  json << "]\n}\n";
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream file(temporary, std::ios::trunc);
+    if (!file) throw InputError(path, "cannot write the summary");
+    file << json.str();
+    file.close();
+    if (!file) {
+      std::remove(temporary.c_str());
+      throw InputError(path, "cannot write the summary");
+    }
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    std::remove(temporary.c_str());
+    throw InputError(path, "cannot write the summary");
+  }
 }
 
 // The epipolar graph of a COLMAP database as a rotation graph: vertices are
@@ -68,6 +143,7 @@ int RunRotationAverager(int argc, char** argv) {
   std::string method = "irav4";
   std::string output_path;
   std::string gt_path;
+  std::string summary_path;
   RotationAveragerOptions averager_options;
   averager_options.log_progress = true;
   ViewGraphBuilderOptions builder_options;
@@ -90,6 +166,9 @@ int RunRotationAverager(int argc, char** argv) {
               "ground-truth rotations to evaluate against: a file of "
               "'IMAGE_NAME QW QX QY QZ' lines or a Strecha gt_cameras "
               "directory");
+  options.Add("summary_path", &summary_path,
+              "JSON run summary to write: method, cameras and edges used, "
+              "seconds per stage, reference_size, cluster_sizes");
   options.Add("log_progress", &averager_options.log_progress,
               "progress lines during long runs");
   options.Add("ViewGraph.min_num_inliers", &builder_options.min_num_inliers,
@@ -162,16 +241,21 @@ int RunRotationAverager(int argc, char** argv) {
             << " pairs";
   Timer timer;
   const RotationAveragingResult result = averager->Estimate(graph);
+  const double seconds = timer.ElapsedSeconds();
   std::cout << "Estimated " << result.NumEstimated() << " of "
             << graph.NumVertices() << " rotations with " << averager->Name()
             << " in " << std::fixed << std::setprecision(3)
-            << timer.ElapsedSeconds() << " s" << std::endl;
+            << seconds << " s" << std::endl;
   if (!result.stage_seconds.empty()) {
     std::cout << "Stages:";
     for (const auto& [stage, seconds] : result.stage_seconds) {
       std::cout << " " << stage << " " << seconds << " s;";
     }
     std::cout << std::endl;
+  }
+  if (!summary_path.empty()) {
+    WriteSummary(summary_path, method, graph, result, seconds, *averager);
+    LOG(INFO) << "Wrote " << summary_path;
   }
   if (!output_path.empty()) {
     WriteAbsoluteRotations(output_path, graph.Names(), result.rotations,

@@ -1,20 +1,31 @@
-// rotation_benchmark: the paper's synthetic protocol (section 5.2.1) for
-// several rotation averaging methods side by side, on the same measurements.
+// rotation_benchmark: the paper's synthetic protocol (section 5.2.1) and the
+// structured-outlier protocol (mirrored twins, rotation_averaging/synthetic)
+// for several rotation averaging methods side by side, on the same
+// measurements, over several seeds.
+//
+//   rotation_benchmark --graph madrid --methods irav4,irav4_paper,ira,l1_irls
+//       --protocols paper,structured --sigmas 5 --outlier_ratios 30
+//       --num_seeds 5
+//   rotation_benchmark --graph random --num_vertices 1000,2500,5000
+//       --edges_per_vertex 140 --methods irav4,l1_irls --sigmas 5
+//       --outlier_ratios 30     (scaling: ratio and growth exponent)
 //
 //   rotation_benchmark --graph madrid --methods irav4,ira,l1_irls,spanning_tree
 //   rotation_benchmark --graph madrid --methods irav4,irav4_paper,ira,l1_irls
 //   rotation_benchmark --graph random --num_vertices 5000 --num_edges 700000
 //                      --methods l1_irls --sigmas 5 --outlier_ratios 0
 //
-// One row per setting (graph, sigma, outlier percentage); per method the
-// median and mean rotation error (deg, after the geodesic L1 alignment), the
-// number of cameras off by more than 10 deg (the tail) and the run time in
-// seconds. irav4_paper is IRAv4 without the final refinement (the paper). The process's peak memory is printed at the end.
+// One row per setting (protocol, sigma, outlier percentage); per method the
+// mean over seeds of the median rotation error (deg, after the geodesic L1
+// alignment), of the number of cameras off by more than 30 and 10 deg, and
+// of the run time in seconds. irav4_paper is IRAv4 without the final refinement (the paper). The process's peak memory is printed at the end.
 // Methods come from the rotation averager factory, so a new method is
 // available here as soon as it is registered there.
 
 #include <sys/resource.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -66,6 +77,15 @@ std::vector<double> ParseNumberList(const std::string& option,
   return numbers;
 }
 
+// CPU seconds (user + system) of this process so far: on a loaded machine
+// the fair measure of single-threaded methods side by side.
+double CpuSeconds() {
+  rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 +
+         usage.ru_stime.tv_sec + usage.ru_stime.tv_usec * 1e-6;
+}
+
 double PeakMemoryMb() {
   rusage usage;
   getrusage(RUSAGE_SELF, &usage);
@@ -94,31 +114,63 @@ double PeakResidentMb() {
   return kb < 0 ? -1.0 : kb / 1024.0;
 }
 
+struct Cell {
+  std::vector<double> medians, means, num_far30, num_far10, seconds,
+      cpu_seconds, peak_mb;
+  static double Mean(const std::vector<double>& v) {
+    double sum = 0.0;
+    for (double x : v) sum += x;
+    return v.empty() ? 0.0 : sum / v.size();
+  }
+};
+
 int Run(int argc, char** argv) {
   std::string graph_type = "madrid";
   std::string eg_path = "../shared/data/1dsfm/Madrid_Metropolis";
-  int num_vertices = 1000;
+  std::string num_vertices_text = "1000";
   int num_edges = 20000;
+  int edges_per_vertex = 0;
   std::string methods_text = "irav4,ira,l1_irls";
+  std::string protocols_text = "paper";
   std::string sigmas_text = "5,10";
   std::string outliers_text = "0,10,20,30,40,50";
+  double structured_ratio = 0.25;
+  double twin_overlap_deg = 60.0;
   int seed = 1;
+  int num_seeds = 1;
+  bool per_seed = false;
   RotationAveragerOptions averager_options;
   OptionManager options(
       "rotation_benchmark",
-      "The paper's synthetic rotation averaging protocol, methods side by "
-      "side.");
+      "The paper's synthetic rotation averaging protocol and the "
+      "structured-outlier protocol, methods side by side.");
   options.Add("graph", &graph_type,
               "madrid (the structure of --eg_path's EGs.txt) or random");
   options.Add("eg_path", &eg_path, "1DSfM scene directory for --graph madrid");
-  options.Add("num_vertices", &num_vertices, "random graph: cameras");
+  options.Add("num_vertices", &num_vertices_text,
+              "random graph: cameras (comma-separated for a scaling run)");
   options.Add("num_edges", &num_edges, "random graph: edges");
+  options.Add("edges_per_vertex", &edges_per_vertex,
+              "random graph: edges = this x cameras (overrides num_edges; "
+              "140 = 5,000 cameras / 700,000 edges)");
   options.Add("methods", &methods_text,
               "comma-separated, from: " + RotationAveragerMethodList());
+  options.Add("protocols", &protocols_text,
+              "comma-separated: paper (random outliers) and/or structured "
+              "(mirrored-twin outliers, on top of the random ones)");
   options.Add("sigmas", &sigmas_text, "noise sigmas (deg), comma-separated");
   options.Add("outlier_ratios", &outliers_text,
-              "outlier percentages, comma-separated");
-  options.Add("seed", &seed, "seed of the measurements (and random graph)");
+              "random outlier percentages, comma-separated");
+  options.Add("structured_ratio", &structured_ratio,
+              "structured protocol: fraction of the twin pairs that carry "
+              "the mirrored twin's relative rotation");
+  options.Add("twin_overlap_deg", &twin_overlap_deg,
+              "structured protocol: twin pair when a camera's viewing "
+              "direction is within this of the other's mirrored twin's");
+  options.Add("seed", &seed, "first seed of the measurements (and graph)");
+  options.Add("num_seeds", &num_seeds,
+              "seeds seed, seed+1, ...: each setting averaged over them");
+  options.Add("per_seed", &per_seed, "also print a row per seed");
   options.Add("log_progress", &averager_options.log_progress,
               "progress lines from the methods");
   AddRotationAveragerOptions(&options, &averager_options);
@@ -129,72 +181,196 @@ int Run(int argc, char** argv) {
   for (const std::string& method : methods) {
     CreateRotationAverager(method, averager_options);  // validates the name
   }
+  const std::vector<std::string> protocols =
+      SplitList("protocols", protocols_text);
+  for (const std::string& protocol : protocols) {
+    if (protocol != "paper" && protocol != "structured") {
+      throw InputError("--protocols", "expected paper or structured, got '" +
+                                          protocol + "'");
+    }
+  }
+  if (num_seeds < 1) throw InputError("--num_seeds", "must be >= 1");
   const std::vector<double> sigmas = ParseNumberList("sigmas", sigmas_text);
   const std::vector<double> outlier_percentages =
       ParseNumberList("outlier_ratios", outliers_text);
-
-  Timer total_timer;
-  RotationGraph structure;
-  std::string graph_label;
-  if (graph_type == "madrid") {
-    structure = ReadOneDsfmScene(eg_path).graph;
-    graph_label = "madrid";
-  } else if (graph_type == "random") {
-    structure = RotationGraph(num_vertices);
-    for (const auto& [i, j] :
-         RandomConnectedGraph(num_vertices, num_edges, seed)) {
-      structure.AddEdge(i, j, Eigen::Matrix3d::Identity());
-    }
-    graph_label = "random";
-  } else {
+  std::vector<int> sizes;
+  for (double v : ParseNumberList("num_vertices", num_vertices_text)) {
+    sizes.push_back(static_cast<int>(v));
+  }
+  if (graph_type == "madrid") sizes = {0};
+  if (graph_type != "madrid" && graph_type != "random") {
     throw InputError("--graph", "expected madrid or random, got '" +
                                     graph_type + "'");
   }
-  std::printf("# graph %s: %d cameras, %d edges; seed %d\n",
-              graph_label.c_str(), structure.NumVertices(),
-              structure.NumEdges(), seed);
-  std::printf(
-      "# per method: median / mean rotation error (deg), cameras off by more "
-      "than 10 deg, seconds, peak resident memory during the method (MB, "
-      "whole process)\n");
-  std::printf("%-7s %5s %4s", "graph", "sigma", "p%");
-  for (const std::string& method : methods) {
-    std::printf(" | %-39s", method.c_str());
-  }
-  std::printf("\n");
-  std::fflush(stdout);
 
-  for (double sigma : sigmas) {
-    for (double percentage : outlier_percentages) {
-      SyntheticOptions synthetic;
-      synthetic.noise_sigma_deg = sigma;
-      synthetic.outlier_ratio = percentage / 100.0;
-      synthetic.seed = seed;
-      synthetic.Check();
-      const SyntheticProblem problem =
-          MakeSyntheticProblem(structure, synthetic);
-      std::printf("%-7s %5g %4g", graph_label.c_str(), sigma, percentage);
-      for (const std::string& method : methods) {
-        std::unique_ptr<RotationAverager> averager =
-            CreateRotationAverager(method, averager_options);
-        const bool reset = ResetPeakMemory();
-        Timer timer;
-        const RotationAveragingResult result =
-            averager->Estimate(problem.graph);
-        const double seconds = timer.ElapsedSeconds();
-        const RotationErrors errors =
-            EvaluateRotations(result, problem.ground_truth);
-        const double peak_mb = reset ? PeakResidentMb() : -1.0;
-        int num_far = 0;
-        for (double error : errors.errors_deg) num_far += error > 10.0;
-        char cell[80];
-        std::snprintf(cell, sizeof(cell), "%7.3f / %7.3f %4d %7.2fs %6.0fMB",
-                      errors.median_deg, errors.mean_deg, num_far, seconds,
-                      peak_mb);
-        std::printf(" | %-39s", cell);
-        std::fflush(stdout);
+  Timer total_timer;
+  std::printf(
+      "# per method: mean over %d seed(s) of the median rotation error "
+      "(deg, after the geodesic L1 alignment), mean number of cameras off "
+      "by more than 30 deg (and 10 deg), mean wall and CPU seconds, max peak "
+      "resident memory during the method (MB, whole process)\n",
+      num_seeds);
+  // Per method and size, mean seconds (the scaling summary).
+  std::vector<std::vector<double>> size_seconds(
+      methods.size(), std::vector<double>(sizes.size(), 0.0));
+  std::vector<std::vector<double>> size_peak(
+      methods.size(), std::vector<double>(sizes.size(), 0.0));
+  std::vector<int> size_edges(sizes.size(), 0);
+  for (size_t z = 0; z < sizes.size(); ++z) {
+    RotationGraph structure;
+    std::string graph_label;
+    if (graph_type == "madrid") {
+      structure = ReadOneDsfmScene(eg_path).graph;
+      graph_label = "madrid";
+    } else {
+      const int n = sizes[z];
+      const int64_t m = edges_per_vertex > 0
+                            ? static_cast<int64_t>(edges_per_vertex) * n
+                            : num_edges;
+      structure = RotationGraph(n);
+      for (const auto& [i, j] : RandomConnectedGraph(n, m, seed)) {
+        structure.AddEdge(i, j, Eigen::Matrix3d::Identity());
+      }
+      graph_label = "random";
+    }
+    size_edges[z] = structure.NumEdges();
+    std::printf("# graph %s: %d cameras, %d edges\n", graph_label.c_str(),
+                structure.NumVertices(), structure.NumEdges());
+    std::printf("%-10s %5s %4s", "protocol", "sigma", "p%");
+    for (const std::string& method : methods) {
+      std::printf(" | %-48s",
+                  (method + ": median >30 >10 wall cpu MB").c_str());
+    }
+    std::printf("\n");
+    std::fflush(stdout);
+    for (const std::string& protocol : protocols) {
+      for (double sigma : sigmas) {
+        for (double percentage : outlier_percentages) {
+          std::vector<Cell> cells(methods.size());
+          int twin_pairs = 0, structured_edges = 0;
+          for (int s = 0; s < num_seeds; ++s) {
+            SyntheticOptions synthetic;
+            synthetic.noise_sigma_deg = sigma;
+            synthetic.outlier_ratio = percentage / 100.0;
+            synthetic.seed = static_cast<uint64_t>(seed + s);
+            if (protocol == "structured") {
+              synthetic.structured_outlier_ratio = structured_ratio;
+              synthetic.twin_overlap_deg = twin_overlap_deg;
+            }
+            synthetic.Check();
+            const SyntheticProblem problem =
+                MakeSyntheticProblem(structure, synthetic);
+            twin_pairs += problem.num_twin_pairs;
+            for (bool b : problem.edge_is_structured_outlier) {
+              structured_edges += b;
+            }
+            if (per_seed) {
+              std::printf("%-10s %5g %4g seed %d:", protocol.c_str(), sigma,
+                          percentage, seed + s);
+            }
+            for (size_t k = 0; k < methods.size(); ++k) {
+              std::unique_ptr<RotationAverager> averager =
+                  CreateRotationAverager(methods[k], averager_options);
+              const bool reset = ResetPeakMemory();
+              Timer timer;
+              const double cpu_start = CpuSeconds();
+              const RotationAveragingResult result =
+                  averager->Estimate(problem.graph);
+              const double seconds = timer.ElapsedSeconds();
+              const double cpu_seconds = CpuSeconds() - cpu_start;
+              const RotationErrors errors =
+                  EvaluateRotations(result, problem.ground_truth);
+              const double peak_mb = reset ? PeakResidentMb() : -1.0;
+              int far30 = 0, far10 = 0;
+              for (double error : errors.errors_deg) {
+                far30 += error > 30.0;
+                far10 += error > 10.0;
+              }
+              // A camera not estimated counts as off.
+              far30 += problem.graph.NumVertices() - errors.num_compared;
+              far10 += problem.graph.NumVertices() - errors.num_compared;
+              cells[k].medians.push_back(errors.median_deg);
+              cells[k].means.push_back(errors.mean_deg);
+              cells[k].num_far30.push_back(far30);
+              cells[k].num_far10.push_back(far10);
+              cells[k].seconds.push_back(seconds);
+              cells[k].cpu_seconds.push_back(cpu_seconds);
+              cells[k].peak_mb.push_back(peak_mb);
+              if (per_seed) {
+                std::printf(" %s %.3f %d %.2fs;", methods[k].c_str(),
+                            errors.median_deg, far30, seconds);
+                std::fflush(stdout);
+              }
+            }
+            if (per_seed) std::printf("\n");
+          }
+          std::printf("%-10s %5g %4g", protocol.c_str(), sigma, percentage);
+          for (size_t k = 0; k < methods.size(); ++k) {
+            double peak = 0.0;
+            for (double p : cells[k].peak_mb) peak = std::max(peak, p);
+            char cell[96];
+            std::snprintf(cell, sizeof(cell),
+                          "%7.3f %6.1f %6.1f %7.2fs %7.2fs %6.0fMB",
+                          Cell::Mean(cells[k].medians),
+                          Cell::Mean(cells[k].num_far30),
+                          Cell::Mean(cells[k].num_far10),
+                          Cell::Mean(cells[k].seconds),
+                          Cell::Mean(cells[k].cpu_seconds), peak);
+            std::printf(" | %-48s", cell);
+            size_seconds[k][z] += Cell::Mean(cells[k].cpu_seconds);
+            size_peak[k][z] = std::max(size_peak[k][z], peak);
+          }
+          if (protocol == "structured") {
+            std::printf("  (twin pairs %.0f, structured outliers %.0f)",
+                        static_cast<double>(twin_pairs) / num_seeds,
+                        static_cast<double>(structured_edges) / num_seeds);
+          }
+          std::printf("\n");
+          std::fflush(stdout);
+        }
+      }
+    }
+  }
+  if (sizes.size() > 1) {
+    // Time per size summed over the settings; growth exponent = slope of
+    // log(seconds) against log(cameras), least squares.
+    std::printf("\n# scaling (CPU seconds summed over the settings above)\n");
+    std::printf("%-8s %9s", "cameras", "edges");
+    for (const std::string& method : methods) {
+      std::printf(" | %-22s", (method + ": cpu s, MB").c_str());
+    }
+    if (methods.size() >= 2) {
+      std::printf(" | %s/%s", methods[0].c_str(), methods[1].c_str());
+    }
+    std::printf("\n");
+    for (size_t z = 0; z < sizes.size(); ++z) {
+      std::printf("%-8d %9d", sizes[z], size_edges[z]);
+      for (size_t k = 0; k < methods.size(); ++k) {
+        char cell[64];
+        std::snprintf(cell, sizeof(cell), "%8.2f %7.0f", size_seconds[k][z],
+                      size_peak[k][z]);
+        std::printf(" | %-22s", cell);
+      }
+      if (methods.size() >= 2 && size_seconds[1][z] > 0) {
+        std::printf(" | %.2f", size_seconds[0][z] / size_seconds[1][z]);
       }
       std::printf("\n");
+    }
+    for (size_t k = 0; k < methods.size(); ++k) {
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      const double count = static_cast<double>(sizes.size());
+      for (size_t z = 0; z < sizes.size(); ++z) {
+        const double x = std::log(static_cast<double>(sizes[z]));
+        const double y = std::log(std::max(size_seconds[k][z], 1e-9));
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+      }
+      const double slope = (count * sxy - sx * sy) / (count * sxx - sx * sx);
+      std::printf("# %s: time grows as cameras^%.2f (least squares on "
+                  "log-log)\n",
+                  methods[k].c_str(), slope);
     }
   }
   std::printf("# total %.1f s, peak memory (getrusage maxrss) %.1f MB\n",

@@ -12,6 +12,8 @@
 #include <Eigen/Geometry>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/rotation_averaging/cluster_alignment.h"
+#include "colmap_irav4/rotation_averaging/l1_irls.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 
@@ -39,6 +41,12 @@ bool IncrementalOptions::Check() const {
     fail("max_direct_solver_vertices", "must be >= 0");
   }
   if (num_threads < 1) fail("num_threads", "must be >= 1");
+  if (intermediate_global_iterations < 1) {
+    fail("intermediate_global_iterations", "must be >= 1");
+  }
+  if (!(global_step_tolerance_deg >= 0.0)) {
+    fail("global_step_tolerance_deg", "must be >= 0");
+  }
   return true;
 }
 
@@ -204,7 +212,11 @@ void IncrementalEngine::AfterSeed() {
       }
     }
   }
-  all_stale_ = true;  // computed at the first BestCandidate
+  for (int p : frontier_list_) {
+    if (!in_frontier_[p]) continue;
+    RecomputeCandidate(p);
+    PushCandidate(p);
+  }
 }
 
 double IncrementalEngine::OptimizeTriplet(int i, int j, int k, int e_ij,
@@ -216,32 +228,55 @@ double IncrementalEngine::OptimizeTriplet(int i, int j, int k, int e_ij,
   const Eigen::Matrix3d R_ij = graph_.RotationFrom(e_ij, i);
   const Eigen::Matrix3d R_ik = graph_.RotationFrom(e_ik, i);
   const Eigen::Matrix3d R_jk = graph_.RotationFrom(e_jk, j);
-  Eigen::Vector4d q_i = ToQuaternionStorage(Eigen::Matrix3d::Identity());
-  Eigen::Vector4d q_j = ToQuaternionStorage(R_ij);
-  Eigen::Vector4d q_k = ToQuaternionStorage(R_ik);
-  // Eq. 3 with R_i held for the gauge.
-  ceres::EigenQuaternionManifold manifold;
-  ceres::Problem problem(ProblemOptions());
-  using Cost = ceres::AutoDiffCostFunction<RelativeRotationError, 3, 4, 4>;
-  problem.AddResidualBlock(new Cost(new RelativeRotationError(R_ij)), nullptr,
-                           q_i.data(), q_j.data());
-  problem.AddResidualBlock(new Cost(new RelativeRotationError(R_ik)), nullptr,
-                           q_i.data(), q_k.data());
-  problem.AddResidualBlock(new Cost(new RelativeRotationError(R_jk)), nullptr,
-                           q_j.data(), q_k.data());
-  for (double* q : {q_i.data(), q_j.data(), q_k.data()}) {
-    problem.SetManifold(q, &manifold);
+  if (!options_.use_ceres) {
+    // Eq. 3 by Gauss-Newton on the three edges, R_i held for the gauge.
+    const int n = graph_.NumVertices();
+    std::vector<Eigen::Matrix3d>& R = scratch_rotations_;
+    std::vector<bool>& fixed = scratch_fixed_;
+    if (static_cast<int>(R.size()) != n) {
+      R.assign(n, Eigen::Matrix3d::Identity());
+      fixed.assign(n, false);
+    }
+    R[i] = Eigen::Matrix3d::Identity();
+    R[j] = R_ij;
+    R[k] = R_ik;
+    fixed[i] = true;
+    OptimizeRotationsOnEdges(graph_, {e_ij, e_ik, e_jk}, {i, j, k}, fixed,
+                             L1IrlsOptions(),
+                             options_.max_num_local_iterations,
+                             options_.global_step_tolerance_deg, &R);
+    fixed[i] = false;
+    *R_i = R[i];
+    *R_j = R[j];
+    *R_k = R[k];
+  } else {
+    Eigen::Vector4d q_i = ToQuaternionStorage(Eigen::Matrix3d::Identity());
+    Eigen::Vector4d q_j = ToQuaternionStorage(R_ij);
+    Eigen::Vector4d q_k = ToQuaternionStorage(R_ik);
+    // Eq. 3 with R_i held for the gauge.
+    ceres::EigenQuaternionManifold manifold;
+    ceres::Problem problem(ProblemOptions());
+    using Cost = ceres::AutoDiffCostFunction<RelativeRotationError, 3, 4, 4>;
+    problem.AddResidualBlock(new Cost(new RelativeRotationError(R_ij)), nullptr,
+                             q_i.data(), q_j.data());
+    problem.AddResidualBlock(new Cost(new RelativeRotationError(R_ik)), nullptr,
+                             q_i.data(), q_k.data());
+    problem.AddResidualBlock(new Cost(new RelativeRotationError(R_jk)), nullptr,
+                             q_j.data(), q_k.data());
+    for (double* q : {q_i.data(), q_j.data(), q_k.data()}) {
+      problem.SetManifold(q, &manifold);
+    }
+    problem.SetParameterBlockConstant(q_i.data());
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::DENSE_QR;
+    solver_options.max_num_iterations = options_.max_num_local_iterations;
+    solver_options.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    *R_i = FromQuaternionStorage(q_i);
+    *R_j = FromQuaternionStorage(q_j);
+    *R_k = FromQuaternionStorage(q_k);
   }
-  problem.SetParameterBlockConstant(q_i.data());
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options_.max_num_local_iterations;
-  solver_options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  *R_i = FromQuaternionStorage(q_i);
-  *R_j = FromQuaternionStorage(q_j);
-  *R_k = FromQuaternionStorage(q_k);
   // Eq. 4.
   return CosDistance(R_ij, *R_j * R_i->transpose()) +
          CosDistance(R_ik, *R_k * R_i->transpose()) +
@@ -472,13 +507,17 @@ void IncrementalEngine::RecomputeCandidate(int p) {
       state.best = a;
     }
   }
+  state.epoch = epoch_;
   ++stats_.num_full_reward_computations;
 }
 
 void IncrementalEngine::UpdateCandidate(int p, int x, int edge_idx) {
   CandidateState& state = candidates_[p];
   auto& pre = state.precomputations;
-  if (pre.empty()) {
+  // Stale pre-computations (older rotations) would not support the new one
+  // even where they should: a candidate touched after a global optimisation
+  // is recomputed in full once, then updated incrementally again.
+  if (pre.empty() || state.epoch != epoch_) {
     RecomputeCandidate(p);
     return;
   }
@@ -529,13 +568,13 @@ void IncrementalEngine::RecomputeAllCandidates() {
     RecomputeCandidate(p);
     PushCandidate(p);
   }
-  all_stale_ = false;
+  full_recompute_epoch_ = epoch_;
 }
 
 IncrementalEngine::Candidate IncrementalEngine::BestCandidate() {
   Candidate candidate;
   if (selected_list_.empty()) return candidate;
-  if (all_stale_) {
+  if (!options_.lazy_reward_recomputation && full_recompute_epoch_ != epoch_) {
     const Timer timer;
     RecomputeAllCandidates();
     stats_.reward_seconds += timer.ElapsedSeconds();
@@ -546,6 +585,15 @@ IncrementalEngine::Candidate IncrementalEngine::BestCandidate() {
     if (!in_frontier_[top.vertex] || top.version != state.version ||
         state.best < 0) {
       queue_.pop();
+      continue;
+    }
+    if (state.epoch != epoch_) {
+      // Stale since a global optimisation: recompute and re-queue.
+      queue_.pop();
+      const Timer timer;
+      RecomputeCandidate(top.vertex);
+      PushCandidate(top.vertex);
+      stats_.reward_seconds += timer.ElapsedSeconds();
       continue;
     }
     const Precomputation& best = state.precomputations[state.best];
@@ -563,6 +611,20 @@ void IncrementalEngine::LocalOptimize(int p,
   // One inlier edge (the chaining edge itself): the initialisation is
   // already the minimiser.
   if (inlier_edges.size() < 2) return;
+  if (!options_.use_ceres) {
+    // Eq. 10's minimiser: sum_n d^2(R_p, R_np R_n) is minimised by the
+    // geodesic (Karcher) mean of the chained predictions.
+    std::vector<Eigen::Matrix3d> predictions;
+    predictions.reserve(inlier_edges.size());
+    for (int e : inlier_edges) {
+      const int n = graph_.OtherEnd(e, p);
+      predictions.push_back(Chain(graph_, e, n, rotations_[n]));
+    }
+    rotations_[p] = GeodesicMean(predictions, rotations_[p],
+                                 options_.max_num_local_iterations);
+    ++stats_.num_local_optimizations;
+    return;
+  }
   Eigen::Vector4d q_p = ToQuaternionStorage(rotations_[p]);
   ceres::EigenQuaternionManifold manifold;
   ceres::Problem problem(ProblemOptions());
@@ -606,7 +668,7 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
 
   const bool global = NumSelected() >= static_cast<double>(size_at_last_global_) *
                                            (1.0 + options_.global_growth_ratio);
-  if (global) GlobalOptimize();  // marks every candidate stale
+  if (global) GlobalOptimize(false);  // makes every candidate stale
 
   const Timer reward_timer;
   for (const auto& [q, e] : (*adjacency_)[p]) {
@@ -615,10 +677,10 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
       in_frontier_[q] = true;
       frontier_list_.push_back(q);
     }
-    if (!all_stale_) {
-      UpdateCandidate(q, p, e);
-      PushCandidate(q);
-    }
+    // A stale candidate is recomputed here (UpdateCandidate); one not
+    // touched stays stale until it reaches the top of the queue.
+    UpdateCandidate(q, p, e);
+    PushCandidate(q);
   }
   stats_.reward_seconds += reward_timer.ElapsedSeconds();
 }
@@ -629,7 +691,21 @@ void IncrementalEngine::Exclude(int vertex) {
   RemoveCandidate(vertex);
 }
 
-void IncrementalEngine::GlobalOptimize() {
+void IncrementalEngine::Allow(int vertex) {
+  if (allowed_[vertex]) return;
+  allowed_[vertex] = true;
+  if (!CanSelect(vertex) || selected_list_.empty()) return;
+  for (const auto& [u, e] : (*adjacency_)[vertex]) {
+    if (!selected_[u]) continue;
+    in_frontier_[vertex] = true;
+    frontier_list_.push_back(vertex);
+    RecomputeCandidate(vertex);
+    PushCandidate(vertex);
+    break;
+  }
+}
+
+void IncrementalEngine::GlobalOptimize(bool converge) {
   if (selected_list_.size() < 2) return;
   const Timer timer;
   const int n = graph_.NumVertices();
@@ -652,7 +728,58 @@ void IncrementalEngine::GlobalOptimize() {
   }
   stats_.last_global_num_edges = num_edges;
   stats_.last_global_num_inliers = static_cast<int>(inliers.size());
+  if (options_.use_ceres) {
+    GlobalOptimizeCeres(inliers, local_index, converge);
+  } else if (!inliers.empty()) {
+    // Eq. 12 by Gauss-Newton in the tangent space (the sparse block
+    // Laplacian of the inlier edges, symbolic analysis once per call), warm
+    // started. Gauge: one vertex held per connected component of the inlier
+    // graph (the first selected of each), so every component is well posed.
+    const int num_selected = NumSelected();
+    std::vector<int> parent(num_selected);
+    std::iota(parent.begin(), parent.end(), 0);
+    std::vector<bool> used(num_selected, false);
+    std::vector<int> edges;
+    edges.reserve(inliers.size());
+    for (const auto& [e, v] : inliers) {
+      const int a = local_index[v];
+      const int b = local_index[graph_.OtherEnd(e, v)];
+      edges.push_back(e);
+      used[a] = used[b] = true;
+      const int ra = FindRoot(&parent, a);
+      const int rb = FindRoot(&parent, b);
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    std::vector<int> vertices;
+    std::vector<bool> fixed(n, false);
+    std::vector<bool> fixed_root(num_selected, false);
+    for (int s = 0; s < num_selected; ++s) {
+      if (!used[s]) continue;
+      vertices.push_back(selected_list_[s]);
+      const int root = FindRoot(&parent, s);
+      if (!fixed_root[root]) {
+        fixed_root[root] = true;
+        fixed[selected_list_[s]] = true;
+      }
+    }
+    const int num_iterations =
+        converge ? options_.max_num_iterations
+                 : options_.intermediate_global_iterations;
+    OptimizeRotationsOnEdges(graph_, edges, vertices, fixed, L1IrlsOptions(),
+                             num_iterations,
+                             options_.global_step_tolerance_deg, &rotations_);
+    VLOG(2) << "global optimisation: " << vertices.size() << " vertices, "
+            << inliers.size() << "/" << num_edges << " inlier edges";
+  }
+  size_at_last_global_ = NumSelected();
+  ++epoch_;
+  ++stats_.num_global_optimizations;
+  stats_.global_seconds += timer.ElapsedSeconds();
+}
 
+void IncrementalEngine::GlobalOptimizeCeres(
+    const std::vector<std::pair<int, int>>& inliers,
+    const std::vector<int>& local_index, bool converge) {
   const int num_selected = NumSelected();
   std::vector<Eigen::Vector4d> q(num_selected);
   for (int s = 0; s < num_selected; ++s) {
@@ -692,6 +819,8 @@ void IncrementalEngine::GlobalOptimize() {
   }
   if (!inliers.empty()) {
     ceres::Solver::Options solver_options;
+    // The previous engine: every global optimisation to convergence.
+    (void)converge;
     solver_options.max_num_iterations = options_.max_num_iterations;
     solver_options.function_tolerance = options_.function_tolerance;
     solver_options.gradient_tolerance = 1e-12;
@@ -709,16 +838,13 @@ void IncrementalEngine::GlobalOptimize() {
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
     VLOG(2) << "global optimisation: " << num_used << " vertices, "
-            << inliers.size() << "/" << num_edges << " inlier edges, "
+            << inliers.size() << "/" << stats_.last_global_num_edges
+            << " inlier edges, "
             << summary.BriefReport();
     for (int s = 0; s < num_selected; ++s) {
       if (used[s]) rotations_[selected_list_[s]] = FromQuaternionStorage(q[s]);
     }
   }
-  size_at_last_global_ = num_selected;
-  all_stale_ = true;
-  ++stats_.num_global_optimizations;
-  stats_.global_seconds += timer.ElapsedSeconds();
 }
 
 int IncrementalEngine::Grow(const std::function<bool()>& stop) {

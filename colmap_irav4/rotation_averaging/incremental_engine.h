@@ -41,7 +41,8 @@ struct IncrementalOptions {
   // as a supporter; incremental updates always evaluate the new one. Keeps
   // a recomputation O(K deg) instead of O(deg^2). 0 = unlimited.
   int max_precomputations = 256;
-  // Global problems over more vertices than this use Ceres' iterative CGNR
+  // With use_ceres: global problems over more vertices than this use Ceres'
+  // iterative CGNR
   // (Jacobi preconditioner) instead of SPARSE_NORMAL_CHOLESKY (SuiteSparse):
   // on dense view graphs the Cholesky factor fills in completely, O((3n)^3)
   // per iteration (measured: 1,000-2,000 vertices of a 5,000 x 700,000
@@ -49,8 +50,26 @@ struct IncrementalOptions {
   // dense rotation graph is well conditioned for CG. 400 vertices keep a
   // dense factor under ~1e9 flops. 0 = always direct.
   int max_direct_solver_vertices = 400;
-  // Ceres threads; 1 keeps the output bit-identical from run to run.
+  // Ceres threads (use_ceres); 1 keeps the output bit-identical from run to
+  // run.
   int num_threads = 1;
+  // The problems of Eq. 3, 10 and 12 with Ceres (autodiff, the previous
+  // engine: 6-10x slower on dense graphs) instead of Gauss-Newton in the
+  // tangent space on the sparse Laplacian (Eq. 12, 3) and the geodesic mean
+  // of the chained predictions (Eq. 10, its exact minimiser).
+  bool use_ceres = false;
+  // Gauss-Newton steps of an intermediate global optimisation (each 5% of
+  // growth), warm-started from the current rotations; the final ones (and
+  // GlobalOptimize() called from outside) run to convergence.
+  int intermediate_global_iterations = 2;
+  // After a global optimisation, recompute a candidate's rewards only when it
+  // reaches the top of the queue (its stale reward orders it meanwhile; the
+  // chosen candidate's reward is always fresh). false: recompute every
+  // candidate (exact Eq. 8 argmax, the previous behaviour, O(frontier x K x
+  // deg) per global optimisation).
+  bool lazy_reward_recomputation = true;
+  // A converged global optimisation stops when the mean step is below this.
+  double global_step_tolerance_deg = 1e-6;
   bool Check() const;  // throws InputError
 };
 
@@ -81,9 +100,10 @@ struct IncrementalStats {
 // Rewards are maintained incrementally: each candidate keeps its
 // pre-computations R_p^m = R_mp R_m and their rewards; adding vertex x only
 // touches x's unselected neighbours (O(deg_s) each). A global optimisation
-// changes every rotation of the set, so all candidates are recomputed at the
-// next BestCandidate (lazily: not at all if growth stops). The next best
-// vertex comes from a priority queue with lazy invalidation (versions).
+// changes every rotation of the set, so every candidate's pre-computations
+// become stale; a stale candidate is recomputed only when it reaches the top
+// of the queue (its stale reward orders it meanwhile). The next best vertex
+// comes from a priority queue with lazy invalidation (versions, epochs).
 // Deterministic: ties are broken by vertex index; no hash iteration; Ceres
 // single-threaded by default.
 class IncrementalEngine {
@@ -132,8 +152,12 @@ class IncrementalEngine {
   void AddVertex(const Candidate& candidate);
   // The vertex was taken by another cluster: never a candidate again.
   void Exclude(int vertex);
-  // Eq. 11-12 on the selected set.
-  void GlobalOptimize();
+  // Makes a vertex selectable that the constructor's `allowed` left out (a
+  // cluster's fallback pass); a candidate at once if adjacent to the set.
+  void Allow(int vertex);
+  // Eq. 11-12 on the selected set; `converge` false: only
+  // intermediate_global_iterations Gauss-Newton steps.
+  void GlobalOptimize(bool converge = true);
   // Grows until stop() returns true (checked after each addition) or no
   // candidate is left. Returns the number of vertices added. Does not run the
   // final global optimisation: call GlobalOptimize() when done.
@@ -168,7 +192,8 @@ class IncrementalEngine {
   struct CandidateState {
     std::vector<Precomputation> precomputations;
     int version = 0;
-    int best = -1;  // index into precomputations
+    int epoch = -1;  // epoch_ of the rotations its pre-computations used
+    int best = -1;   // index into precomputations
   };
   struct QueueEntry {
     double reward;
@@ -191,13 +216,16 @@ class IncrementalEngine {
                          Eigen::Matrix3d* R_i, Eigen::Matrix3d* R_j,
                          Eigen::Matrix3d* R_k);
   void LocalOptimize(int p, const std::vector<int>& inlier_neighbors);
+  void GlobalOptimizeCeres(const std::vector<std::pair<int, int>>& inliers,
+                           const std::vector<int>& local_index,
+                           bool converge);
   // Rebuilds a candidate's pre-computations and rewards from scratch.
   void RecomputeCandidate(int p);
   // Adds the newly selected x to candidate p's pre-computations.
   void UpdateCandidate(int p, int x, int edge_idx);
   void PushCandidate(int p);
-  void RemoveCandidate(int p);
   void RecomputeAllCandidates();
+  void RemoveCandidate(int p);
   int FindEdge(int u, int v) const;  // -1 if none
 
   const RotationGraph& graph_;
@@ -218,9 +246,16 @@ class IncrementalEngine {
   std::vector<int> frontier_list_;
   std::vector<CandidateState> candidates_;
   std::priority_queue<QueueEntry> queue_;
-  // Set by a global optimisation: every candidate's pre-computations are
-  // stale until the next BestCandidate recomputes them.
-  bool all_stale_ = false;
+  // Incremented by each global optimisation: a candidate whose epoch differs
+  // has pre-computations from older rotations; it is recomputed only when it
+  // reaches the top of the queue (lazy: rewards change little with a global
+  // optimisation, so only the few best are recomputed).
+  int epoch_ = 0;
+  int full_recompute_epoch_ = 0;  // !lazy_reward_recomputation
+
+  // Scratch of the Gauss-Newton triplet problems (one entry per vertex).
+  std::vector<Eigen::Matrix3d> scratch_rotations_;
+  std::vector<bool> scratch_fixed_;
 
   IncrementalStats stats_;
 };

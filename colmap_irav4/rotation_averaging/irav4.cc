@@ -41,8 +41,17 @@ void ExportEngine(const IncrementalEngine& engine, int n,
 }
 
 // The IRAv4 task-specific CDS: the engine on the whole graph from the best
-// triplet, stopped as soon as the selected set dominates the graph. Selected
-// sets are connected by construction (each vertex joins through an edge).
+// triplet, with the Guha-Khuller rules applied to the candidates as well as
+// to the stop: a vertex may join only while it has a neighbour that is not
+// yet dominated (a "gray vertex with white neighbours"), the highest reward
+// among those joins (Eq. 5-8), and growth stops when every vertex is
+// selected or adjacent to a selected one. Stopping alone is not enough:
+// reward-ordered growth fills the dense core before the low-degree vertices
+// are dominated (measured: 333-371 of Madrid's 394 vertices). Selected sets
+// are connected by construction (each vertex joins through an edge), and
+// growth never stalls on a connected graph: an edge from the dominated set
+// to an undominated vertex starts at a dominated, unselected vertex, which
+// is adjacent to the set and still eligible.
 AlignmentReference TaskSpecificReference(const RotationGraph& graph,
                                          const Irav4Options& options) {
   const int n = graph.NumVertices();
@@ -52,19 +61,30 @@ AlignmentReference TaskSpecificReference(const RotationGraph& graph,
       !engine.InitializeFromVertex(MaxDegreeVertex(graph))) {
     return reference;
   }
+  // Per vertex, how many distinct neighbours are not dominated yet; a vertex
+  // whose count reaches 0 can no longer join (excluded for good: domination
+  // only grows).
+  const auto& adjacency = *engine.SharedAdjacency();
+  std::vector<int> undominated_neighbors(n);
+  for (int v = 0; v < n; ++v) {
+    undominated_neighbors[v] = static_cast<int>(adjacency[v].size());
+  }
   std::vector<char> dominated(n, 0);
   int num_dominated = 0;
-  auto dominate = [&](int v) {
-    if (!dominated[v]) {
-      dominated[v] = 1;
-      ++num_dominated;
-    }
-    for (const auto& [u, e] : graph.Neighbors(v)) {
-      if (!dominated[u]) {
-        dominated[u] = 1;
-        ++num_dominated;
+  auto mark = [&](int v) {
+    if (dominated[v]) return;
+    dominated[v] = 1;
+    ++num_dominated;
+    for (const auto& [u, e] : adjacency[v]) {
+      if (--undominated_neighbors[u] == 0 && !engine.IsSelected(u) &&
+          !engine.IsExcluded(u)) {
+        engine.Exclude(u);
       }
     }
+  };
+  auto dominate = [&](int v) {
+    mark(v);
+    for (const auto& [u, e] : adjacency[v]) mark(u);
   };
   for (int v : engine.Selected()) dominate(v);
   if (num_dominated < n) {
@@ -105,7 +125,70 @@ AlignmentReference EstimateVertexSet(const RotationGraph& graph,
   return reference;
 }
 
+// sum over edges between estimated vertices of rho(r) = r^2 / (r^2 + s^2),
+// r the residual angle (Geman-McClure, scale s in radians).
+double GemanMcClureCost(const RotationGraph& graph,
+                        const std::vector<bool>& estimated,
+                        const std::vector<Eigen::Matrix3d>& rotations,
+                        double sigma) {
+  double cost = 0.0;
+  const double s2 = sigma * sigma;
+  for (const RelativeRotation& e : graph.Edges()) {
+    if (!estimated[e.i] || !estimated[e.j]) continue;
+    const double r =
+        RotationAngle(e.R_ij.transpose() * rotations[e.j] *
+                      rotations[e.i].transpose());
+    cost += r * r / (r * r + s2);
+  }
+  return cost;
+}
+
 }  // namespace
+
+int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
+                           std::vector<bool>* estimated,
+                           std::vector<Eigen::Matrix3d>* rotations) {
+  const int n = graph.NumVertices();
+  const double min_trace = 1.0 + 2.0 * std::cos(DegToRad(theta_deg));
+  int num_placed = 0;
+  std::vector<Eigen::Matrix3d> predictions;
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    std::vector<int> placed_now;
+    for (int p = 0; p < n; ++p) {
+      if ((*estimated)[p]) continue;
+      predictions.clear();
+      for (const auto& [m, e] : graph.Neighbors(p)) {
+        if ((*estimated)[m]) {
+          predictions.push_back(graph.RotationFrom(e, m) * (*rotations)[m]);
+        }
+      }
+      if (predictions.empty()) continue;
+      int best = 0;
+      double best_support = -1.0;
+      for (size_t a = 0; a < predictions.size(); ++a) {
+        double support = 0.0;
+        for (const Eigen::Matrix3d& P : predictions) {
+          const double trace = (predictions[a].transpose() * P).trace();
+          if (trace > min_trace) support += (trace - 1.0) * 0.5;
+        }
+        if (support > best_support) {
+          best_support = support;
+          best = static_cast<int>(a);
+        }
+      }
+      (*rotations)[p] = predictions[best];
+      placed_now.push_back(p);
+    }
+    // Marked after the round so that the order of placement within a round
+    // does not matter.
+    for (int p : placed_now) (*estimated)[p] = true;
+    num_placed += static_cast<int>(placed_now.size());
+    changed = !placed_now.empty();
+  }
+  return num_placed;
+}
 
 ReferenceMethod ReferenceMethodFromString(const std::string& name) {
   if (name == "irav4") return ReferenceMethod::kIrav4;
@@ -136,6 +219,15 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
   manager->Add("RotationAveraging.max_community_size",
                &options->communities.max_community_size,
                "larger communities are split (0 = no limit)");
+  manager->Add("RotationAveraging.preselect_clusters",
+               &options->preselect_clusters,
+               "IRAv4 clustering: a cluster takes only its community and "
+               "boundary cameras tied to it at least as strongly as to "
+               "their own (IRAv3's pre-selection); false = any camera");
+  manager->Add("RotationAveraging.max_cluster_size",
+               &options->max_cluster_size,
+               "IRAv4 clustering: a cluster stops competing at this size "
+               "until the fallback pass (0 = no cap)");
   manager->Add("RotationAveraging.reference_method",
                &options->reference_method,
                "alignment reference: irav4 | greedy_cds | random_cds");
@@ -151,9 +243,10 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "rounds of inlier selection + global optimisation at the end");
   manager->Add("RotationAveraging.final_refinement",
                &options->final_refinement,
-               "IRAv4 after its final optimisation: l1_irls (default: L1 "
-               "then Geman-McClure IRLS on all edges) | irls (IRLS only) | "
-               "none (the paper)");
+               "IRAv4 after its final optimisation: guarded (default: "
+               "l1_irls kept only if it lowers the Geman-McClure cost, else "
+               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
+               "irls (IRLS only) | none (the paper)");
   manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
                "IRAv4 refinement: re-initialise badly supported "
                "vertices from their best pre-computation, refine again");
@@ -179,13 +272,16 @@ bool Irav4Options::Check() const {
   if (num_random_cds < 1) {
     throw InputError("--RotationAveraging.num_random_cds", "must be >= 1");
   }
+  if (max_cluster_size < 0) {
+    throw InputError("--RotationAveraging.max_cluster_size", "must be >= 0");
+  }
   if (num_final_rounds < 0) {
     throw InputError("--RotationAveraging.num_final_rounds", "must be >= 0");
   }
   if (final_refinement != "none" && final_refinement != "irls" &&
-      final_refinement != "l1_irls") {
+      final_refinement != "l1_irls" && final_refinement != "guarded") {
     throw InputError("--RotationAveraging.final_refinement",
-                     "must be none, irls or l1_irls, got '" +
+                     "must be none, irls, l1_irls or guarded, got '" +
                          final_refinement + "'");
   }
   if (!(reseed_threshold_deg > 0 && reseed_threshold_deg < 180)) {
@@ -301,27 +397,40 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   const std::vector<std::vector<int>> communities =
       DetectCommunities(graph, options_.communities);
   report_.num_communities = static_cast<int>(communities.size());
+  std::vector<int> label(n, -1);
+  for (size_t k = 0; k < communities.size(); ++k) {
+    for (int v : communities[k]) label[v] = static_cast<int>(k);
+  }
   std::vector<std::unique_ptr<IncrementalEngine>> clusters;
+  std::vector<int> cluster_community;  // community of each cluster's seed
   std::vector<bool> affiliated(n, false);
-  for (const std::vector<int>& community : communities) {
-    if (community.size() < 3) continue;
-    // Seeded inside its community, the cluster may then grow beyond it:
-    // every vertex is allowed, the seed triangle is restricted.
-    auto cluster = std::make_unique<IncrementalEngine>(graph, options_.engine);
-    if (!cluster->InitializeFromBestTriplet(MaskOf(n, community))) continue;
+  std::shared_ptr<const IncrementalEngine::AdjacencyList> adjacency =
+      IncrementalEngine::BuildAdjacency(graph);
+  for (size_t k = 0; k < communities.size(); ++k) {
+    if (communities[k].size() < 3) continue;
+    // All vertices allowed for now; the potential clusters are set below,
+    // once it is known which communities seeded a cluster.
+    auto cluster = std::make_unique<IncrementalEngine>(
+        graph, options_.engine, std::vector<bool>(), adjacency);
+    if (!cluster->InitializeFromBestTriplet(MaskOf(n, communities[k]))) {
+      continue;
+    }
     for (int v : cluster->Selected()) affiliated[v] = true;
     clusters.push_back(std::move(cluster));
+    cluster_community.push_back(static_cast<int>(k));
   }
   if (clusters.empty()) {
     // No community could seed (e.g. very few, inconsistent triangles): one
     // cluster from the best triplet of the whole graph.
-    auto cluster = std::make_unique<IncrementalEngine>(graph, options_.engine);
+    auto cluster = std::make_unique<IncrementalEngine>(
+        graph, options_.engine, std::vector<bool>(), adjacency);
     if (!cluster->InitializeFromBestTriplet() &&
         !cluster->InitializeFromVertex(MaxDegreeVertex(graph))) {
       return result;
     }
     for (int v : cluster->Selected()) affiliated[v] = true;
     clusters.push_back(std::move(cluster));
+    cluster_community.push_back(-1);
   }
   const int num_clusters = static_cast<int>(clusters.size());
   report_.num_clusters = num_clusters;
@@ -331,6 +440,61 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       for (int v : clusters[d]->Selected()) clusters[c]->Exclude(v);
     }
   }
+
+  // IRAv3's potential cluster and vertex pre-selection: cluster c may take
+  // the vertices of its own community, and boundary vertices whose edge
+  // weight into c's community is at least their weight into their own (and
+  // every vertex whose community seeded no cluster). Rebuilt as engines
+  // restricted to their potential clusters; the seeds are kept.
+  std::vector<int> cluster_of_community(communities.size(), -1);
+  for (int c = 0; c < num_clusters; ++c) {
+    if (cluster_community[c] >= 0) cluster_of_community[cluster_community[c]] = c;
+  }
+  // potential[c][v]; edges_into_potential[c][v] = v's edges into it.
+  std::vector<std::vector<bool>> potential(num_clusters,
+                                           std::vector<bool>(n, false));
+  if (options_.preselect_clusters && num_clusters > 1) {
+    std::vector<double> weight_into(communities.size(), 0.0);
+    std::vector<int> touched;
+    for (int v = 0; v < n; ++v) {
+      const int own_cluster = cluster_of_community[label[v]];
+      if (own_cluster < 0) {
+        for (int c = 0; c < num_clusters; ++c) potential[c][v] = true;
+        continue;
+      }
+      potential[own_cluster][v] = true;
+      touched.clear();
+      for (const auto& [u, e] : (*adjacency)[v]) {
+        if (weight_into[label[u]] == 0.0) touched.push_back(label[u]);
+        weight_into[label[u]] += graph.Edge(e).weight;
+      }
+      const double own = weight_into[label[v]];
+      for (int k : touched) {
+        const int c = cluster_of_community[k];
+        if (c >= 0 && weight_into[k] >= own) potential[c][v] = true;
+      }
+      for (int k : touched) weight_into[k] = 0.0;
+    }
+  } else {
+    for (auto& mask : potential) mask.assign(n, true);
+  }
+  for (int c = 0; c < num_clusters; ++c) {
+    for (int v : clusters[c]->Selected()) potential[c][v] = true;
+    for (int v = 0; v < n; ++v) {
+      if (!potential[c][v] && !clusters[c]->IsSelected(v)) {
+        clusters[c]->Exclude(v);
+      }
+    }
+  }
+  // Normaliser of a candidate's reward in cluster c: its edges into c's
+  // potential cluster (so a vertex that has met one edge of a cluster it is
+  // strongly tied to waits until more of the cluster has grown, and clusters
+  // of different sizes compete on equal terms).
+  auto edges_into_potential = [&](int c, int v) {
+    int count = 0;
+    for (const auto& [u, e] : (*adjacency)[v]) count += potential[c][u];
+    return std::max(count, 1);
+  };
   result.stage_seconds.emplace_back("communities_and_seeds",
                                     timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
@@ -339,38 +503,67 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       << " s)";
 
   // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
-  // clusters joins. A cluster's best candidate only changes when the cluster
-  // grows or its candidate is taken by another cluster, so it is cached.
+  // clusters joins, by normalised reward. A cluster's best candidate only
+  // changes when the cluster grows or its candidate is taken by another
+  // cluster, so it is cached. A second pass (fallback) lets every cluster
+  // take any adjacent vertex that no pre-selected pair reached.
   timer.Restart();
   std::vector<IncrementalEngine::Candidate> best(num_clusters);
+  std::vector<double> best_score(num_clusters, 0.0);
   std::vector<bool> stale(num_clusters, true);
   int num_affiliated = 0;
   for (bool a : affiliated) num_affiliated += a;
-  while (num_affiliated < n) {
-    int chosen = -1;
-    for (int c = 0; c < num_clusters; ++c) {
-      if (stale[c]) {
-        best[c] = clusters[c]->BestCandidate();
-        stale[c] = false;
+  const int max_size = options_.max_cluster_size;
+  for (int pass = 0; pass < 2 && num_affiliated < n; ++pass) {
+    const bool fallback = pass == 1;
+    if (fallback) {
+      for (int c = 0; c < num_clusters; ++c) {
+        for (int v = 0; v < n; ++v) {
+          if (!affiliated[v]) {
+            clusters[c]->Allow(v);
+            potential[c][v] = true;
+          }
+        }
+        stale[c] = true;
       }
-      if (best[c].vertex < 0) continue;
-      if (chosen < 0 || best[c].reward > best[chosen].reward) chosen = c;
     }
-    if (chosen < 0) break;  // nothing reachable any more
-    const IncrementalEngine::Candidate candidate = best[chosen];
-    CHECK(!affiliated[candidate.vertex]);
-    clusters[chosen]->AddVertex(candidate);
-    affiliated[candidate.vertex] = true;
-    ++num_affiliated;
-    LOG_IF(INFO, options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
-        << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
-        << " vertices (" << timer.ElapsedSeconds() << " s)";
-    stale[chosen] = true;
-    for (int c = 0; c < num_clusters; ++c) {
-      if (c == chosen) continue;
-      clusters[c]->Exclude(candidate.vertex);
-      if (best[c].vertex == candidate.vertex) stale[c] = true;
+    while (num_affiliated < n) {
+      int chosen = -1;
+      for (int c = 0; c < num_clusters; ++c) {
+        if (!fallback && max_size > 0 && clusters[c]->NumSelected() >= max_size) {
+          continue;
+        }
+        if (stale[c]) {
+          best[c] = clusters[c]->BestCandidate();
+          best_score[c] =
+              best[c].vertex < 0
+                  ? 0.0
+                  : best[c].reward / edges_into_potential(c, best[c].vertex);
+          stale[c] = false;
+        }
+        if (best[c].vertex < 0) continue;
+        if (chosen < 0 || best_score[c] > best_score[chosen]) chosen = c;
+      }
+      if (chosen < 0) break;  // nothing reachable in this pass
+      const IncrementalEngine::Candidate candidate = best[chosen];
+      CHECK(!affiliated[candidate.vertex]);
+      clusters[chosen]->AddVertex(candidate);
+      affiliated[candidate.vertex] = true;
+      ++num_affiliated;
+      LOG_IF(INFO,
+             options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
+          << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
+          << " vertices (" << timer.ElapsedSeconds() << " s)";
+      stale[chosen] = true;
+      for (int c = 0; c < num_clusters; ++c) {
+        if (c == chosen) continue;
+        if (!clusters[c]->IsExcluded(candidate.vertex)) {
+          clusters[c]->Exclude(candidate.vertex);
+        }
+        if (best[c].vertex == candidate.vertex) stale[c] = true;
+      }
     }
+    if (!fallback) report_.num_fallback_vertices = n - num_affiliated;
   }
   for (auto& cluster : clusters) {
     cluster->GlobalOptimize();
@@ -383,7 +576,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
     std::string sizes;
     for (int size : report_.cluster_sizes) sizes += " " + std::to_string(size);
     LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
-              << result.stage_seconds.back().second << " s)";
+              << report_.num_fallback_vertices << " placed by the fallback "
+              << "pass, " << result.stage_seconds.back().second << " s)";
   }
 
   // 3. The alignment reference.
@@ -405,30 +599,54 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   alignment_options.theta_deg = options_.engine.theta_deg;
   std::vector<Eigen::Matrix3d> cluster_rotations;
   std::vector<bool> in_cluster;
-  for (int c = 0; c < num_clusters; ++c) {
-    ExportEngine(*clusters[c], n, &cluster_rotations, &in_cluster);
-    ClusterAlignment alignment;
-    if (reference.vertices.empty()) {
-      // No reference at all: the first cluster's frame stands in for it.
-      alignment.success = c == 0;
-    } else {
-      alignment = AlignClusterToReference(graph, cluster_rotations, in_cluster,
-                                          reference.rotations,
-                                          reference.selected,
-                                          alignment_options);
+  // A cluster that does not align to the reference is tried again against
+  // the reference plus the clusters aligned so far; what still fails is
+  // placed vertex by vertex (below), so that no camera is lost.
+  std::vector<int> pending;
+  for (int c = 0; c < num_clusters; ++c) pending.push_back(c);
+  for (int round = 0; round < 2 && !pending.empty(); ++round) {
+    std::vector<int> failed;
+    for (int c : pending) {
+      ExportEngine(*clusters[c], n, &cluster_rotations, &in_cluster);
+      ClusterAlignment alignment;
+      if (std::none_of(estimated.begin(), estimated.end(),
+                       [](bool b) { return b; }) &&
+          (round == 1 || reference.vertices.empty())) {
+        // No reference at all, or nothing aligned to it: this cluster's
+        // frame stands in for it.
+        alignment.success = true;
+      } else if (round == 0) {
+        alignment = AlignClusterToReference(graph, cluster_rotations,
+                                            in_cluster, reference.rotations,
+                                            reference.selected,
+                                            alignment_options);
+      } else {
+        alignment = AlignClusterToReference(graph, cluster_rotations,
+                                            in_cluster, rotations, estimated,
+                                            alignment_options);
+      }
+      if (!alignment.success) {
+        failed.push_back(c);
+        continue;
+      }
+      report_.num_vertex_guided_alignments += alignment.used_vertex_guidance;
+      for (int v : clusters[c]->Selected()) {
+        rotations[v] = cluster_rotations[v] * alignment.A;
+        estimated[v] = true;
+      }
     }
-    if (!alignment.success) {
-      LOG(WARNING) << "IRAv4: cluster " << c << " ("
-                   << clusters[c]->Selected().size()
-                   << " vertices) shares nothing with the reference";
-      continue;
-    }
-    report_.num_vertex_guided_alignments += alignment.used_vertex_guidance;
-    for (int v : clusters[c]->Selected()) {
-      rotations[v] = cluster_rotations[v] * alignment.A;
-      estimated[v] = true;
-    }
+    pending = failed;
   }
+  report_.num_failed_alignments = static_cast<int>(pending.size());
+  for (int c : pending) {
+    LOG(WARNING) << "IRAv4: cluster " << c << " ("
+                 << clusters[c]->Selected().size()
+                 << " vertices) did not align; its vertices are placed one "
+                    "by one from their aligned neighbours";
+  }
+  report_.num_individually_placed =
+      PlaceRemainingVertices(graph, options_.engine.theta_deg, &estimated,
+                             &rotations);
   clusters.clear();  // release the engines before the final problem
   result.stage_seconds.emplace_back("alignment", timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
@@ -465,20 +683,51 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   // (at sigma 5 deg many inliers lie beyond theta = 3 deg); L1 then a
   // smooth redescending loss on all edges fixes both.
   if (options_.final_refinement != "none" && estimated_vertices.size() >= 2) {
-    const bool run_l1_stage = options_.final_refinement == "l1_irls";
     timer.Restart();
     L1IrlsOptions refinement = options_.refinement;
     refinement.log_progress = refinement.log_progress || options_.log_progress;
-    report_.num_refinement_iterations = RefineRotationsIrls(
-        graph, refinement, estimated, estimated_vertices.front(), &rotations,
-        run_l1_stage);
+    const int root = estimated_vertices.front();
+    if (options_.final_refinement == "guarded") {
+      // L1 then IRLS from IRAv4's rotations, kept only if it lowers the
+      // Geman-McClure cost over all edges below that of IRAv4's own
+      // rotations. The L1 stage recovers cameras placed through random
+      // outliers, but it is global: under structured outliers (mirrored
+      // twins, mutually consistent) it can move a group of correct cameras
+      // into the false basin; IRLS alone from there cannot come back, and the
+      // cost says so. Otherwise IRLS alone refines IRAv4's rotations (local:
+      // it stays in their basin). One cost evaluation, O(E), in the usual
+      // case.
+      const double sigma = DegToRad(options_.refinement.gm_sigma_deg);
+      std::vector<Eigen::Matrix3d> unrefined = rotations;
+      const double cost_before =
+          GemanMcClureCost(graph, estimated, rotations, sigma);
+      report_.num_refinement_iterations =
+          RefineRotationsIrls(graph, refinement, estimated, root, &rotations,
+                              /*run_l1_stage=*/true);
+      const double cost_after =
+          GemanMcClureCost(graph, estimated, rotations, sigma);
+      report_.refinement_used_l1 = cost_after <= cost_before;
+      if (!report_.refinement_used_l1) {
+        rotations.swap(unrefined);
+        report_.num_refinement_iterations += RefineRotationsIrls(
+            graph, refinement, estimated, root, &rotations, false);
+      }
+      LOG_IF(INFO, options_.log_progress)
+          << "IRAv4: guarded refinement, Geman-McClure cost " << cost_before
+          << " before, " << cost_after << " after L1 + IRLS: "
+          << (report_.refinement_used_l1 ? "kept" : "rejected, IRLS only");
+    } else {
+      report_.refinement_used_l1 = options_.final_refinement == "l1_irls";
+      report_.num_refinement_iterations =
+          RefineRotationsIrls(graph, refinement, estimated, root, &rotations,
+                              report_.refinement_used_l1);
+    }
     if (options_.reseed_vertices) {
       report_.num_reseeded_vertices =
           ReseedBadlySupportedVertices(graph, options_, estimated, &rotations);
       if (report_.num_reseeded_vertices > 0) {
-        report_.num_refinement_iterations +=
-            RefineRotationsIrls(graph, refinement, estimated,
-                                estimated_vertices.front(), &rotations);
+        report_.num_refinement_iterations += RefineRotationsIrls(
+            graph, refinement, estimated, root, &rotations);
       }
       LOG_IF(INFO, options_.log_progress)
           << "IRAv4: re-seeded " << report_.num_reseeded_vertices

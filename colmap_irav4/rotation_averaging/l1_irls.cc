@@ -190,7 +190,34 @@ class TangentProblem {
         edges_.push_back(e);
       }
     }
-    system_ = std::make_unique<TangentSystem>(graph, edges_, unknown_index_,
+    Finish();
+  }
+  // With the edges given (each between two members of `order`).
+  TangentProblem(const RotationGraph& graph, const std::vector<int>& order,
+                 const std::vector<bool>& gauge, std::vector<int> edges,
+                 const L1IrlsOptions& options,
+                 std::vector<Eigen::Matrix3d>* rotations)
+      : graph_(graph), order_(order), options_(options),
+        rotations_(*rotations), edges_(std::move(edges)) {
+    unknown_index_.assign(graph.NumVertices(), -1);
+    for (int v : order_) {
+      if (!gauge[v]) unknown_index_[v] = num_unknowns_++;
+    }
+    Finish();
+  }
+
+  // Plain least squares (the cost of Eq. 12 on the given edges): Gauss-
+  // Newton steps; the gradient is exact (J_r(r) r = r for the log map), so
+  // its fixed points are those of Eq. 12. Returns the iterations run.
+  int RunLeastSquares(int max_iterations, double step_tolerance_deg) {
+    Timer timer;
+    Timer progress_timer;
+    return Run("least squares", max_iterations, step_tolerance_deg, timer,
+               &progress_timer, [](double) { return 1.0; });
+  }
+
+  void Finish() {
+    system_ = std::make_unique<TangentSystem>(graph_, edges_, unknown_index_,
                                               num_unknowns_, options_);
     residuals_.resize(edges_.size());
     weights_.resize(edges_.size());
@@ -324,6 +351,18 @@ int RefineRotationsIrls(const RotationGraph& graph,
       << (problem.UsesCholesky() ? "sparse Cholesky" : "conjugate gradients")
       << ")";
   return num_iterations;
+}
+
+int OptimizeRotationsOnEdges(const RotationGraph& graph,
+                             const std::vector<int>& edges,
+                             const std::vector<int>& vertices,
+                             const std::vector<bool>& fixed,
+                             const L1IrlsOptions& options, int max_iterations,
+                             double step_tolerance_deg,
+                             std::vector<Eigen::Matrix3d>* rotations) {
+  if (edges.empty() || max_iterations <= 0) return 0;
+  TangentProblem problem(graph, vertices, fixed, edges, options, rotations);
+  return problem.RunLeastSquares(max_iterations, step_tolerance_deg);
 }
 
 L1IrlsAverager::L1IrlsAverager(const L1IrlsOptions& options)

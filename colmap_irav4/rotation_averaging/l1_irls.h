@@ -66,6 +66,22 @@ int RefineRotationsIrls(const RotationGraph& graph,
                         std::vector<Eigen::Matrix3d>* rotations,
                         bool run_l1_stage = false);
 
+// Least squares on the given edges (Eq. 12 of the IRAv4 paper: squared
+// angles of R_ij^T R_j R_i^T), by Gauss-Newton steps on the tangent system
+// above (sparse Laplacian, symbolic analysis once per call, warm start from
+// `rotations`). `vertices`: every vertex an edge touches, each once;
+// `fixed[v]`: held for the gauge (at least one per connected part of the
+// edges). Stops after max_iterations or when the mean step is below
+// step_tolerance_deg. Uses options' linear solver settings. Deterministic.
+// Returns the iterations run.
+int OptimizeRotationsOnEdges(const RotationGraph& graph,
+                             const std::vector<int>& edges,
+                             const std::vector<int>& vertices,
+                             const std::vector<bool>& fixed,
+                             const L1IrlsOptions& options, int max_iterations,
+                             double step_tolerance_deg,
+                             std::vector<Eigen::Matrix3d>* rotations);
+
 class L1IrlsAverager : public RotationAverager {
  public:
   explicit L1IrlsAverager(const L1IrlsOptions& options = L1IrlsOptions());

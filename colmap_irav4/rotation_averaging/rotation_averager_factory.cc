@@ -87,8 +87,17 @@ void AddRotationAveragerOptions(OptionManager* options,
                "IRA: pre-computations evaluated per recomputation (0 = all)");
   options->Add(p + "max_direct_solver_vertices",
                &engine->max_direct_solver_vertices,
-               "IRA: sparse Cholesky up to this many cameras, CG above");
-  options->Add(p + "num_threads", &engine->num_threads, "IRA: Ceres threads");
+               "IRA (use_ceres): sparse Cholesky up to this many cameras, "
+               "CG above");
+  options->Add(p + "num_threads", &engine->num_threads,
+               "IRA: Ceres threads (with use_ceres)");
+  options->Add(p + "use_ceres", &engine->use_ceres,
+               "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
+               "sparse Laplacian (the previous, slower engine)");
+  options->Add(p + "intermediate_global_iterations",
+               &engine->intermediate_global_iterations,
+               "IRA: Gauss-Newton steps of an intermediate global "
+               "optimisation (the final ones converge)");
   AddIrav4Options(options, &o->irav4);
   L1IrlsOptions* l1 = &o->l1_irls;
   options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,

@@ -23,6 +23,19 @@ struct SyntheticOptions {
   double outlier_ratio = 0.0;
   // Seed of the std::mt19937_64 that draws everything.
   uint64_t seed = 0;
+  // The structured-outlier protocol (symmetric scenes, e.g. opposite walls
+  // that look alike), used when > 0: cameras are upright (heading uniform,
+  // pitch and roll ~ normal(0, upright_sigma_deg) about a random axis), and
+  // this fraction of the "twin pairs" (edges (i, j) where camera i's viewing
+  // direction is within twin_overlap_deg of that of j's mirrored twin R_j M,
+  // M = 180 deg about the vertical y axis) carry R_j M^T R_i^T (with noise)
+  // instead of R_j R_i^T. Such false edges agree with each other around
+  // cycles (they are consistent with R_i M for camera i). outlier_ratio then
+  // applies to the other edges (random outliers on top). 0 = the paper's
+  // protocol, bit-identical to before.
+  double structured_outlier_ratio = 0.0;
+  double twin_overlap_deg = 60.0;
+  double upright_sigma_deg = 5.0;
   bool Check() const;  // throws InputError
 };
 
@@ -30,7 +43,14 @@ struct SyntheticProblem {
   RotationGraph graph;                       // structure + noisy measurements
   std::vector<Eigen::Matrix3d> ground_truth; // cam_from_world per vertex
   std::vector<bool> edge_is_outlier;         // per edge index of `graph`
+  // Per edge: a structured (mirrored twin) outlier; also in edge_is_outlier.
+  std::vector<bool> edge_is_structured_outlier;
+  int num_twin_pairs = 0;  // edges eligible for a structured outlier
 };
+
+// 180 deg about the vertical (y) axis: the mirrored twin of a camera R is
+// R M (the structured-outlier protocol).
+Eigen::Matrix3d MirrorRotation();
 
 // Measurements on the structure of `structure` (its vertices, names, edge
 // endpoints and weights are kept; its rotations are ignored).

@@ -122,6 +122,50 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
   }
 }
 
+TEST(RotationAveragerCommand, SummaryJsonPerMethod) {
+  const SyntheticProblem problem = MakeProblem(80, 900, 3.0, 0.2, 5);
+  const std::string relpose = (TempDir() / "relpose_summary.txt").string();
+  const std::string gt = (TempDir() / "gt_summary.txt").string();
+  WriteScene(problem, relpose, gt);
+  for (const std::string method : {"irav4", "l1_irls"}) {
+    const std::string summary = (TempDir() / (method + ".json")).string();
+    const CommandRun run =
+        RunCommand("--relpose_path " + relpose + " --method " + method +
+                   " --gt_path " + gt + " --summary_path " + summary);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.out.find("cameras > 30 deg off"), std::string::npos)
+        << run.out;
+    const std::string json = ReadFile(summary);
+    EXPECT_NE(json.find("\"method\": \"" + method + "\""), std::string::npos)
+        << json;
+    EXPECT_NE(json.find("\"num_cameras_estimated\": 80"), std::string::npos)
+        << json;
+    EXPECT_NE(json.find("\"num_edges\": 900"), std::string::npos) << json;
+    EXPECT_NE(json.find("\"stage_seconds\": {\""), std::string::npos) << json;
+    if (method == "irav4") {
+      // A reference and at least one cluster, whose sizes add up to 80.
+      EXPECT_EQ(json.find("\"reference_size\": 0,"), std::string::npos)
+          << json;
+      const size_t open = json.find("\"cluster_sizes\": [");
+      ASSERT_NE(open, std::string::npos) << json;
+      std::stringstream sizes(json.substr(open + 18));
+      int total = 0, size = 0;
+      char separator = 0;
+      while (sizes >> size) {
+        total += size;
+        sizes >> separator;
+        if (separator == ']') break;
+      }
+      EXPECT_EQ(total, 80) << json;
+    } else {
+      EXPECT_NE(json.find("\"reference_size\": 0,"), std::string::npos)
+          << json;
+      EXPECT_NE(json.find("\"cluster_sizes\": []"), std::string::npos)
+          << json;
+    }
+  }
+}
+
 TEST(RotationAveragerCommand, MadridEgPath) {
   const std::string output = (TempDir() / "madrid.txt").string();
   const CommandRun run = RunCommand(

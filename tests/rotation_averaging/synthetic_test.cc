@@ -118,3 +118,53 @@ TEST(Synthetic, StructureGraphKeepsNamesAndWeights) {
 
 }  // namespace
 }  // namespace colmap_irav4
+
+namespace colmap_irav4 {
+namespace {
+
+// The structured protocol: upright cameras; the chosen twin pairs carry the
+// mirrored twin's relative rotation R_j M^T R_i^T (noise-free here), exactly
+// round(ratio x twin pairs) of them; random outliers on the other edges.
+TEST(Synthetic, StructuredOutliersAreMirroredTwinPairs) {
+  SyntheticOptions options;
+  options.noise_sigma_deg = 0.0;
+  options.outlier_ratio = 0.1;
+  options.structured_outlier_ratio = 0.5;
+  options.seed = 3;
+  const auto edges = RandomConnectedGraph(200, 3000, 3);
+  const SyntheticProblem problem = MakeSyntheticProblem(200, edges, options);
+  const Eigen::Matrix3d M = MirrorRotation();
+  EXPECT_NEAR(RadToDeg(RotationAngle(M)), 180.0, 1e-9);
+  ASSERT_GT(problem.num_twin_pairs, 300);
+  int num_structured = 0, num_random = 0;
+  for (int e = 0; e < problem.graph.NumEdges(); ++e) {
+    const RelativeRotation& edge = problem.graph.Edge(e);
+    const Eigen::Matrix3d& R_i = problem.ground_truth[edge.i];
+    const Eigen::Matrix3d& R_j = problem.ground_truth[edge.j];
+    // Upright: the camera's y axis is the world's, up to the small tilt.
+    EXPECT_GT(R_i(1, 1), std::cos(DegToRad(40.0)));
+    if (problem.edge_is_structured_outlier[e]) {
+      ++num_structured;
+      EXPECT_TRUE(problem.edge_is_outlier[e]);
+      EXPECT_LT((edge.R_ij - R_j * M.transpose() * R_i.transpose()).norm(),
+                1e-9);
+      // A twin pair: i looks where j's twin looks.
+      const Eigen::Vector3d d_i = R_i.row(2).transpose();
+      const Eigen::Vector3d d_j = R_j.row(2).transpose();
+      EXPECT_GT(d_i.dot(M * d_j), std::cos(DegToRad(60.0)) - 1e-12);
+    } else if (problem.edge_is_outlier[e]) {
+      ++num_random;
+    } else {
+      EXPECT_LT((edge.R_ij - R_j * R_i.transpose()).norm(), 1e-9);
+    }
+  }
+  EXPECT_EQ(num_structured,
+            static_cast<int>(std::llround(0.5 * problem.num_twin_pairs)));
+  EXPECT_EQ(num_random, static_cast<int>(std::llround(
+                            0.1 * (problem.graph.NumEdges() - num_structured))));
+  options.structured_outlier_ratio = 2.0;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

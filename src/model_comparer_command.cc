@@ -8,6 +8,7 @@
 // errors in the reference's units) and each model's points and mean
 // reprojection error are printed.
 
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 
@@ -86,9 +87,22 @@ int RunModelComparer(int argc, char** argv) {
                  "or degenerate centres)\n";
     return 1;
   }
+  if (!std::isfinite(comparison.rotation_error_median_deg) ||
+      !std::isfinite(comparison.rotation_error_max_deg) ||
+      !std::isfinite(comparison.center_error_median) ||
+      !std::isfinite(comparison.center_error_max)) {
+    throw InputError(input_path1,
+                     "the errors are not finite (a pose of a model or of the "
+                     "reference holds NaN or infinite values)");
+  }
   std::cout << std::setprecision(4)
             << "alignment scale: " << comparison.estimate_to_reference.scale
             << "\n"
+            << (comparison.centers_nearly_collinear
+                    ? "camera centres nearly collinear: the similarity's "
+                      "rotation about their line is undetermined; rotation "
+                      "errors below are after aligning the rotations\n"
+                    : "")
             << "rotation error [deg]: median "
             << comparison.rotation_error_median_deg << ", max "
             << comparison.rotation_error_max_deg << "\n"

@@ -18,6 +18,7 @@
 #include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
@@ -191,6 +192,7 @@ int RunRotationAverager(int argc, char** argv) {
                      "and --eg_path");
   }
   builder_options.Check();
+  if (!output_path.empty()) CheckFileWritable(output_path);  // before work
   if (output_path.empty() && gt_path.empty()) {
     LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "
                     "neither written nor evaluated";

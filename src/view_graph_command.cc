@@ -7,11 +7,13 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <sstream>
 #include <iostream>
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -23,29 +25,16 @@ namespace {
 void WriteRelativePoses(const ViewGraph& view_graph, const std::string& path) {
   // Written to a temporary name and renamed when complete, so that a reader
   // never sees a partial file.
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary);
-    if (!file) throw InputError(path, "cannot write file");
-    file << std::setprecision(17);
-    for (const ImagePairGeometry& pair : view_graph.pairs) {
-      const Eigen::Vector4d q = RotationToQuaternion(pair.R);
-      file << view_graph.image_names.at(pair.image_id1) << " "
-           << view_graph.image_names.at(pair.image_id2) << " " << q(0) << " "
-           << q(1) << " " << q(2) << " " << q(3) << " " << pair.t(0) << " "
-           << pair.t(1) << " " << pair.t(2) << " " << pair.num_inliers
-           << "\n";
-    }
-    file.flush();
-    if (!file) {
-      std::remove(temporary.c_str());
-      throw InputError(path, "error while writing file");
-    }
+  std::ostringstream file;
+  file << std::setprecision(17);
+  for (const ImagePairGeometry& pair : view_graph.pairs) {
+    const Eigen::Vector4d q = RotationToQuaternion(pair.R);
+    file << view_graph.image_names.at(pair.image_id1) << " "
+         << view_graph.image_names.at(pair.image_id2) << " " << q(0) << " "
+         << q(1) << " " << q(2) << " " << q(3) << " " << pair.t(0) << " "
+         << pair.t(1) << " " << pair.t(2) << " " << pair.num_inliers << "\n";
   }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError(path, "cannot rename the temporary file into place");
-  }
+  WriteFileAtomically(path, file.str());
 }
 
 int RunViewGraph(int argc, char** argv) {
@@ -94,6 +83,7 @@ int RunViewGraph(int argc, char** argv) {
               "median triangulation angle below which t is undefined (deg)");
   if (!manager.Parse(argc, argv)) return 0;
   options.Check();
+  CheckFileWritable(output_path);  // before any work
 
   Timer timer;
   const DatabaseContents database = ReadDatabase(database_path);

@@ -4,8 +4,10 @@
 #include <cmath>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <glog/logging.h>
 
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
 
 namespace colmap_irav4 {
@@ -59,6 +61,40 @@ bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
     comparison->rotation_errors_deg.push_back(AngularDistanceDeg(
         reference.at(name).rotation.toRotationMatrix(), R_aligned));
     comparison->center_errors.push_back((sim * src[k] - dst[k]).norm());
+  }
+  // Nearly collinear centres leave the similarity's rotation about their
+  // line undetermined (any angle fits the centres): the rotation errors then
+  // come from the rotation that best aligns the camera rotations themselves
+  // (geodesic L1 mean of R_ref_i^T R_est_i), so that the headline does not
+  // report an arbitrary angle up to 180 degrees.
+  {
+    Eigen::Matrix3Xd centers(3, dst.size());
+    int num = 0;
+    for (size_t k = 0; k < dst.size(); ++k) {
+      if (inliers[k]) centers.col(num++) = dst[k];
+    }
+    centers.conservativeResize(3, num);
+    const Eigen::Vector3d mean = centers.rowwise().mean();
+    const Eigen::Matrix3Xd centered = centers.colwise() - mean;
+    const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centered);
+    const Eigen::Vector3d singular = svd.singularValues();
+    comparison->centers_nearly_collinear =
+        singular(1) < kCollinearRatio * singular(0);
+  }
+  if (comparison->centers_nearly_collinear) {
+    std::vector<Eigen::Matrix3d> relative;
+    for (const std::string& name : comparison->names) {
+      relative.push_back(
+          reference.at(name).rotation.toRotationMatrix().transpose() *
+          estimate.at(name).rotation.toRotationMatrix());
+    }
+    const Eigen::Matrix3d R = GeodesicL1Mean(relative);
+    for (size_t k = 0; k < comparison->names.size(); ++k) {
+      const std::string& name = comparison->names[k];
+      comparison->rotation_errors_deg[k] = AngularDistanceDeg(
+          reference.at(name).rotation.toRotationMatrix(),
+          estimate.at(name).rotation.toRotationMatrix() * R.transpose());
+    }
   }
   comparison->rotation_error_median_deg =
       Median(comparison->rotation_errors_deg);

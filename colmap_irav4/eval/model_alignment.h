@@ -11,6 +11,8 @@
 
 namespace colmap_irav4 {
 
+constexpr double kCollinearRatio = 0.02;
+
 // Accuracy of estimated camera poses against reference poses of the same
 // images (matched by name), after a robust similarity alignment over the
 // camera centres.
@@ -24,6 +26,11 @@ struct PoseComparison {
   double rotation_error_max_deg = 0;
   double center_error_median = 0;  // in the reference's units
   double center_error_max = 0;
+  // The inliers' centres are nearly collinear (second singular value of the
+  // centred centres < kCollinearRatio times the first): the similarity's
+  // rotation about their line is then undetermined, and the rotation errors
+  // are measured after aligning the rotations themselves instead.
+  bool centers_nearly_collinear = false;
   std::vector<std::string> names;  // common images, sorted
   std::vector<double> rotation_errors_deg;
   std::vector<double> center_errors;

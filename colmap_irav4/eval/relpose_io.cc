@@ -3,7 +3,9 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <set>
+#include <sstream>
 #include <unordered_map>
 
 #include <glog/logging.h>
@@ -11,6 +13,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/eval/text_parsing.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
@@ -25,26 +28,51 @@ RotationGraph ReadRelativePoses(const std::string& path) {
     vertex_of.emplace(name, v);
     return v;
   };
-  std::set<std::pair<int, int>> seen;
+  // First line of each pair and its rotation in (min, max) vertex order.
+  std::map<std::pair<int, int>, std::pair<int, Eigen::Matrix3d>> seen;
   int num_repeated = 0;
   int first_repeated_line = 0;
+  int num_self = 0;
   for (const TextLine& line : ReadTextLines(path)) {
     RequireFieldCount(path, line, 9, 10);
-    if (line.fields[0] == line.fields[1]) {
-      throw InputError(path, "line " + std::to_string(line.number) +
-                                 ": pair of image '" + line.fields[0] +
-                                 "' with itself");
-    }
+    const std::string at = "line " + std::to_string(line.number) + ": ";
     const Eigen::Matrix3d R = ParseQuaternion(path, line, 2);
     for (int k = 6; k < 9; ++k) ParseDouble(path, line, k);
+    if (line.fields.size() == 10 && !line.fields[9].empty() &&
+        line.fields[9][0] == '-') {
+      throw InputError(path, at + "inlier count " + line.fields[9] +
+                                 " is negative");
+    }
     const double weight =
         line.fields.size() == 10 ? ParseIndex(path, line, 9) : 1.0;
+    if (line.fields[0] == line.fields[1]) {
+      // Carries no information; a graph edge needs two images.
+      if (num_self++ == 0) {
+        LOG(WARNING) << path << ": " << at << "image '" << line.fields[0]
+                     << "' paired with itself, skipped";
+      }
+      continue;
+    }
     const int i = vertex(line.fields[0]);
     const int j = vertex(line.fields[1]);
-    if (!seen.emplace(std::min(i, j), std::max(i, j)).second) {
+    const std::pair<int, int> key(std::min(i, j), std::max(i, j));
+    const Eigen::Matrix3d R_ordered = i < j ? R : Eigen::Matrix3d(R.transpose());
+    const auto it = seen.find(key);
+    if (it != seen.end()) {
+      // A repetition is harmless; a different rotation for the same pair
+      // means the file is not what it claims to be.
+      const double angle = AngularDistanceDeg(it->second.second, R_ordered);
+      if (angle > 1.0) {
+        throw InputError(
+            path, at + "pair '" + line.fields[0] + "' '" + line.fields[1] +
+                      "' repeated with a rotation " + std::to_string(angle) +
+                      " deg away from line " +
+                      std::to_string(it->second.first) + "'s");
+      }
       if (num_repeated++ == 0) first_repeated_line = line.number;
       continue;
     }
+    seen.emplace(key, std::make_pair(line.number, R_ordered));
     graph.AddEdge(i, j, R, weight);
   }
   if (graph.NumEdges() == 0) throw InputError(path, "no image pairs");
@@ -52,6 +80,8 @@ RotationGraph ReadRelativePoses(const std::string& path) {
       << path << ": " << num_repeated
       << " repeated image pairs ignored (first at line "
       << first_repeated_line << ")";
+  LOG_IF(WARNING, num_self > 1)
+      << path << ": " << num_self << " lines pair an image with itself, skipped";
   return graph;
 }
 
@@ -79,28 +109,15 @@ void WriteAbsoluteRotations(const std::string& path,
                             const std::vector<bool>& estimated) {
   CHECK_EQ(names.size(), rotations.size());
   CHECK_EQ(names.size(), estimated.size());
-  const std::string temp_path =
-      path + ".tmp" + std::to_string(static_cast<long>(::getpid()));
-  {
-    std::ofstream file(temp_path);
-    if (!file) throw InputError(path, "cannot write (temporary " + temp_path + ")");
-    file << std::setprecision(17);
-    for (size_t v = 0; v < names.size(); ++v) {
-      if (!estimated[v]) continue;
-      const Eigen::Vector4d q = RotationToQuaternion(rotations[v]);
-      file << names[v] << ' ' << q(0) << ' ' << q(1) << ' ' << q(2) << ' '
-           << q(3) << '\n';
-    }
-    file.close();
-    if (!file) {
-      std::remove(temp_path.c_str());
-      throw InputError(path, "write failed");
-    }
+  std::ostringstream file;
+  file << std::setprecision(17);
+  for (size_t v = 0; v < names.size(); ++v) {
+    if (!estimated[v]) continue;
+    const Eigen::Vector4d q = RotationToQuaternion(rotations[v]);
+    file << names[v] << ' ' << q(0) << ' ' << q(1) << ' ' << q(2) << ' '
+         << q(3) << '\n';
   }
-  if (std::rename(temp_path.c_str(), path.c_str()) != 0) {
-    std::remove(temp_path.c_str());
-    throw InputError(path, "cannot rename the temporary file into place");
-  }
+  WriteFileAtomically(path, file.str());
 }
 
 }  // namespace colmap_irav4

@@ -53,7 +53,7 @@ bool EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
 }
 
 bool SimilarityRansacOptions::Check() const {
-  return max_relative_error > 0 && num_trials > 0;
+  return max_relative_error > 0 && max_relative_error < 1 && num_trials > 0;
 }
 
 bool EstimateSimilarityRansac(const std::vector<Eigen::Vector3d>& src,

@@ -27,7 +27,7 @@ struct SimilarityRansacOptions {
   // Inlier threshold on the aligned distance, as a fraction of the median
   // distance of the dst points to their centroid (scale-free, so that a
   // normalised model can be compared with metric ground truth).
-  double max_relative_error = 0.05;
+  double max_relative_error = 0.05;  // in (0, 1)
   // Random minimal samples; with at most 20 points every triple is tried.
   int num_trials = 2000;
   uint64_t seed = 0;

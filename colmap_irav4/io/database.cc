@@ -2,7 +2,10 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <fstream>
 #include <sstream>
 
 #include <glog/logging.h>
@@ -16,7 +19,7 @@ namespace {
 
 // SQLite URI file name: '%', '?' and '#' (and non-printable bytes) must be
 // percent-encoded.
-std::string PathToUri(const std::string& path) {
+std::string PathToUri(const std::string& path, bool immutable) {
   std::string uri = "file:";
   for (const unsigned char c : path) {
     if (c == '%' || c == '?' || c == '#' || c <= ' ' || c >= 0x7f) {
@@ -27,7 +30,51 @@ std::string PathToUri(const std::string& path) {
       uri += static_cast<char>(c);
     }
   }
-  return uri + "?mode=ro&immutable=1";
+  return uri + (immutable ? "?mode=ro&immutable=1" : "?mode=ro");
+}
+
+bool FileExists(const std::string& path) {
+  struct stat info;
+  return stat(path.c_str(), &info) == 0;
+}
+
+int64_t FileSize(const std::string& path) {
+  struct stat info;
+  return stat(path.c_str(), &info) == 0 ? static_cast<int64_t>(info.st_size)
+                                         : -1;
+}
+
+int64_t MtimeNs(const struct stat& info) {
+  return static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 +
+         info.st_mtim.tv_nsec;
+}
+
+// Whether the file's header says WAL mode (file format versions 2 at bytes
+// 18 and 19 of "SQLite format 3").
+bool IsWalModeFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  char header[20];
+  if (!file.read(header, sizeof(header))) return false;
+  if (std::memcmp(header, "SQLite format 3", 16) != 0) return false;
+  return header[18] == 2 || header[19] == 2;
+}
+
+// A message for SQLite's result code (busy/locked get the waiting context).
+std::string SqliteProblem(sqlite3* db, int rc, int busy_timeout_ms) {
+  const int primary = rc & 0xff;
+  if (primary == SQLITE_BUSY || primary == SQLITE_LOCKED) {
+    return "database is locked by another process (waited " +
+           std::to_string(busy_timeout_ms / 1000.0).substr(0, 4) +
+           " s); retry when the writer (e.g. a running COLMAP command) has "
+           "finished";
+  }
+  if (rc == SQLITE_READONLY_ROLLBACK || rc == SQLITE_READONLY_RECOVERY) {
+    return "has a hot journal from an interrupted writer that a read-only "
+           "reader may not roll back; open it once with COLMAP or sqlite3 "
+           "to recover it, then retry";
+  }
+  return std::string("SQLite error: ") +
+         (db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
 }
 
 std::string Bytes(int num_bytes) { return std::to_string(num_bytes) + " bytes"; }
@@ -38,10 +85,14 @@ std::string Bytes(int num_bytes) { return std::to_string(num_bytes) + " bytes"; 
 struct Database::Statement {
   Statement(const Database& database, const std::string& sql)
       : database_(database) {
-    if (sqlite3_prepare_v2(database.db_, sql.c_str(), -1, &stmt, nullptr) !=
-        SQLITE_OK) {
-      database.Fail(std::string("SQLite error: ") +
-                    sqlite3_errmsg(database.db_) + " (in '" + sql + "')");
+    const int rc =
+        sqlite3_prepare_v2(database.db_, sql.c_str(), -1, &stmt, nullptr);
+    if (rc != SQLITE_OK) {
+      const int primary = rc & 0xff;
+      database.Fail(SqliteProblem(database.db_, rc, database.busy_timeout_ms_) +
+                    (primary == SQLITE_BUSY || primary == SQLITE_LOCKED
+                         ? ""
+                         : " (in '" + sql + "')"));
     }
   }
   ~Statement() { sqlite3_finalize(stmt); }
@@ -50,8 +101,7 @@ struct Database::Statement {
     const int rc = sqlite3_step(stmt);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    database_.Fail(std::string("SQLite error: ") +
-                   sqlite3_errmsg(database_.db_));
+    database_.Fail(SqliteProblem(database_.db_, rc, database_.busy_timeout_ms_));
   }
   int64_t Int(int column) const { return sqlite3_column_int64(stmt, column); }
   double Double(int column) const {
@@ -84,30 +134,60 @@ void Database::Fail(const std::string& problem) const {
   throw InputError(path_, problem);
 }
 
-Database::Database(const std::string& path) : path_(path) {
+Database::Database(const std::string& path, const DatabaseReadOptions& options)
+    : path_(path), busy_timeout_ms_(std::max(0, options.busy_timeout_ms)) {
   struct stat info;
   if (stat(path.c_str(), &info) != 0) {
     Fail(std::string("cannot open database: ") + std::strerror(errno));
   }
   if (!S_ISREG(info.st_mode)) Fail("cannot open database: not a regular file");
-  if (sqlite3_open_v2(PathToUri(path).c_str(), &db_,
-                      SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr) !=
-      SQLITE_OK) {
+  opened_size_ = static_cast<int64_t>(info.st_size);
+  opened_mtime_ns_ = MtimeNs(info);
+  // See the class comment: which open mode reads committed content without
+  // creating a file next to the database.
+  if (IsWalModeFile(path)) {
+    const int64_t wal_size = FileSize(path + "-wal");
+    if (wal_size <= 0) {
+      open_mode_ = DatabaseOpenMode::kImmutable;
+    } else if (!FileExists(path + "-shm")) {
+      Fail("WAL-mode database with committed changes in its -wal file but "
+           "no -shm file: reading it would create a -shm file next to it. "
+           "Recover it once with `sqlite3 " + path +
+           " 'PRAGMA wal_checkpoint;'` (or by opening it with COLMAP), "
+           "then retry");
+    }
+  }
+  const bool immutable = open_mode_ == DatabaseOpenMode::kImmutable;
+  const int open_rc =
+      sqlite3_open_v2(PathToUri(path, immutable).c_str(), &db_,
+                      SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
+  if (open_rc != SQLITE_OK) {
     const std::string message =
         db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory";
     sqlite3_close(db_);
     db_ = nullptr;
     Fail("cannot open database: " + message);
   }
+  sqlite3_busy_timeout(db_, busy_timeout_ms_);
   try {
     std::set<std::string> tables;
     {
+      // One read transaction for every statement of this object: all of them
+      // see the same committed snapshot.
+      if (sqlite3_exec(db_, "BEGIN", nullptr, nullptr, nullptr) != SQLITE_OK) {
+        Fail(SqliteProblem(db_, sqlite3_errcode(db_), busy_timeout_ms_));
+      }
       // The first read of the file: fails here if it is not SQLite.
       sqlite3_stmt* probe = nullptr;
-      const int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master",
-                                        -1, &probe, nullptr);
+      int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master",
+                                  -1, &probe, nullptr);
+      if (rc == SQLITE_OK) {
+        rc = sqlite3_step(probe);
+        if (rc == SQLITE_ROW) rc = SQLITE_OK;
+      }
       sqlite3_finalize(probe);
-      if (rc == SQLITE_NOTADB) Fail("not an SQLite database");
+      if ((rc & 0xff) == SQLITE_NOTADB) Fail("not an SQLite database");
+      if (rc != SQLITE_OK) Fail(SqliteProblem(db_, rc, busy_timeout_ms_));
       Statement statement(*this,
                           "SELECT name FROM sqlite_master WHERE type='table'");
       while (statement.Step()) tables.insert(statement.Text(0));
@@ -172,7 +252,23 @@ Database::Database(const std::string& path) : path_(path) {
 }
 
 Database::~Database() {
-  if (db_ != nullptr) sqlite3_close(db_);
+  if (db_ != nullptr) {
+    sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr);
+    sqlite3_close(db_);
+  }
+}
+
+void Database::CheckUnchanged() const {
+  if (open_mode_ != DatabaseOpenMode::kImmutable) return;
+  struct stat info;
+  const bool same = stat(path_.c_str(), &info) == 0 &&
+                    static_cast<int64_t>(info.st_size) == opened_size_ &&
+                    MtimeNs(info) == opened_mtime_ns_ &&
+                    FileSize(path_ + "-wal") <= 0;
+  if (!same) {
+    Fail("changed while it was being read (another process is writing it); "
+         "retry when the writer has finished");
+  }
 }
 
 std::set<std::string> Database::TableColumns(const std::string& table) const {
@@ -409,6 +505,15 @@ TwoViewGeometry Database::ReadTwoViewGeometryRow(Statement* statement) const {
   TwoViewGeometry geometry;
   const int64_t pair_id = statement->Int(0);
   if (pair_id < 0) Fail("two_view_geometries: negative pair_id");
+  // A first image id >= 2^31 - 1 would alias onto another pair when decoded
+  // into 32-bit ids.
+  if (static_cast<uint64_t>(pair_id) / kMaxNumImages >= kMaxNumImages) {
+    Fail("two_view_geometries row with pair_id " + std::to_string(pair_id) +
+         ": its first image id " +
+         std::to_string(static_cast<uint64_t>(pair_id) / kMaxNumImages) +
+         " is out of range (COLMAP's pair_id is 2147483647 * image_id1 + "
+         "image_id2 with image ids < 2147483647)");
+  }
   const auto [id1, id2] = PairIdToImagePair(static_cast<image_pair_t>(pair_id));
   geometry.image_id1 = id1;
   geometry.image_id2 = id2;
@@ -492,14 +597,105 @@ std::vector<TwoViewGeometry> Database::ReadAllTwoViewGeometries() const {
   return geometries;
 }
 
-DatabaseContents ReadDatabase(const std::string& path) {
-  Database database(path);
+std::string CameraIntrinsicsProblem(const Camera& camera) {
+  if (!CameraHasValidParams(camera)) {
+    return "has " + std::to_string(camera.params.size()) + " parameters, " +
+           CameraModelIdToName(camera.model_id) + " has " +
+           std::to_string(CameraModelNumParams(camera.model_id));
+  }
+  for (size_t k = 0; k < camera.params.size(); ++k) {
+    if (!std::isfinite(camera.params[k])) {
+      return "parameter " + std::to_string(k + 1) + " (of " +
+             CameraModelParamsInfo(camera.model_id) + ") is not finite";
+    }
+  }
+  for (const int k : CameraModelFocalLengthIdxs(camera.model_id)) {
+    if (!(camera.params[k] > 0)) {
+      std::ostringstream value;
+      value << camera.params[k];
+      return "focal length " + value.str() + " is not positive";
+    }
+  }
+  const double width = static_cast<double>(camera.width);
+  const double height = static_cast<double>(camera.height);
+  const std::vector<int> pp = CameraModelPrincipalPointIdxs(camera.model_id);
+  const double cx = camera.params[pp[0]];
+  const double cy = camera.params[pp[1]];
+  if (cx < -width || cx > 2 * width || cy < -height || cy > 2 * height) {
+    std::ostringstream value;
+    value << "principal point (" << cx << ", " << cy << ") is far outside the "
+          << camera.width << " x " << camera.height << " image";
+    return value.str();
+  }
+  if (CameraModelExtraParamsIdxs(camera.model_id).empty()) return "";
+  // Distortion: the viewing-ray angle must grow from the principal point to
+  // the farthest image corner, and the corner's angle must be within a factor
+  // 4 of the undistorted (pinhole) one; a real lens, even a fisheye, is.
+  Camera pinhole = camera;
+  for (const int k : CameraModelExtraParamsIdxs(camera.model_id)) {
+    pinhole.params[k] = 0;
+  }
+  const double corner_x = cx < width / 2 ? width : 0;
+  const double corner_y = cy < height / 2 ? height : 0;
+  constexpr int kNumSamples = 32;
+  double previous = 0;
+  for (int s = 1; s <= kNumSamples; ++s) {
+    const double a = static_cast<double>(s) / kNumSamples;
+    const Eigen::Vector2d pixel(cx + a * (corner_x - cx),
+                                cy + a * (corner_y - cy));
+    const Eigen::Vector3d ray = CameraImageToRay(camera, pixel);
+    const double angle = std::atan2(ray.head<2>().norm(), ray.z());
+    if (!std::isfinite(angle) || angle < previous - 1e-9) {
+      return "distortion parameters make the lens fold back inside the image "
+             "(no real lens does)";
+    }
+    previous = angle;
+    if (s == kNumSamples) {
+      const Eigen::Vector3d ideal = CameraImageToRay(pinhole, pixel);
+      const double ideal_angle = std::atan2(ideal.head<2>().norm(), ideal.z());
+      if (ideal_angle > 0 &&
+          (angle > 4 * ideal_angle || angle < ideal_angle / 4)) {
+        std::ostringstream value;
+        value << "distortion parameters change the corner's viewing angle "
+                 "from "
+              << ideal_angle * 180 / M_PI << " to " << angle * 180 / M_PI
+              << " deg (no real lens does)";
+        return value.str();
+      }
+    }
+  }
+  return "";
+}
+
+Camera ResetCameraIntrinsics(const Camera& camera) {
+  Camera reset = camera;
+  reset.params.assign(CameraModelNumParams(camera.model_id), 0.0);
+  const double focal =
+      1.2 * static_cast<double>(std::max(camera.width, camera.height));
+  for (const int k : CameraModelFocalLengthIdxs(camera.model_id)) {
+    reset.params[k] = focal;
+  }
+  const std::vector<int> pp = CameraModelPrincipalPointIdxs(camera.model_id);
+  reset.params[pp[0]] = static_cast<double>(camera.width) / 2;
+  reset.params[pp[1]] = static_cast<double>(camera.height) / 2;
+  reset.has_prior_focal_length = false;
+  return reset;
+}
+
+DatabaseContents ReadDatabase(const std::string& path,
+                              const DatabaseReadOptions& options) {
+  Database database(path, options);
   DatabaseContents contents;
   contents.path = path;
   contents.schema = database.Schema();
+  auto warn = [&](const std::string& message) {
+    LOG(WARNING) << path << ": " << message;
+    contents.warnings.push_back(message);
+  };
   for (Camera& camera : database.ReadAllCameras()) {
     contents.cameras[camera.camera_id] = std::move(camera);
   }
+  std::set<camera_t> used_cameras;
   for (DatabaseImage& image : database.ReadAllImages()) {
     if (contents.cameras.count(image.camera_id) == 0) {
       throw InputError(path, "image " + std::to_string(image.image_id) +
@@ -507,13 +703,96 @@ DatabaseContents ReadDatabase(const std::string& path) {
                                  std::to_string(image.camera_id) +
                                  ", which is not in the cameras table");
     }
+    used_cameras.insert(image.camera_id);
     contents.images[image.image_id] = std::move(image);
   }
-  for (const auto& [image_id, image] : contents.images) {
-    contents.keypoints[image_id] = database.ReadKeypoints(image_id);
+  // Intrinsics of the cameras the images use: an invalid camera gives a
+  // wrong model (mirrored, rotated) rather than none, so it is an error.
+  for (const camera_t camera_id : used_cameras) {
+    Camera& camera = contents.cameras.at(camera_id);
+    const std::string problem = CameraIntrinsicsProblem(camera);
+    if (problem.empty()) continue;
+    const std::string what = "camera " + std::to_string(camera_id) + " (" +
+                             CameraModelIdToName(camera.model_id) + "): ";
+    if (!options.reset_invalid_cameras) {
+      throw InputError(path, what + problem +
+                                 "; fix the camera, or pass "
+                                 "--Mapper.reset_invalid_cameras 1 to start "
+                                 "it from a default focal and refine it");
+    }
+    camera = ResetCameraIntrinsics(camera);
+    contents.reset_cameras.push_back(camera_id);
+    warn(what + problem + "; reset to focal " +
+         std::to_string(camera.params[CameraModelFocalLengthIdxs(
+             camera.model_id)[0]]) +
+         " px, centred principal point, no distortion");
   }
-  contents.two_view_geometries = database.ReadAllTwoViewGeometries();
-  for (const TwoViewGeometry& geometry : contents.two_view_geometries) {
+  // Keypoints: non-finite or outside the image can never be an observation.
+  std::map<image_t, std::vector<char>> invalid_keypoints;
+  for (const auto& [image_id, image] : contents.images) {
+    FeatureKeypoints keypoints = database.ReadKeypoints(image_id);
+    const Camera& camera = contents.cameras.at(image.camera_id);
+    // COLMAP's keypoints lie in [0, width] x [0, height]; one pixel of slack.
+    const double max_x = static_cast<double>(camera.width) + 1;
+    const double max_y = static_cast<double>(camera.height) + 1;
+    std::vector<char>* invalid = nullptr;
+    int num_nonfinite = 0, num_outside = 0;
+    for (size_t k = 0; k < keypoints.size(); ++k) {
+      const double x = keypoints[k].x(), y = keypoints[k].y();
+      const bool nonfinite = !std::isfinite(x) || !std::isfinite(y);
+      const bool outside =
+          !nonfinite && (x < -1 || y < -1 || x > max_x || y > max_y);
+      if (!nonfinite && !outside) continue;
+      if (invalid == nullptr) {
+        invalid = &invalid_keypoints[image_id];
+        invalid->assign(keypoints.size(), 0);
+      }
+      (*invalid)[k] = 1;
+      nonfinite ? ++num_nonfinite : ++num_outside;
+    }
+    if (num_nonfinite > 0) {
+      contents.num_keypoints_invalid["non-finite keypoint"] += num_nonfinite;
+      warn("image " + std::to_string(image_id) + " '" + image.name + "': " +
+           std::to_string(num_nonfinite) +
+           " non-finite keypoints, never used as observations");
+    }
+    if (num_outside > 0) {
+      contents.num_keypoints_invalid["keypoint outside the image"] +=
+          num_outside;
+      warn("image " + std::to_string(image_id) + " '" + image.name + "': " +
+           std::to_string(num_outside) + " keypoints outside the " +
+           std::to_string(camera.width) + " x " +
+           std::to_string(camera.height) +
+           " image, never used as observations");
+    }
+    contents.keypoints[image_id] = std::move(keypoints);
+  }
+  // Verified pairs: self-pairs skipped, pairs stored with their images
+  // swapped turned round (and merged when also stored in COLMAP's order).
+  std::map<image_pair_t, TwoViewGeometry> pairs;
+  for (TwoViewGeometry& geometry : database.ReadAllTwoViewGeometries()) {
+    const std::string what = "two_view_geometries of pair (" +
+                             std::to_string(geometry.image_id1) + ", " +
+                             std::to_string(geometry.image_id2) + ")";
+    if (geometry.image_id1 == geometry.image_id2) {
+      ++contents.num_pairs_dropped["image paired with itself"];
+      warn(what + ": an image paired with itself, skipped");
+      continue;
+    }
+    const bool swapped = geometry.image_id1 > geometry.image_id2;
+    if (swapped) geometry = geometry.Inverse();
+    const image_pair_t pair_id =
+        ImagePairToPairId(geometry.image_id1, geometry.image_id2);
+    if (pairs.count(pair_id) > 0) {
+      ++contents.num_pairs_dropped["stored in both orders"];
+      warn(what + ": the pair is stored in both orders; the row in COLMAP's "
+                  "order (smaller image id first) is used");
+      if (!swapped) pairs[pair_id] = std::move(geometry);
+      continue;
+    }
+    pairs.emplace(pair_id, std::move(geometry));
+  }
+  for (auto& [pair_id, geometry] : pairs) {
     const std::string what = "two_view_geometries of pair (" +
                              std::to_string(geometry.image_id1) + ", " +
                              std::to_string(geometry.image_id2) + ")";
@@ -536,8 +815,28 @@ DatabaseContents ReadDatabase(const std::string& path) {
                       " keypoints");
       }
     }
+    const auto invalid1 = invalid_keypoints.find(geometry.image_id1);
+    const auto invalid2 = invalid_keypoints.find(geometry.image_id2);
+    if (invalid1 != invalid_keypoints.end() ||
+        invalid2 != invalid_keypoints.end()) {
+      const size_t before = geometry.inlier_matches.size();
+      auto& matches = geometry.inlier_matches;
+      matches.erase(
+          std::remove_if(matches.begin(), matches.end(),
+                         [&](const FeatureMatch& match) {
+                           return (invalid1 != invalid_keypoints.end() &&
+                                   invalid1->second[match.point2D_idx1]) ||
+                                  (invalid2 != invalid_keypoints.end() &&
+                                   invalid2->second[match.point2D_idx2]);
+                         }),
+          matches.end());
+      contents.num_matches_dropped_invalid_keypoint +=
+          static_cast<int>(before - matches.size());
+    }
+    contents.two_view_geometries.push_back(std::move(geometry));
   }
   contents.num_matches = database.ReadNumMatches();
+  database.CheckUnchanged();
   return contents;
 }
 

@@ -45,20 +45,59 @@ struct DatabaseSchema {
   std::string Description() const;
 };
 
-// Read-only access to a COLMAP database. The file is opened with
-// SQLITE_OPEN_READONLY in immutable URI mode, so that nothing, not even the
-// header's change counter or a -shm/-wal file, is written. Every problem with
-// the file (missing, not SQLite, missing table or column, malformed blob,
-// unknown camera model, dangling ids) throws InputError naming the file.
+// How a database is opened and what is done with suspicious records.
+struct DatabaseReadOptions {
+  // How long to wait for a writer holding the database locked before failing
+  // (milliseconds).
+  int busy_timeout_ms = 10000;
+  // Cameras with invalid intrinsics (non-positive or non-finite focal, non-
+  // finite parameters, implausible distortion) are an error; with this flag
+  // they are reset to a sane start (focal 1.2 * max(width, height), centred
+  // principal point, no distortion) and treated as having no prior focal,
+  // so that calibration / bundle adjustment refine them.
+  bool reset_invalid_cameras = false;
+};
+
+// How the file was opened (see Database).
+enum class DatabaseOpenMode {
+  kLocking,    // SQLite's normal locking, read-only connection
+  kImmutable,  // immutable=1: WAL-mode file without a -wal (nothing to merge)
+};
+
+// Read-only access to a COLMAP database, in one read transaction (every
+// reader sees one consistent snapshot), and without ever creating a file next
+// to the database:
+//  - rollback-journal databases are opened read-only with SQLite's normal
+//    locking: committed content is read, a writer holding the lock is waited
+//    for (busy_timeout_ms), then the read fails with a clear message; a
+//    read-only connection creates no journal;
+//  - WAL databases with a -wal file and its -shm are opened read-only with
+//    normal locking: committed WAL content is seen, uncommitted never; the
+//    existing -shm is used, nothing is created;
+//  - WAL databases without a -wal file hold everything in the main file, but a
+//    non-immutable open would create -wal and -shm files (SQLite needs the
+//    wal-index even to read), so they are opened with immutable=1; the file's
+//    size and mtime are checked again after reading (a writer that started
+//    meanwhile makes the read fail instead of returning a torn snapshot);
+//  - a WAL database with a non-empty -wal but no -shm cannot be read without
+//    creating a -shm: a clear error says how to recover it.
+// Every problem with the file (missing, not SQLite, locked, missing table or
+// column, malformed blob, unknown camera model, dangling ids) throws
+// InputError naming the file and the record.
 class Database {
  public:
-  explicit Database(const std::string& path);
+  explicit Database(const std::string& path,
+                    const DatabaseReadOptions& options = DatabaseReadOptions());
   ~Database();
   Database(const Database&) = delete;
   Database& operator=(const Database&) = delete;
 
   const std::string& Path() const { return path_; }
   const DatabaseSchema& Schema() const { return schema_; }
+  DatabaseOpenMode OpenMode() const { return open_mode_; }
+  // Throws InputError if an immutable-mode file changed (or grew a -wal)
+  // since it was opened: what was read may be torn.
+  void CheckUnchanged() const;
 
   std::vector<Camera> ReadAllCameras() const;
   std::vector<DatabaseImage> ReadAllImages() const;
@@ -88,7 +127,22 @@ class Database {
   std::string path_;
   sqlite3* db_ = nullptr;
   DatabaseSchema schema_;
+  DatabaseOpenMode open_mode_ = DatabaseOpenMode::kLocking;
+  int busy_timeout_ms_ = 0;
+  // Size and modification time at opening (immutable mode's check).
+  int64_t opened_size_ = 0;
+  int64_t opened_mtime_ns_ = 0;
 };
+
+// Why a camera's intrinsics cannot be used ("" when they can): non-finite
+// parameters, non-positive focal length, principal point far outside the
+// image, or a distortion no real lens has (the viewing-ray angle is not
+// increasing from the principal point to the farthest corner, or the corner's
+// angle differs from the undistorted one by more than a factor 4).
+std::string CameraIntrinsicsProblem(const Camera& camera);
+// The camera with a sane start: focal 1.2 * max(width, height), principal
+// point at the centre, zero distortion, no prior focal.
+Camera ResetCameraIntrinsics(const Camera& camera);
 
 // Everything of a database the mapper uses, validated for consistency
 // (cameras of images exist, match indices within the keypoints).
@@ -102,8 +156,25 @@ struct DatabaseContents {
   std::vector<TwoViewGeometry> two_view_geometries;
   // Raw match counts per pair id (for inlier ratios); may be empty.
   std::map<image_pair_t, int> num_matches;
+  // Verified pairs skipped while reading, by reason ("image paired with
+  // itself", "stored in both orders").
+  std::map<std::string, int> num_pairs_dropped;
+  // Keypoints unusable as observations, by reason ("non-finite keypoint",
+  // "keypoint outside the image"), and the inlier matches dropped because
+  // they use one. Those keypoints stay (indices are kept) but never reach a
+  // track, positioning or bundle adjustment.
+  std::map<std::string, int> num_keypoints_invalid;
+  int num_matches_dropped_invalid_keypoint = 0;
+  // Cameras reset by DatabaseReadOptions::reset_invalid_cameras.
+  std::vector<camera_t> reset_cameras;
+  // One line per warning (also logged), for the run summary.
+  std::vector<std::string> warnings;
 };
 
-DatabaseContents ReadDatabase(const std::string& path);
+// Reads and validates everything (one read transaction). Throws InputError
+// naming the file, the record and the problem.
+DatabaseContents ReadDatabase(
+    const std::string& path,
+    const DatabaseReadOptions& options = DatabaseReadOptions());
 
 }  // namespace colmap_irav4

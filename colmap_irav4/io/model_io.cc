@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
@@ -235,6 +237,20 @@ std::string ImageRecordProblem(const Image& image,
   if (reconstruction.images.count(image.image_id) > 0) {
     return "duplicate image id " + id;
   }
+  // COLMAP normalises the quaternion it reads; a zero or non-finite one is
+  // no rotation at all.
+  const Eigen::Quaterniond& q = image.cam_from_world.rotation;
+  const double norm = q.coeffs().norm();
+  if (!std::isfinite(norm) || !(norm > 1e-8)) {
+    std::ostringstream value;
+    value << q.w() << " " << q.x() << " " << q.y() << " " << q.z();
+    return "image " + id + " (" + image.name + ") has an invalid rotation "
+           "quaternion (" + value.str() + ")";
+  }
+  if (!image.cam_from_world.translation.allFinite()) {
+    return "image " + id + " (" + image.name +
+           ") has a non-finite translation";
+  }
   if (reconstruction.cameras.count(image.camera_id) == 0) {
     return "image " + id + " (" + image.name + ") references camera " +
            std::to_string(image.camera_id) +
@@ -335,55 +351,6 @@ Eigen::Vector4d WrittenQuaternion(const Image& image) {
   return qvec / norm;
 }
 
-// Writes all files of a model to temporary names, then renames them.
-void WriteFilesAtomically(
-    const std::string& dir,
-    const std::vector<std::pair<std::string, std::string>>& names_and_bytes) {
-  std::error_code error;
-  fs::create_directories(dir, error);
-  if (!fs::is_directory(dir)) {
-    throw InputError(dir, "cannot create output directory" +
-                              (error ? ": " + error.message() : ""));
-  }
-  const std::string suffix = ".tmp." + std::to_string(::getpid());
-  std::vector<std::string> temp_paths;
-  auto remove_temps = [&temp_paths]() {
-    for (const std::string& temp_path : temp_paths) {
-      std::error_code ignored;
-      fs::remove(temp_path, ignored);
-    }
-  };
-  for (const auto& [name, bytes] : names_and_bytes) {
-    const std::string temp_path = JoinPath(dir, name + suffix);
-    std::ofstream file(temp_path, std::ios::binary | std::ios::trunc);
-    // Only files this function created are removed on failure.
-    if (file) temp_paths.push_back(temp_path);
-    if (file) file.write(bytes.data(), bytes.size());
-    file.close();
-    if (!file) {
-      remove_temps();
-      throw InputError(JoinPath(dir, name), "cannot write file");
-    }
-  }
-  // A directory in the way would make a rename fail half-way.
-  for (const auto& name_and_bytes : names_and_bytes) {
-    const std::string final_path = JoinPath(dir, name_and_bytes.first);
-    if (fs::is_directory(final_path)) {
-      remove_temps();
-      throw InputError(final_path, "is a directory, cannot write the model");
-    }
-  }
-  for (size_t i = 0; i < names_and_bytes.size(); ++i) {
-    const std::string final_path = JoinPath(dir, names_and_bytes[i].first);
-    fs::rename(temp_paths[i], final_path, error);
-    if (error) {
-      remove_temps();
-      throw InputError(final_path, "cannot rename " + temp_paths[i] + ": " +
-                                       error.message());
-    }
-  }
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -433,6 +400,7 @@ void ReadImagesBinary(const std::string& path, Reconstruction* reconstruction) {
         reader.ReadCount("number of points2D", 8 + 8 + 8);
     const std::string problem = ImageRecordProblem(image, *reconstruction);
     if (!problem.empty()) throw InputError(path, problem);
+    image.cam_from_world.rotation.normalize();
     image.points2D.resize(num_points2D);
     for (Point2D& point2D : image.points2D) {
       point2D.xy.x() = reader.Read<double>("point2D x");
@@ -545,6 +513,7 @@ void ReadImagesText(const std::string& path, Reconstruction* reconstruction) {
     image.name = Trim(line.substr(name_begin));
     const std::string problem = ImageRecordProblem(image, *reconstruction);
     if (!problem.empty()) reader.Fail(problem);
+    image.cam_from_world.rotation.normalize();
     // The POINTS2D line always follows (empty if the image has none).
     if (!reader.NextLine(&line)) {
       reader.Fail("missing POINTS2D line of image " +
@@ -744,6 +713,11 @@ std::string ImagesTextBytes(const Reconstruction& reconstruction) {
   for (const auto& [image_id, image] : reconstruction.images) {
     CHECK(reconstruction.cameras.count(image.camera_id))
         << "image " << image_id << " has no camera";
+    const std::string name_problem = TextImageNameProblem(image.name);
+    if (!name_problem.empty()) {
+      throw InputError("image " + std::to_string(image_id),
+                       name_problem + "; write the model as BIN instead");
+    }
     const Eigen::Vector4d q = WrittenQuaternion(image);
     const Eigen::Vector3d& t = image.cam_from_world.translation;
     out << image_id << " " << q(0) << " " << q(1) << " " << q(2) << " "
@@ -784,6 +758,22 @@ std::string Points3DTextBytes(const Reconstruction& reconstruction) {
     out << "\n";
   }
   return out.str();
+}
+
+std::string TextImageNameProblem(const std::string& name) {
+  if (name.empty()) return "empty image name cannot be written to images.txt";
+  for (const char c : name) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      return "image name '" + name +
+             "' holds a control character (newline, tab, ...) that "
+             "images.txt cannot hold";
+    }
+  }
+  if (name.front() == ' ' || name.back() == ' ') {
+    return "image name '" + name +
+           "' starts or ends with a space, which images.txt loses";
+  }
+  return "";
 }
 
 void WriteReconstructionBinary(const Reconstruction& reconstruction,

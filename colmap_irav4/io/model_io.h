@@ -67,4 +67,9 @@ std::string Points3DTextBytes(const Reconstruction& reconstruction);
 // scene/reconstruction_utils.h.
 double MeanObservationsPerImage(const Reconstruction& reconstruction);
 
+// Why an image name cannot be written to images.txt so that it reads back
+// (empty, control characters such as a newline, leading or trailing space);
+// "" if it can. ImagesTextBytes throws InputError for such a name.
+std::string TextImageNameProblem(const std::string& name);
+
 }  // namespace colmap_irav4

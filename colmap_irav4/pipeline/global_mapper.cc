@@ -179,6 +179,17 @@ bool GlobalMapper::RotationFilter() {
     return Fail("only " + std::to_string(rotations_.size()) +
                 " images with consistent rotations");
   }
+  // A pure rotation (panorama): every pair has a zero translation, the
+  // cameras share one centre and no point can be triangulated.
+  if (std::all_of(pairs_.begin(), pairs_.end(),
+                  [](const ImagePairGeometry& pair) {
+                    return !(pair.t.squaredNorm() > 0);
+                  })) {
+    return Fail("pure rotation (panorama): all " +
+                std::to_string(pairs_.size()) +
+                " pairs have no translation, the cameras share one centre "
+                "and no 3D point can be triangulated");
+  }
   return true;
 }
 
@@ -473,6 +484,9 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "refine principal points in bundle adjustment");
   manager->Add("Mapper.ba_refine_extra_params", &o.ba_refine_extra_params,
                "refine distortion parameters in bundle adjustment");
+  manager->Add("Mapper.reset_invalid_cameras", &o.reset_invalid_cameras,
+               "start cameras with invalid intrinsics from a default focal "
+               "(refined) instead of failing");
   manager->Add("Mapper.num_threads", &o.num_threads,
                "threads of every stage (-1: all cores)");
   manager->Add("Mapper.progress", &o.progress,

@@ -79,6 +79,10 @@ struct GlobalMapperOptions {
   // (1, 2, 4 or 8): JPEG decoding at half size is several times faster and a
   // point's colour is a mean over its track anyway.
   int color_image_downscale = 2;
+  // Cameras with invalid intrinsics (non-positive or non-finite focal,
+  // implausible distortion) are an error; with this flag they start from a
+  // default focal and are refined (see DatabaseReadOptions).
+  bool reset_invalid_cameras = false;
 
   ViewGraphBuilderOptions view_graph;
   RotationAveragerOptions rotation_averaging;

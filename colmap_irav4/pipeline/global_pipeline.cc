@@ -13,6 +13,7 @@
 
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -94,6 +95,13 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
 
   if (components.empty() ||
       static_cast<int>(components[0].size()) < options.min_model_size) {
+    // Say what was dropped and why: "run a matcher" is wrong advice when the
+    // pairs are there but a filter or their configuration removed them.
+    std::string dropped;
+    for (const auto& [reason, count] : view_graph_summary.num_dropped) {
+      dropped += (dropped.empty() ? "" : ", ") + std::to_string(count) + " " +
+                 reason;
+    }
     throw InputError(
         database.path,
         "no model: the largest connected group of images has " +
@@ -101,8 +109,12 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
             " image(s), at least " + std::to_string(options.min_model_size) +
             " are needed (" + std::to_string(view_graph.pairs.size()) +
             " usable verified pairs of " +
-            std::to_string(database.two_view_geometries.size()) +
-            "; run a matcher, or lower --Mapper.min_num_matches)");
+            std::to_string(view_graph_summary.num_pairs_read) +
+            (dropped.empty() ? "" : "; dropped: " + dropped) +
+            (view_graph_summary.num_pairs_read == 0
+                 ? "; run a matcher"
+                 : "; see --ViewGraph.drop_configs, --Mapper.min_num_matches") +
+            ")");
   }
 
   // One mapper per component; the finished ones keep their model and stages.
@@ -178,60 +190,28 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
 }
 
 void WriteMapperOutput(const std::vector<Reconstruction>& models,
-                       const std::string& output_path,
                        const std::string& output_type, const Timer& total_timer,
+                       OutputTransaction* output,
                        GlobalMapperSummary* summary) {
-  // Everything goes to a temporary directory first; each model directory is
-  // renamed into place once every file is complete.
   StageTimer stage("writing");
-  std::error_code error;
-  const fs::path temporary =
-      fs::path(output_path) /
-      (".colmap_irav4_tmp." + std::to_string(static_cast<long>(getpid())));
-  fs::remove_all(temporary, error);
-  fs::create_directories(temporary);
   for (size_t k = 0; k < models.size(); ++k) {
-    WriteReconstruction(models[k], (temporary / std::to_string(k)).string(),
+    WriteReconstruction(models[k],
+                        output->StagingModelPath(static_cast<int>(k)),
                         output_type);
   }
-  summary->total_seconds = total_timer.ElapsedSeconds();
-  for (size_t k = 0; k < models.size(); ++k) {
-    const fs::path target = fs::path(output_path) / std::to_string(k);
-    if (fs::exists(target)) {
-      // Replace a previous model, never anything else.
-      const bool is_model = ExistsBinaryModel(target.string()) ||
-                            ExistsTextModel(target.string()) ||
-                            fs::is_empty(target);
-      if (!is_model) {
-        fs::remove_all(temporary, error);
-        throw InputError(target.string(),
-                         "exists and is not a COLMAP model; not replaced");
-      }
-      fs::remove_all(target);
-    }
-    fs::rename(temporary / std::to_string(k), target);
-  }
-  for (size_t k = models.size();; ++k) {
-    const fs::path stale = fs::path(output_path) / std::to_string(k);
-    if (!fs::exists(stale)) break;
-    LOG(WARNING) << stale.string()
-                 << ": left over from an earlier run (this run made "
-                 << models.size() << " model(s))";
-    summary->notes.push_back(stale.string() + " is left over from an earlier run");
+  for (const std::string& stale :
+       output->StaleModelDirectories(static_cast<int>(models.size()))) {
+    summary->notes.push_back(stale + " is left over from an earlier run");
   }
   stage.Add("models", static_cast<double>(models.size()));
   stage.Finish("", &summary->stages);
   summary->total_seconds = total_timer.ElapsedSeconds();
-  {
-    std::ofstream file(temporary / "summary.json");
-    file << summary->ToJson();
-    if (!file) throw InputError(output_path, "cannot write summary.json");
-  }
-  fs::rename(temporary / "summary.json", fs::path(output_path) / "summary.json");
-  fs::remove_all(temporary, error);
+  WriteFileAtomically(output->StagingFilePath("summary.json"),
+                      summary->ToJson());
+  output->Commit(static_cast<int>(models.size()), {"summary.json"});
   LOG(INFO) << "Wrote " << models.size() << " model(s) and summary.json to "
-            << output_path << " in " << std::fixed << std::setprecision(2)
-            << summary->total_seconds << " s total";
+            << output->OutputPath() << " in " << std::fixed
+            << std::setprecision(2) << summary->total_seconds << " s total";
 }
 
 GlobalMapperSummary RunGlobalMapperOnDatabase(
@@ -246,17 +226,32 @@ GlobalMapperSummary RunGlobalMapperOnDatabase(
   if (!image_path.empty() && !fs::is_directory(image_path)) {
     throw InputError(image_path, "image directory does not exist");
   }
-  std::error_code error;
-  fs::create_directories(output_path, error);
-  if (!fs::is_directory(output_path)) {
-    throw InputError(output_path, "cannot create the output directory");
-  }
+  // Output writable, OUT/0 replaceable, summary.json not a directory: checked
+  // before any work; the models are staged in a temporary directory and
+  // installed atomically (util/atomic_output.h).
+  OutputTransaction output(output_path);
 
   Timer total_timer;
   GlobalMapperSummary summary;
   summary.database_path = database_path;
   StageTimer stage("database");
-  const DatabaseContents database = ReadDatabase(database_path);
+  DatabaseReadOptions read_options;
+  read_options.reset_invalid_cameras = options.reset_invalid_cameras;
+  const DatabaseContents database = ReadDatabase(database_path, read_options);
+  for (const std::string& warning : database.warnings) {
+    summary.notes.push_back(database_path + ": " + warning);
+  }
+  // Names images.txt cannot hold fail now, not after the reconstruction.
+  if (output_type == "TXT" || output_type == "txt") {
+    for (const auto& [image_id, image] : database.images) {
+      const std::string problem = TextImageNameProblem(image.name);
+      if (!problem.empty()) {
+        throw InputError(database_path, "image " + std::to_string(image_id) +
+                                            ": " + problem +
+                                            "; use --output_type BIN");
+      }
+    }
+  }
   size_t num_keypoints = 0;
   for (const auto& [image_id, keypoints] : database.keypoints) {
     num_keypoints += keypoints.size();
@@ -266,12 +261,20 @@ GlobalMapperSummary RunGlobalMapperOnDatabase(
   stage.Add("keypoints", static_cast<double>(num_keypoints));
   stage.Add("verified pairs",
             static_cast<double>(database.two_view_geometries.size()));
+  // Observations that never reach positioning or bundle adjustment.
+  for (const auto& [reason, count] : database.num_keypoints_invalid) {
+    stage.Add(reason + "s dropped", static_cast<double>(count));
+  }
+  if (database.num_matches_dropped_invalid_keypoint > 0) {
+    stage.Add("inlier matches dropped (invalid keypoint)",
+              static_cast<double>(database.num_matches_dropped_invalid_keypoint));
+  }
   stage.Finish("", &summary.stages);
 
   std::vector<Reconstruction> models =
       RunGlobalMapper(options, database, image_path, &summary);
 
-  WriteMapperOutput(models, output_path, output_type, total_timer, &summary);
+  WriteMapperOutput(models, output_type, total_timer, &output, &summary);
   return summary;
 }
 

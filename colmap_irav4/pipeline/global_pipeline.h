@@ -12,6 +12,7 @@
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/run_summary.h"
 
 namespace colmap_irav4 {
@@ -52,13 +53,13 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
                                             GlobalMapperSummary* summary);
 
 // Writes OUTPUT/<k>/{cameras,images,points3D}.<bin|txt> for every model and
-// OUTPUT/summary.json: everything goes to a temporary directory under
-// output_path first, each model directory is renamed into place once every
-// file is complete (replacing a previous model, never anything else), then
-// summary.json. Appends the "writing" stage to the summary.
+// OUTPUT/summary.json into the transaction's temporary directory, then
+// installs them (util/atomic_output.h: each OUTPUT/<k> is swapped atomically,
+// the user's files in an old OUTPUT/<k> are kept, stale OUTPUT/<k> warned
+// about). Appends the "writing" stage to the summary.
 void WriteMapperOutput(const std::vector<Reconstruction>& models,
-                       const std::string& output_path,
                        const std::string& output_type, const Timer& total_timer,
+                       OutputTransaction* output,
                        GlobalMapperSummary* summary);
 
 // The whole command: reads the database read-only, maps, writes the output

@@ -98,6 +98,11 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   summary->num_images = static_cast<int>(database.images.size());
   summary->num_pairs_read =
       static_cast<int>(database.two_view_geometries.size());
+  // Pairs the database reader already skipped (self-pairs, duplicates).
+  for (const auto& [reason, count] : database.num_pairs_dropped) {
+    summary->num_dropped[reason] += count;
+    summary->num_pairs_read += count;
+  }
   const std::vector<int> drop_configs = options.DropConfigs();
 
   // Filters first (cheap, sequential), then the relative poses of the

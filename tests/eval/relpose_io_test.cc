@@ -31,7 +31,8 @@ TEST(RelposeIo, ReadsPairsInOurConvention) {
   text.precision(17);
   text << "# comment\na.jpg b.jpg " << q.transpose() << " 0 0 1 57\n"
        << "b.jpg c.jpg 1 0 0 0 1 0 0\n"
-       << "b.jpg a.jpg 1 0 0 0 1 0 0 3\n";  // repeated pair: ignored
+       << "b.jpg a.jpg " << -q(0) << " " << q(1) << " " << q(2) << " "
+       << q(3) << " 1 0 0 3\n";  // repeated pair (same rotation): ignored
   const RotationGraph graph = ReadRelativePoses(WriteFile("ok.txt", text.str()));
   ASSERT_EQ(graph.NumVertices(), 3);
   ASSERT_EQ(graph.NumEdges(), 2);
@@ -72,8 +73,10 @@ TEST(RelposeIo, MalformedInputNamesFileAndLine) {
       {good + "a c 1 0 0 0 1 0 nan\n", "line 2: field 9 'nan'"},
       {good + "a c 2 0 0 0 1 0 0\n", "line 2: quaternion norm 2"},
       {good + "a c 0 0 0 0 1 0 0\n", "line 2: quaternion norm 0"},
-      {good + "a c 1 0 0 0 1 0 0 -3\n", "line 2: index -3"},
-      {good + "c c 1 0 0 0 1 0 0\n", "line 2: pair of image 'c' with itself"},
+      {good + "a c 1 0 0 0 1 0 0 -3\n", "line 2: inlier count -3 is negative"},
+      {good + "b a 0 1 0 0 1 0 0\n",
+       "line 2: pair 'b' 'a' repeated with a rotation 180"},
+      {"c c 1 0 0 0 1 0 0\n", "no image pairs"},  // self-pair skipped
       {"# only a comment\n\n", "no image pairs"},
   };
   for (size_t k = 0; k < cases.size(); ++k) {

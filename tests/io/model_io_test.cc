@@ -1,4 +1,5 @@
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/util/atomic_output.h"
 
 #include <unistd.h>
 
@@ -435,7 +436,7 @@ TEST(ModelIO, FailedWriteLeavesNoPartialModel) {
   old_model.points3D.clear();
   WriteReconstruction(old_model, dir, "BIN");
   const std::string blocker =
-      dir + "/points3D.bin.tmp." + std::to_string(::getpid());
+      dir + "/points3D.bin" + kTemporaryMarker + std::to_string(::getpid());
   fs::create_directories(blocker + "/inside");
   ExpectInputError([&] { WriteReconstruction(model, dir, "BIN"); },
                    dir + "/points3D.bin", "cannot write");

@@ -157,11 +157,21 @@ TEST(ViewGraphCommand, BadDatabasesFailCleanly) {
   {
     test::SqliteWriter writer(bad_blob);
     writer.Exec(test::Colmap38Schema());
-    writer.Exec("INSERT INTO cameras VALUES (1, 0, 640, 480, zeroblob(24), 0);");
+    // SIMPLE_PINHOLE f = 500, c = (320, 240): a valid camera.
+    writer.Exec("INSERT INTO cameras VALUES (1, 0, 640, 480, "
+                "x'0000000000407F4000000000000074400000000000006E40', 0);");
     writer.Exec("INSERT INTO images VALUES (1, 'a.jpg', 1, NULL, NULL, NULL, NULL, NULL, NULL, NULL);");
     writer.Exec("INSERT INTO keypoints VALUES (1, 10, 6, zeroblob(100));");
   }
   ExpectCleanFailure(dir, bad_blob, "keypoints of image 1: data blob has 100 bytes");
+  const std::string bad_camera = dir.File("bad_camera.db");
+  {
+    test::SqliteWriter writer(bad_camera);
+    writer.Exec(test::Colmap38Schema());
+    writer.Exec("INSERT INTO cameras VALUES (1, 0, 640, 480, zeroblob(24), 0);");
+    writer.Exec("INSERT INTO images VALUES (1, 'a.jpg', 1, NULL, NULL, NULL, NULL, NULL, NULL, NULL);");
+  }
+  ExpectCleanFailure(dir, bad_camera, "camera 1 (SIMPLE_PINHOLE): focal length 0 is not positive");
   // A bad option is one clear line too.
   const RunResult result = RunCommand(dir, "view_graph --database_path x --output_path y "
                                     "--ViewGraph.drop_configs NOPE");

@@ -1,0 +1,606 @@
+// Hostile inputs end to end (issue 10): every case gives a clear error naming
+// the file and the record (exit 1) or a warning and a correct result (exit 0);
+// never an abort, never exit 0 with a wrong model. The database is never
+// written, and OUT/0 is always a complete old model, a complete new one, or
+// absent. Each test prints one "CASE |" line (the table of the issue's note).
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/io/model_io.h"
+#include "tests/test_utils/database_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+namespace fs = std::filesystem;
+using test::HashFile;
+using test::SqliteWriter;
+using test::TempDir;
+
+constexpr int64_t kPairFactor = 2147483647;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;
+};
+
+RunResult RunProgram(const std::string& arguments, const TempDir& temp) {
+  const std::string log = temp.File("run.log");
+  const std::string command = std::string(COLMAP_IRAV4_BINARY) + " " +
+                              arguments + " > " + log + " 2>&1";
+  RunResult result;
+  const int status = std::system(command.c_str());
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status)
+                                       : 128 + WTERMSIG(status);
+  std::ifstream file(log);
+  result.output.assign(std::istreambuf_iterator<char>(file),
+                       std::istreambuf_iterator<char>());
+  return result;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream file(path);
+  return std::string(std::istreambuf_iterator<char>(file),
+                     std::istreambuf_iterator<char>());
+}
+
+std::string CopyExampleDatabase(const TempDir& temp) {
+  const std::string copy = temp.File("database.db");
+  fs::copy_file(std::string(COLMAP_IRAV4_SOURCE_DIR) +
+                    "/tests/data/fountain-P11.db",
+                copy);
+  fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
+  return copy;
+}
+
+// "complete new" / "complete old" / "absent" / "damaged" of OUT/0, given
+// the number of images of the old model (0: there was none).
+std::string ModelState(const std::string& model, size_t old_num_images,
+                       const std::string& old_marker_image = "") {
+  if (!fs::exists(model)) return "absent";
+  try {
+    const Reconstruction reconstruction = ReadReconstruction(model);
+    if (old_num_images > 0 && reconstruction.images.size() == old_num_images &&
+        !old_marker_image.empty()) {
+      for (const auto& [id, image] : reconstruction.images) {
+        if (image.name == old_marker_image) return "complete old";
+      }
+    }
+    return "complete new";
+  } catch (const std::exception& error) {
+    return std::string("damaged: ") + error.what();
+  }
+}
+
+// The first line of the output holding `needle` (for the table).
+std::string LineWith(const std::string& output, const std::string& needle) {
+  const size_t at = output.find(needle);
+  if (at == std::string::npos) return "(not found: " + needle + ")";
+  const size_t begin = output.rfind('\n', at) + 1;
+  const size_t end = output.find('\n', at);
+  std::string line = output.substr(begin, end - begin);
+  // Drop glog's prefix.
+  const size_t bracket = line.find("] ");
+  if (line.size() > 1 && (line[0] == 'W' || line[0] == 'I' || line[0] == 'E') &&
+      bracket != std::string::npos) {
+    line = line.substr(bracket + 2);
+  }
+  return line;
+}
+
+void PrintCase(const std::string& name, const std::string& says, int exit_code,
+               bool hash_unchanged, const std::string& output_state) {
+  std::cout << "CASE | " << name << " | " << says << " | " << exit_code
+            << " | " << (hash_unchanged ? "yes" : "NO") << " | "
+            << output_state << std::endl;
+}
+
+// A small old model at OUT/0 (one image named "old_marker.jpg") so that
+// "complete old" is recognisable.
+void WriteOldModel(const std::string& model) {
+  Reconstruction reconstruction;
+  Camera camera;
+  camera.camera_id = 1;
+  camera.model_id = 0;
+  camera.width = 100;
+  camera.height = 100;
+  camera.params = {100, 50, 50};
+  reconstruction.cameras[1] = camera;
+  Image image;
+  image.image_id = 1;
+  image.camera_id = 1;
+  image.name = "old_marker.jpg";
+  reconstruction.images[1] = image;
+  WriteReconstruction(reconstruction, model, "BIN");
+}
+
+struct Case {
+  TempDir temp;
+  std::string database;
+  std::string sparse;
+  uint64_t hash = 0;
+  Case() : database(CopyExampleDatabase(temp)), sparse(temp.File("sparse")) {}
+  void Freeze() { hash = HashFile(database); }
+  RunResult Map(const std::string& extra = "") {
+    return RunProgram("mapper --database_path " + database +
+                          " --output_path " + sparse +
+                          " --Mapper.num_threads 2 " + extra,
+                      temp);
+  }
+  bool Unchanged() const {
+    return HashFile(database) == hash && !fs::exists(database + "-wal") &&
+           !fs::exists(database + "-shm") &&
+           !fs::exists(database + "-journal");
+  }
+};
+
+TEST(Reliability, SelfPairIsSkippedWithAWarning) {
+  Case c;
+  {
+    SqliteWriter writer(c.database);
+    writer.Exec("INSERT INTO two_view_geometries SELECT " +
+                std::to_string(kPairFactor * 3 + 3) +
+                ", rows, cols, data, config, F, E, H, qvec, tvec FROM "
+                "two_view_geometries WHERE pair_id = " +
+                std::to_string(kPairFactor * 1 + 2) + ";");
+  }
+  c.Freeze();
+  const RunResult run = c.Map();
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("paired with itself, skipped"), std::string::npos)
+      << run.output;
+  EXPECT_TRUE(c.Unchanged());
+  EXPECT_EQ(ReadReconstruction(c.sparse + "/0").images.size(), 11u);
+  PrintCase("self-pair (3,3) in two_view_geometries",
+            LineWith(run.output, "paired with itself"), run.exit_code,
+            c.Unchanged(), ModelState(c.sparse + "/0", 0));
+}
+
+TEST(Reliability, InvalidCamerasAreRejectedOrReset) {
+  struct Variant {
+    std::string name;
+    int model;
+    std::vector<double> params;
+    std::string expected;
+  };
+  const std::vector<Variant> variants = {
+      {"negative focal", 1, {-999.8, -999.8, 1536, 1024}, "is not positive"},
+      {"zero focal", 1, {0, 0, 1536, 1024}, "is not positive"},
+      {"NaN focal", 1, {NAN, 2760, 1536, 1024}, "is not finite"},
+      {"NaN principal point", 1, {2760, 2760, NAN, 1024}, "is not finite"},
+      {"SIMPLE_RADIAL k = 1e6", 2, {2760, 1536, 1024, 1e6}, "distortion"},
+      {"SIMPLE_RADIAL k = -5", 2, {2760, 1536, 1024, -5}, "distortion"},
+  };
+  for (const Variant& variant : variants) {
+    Case c;
+    {
+      SqliteWriter writer(c.database);
+      writer.Run("UPDATE cameras SET model = ?, params = ? WHERE camera_id = 1",
+                 {variant.model, test::ToBlob(variant.params)});
+    }
+    c.Freeze();
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1) << variant.name << run.output;
+    EXPECT_NE(run.output.find("ERROR: " + c.database + ": camera 1"),
+              std::string::npos)
+        << run.output;
+    EXPECT_NE(run.output.find(variant.expected), std::string::npos)
+        << run.output;
+    EXPECT_TRUE(c.Unchanged());
+    EXPECT_FALSE(fs::exists(c.sparse + "/0"));
+    PrintCase("camera: " + variant.name, LineWith(run.output, "ERROR"),
+              run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
+    if (variant.name == "negative focal") {
+      // With the flag: started from a default focal, refined, a model.
+      const RunResult reset = c.Map("--Mapper.reset_invalid_cameras 1");
+      EXPECT_EQ(reset.exit_code, 0) << reset.output;
+      EXPECT_NE(reset.output.find("reset to focal"), std::string::npos);
+      const Reconstruction model = ReadReconstruction(c.sparse + "/0");
+      EXPECT_GT(model.cameras.at(1).params[0], 0);
+      PrintCase("camera: negative focal, --Mapper.reset_invalid_cameras 1",
+                LineWith(reset.output, "reset to focal"), reset.exit_code,
+                c.Unchanged(), ModelState(c.sparse + "/0", 0));
+    }
+  }
+}
+
+TEST(Reliability, ZeroUsablePairsSaysWhatWasDroppedAndWhy) {
+  Case c;
+  {
+    SqliteWriter writer(c.database);
+    writer.Exec("UPDATE two_view_geometries SET config = 42;");
+  }
+  c.Freeze();
+  RunResult run = c.Map();
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("dropped: 55 unknown config"), std::string::npos)
+      << run.output;
+  PrintCase("every pair with config 42", LineWith(run.output, "ERROR"),
+            run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
+  Case d;
+  d.Freeze();
+  run = d.Map("--ViewGraph.drop_configs CALIBRATED,UNCALIBRATED,PLANAR_OR_PANORAMIC");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("config CALIBRATED"), std::string::npos)
+      << run.output;
+  EXPECT_EQ(run.output.find("run a matcher"), std::string::npos) << run.output;
+  PrintCase("every pair dropped by --ViewGraph.drop_configs",
+            LineWith(run.output, "ERROR"), run.exit_code, d.Unchanged(),
+            ModelState(d.sparse + "/0", 0));
+}
+
+TEST(Reliability, NonFiniteAndOutOfImageKeypointsAreDroppedAndCounted) {
+  Case c;
+  {
+    // Image 5: its first 60 keypoints NaN; image 6: 40 outside the image.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(c.database.c_str(), &db), SQLITE_OK);
+    for (const int image_id : {5, 6}) {
+      sqlite3_stmt* stmt = nullptr;
+      sqlite3_prepare_v2(db,
+                         "SELECT rows, cols, data FROM keypoints WHERE "
+                         "image_id = ?",
+                         -1, &stmt, nullptr);
+      sqlite3_bind_int(stmt, 1, image_id);
+      ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+      const int rows = sqlite3_column_int(stmt, 0);
+      const int cols = sqlite3_column_int(stmt, 1);
+      std::vector<float> data(static_cast<size_t>(rows) * cols);
+      std::memcpy(data.data(), sqlite3_column_blob(stmt, 2),
+                  data.size() * sizeof(float));
+      sqlite3_finalize(stmt);
+      for (int k = 0; k < 60 && k < rows; ++k) {
+        if (image_id == 5) {
+          data[k * cols] = NAN;
+        } else if (k < 40) {
+          data[k * cols + 1] = 1e7f;
+        }
+      }
+      sqlite3_prepare_v2(db, "UPDATE keypoints SET data = ? WHERE image_id = ?",
+                         -1, &stmt, nullptr);
+      sqlite3_bind_blob(stmt, 1, data.data(),
+                        static_cast<int>(data.size() * sizeof(float)),
+                        SQLITE_TRANSIENT);
+      sqlite3_bind_int(stmt, 2, image_id);
+      ASSERT_EQ(sqlite3_step(stmt), SQLITE_DONE);
+      sqlite3_finalize(stmt);
+    }
+    sqlite3_close(db);
+  }
+  c.Freeze();
+  const RunResult run = c.Map();
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  const std::string summary = ReadText(c.sparse + "/summary.json");
+  EXPECT_NE(summary.find("\"non-finite keypoints dropped\": 60"),
+            std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("\"keypoint outside the images dropped\": 40"),
+            std::string::npos)
+      << summary;
+  EXPECT_EQ(ReadReconstruction(c.sparse + "/0").images.size(), 11u);
+  PrintCase("60 NaN keypoints (image 5), 40 outside (image 6)",
+            LineWith(run.output, "database:"), run.exit_code, c.Unchanged(),
+            ModelState(c.sparse + "/0", 0));
+}
+
+TEST(Reliability, PairIdsOutOfRangeAndBothOrders) {
+  Case c;
+  {
+    SqliteWriter writer(c.database);
+    writer.Exec("INSERT INTO two_view_geometries SELECT " +
+                std::to_string((int64_t{1} << 32) * kPairFactor + 2) +
+                ", rows, cols, data, config, F, E, H, qvec, tvec FROM "
+                "two_view_geometries WHERE pair_id = " +
+                std::to_string(kPairFactor * 1 + 2) + ";");
+  }
+  c.Freeze();
+  RunResult run = c.Map();
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.output.find("first image id 4294967296 is out of range"),
+            std::string::npos)
+      << run.output;
+  PrintCase("pair_id with first image id 2^32", LineWith(run.output, "ERROR"),
+            run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
+
+  Case d;
+  {
+    // (2, 1) stored as well as (1, 2); (4, 3) stored only swapped.
+    SqliteWriter writer(d.database);
+    writer.Exec("INSERT INTO two_view_geometries SELECT " +
+                std::to_string(kPairFactor * 2 + 1) +
+                ", rows, cols, data, config, F, E, H, qvec, tvec FROM "
+                "two_view_geometries WHERE pair_id = " +
+                std::to_string(kPairFactor * 1 + 2) + ";");
+  }
+  d.Freeze();
+  run = d.Map();
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("stored in both orders"), std::string::npos);
+  PrintCase("pair stored as (1,2) and (2,1)",
+            LineWith(run.output, "both orders"), run.exit_code, d.Unchanged(),
+            ModelState(d.sparse + "/0", 0));
+}
+
+TEST(Reliability, ImageNamesTxtCannotHoldFailBeforeWork) {
+  for (const std::string& name : {std::string("a\nb.jpg"), std::string("")}) {
+    Case c;
+    {
+      SqliteWriter writer(c.database);
+      writer.Exec("UPDATE images SET name = '" + name +
+                  "' WHERE image_id = 4;");
+    }
+    c.Freeze();
+    const RunResult run = c.Map("--output_type TXT");
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_NE(run.output.find("image 4"), std::string::npos) << run.output;
+    EXPECT_EQ(run.output.find("view graph:"), std::string::npos)
+        << "failed only after work: " << run.output;
+    PrintCase(name.empty() ? "empty image name, TXT output"
+                           : "image name with a newline, TXT output",
+              LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              ModelState(c.sparse + "/0", 0));
+  }
+}
+
+TEST(Reliability, OutputProblemsFailBeforeWork) {
+  {
+    Case c;
+    c.Freeze();
+    std::ofstream(c.temp.File("a_file")) << "x";
+    c.sparse = c.temp.File("a_file") + "/sparse";
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.output.find("view graph:"), std::string::npos) << run.output;
+    PrintCase("output directory cannot be created (under a file)",
+              LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "absent");
+  }
+  {
+    Case c;
+    c.Freeze();
+    WriteOldModel(c.sparse + "/0");
+    fs::create_directories(c.sparse + "/summary.json");
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(run.output.find("view graph:"), std::string::npos) << run.output;
+    EXPECT_EQ(ModelState(c.sparse + "/0", 1, "old_marker.jpg"), "complete old");
+    PrintCase("OUT/summary.json is a directory", LineWith(run.output, "ERROR"),
+              run.exit_code, c.Unchanged(),
+              ModelState(c.sparse + "/0", 1, "old_marker.jpg"));
+  }
+  {
+    Case c;
+    c.Freeze();
+    fs::create_directories(c.sparse + "/0");
+    std::ofstream(c.sparse + "/0/notes.txt") << "mine";
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_EQ(ReadText(c.sparse + "/0/notes.txt"), "mine");
+    PrintCase("OUT/0 holds only a user's file (no model)",
+              LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "absent (user's directory untouched)");
+  }
+}
+
+TEST(Reliability, ReplacingAModelKeepsUserFilesAndWarnsAboutStaleOnes) {
+  Case c;
+  c.Freeze();
+  WriteOldModel(c.sparse + "/0");
+  std::ofstream(c.sparse + "/0/notes.txt") << "mine";
+  WriteOldModel(c.sparse + "/3");  // after a gap
+  // A temporary directory of a killed run (its PID no longer alive).
+  pid_t dead = fork();
+  if (dead == 0) _exit(0);
+  waitpid(dead, nullptr, 0);
+  const std::string stale_temp =
+      c.sparse + "/.colmap_irav4_tmp." + std::to_string(dead);
+  WriteOldModel(stale_temp + "/0");
+  const RunResult run = c.Map();
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(ReadText(c.sparse + "/0/notes.txt"), "mine");
+  EXPECT_NE(run.output.find("notes.txt: not a model file; kept"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("/3: left over from an earlier run"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(stale_temp));
+  EXPECT_EQ(ModelState(c.sparse + "/0", 1, "old_marker.jpg"), "complete new");
+  for (const auto& entry : fs::directory_iterator(c.sparse)) {
+    EXPECT_EQ(entry.path().filename().string().find(".colmap_irav4_tmp"),
+              std::string::npos)
+        << entry.path();
+  }
+  PrintCase("OUT/0 old model + user file, stale OUT/3, dead run's temp dir",
+            LineWith(run.output, "/3: left over"), run.exit_code,
+            c.Unchanged(), ModelState(c.sparse + "/0", 1, "old_marker.jpg"));
+}
+
+TEST(Reliability, SigtermCleansTheTemporaryDirectoryAndKeepsTheOldModel) {
+  for (const int signal_number : {SIGTERM, SIGINT}) {
+    Case c;
+    c.Freeze();
+    WriteOldModel(c.sparse + "/0");
+    const pid_t child = fork();
+    if (child == 0) {
+      const std::string log = c.temp.File("run.log");
+      freopen(log.c_str(), "w", stdout);
+      freopen(log.c_str(), "a", stderr);
+      execl(COLMAP_IRAV4_BINARY, COLMAP_IRAV4_BINARY, "mapper",
+            "--database_path", c.database.c_str(), "--output_path",
+            c.sparse.c_str(), "--Mapper.num_threads", "2", nullptr);
+      _exit(127);
+    }
+    const std::string temporary =
+        c.sparse + "/.colmap_irav4_tmp." + std::to_string(child);
+    // Wait until the run has started its work (its temporary directory
+    // exists), then interrupt it.
+    for (int k = 0; k < 600 && !fs::exists(temporary); ++k) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ASSERT_TRUE(fs::exists(temporary));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(child, signal_number);
+    int status = 0;
+    waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status) || WIFEXITED(status));
+    EXPECT_FALSE(fs::exists(temporary));
+    // The run may have finished before the signal: then the new model is
+    // complete; otherwise the old one is.
+    const std::string state =
+        ModelState(c.sparse + "/0", 1, "old_marker.jpg");
+    EXPECT_TRUE(state == "complete old" || state == "complete new") << state;
+    PrintCase(std::string(signal_number == SIGTERM ? "SIGTERM" : "SIGINT") +
+                  " during the run",
+              WIFSIGNALED(status) ? "(killed by the signal; temporary "
+                                    "directory removed)"
+                                  : "(finished before the signal)",
+              WIFSIGNALED(status) ? 128 + WTERMSIG(status)
+                                  : WEXITSTATUS(status),
+              c.Unchanged(), state);
+  }
+}
+
+TEST(Reliability, RelposeFileCases) {
+  TempDir temp;
+  const std::string q = " 1 0 0 0 0 0 1";
+  const std::string q2 = " 0.9238795 0.3826834 0 0 0 0 1";
+  struct Variant {
+    std::string name, text, expected;
+    int exit_code;
+  };
+  const std::vector<Variant> variants = {
+      {"self-pair line", "a b" + q + " 20\nb c" + q + " 20\na c" + q +
+                             " 20\nb b" + q + " 20\n",
+       "paired with itself, skipped", 0},
+      {"conflicting duplicate line", "a b" + q + " 20\nb c" + q + " 20\na c" +
+                                         q + " 20\na b" + q2 + " 20\n",
+       "line 4: pair 'a' 'b' repeated with a rotation", 1},
+      {"negative inlier count", "a b" + q + " -5\n",
+       "line 1: inlier count -5 is negative", 1},
+  };
+  for (const Variant& variant : variants) {
+    const std::string path = temp.File("relpose.txt");
+    std::ofstream(path) << variant.text;
+    const RunResult run = RunProgram(
+        "rotation_averager --relpose_path " + path + " --output_path " +
+            temp.File("rotations.txt"),
+        temp);
+    EXPECT_EQ(run.exit_code, variant.exit_code) << run.output;
+    EXPECT_NE(run.output.find(variant.expected), std::string::npos)
+        << run.output;
+    PrintCase("relpose: " + variant.name, LineWith(run.output, variant.expected),
+              run.exit_code, true,
+              fs::exists(temp.File("rotations.txt")) ? "complete new"
+                                                     : "absent");
+    fs::remove(temp.File("rotations.txt"));
+  }
+}
+
+TEST(Reliability, ModelComparerCases) {
+  TempDir temp;
+  // Reference: 6 cameras on a line, rotated about z.
+  Reconstruction reference;
+  Camera camera;
+  camera.camera_id = 1;
+  camera.model_id = 0;
+  camera.width = 100;
+  camera.height = 100;
+  camera.params = {100, 50, 50};
+  reference.cameras[1] = camera;
+  for (int k = 0; k < 6; ++k) {
+    Image image;
+    image.image_id = k + 1;
+    image.camera_id = 1;
+    image.name = "im" + std::to_string(k) + ".jpg";
+    image.cam_from_world.rotation = Eigen::Quaterniond(
+        Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d::UnitZ()));
+    // Centres on the x axis (plus tiny noise), so nearly collinear.
+    const Eigen::Vector3d center(k, 1e-4 * (k % 2), 1e-4 * ((k + 1) % 3));
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
+    reference.images[image.image_id] = image;
+  }
+  WriteReconstruction(reference, temp.File("reference"), "BIN");
+  // Model 1: the same poses with quaternions scaled by 3 (non-unit).
+  Reconstruction scaled = reference;
+  WriteReconstruction(scaled, temp.File("scaled"), "TXT");
+  {
+    std::string text = ReadText(temp.File("scaled/images.txt"));
+    std::ofstream out(temp.File("scaled/images.txt"));
+    std::istringstream lines(text);
+    std::string line;
+    int n = 0;
+    while (std::getline(lines, line)) {
+      if (line.empty() || line[0] == '#' || (n++ % 2) == 1) {
+        out << line << "\n";
+        continue;
+      }
+      std::istringstream fields(line);
+      std::string id, name;
+      double qw, qx, qy, qz, tx, ty, tz;
+      int camera_id;
+      fields >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> camera_id >>
+          name;
+      out.precision(17);
+      out << id << " " << 3 * qw << " " << 3 * qx << " " << 3 * qy << " "
+          << 3 * qz << " " << tx << " " << ty << " " << tz << " " << camera_id
+          << " " << name << "\n";
+    }
+  }
+  RunResult run = RunProgram("model_comparer --input_path1 " +
+                                 temp.File("scaled") + " --input_path2 " +
+                                 temp.File("reference"),
+                             temp);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("nearly collinear"), std::string::npos)
+      << run.output;
+  {
+    const std::string line = LineWith(run.output, "rotation error [deg]");
+    double median = -1;
+    std::sscanf(line.c_str(), "rotation error [deg]: median %lf", &median);
+    EXPECT_LT(median, 0.01) << run.output;
+    PrintCase("model_comparer: quaternions x3, collinear centres", line,
+              run.exit_code, true, "n/a");
+  }
+  // A NaN quaternion.
+  {
+    std::string text = ReadText(temp.File("scaled/images.txt"));
+    const size_t at = text.find("\n1 ");
+    text.replace(at + 3, text.find(' ', at + 3) - (at + 3), "nan");
+    std::ofstream(temp.File("scaled/images.txt")) << text;
+  }
+  run = RunProgram("model_comparer --input_path1 " + temp.File("scaled") +
+                       " --input_path2 " + temp.File("reference"),
+                   temp);
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("invalid rotation quaternion"), std::string::npos)
+      << run.output;
+  EXPECT_EQ(run.output.find("median nan"), std::string::npos);
+  PrintCase("model_comparer: NaN quaternion", LineWith(run.output, "ERROR"),
+            run.exit_code, true, "n/a");
+  run = RunProgram("model_comparer --input_path1 " + temp.File("reference") +
+                       " --input_path2 " + temp.File("reference") +
+                       " --Comparer.max_relative_error 5",
+                   temp);
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  PrintCase("model_comparer: --Comparer.max_relative_error 5",
+            LineWith(run.output, "ERROR"), run.exit_code, true, "n/a");
+}
+
+}  // namespace
+}  // namespace colmap_irav4

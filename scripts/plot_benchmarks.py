@@ -172,8 +172,9 @@ def plot_errors(rows, path):
                     ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=6, rotation=90)
         ax.set_xticks(range(len(scenes)))
         ax.set_xticklabels(scenes, rotation=30, ha="right", fontsize=8)
-        ax.set_title(title, fontsize=10)
-        ax.grid(True, axis="y", alpha=0.3)
+        ax.set_title(title + " (log scale)", fontsize=10)
+        ax.set_yscale("log")  # a failed scene would hide the others
+        ax.grid(True, axis="y", which="both", alpha=0.3)
         if panel == 0:
             ax.legend(fontsize=7)
     fig.tight_layout()

@@ -167,9 +167,7 @@ def plot_errors(rows, path):
             ax.bar([x for x, v in zip(xs, values) if v is not None],
                    [v for v in values if v is not None], width,
                    color=COLORS[mapper], label=LABELS[mapper])
-            for x, v in zip(xs, values):
-                if v is None:
-                    ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=6, rotation=90)
+            # Missing bars (not run, failed) are listed in comparison.csv.
         ax.set_xticks(range(len(scenes)))
         ax.set_xticklabels(scenes, rotation=30, ha="right", fontsize=8)
         ax.set_title(title + " (log scale)", fontsize=10)

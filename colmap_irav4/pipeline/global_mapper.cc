@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/pipeline/fold_resolution.h"
 #include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -446,6 +447,7 @@ void GlobalMapperOptions::Check() const {
   bundle_adjustment.Check();
   filtering.Check();
   normalization.Check();
+  fold.Check();
 }
 
 GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
@@ -595,6 +597,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "(deg)");
   manager->Add("Normalization.extent", &o.normalization.extent,
                "extent of the central part of the normalised scene");
+  AddFoldResolutionOptions(manager, &o.fold);
 }
 
 std::vector<ImagePairGeometry> FilterPairsByRotation(

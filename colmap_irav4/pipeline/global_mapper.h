@@ -23,6 +23,7 @@
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
+#include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -94,6 +95,8 @@ struct GlobalMapperOptions {
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Fold check of every model and its resolution (symmetric scenes).
+  FoldResolutionOptions fold;
 
   GlobalMapperOptions();
   // Throws InputError naming the offending option.

@@ -1,6 +1,8 @@
 #include "colmap_irav4/pipeline/global_pipeline.h"
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -12,6 +14,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/pipeline/fold_resolution.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
@@ -44,7 +47,14 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"num_observations\": " << c.num_observations
         << ", \"mean_track_length\": " << JsonNumber(c.mean_track_length)
         << ", \"mean_reprojection_error\": "
-        << JsonNumber(c.mean_reprojection_error) << ",\n     \"stages\": ";
+        << JsonNumber(c.mean_reprojection_error)
+        << ", \"fold_score\": "
+        << JsonNumber(c.fold_score < 0 ? std::nan("") : c.fold_score)
+        << ", \"folded\": " << (c.folded ? "true" : "false")
+        << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
+        << ", \"fold_missing_pairs\": " << c.fold_missing_pairs
+        << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
+        << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
     out << "}";
   }
@@ -117,8 +127,12 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
             ")");
   }
 
-  // One mapper per component; the finished ones keep their model and stages.
+  // One mapper per component (more where a folded component is split); the
+  // finished ones keep their model, stages and fold check.
   std::vector<std::unique_ptr<GlobalMapper>> mappers;
+  std::map<const GlobalMapper*, FoldCheckedModel> fold_checks;
+  const ComponentStages component_stages =
+      GlobalMapperStages(options, database, view_graph.cameras);
   for (size_t c = 0; c < components.size(); ++c) {
     if (static_cast<int>(components[c].size()) < options.min_model_size) break;
     const std::set<image_t> images(components[c].begin(), components[c].end());
@@ -128,18 +142,23 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     }
     const std::string prefix =
         components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
-    auto mapper = std::make_unique<GlobalMapper>(
-        options, database, view_graph.cameras, components[c], std::move(pairs),
-        prefix);
-    if (!mapper->Run()) {
+    std::string failure;
+    std::vector<FoldCheckedModel> checked = MapComponentWithFoldCheck(
+        options.fold, options.min_model_size,
+        BuildFoldEvidence(database, pairs, images), components[c], pairs,
+        prefix, component_stages, &summary->notes, &failure);
+    if (checked.empty()) {
       LOG(WARNING) << prefix << "no model for the component of "
-                   << components[c].size() << " images: " << mapper->failure();
+                   << components[c].size() << " images: " << failure;
       summary->notes.push_back("component of " +
                                std::to_string(components[c].size()) +
-                               " images gave no model: " + mapper->failure());
+                               " images gave no model: " + failure);
       continue;
     }
-    mappers.push_back(std::move(mapper));
+    for (FoldCheckedModel& model : checked) {
+      mappers.push_back(std::move(model.mapper));
+      fold_checks[mappers.back().get()] = std::move(model);
+    }
   }
   if (mappers.empty()) {
     throw InputError(database.path,
@@ -170,6 +189,16 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     report.num_images_in_graph = static_cast<int>(mapper.images().size());
     report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
     report.stages = mapper.stages();
+    const FoldCheckedModel& fold_check = fold_checks.at(&mapper);
+    if (fold_check.checked) {
+      report.stages.insert(report.stages.end(), fold_check.stages.begin(),
+                           fold_check.stages.end());
+      report.fold_score = fold_check.fold.fold_score;
+      report.folded = fold_check.fold.folded;
+      report.fold_predicted_pairs = fold_check.fold.num_predicted_pairs;
+      report.fold_missing_pairs = fold_check.fold.num_missing_pairs;
+      report.fold_outcome = fold_check.outcome;
+    }
     report.mean_reprojection_error = UpdateReprojectionErrors(&reconstruction);
     report.num_registered_images = static_cast<int>(reconstruction.images.size());
     report.num_points = static_cast<int>(reconstruction.points3D.size());

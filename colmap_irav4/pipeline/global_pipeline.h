@@ -27,6 +27,14 @@ struct ComponentReport {
   int num_observations = 0;
   double mean_track_length = 0;
   double mean_reprojection_error = 0;
+  // Fold check (refinement/fold_detection.h) of the model as written;
+  // fold_score -1: not run.
+  double fold_score = -1;
+  bool folded = false;
+  int fold_predicted_pairs = 0;
+  int fold_missing_pairs = 0;
+  // "clean", "resolved (...)", "split", "folded (...)".
+  std::string fold_outcome;
   std::vector<StageReport> stages;
 };
 

@@ -118,6 +118,11 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   EXPECT_NE(summary.find("\"num_points\": " +
                          std::to_string(model.points3D.size())),
             std::string::npos);
+  // No false alarm of the fold check: one model, checked and clean.
+  EXPECT_NE(summary.find("\"folded\": false"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"fold_outcome\": \"clean\""), std::string::npos)
+      << summary;
+  EXPECT_EQ(summary.find("\"index\": 1"), std::string::npos) << summary;
 
   // COLMAP 3.8 reads the model.
   if (fs::exists("/usr/bin/colmap")) {

@@ -1,0 +1,418 @@
+#include "colmap_irav4/pipeline/fold_resolution.h"
+
+#include <algorithm>
+#include <map>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/timer.h"
+
+namespace colmap_irav4 {
+namespace {
+
+struct Attempt {
+  bool ok = false;
+  bool refined = false;
+  FoldCheckedModel model;
+  std::string failure;
+};
+
+StageReport FoldStage(const std::string& name, const FoldReport& fold,
+                      double seconds) {
+  StageReport stage(name);
+  stage.seconds = seconds;
+  stage.Add("fold score", fold.fold_score);
+  stage.Add("predicted pairs", static_cast<double>(fold.num_predicted_pairs));
+  stage.Add("missing pairs", static_cast<double>(fold.num_missing_pairs));
+  stage.Add("contradicted strong pairs",
+            static_cast<double>(fold.num_strong_inconsistent_pairs));
+  stage.Add("contradictory tracks",
+            static_cast<double>(fold.num_contradictory_tracks));
+  stage.Add("suspect pairs", static_cast<double>(fold.suspect_pairs.size()));
+  return stage;
+}
+
+std::vector<ImagePairGeometry> PairsWithin(
+    const std::vector<ImagePairGeometry>& pairs, const std::set<image_t>& images) {
+  std::vector<ImagePairGeometry> kept;
+  for (const ImagePairGeometry& pair : pairs) {
+    if (images.count(pair.image_id1) && images.count(pair.image_id2)) {
+      kept.push_back(pair);
+    }
+  }
+  return kept;
+}
+
+// Whether the model's rotations contradict the pair's measured rotation
+// (false when an image is not in the model).
+bool ContradictedByModel(const ImagePairGeometry& pair,
+                         const Reconstruction& reconstruction,
+                         double max_rotation_error_deg) {
+  const auto image1 = reconstruction.images.find(pair.image_id1);
+  const auto image2 = reconstruction.images.find(pair.image_id2);
+  if (image1 == reconstruction.images.end() ||
+      image2 == reconstruction.images.end()) {
+    return false;
+  }
+  const Eigen::Matrix3d R1 =
+      image1->second.cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Matrix3d R2 =
+      image2->second.cam_from_world.rotation.toRotationMatrix();
+  return AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+         max_rotation_error_deg;
+}
+
+}  // namespace
+
+
+void AddFoldResolutionOptions(OptionManager* manager,
+                              FoldResolutionOptions* options) {
+  FoldResolutionOptions& o = *options;
+  FoldDetectionOptions& d = o.detection;
+  manager->Add("Fold.detect", &o.detect,
+               "test every model for a fold (symmetric scenes)");
+  manager->Add("Fold.resolve", &o.resolve,
+               "resolve a detected fold: remove the suspect pairs and map "
+               "again, else split the model at the weakest cut");
+  manager->Add("Fold.max_iterations", &o.max_iterations,
+               "rounds of removing suspect pairs before a split");
+  manager->Add("Fold.max_fold_score", &d.max_fold_score,
+               "models with a larger fraction of predicted overlapping pairs "
+               "without matches are folded");
+  manager->Add("Fold.min_missing_pairs", &d.min_missing_pairs,
+               "... and at least this many such pairs");
+  manager->Add("Fold.max_view_angle_deg", &d.max_view_angle_deg,
+               "two cameras are expected to match a point only from rays "
+               "closer than this (deg)");
+  manager->Add("Fold.min_overlap_fraction", &d.min_overlap_fraction,
+               "a pair is predicted to overlap when each image expects this "
+               "fraction of the other's points");
+}
+
+FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
+                               const std::vector<ImagePairGeometry>& pairs,
+                               const std::set<image_t>& images) {
+  FoldEvidence evidence;
+  std::map<image_pair_t, PairEvidence> by_id;
+  auto entry = [&](image_t a, image_t b) -> PairEvidence& {
+    PairEvidence& pair = by_id[ImagePairToPairId(a, b)];
+    if (pair.image_id1 == kInvalidImageId) {
+      pair.image_id1 = std::min(a, b);
+      pair.image_id2 = std::max(a, b);
+    }
+    return pair;
+  };
+  for (const auto& [pair_id, num_matches] : database.num_matches) {
+    const auto [a, b] = PairIdToImagePair(pair_id);
+    if (!images.count(a) || !images.count(b)) continue;
+    entry(a, b).num_matches = num_matches;
+  }
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    if (!images.count(geometry.image_id1) || !images.count(geometry.image_id2)) {
+      continue;
+    }
+    PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    // Failed verifications are stored with no inliers (config UNDEFINED).
+    pair.num_inliers =
+        geometry.config == TwoViewGeometry::UNDEFINED
+            ? 0
+            : static_cast<int>(geometry.inlier_matches.size());
+  }
+  for (const ImagePairGeometry& geometry : pairs) {
+    if (!images.count(geometry.image_id1) || !images.count(geometry.image_id2)) {
+      continue;
+    }
+    PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.has_rotation = true;
+    // Oriented image_id1 -> image_id2 of the evidence (smaller id first).
+    pair.R = geometry.image_id1 == pair.image_id1 ? geometry.R
+                                                  : Eigen::Matrix3d(geometry.R.transpose());
+    pair.num_inliers = std::max(pair.num_inliers, geometry.num_inliers);
+  }
+  for (auto& [pair_id, pair] : by_id) evidence.pairs.push_back(pair);
+  // COLMAP's matchers record every pair they try, failures included (a
+  // matches row with 0 rows, a two_view_geometries row of config UNDEFINED),
+  // so an absent pair was not tried. A database that records no failure at
+  // all (raw matches deleted, or written by a tool that keeps only the
+  // matched pairs) cannot say: exhaustive matching is assumed.
+  bool records_failures = false;
+  for (const auto& [pair_id, num_matches] : database.num_matches) {
+    if (num_matches == 0) records_failures = true;
+  }
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    if (geometry.config == TwoViewGeometry::UNDEFINED ||
+        geometry.inlier_matches.empty()) {
+      records_failures = true;
+    }
+  }
+  evidence.absent_pairs_were_tried = !records_failures;
+  return evidence;
+}
+
+ComponentStages GlobalMapperStages(const GlobalMapperOptions& options,
+                                   const DatabaseContents& database,
+                                   const std::map<camera_t, Camera>& cameras) {
+  ComponentStages stages;
+  stages.position = [&options, &database, &cameras](
+                        const std::vector<image_t>& images,
+                        const std::vector<ImagePairGeometry>& pairs,
+                        const std::string& prefix, std::string* failure) {
+    auto mapper = std::make_unique<GlobalMapper>(options, database, cameras,
+                                                 images, pairs, prefix);
+    if (mapper->RotationAveraging() && mapper->RotationFilter() &&
+        mapper->BuildTracks() && mapper->Positioning()) {
+      return mapper;
+    }
+    *failure = mapper->failure();
+    return std::unique_ptr<GlobalMapper>();
+  };
+  stages.refine = [](GlobalMapper* mapper, std::string* failure) {
+    if (mapper->IterativeBundleAdjustment() && mapper->Finalize()) return true;
+    *failure = mapper->failure();
+    return false;
+  };
+  return stages;
+}
+
+std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
+    const FoldResolutionOptions& options, int min_model_size,
+    const FoldEvidence& evidence, const std::vector<image_t>& images,
+    const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
+    const ComponentStages& stages, std::vector<std::string>* notes,
+    std::string* failure) {
+  auto check = [&](Attempt* attempt, const std::string& when,
+                   const std::string& check_prefix) {
+    Timer timer;
+    attempt->model.fold = DetectFold(
+        options.detection, attempt->model.mapper->reconstruction(), evidence);
+    attempt->model.checked = true;
+    const StageReport stage = FoldStage("fold check (" + when + ")",
+                                        attempt->model.fold,
+                                        timer.ElapsedSeconds());
+    attempt->model.stages.push_back(stage);
+    attempt->model.outcome = attempt->model.fold.folded ? "folded" : "clean";
+    LOG(INFO) << check_prefix << "fold check (" << when
+              << "): " << attempt->model.fold.Describe();
+  };
+  auto refine = [&](Attempt* attempt, const std::string& run_prefix) {
+    if (attempt->refined) return attempt->ok;
+    attempt->refined = true;
+    attempt->ok = stages.refine(attempt->model.mapper.get(), &attempt->failure);
+    if (attempt->ok && options.detect) check(attempt, "after refinement", run_prefix);
+    return attempt->ok;
+  };
+  // Positions, checks; refines (and checks again) unless folded and to be
+  // resolved (refining a folded model is wasted time).
+  auto run = [&](const std::vector<image_t>& run_images,
+                 const std::vector<ImagePairGeometry>& run_pairs,
+                 const std::string& run_prefix) {
+    Attempt attempt;
+    attempt.model.mapper =
+        stages.position(run_images, run_pairs, run_prefix, &attempt.failure);
+    attempt.ok = attempt.model.mapper != nullptr;
+    if (!attempt.ok) return attempt;
+    if (options.detect) {
+      check(&attempt, "after positioning", run_prefix);
+      if (attempt.model.fold.folded && options.resolve) return attempt;
+    }
+    refine(&attempt, run_prefix);
+    return attempt;
+  };
+  auto finish = [&](Attempt* attempt, const std::string& outcome,
+                    std::vector<FoldCheckedModel>* models) {
+    if (!refine(attempt, prefix)) return false;
+    if (!outcome.empty()) attempt->model.outcome = outcome;
+    models->push_back(std::move(attempt->model));
+    return true;
+  };
+
+  std::vector<FoldCheckedModel> models;
+  Attempt first = run(images, pairs, prefix);
+  if (!first.ok) {
+    *failure = first.failure;
+    return {};
+  }
+  if (!options.detect || !first.model.fold.folded || !options.resolve) {
+    if (!first.model.fold.folded) {
+      finish(&first, "", &models);
+    } else {
+      LOG(WARNING) << prefix << "the model of " << images.size()
+                   << " images looks FOLDED (symmetric scene: some cameras "
+                      "may sit at their mirrored twin's place): "
+                   << first.model.fold.Describe();
+      notes->push_back(prefix + "model looks folded (fold score " +
+                       std::to_string(first.model.fold.fold_score) +
+                       "); not resolved (--Fold.resolve 0)");
+      finish(&first, "folded (not resolved)", &models);
+    }
+    if (models.empty()) *failure = first.failure;
+    return models;
+  }
+  LOG(WARNING) << prefix << "the model of " << images.size()
+               << " images looks FOLDED (symmetric scene: some cameras may "
+                  "sit at their mirrored twin's place), resolving: "
+               << first.model.fold.Describe();
+  const Reconstruction& folded = first.model.mapper->reconstruction();
+
+  // 1. Re-orientation across the weakest cut. The images on one side of it
+  // sit at their twins' place: across the cut, the pairs the folded model
+  // agrees with are those that folded it, and those it contradicts are the
+  // true ones. Keep only the latter across the cut and map again.
+  {
+    const auto [side1, side2] =
+        FoldCut(options.detection, folded, evidence, first.model.fold);
+    if (!side2.empty()) {
+      const std::set<image_t> in_side1(side1.begin(), side1.end());
+      const std::set<image_t> in_side2(side2.begin(), side2.end());
+      std::vector<ImagePairGeometry> reoriented;
+      for (const ImagePairGeometry& pair : pairs) {
+        const bool cross =
+            (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
+            (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
+        if (!cross ||
+            ContradictedByModel(pair, folded,
+                                options.detection.max_rotation_error_deg)) {
+          reoriented.push_back(pair);
+        }
+      }
+      const size_t num_dropped = pairs.size() - reoriented.size();
+      LOG(INFO) << prefix << "fold resolution: cut into " << side1.size()
+                << " and " << side2.size() << " images; " << num_dropped
+                << " pairs across it agree with the fold and are removed, "
+                   "mapping again";
+      const std::vector<std::vector<image_t>> components =
+          PairComponents(reoriented);
+      if (num_dropped > 0 && !components.empty() &&
+          static_cast<int>(components[0].size()) >= min_model_size) {
+        Attempt attempt = run(
+            components[0],
+            PairsWithin(reoriented, std::set<image_t>(components[0].begin(),
+                                                      components[0].end())),
+            prefix);
+        if (attempt.ok && !attempt.model.fold.folded &&
+            refine(&attempt, prefix) && !attempt.model.fold.folded &&
+            attempt.model.mapper->reconstruction().images.size() * 4 >=
+                folded.images.size() * 3) {
+          LOG(INFO) << prefix << "fold resolved: "
+                    << attempt.model.fold.Describe();
+          notes->push_back(prefix + "fold resolved by removing " +
+                           std::to_string(num_dropped) +
+                           " pairs that agree with it across its cut");
+          finish(&attempt,
+                 "resolved (" + std::to_string(num_dropped) +
+                     " pairs across the fold removed)",
+                 &models);
+          return models;
+        }
+        if (attempt.ok) {
+          LOG(INFO) << prefix << "re-oriented model not accepted: "
+                    << attempt.model.fold.Describe();
+        }
+      }
+    }
+  }
+
+  // 2. Remove the suspect pairs and map again.
+  std::vector<ImagePairGeometry> current = pairs;
+  Attempt best = std::move(first);
+  size_t num_removed = 0;
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    const std::set<std::pair<image_t, image_t>> suspects(
+        best.model.fold.suspect_pairs.begin(),
+        best.model.fold.suspect_pairs.end());
+    const size_t before = current.size();
+    current.erase(
+        std::remove_if(current.begin(), current.end(),
+                       [&](const ImagePairGeometry& pair) {
+                         return suspects.count(
+                             {std::min(pair.image_id1, pair.image_id2),
+                              std::max(pair.image_id1, pair.image_id2)});
+                       }),
+        current.end());
+    if (current.size() == before) break;
+    num_removed += before - current.size();
+    LOG(INFO) << prefix << "fold resolution " << iteration + 1 << ": "
+              << before - current.size()
+              << " suspect pairs removed, mapping again";
+    const std::vector<std::vector<image_t>> components = PairComponents(current);
+    if (components.empty() ||
+        static_cast<int>(components[0].size()) < min_model_size) {
+      break;
+    }
+    Attempt attempt = run(components[0],
+                          PairsWithin(current, std::set<image_t>(
+                                                   components[0].begin(),
+                                                   components[0].end())),
+                          prefix);
+    if (!attempt.ok) break;
+    // Only a better-supported model replaces the previous one.
+    const bool better =
+        attempt.model.fold.fold_score < best.model.fold.fold_score &&
+        attempt.model.mapper->reconstruction().images.size() * 4 >=
+            best.model.mapper->reconstruction().images.size() * 3;
+    if (!better) break;
+    best = std::move(attempt);
+    if (!best.model.fold.folded && refine(&best, prefix) &&
+        !best.model.fold.folded) {
+      LOG(INFO) << prefix << "fold resolved by removing " << num_removed
+                << " pairs: " << best.model.fold.Describe();
+      notes->push_back(prefix + "fold resolved by removing " +
+                       std::to_string(num_removed) + " suspect pairs");
+      finish(&best,
+             "resolved (" + std::to_string(num_removed) + " pairs removed)",
+             &models);
+      return models;
+    }
+  }
+
+  // 3. Split at the weakest cut: separate models rather than a folded one.
+  const auto [side1, side2] =
+      FoldCut(options.detection, best.model.mapper->reconstruction(), evidence,
+              best.model.fold);
+  if (!side2.empty()) {
+    LOG(WARNING) << prefix << "fold not resolved: splitting into "
+                 << side1.size() << " and " << side2.size() << " images";
+    for (const std::vector<image_t>* side : {&side1, &side2}) {
+      const std::set<image_t> side_images(side->begin(), side->end());
+      const std::vector<ImagePairGeometry> side_pairs =
+          PairsWithin(current, side_images);
+      for (const std::vector<image_t>& component : PairComponents(side_pairs)) {
+        if (static_cast<int>(component.size()) < min_model_size) break;
+        Attempt attempt = run(
+            component,
+            PairsWithin(side_pairs,
+                        std::set<image_t>(component.begin(), component.end())),
+            prefix + "[split] ");
+        if (!attempt.ok || !refine(&attempt, prefix + "[split] ")) continue;
+        if (attempt.model.fold.folded) {
+          LOG(WARNING) << prefix << "[split] part of " << component.size()
+                       << " images still looks folded: "
+                       << attempt.model.fold.Describe();
+        }
+        finish(&attempt,
+               std::string("split") +
+                   (attempt.model.fold.folded ? " (still folded)" : ""),
+               &models);
+      }
+    }
+    if (!models.empty()) {
+      notes->push_back(prefix + "folded model split into " +
+                       std::to_string(models.size()) + " models");
+      return models;
+    }
+  }
+  LOG(WARNING) << prefix
+               << "fold not resolved and no cut found: the model is written "
+                  "but is likely FOLDED: "
+               << best.model.fold.Describe();
+  notes->push_back(prefix + "model likely folded (fold score " +
+                   std::to_string(best.model.fold.fold_score) +
+                   "), not resolved");
+  if (!finish(&best, "folded (unresolved)", &models)) *failure = best.failure;
+  return models;
+}
+
+}  // namespace colmap_irav4

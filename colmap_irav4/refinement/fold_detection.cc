@@ -1,0 +1,432 @@
+#include "colmap_irav4/refinement/fold_detection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+// A registered image as the detector sees it.
+struct View {
+  image_t image_id = kInvalidImageId;
+  const Camera* camera = nullptr;
+  Eigen::Matrix3d R;  // cam_from_world
+  Eigen::Vector3d t;
+  Eigen::Vector3d center;
+  Eigen::Vector3d axis;  // viewing direction in world coordinates
+  std::vector<Eigen::Vector3d> points;  // sampled model points it observes
+};
+
+// Whether `view` is expected to match the point X that `from` observes:
+// in front, inside the image, from a similar direction and distance.
+bool ExpectsPoint(const View& view, const Eigen::Vector3d& from_center,
+                  const Eigen::Vector3d& X, double cos_max_angle,
+                  double max_scale_ratio) {
+  const Eigen::Vector3d x = view.R * X + view.t;
+  if (x.z() <= 0) return false;
+  const Eigen::Vector3d ray_view = view.center - X;
+  const Eigen::Vector3d ray_from = from_center - X;
+  const double n_view = ray_view.norm();
+  const double n_from = ray_from.norm();
+  if (n_view <= 0 || n_from <= 0) return false;
+  if (ray_view.dot(ray_from) < cos_max_angle * n_view * n_from) return false;
+  if (n_view > max_scale_ratio * n_from || n_from > max_scale_ratio * n_view) {
+    return false;
+  }
+  const Eigen::Vector2d pixel =
+      CameraCameraToImage(*view.camera, Eigen::Vector2d(x.x() / x.z(),
+                                                        x.y() / x.z()));
+  return pixel.allFinite() && pixel.x() >= 0 && pixel.y() >= 0 &&
+         pixel.x() <= static_cast<double>(view.camera->width) &&
+         pixel.y() <= static_cast<double>(view.camera->height);
+}
+
+std::pair<image_t, image_t> Ordered(image_t a, image_t b) {
+  return a < b ? std::make_pair(a, b) : std::make_pair(b, a);
+}
+
+}  // namespace
+
+void FoldDetectionOptions::Check() const {
+  if (!(max_view_angle_deg > 0 && max_view_angle_deg < 180)) {
+    throw InputError("--Fold.max_view_angle_deg", "must be in (0, 180)");
+  }
+  if (!(max_scale_ratio >= 1)) {
+    throw InputError("--Fold.max_scale_ratio", "must be >= 1");
+  }
+  if (!(min_overlap_fraction > 0 && min_overlap_fraction <= 1)) {
+    throw InputError("--Fold.min_overlap_fraction", "must be in (0, 1]");
+  }
+  if (min_overlap_points < 1) {
+    throw InputError("--Fold.min_overlap_points", "must be >= 1");
+  }
+  if (max_points_per_image < 1) {
+    throw InputError("--Fold.max_points_per_image", "must be >= 1");
+  }
+  if (min_num_matches < 1) {
+    throw InputError("--Fold.min_num_matches", "must be >= 1");
+  }
+  if (!(max_fold_score >= 0 && max_fold_score <= 1)) {
+    throw InputError("--Fold.max_fold_score", "must be in [0, 1]");
+  }
+  if (min_missing_pairs < 1) {
+    throw InputError("--Fold.min_missing_pairs", "must be >= 1");
+  }
+  if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
+    throw InputError("--Fold.max_rotation_error_deg", "must be in (0, 180]");
+  }
+  if (!(contradictory_ray_angle_deg > 0 && contradictory_ray_angle_deg <= 180)) {
+    throw InputError("--Fold.contradictory_ray_angle_deg",
+                     "must be in (0, 180]");
+  }
+  if (min_suspect_conflicts < 1) {
+    throw InputError("--Fold.min_suspect_conflicts", "must be >= 1");
+  }
+}
+
+void FoldResolutionOptions::Check() const {
+  if (max_iterations < 0) {
+    throw InputError("--Fold.max_iterations", "must be >= 0");
+  }
+  detection.Check();
+}
+
+std::string FoldReport::Describe() const {
+  std::ostringstream line;
+  line << "fold score " << std::fixed << std::setprecision(3) << fold_score
+       << " (" << num_missing_pairs << " of " << num_predicted_pairs
+       << " predicted overlapping pairs have no matches), "
+       << num_strong_inconsistent_pairs << " strong pairs of "
+       << num_inconsistent_pairs << " contradicted, "
+       << num_contradictory_tracks << " of " << num_tracks
+       << " tracks seen from contradictory sides, " << suspect_pairs.size()
+       << " suspect pairs";
+  return line.str();
+}
+
+FoldReport DetectFold(const FoldDetectionOptions& options,
+                      const Reconstruction& reconstruction,
+                      const FoldEvidence& evidence) {
+  FoldReport report;
+  // The registered images with a sample of their model points.
+  std::vector<View> views;
+  std::map<image_t, int> index;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    View view;
+    view.image_id = image_id;
+    view.camera = &reconstruction.cameras.at(image.camera_id);
+    view.R = image.cam_from_world.rotation.normalized().toRotationMatrix();
+    view.t = image.cam_from_world.translation;
+    view.center = -view.R.transpose() * view.t;
+    view.axis = view.R.row(2).transpose();
+    std::vector<point3D_t> ids;
+    for (const Point2D& point2D : image.points2D) {
+      if (point2D.point3D_id != kInvalidPoint3DId &&
+          reconstruction.points3D.count(point2D.point3D_id)) {
+        ids.push_back(point2D.point3D_id);
+      }
+    }
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    const size_t n = std::min<size_t>(ids.size(), options.max_points_per_image);
+    for (size_t k = 0; k < n; ++k) {
+      // Evenly spaced over the sorted ids: deterministic.
+      view.points.push_back(
+          reconstruction.points3D.at(ids[k * ids.size() / n]).xyz);
+    }
+    index[image_id] = static_cast<int>(views.size());
+    views.push_back(std::move(view));
+  }
+  const int num_views = static_cast<int>(views.size());
+  report.num_images = num_views;
+
+  std::map<std::pair<image_t, image_t>, const PairEvidence*> by_pair;
+  for (const PairEvidence& pair : evidence.pairs) {
+    if (!index.count(pair.image_id1) || !index.count(pair.image_id2)) continue;
+    by_pair[Ordered(pair.image_id1, pair.image_id2)] = &pair;
+  }
+  auto matched = [&](image_t a, image_t b) {
+    const auto it = by_pair.find(Ordered(a, b));
+    return it != by_pair.end() &&
+           it->second->num_inliers >= options.min_num_matches;
+  };
+  auto tried = [&](image_t a, image_t b) {
+    return evidence.absent_pairs_were_tried || by_pair.count(Ordered(a, b));
+  };
+
+  // Predicted overlap: expected[i][j] = points of i that j should match.
+  const double cos_max_angle = std::cos(options.max_view_angle_deg * kDegToRad);
+  // Two cameras whose optical axes are further apart than the view angle
+  // plus both half fields of view cannot share a point: skip them cheaply.
+  // Sparse: expected[i] holds (j, points of i that j should match) > 0.
+  std::vector<std::vector<std::pair<int, int>>> expected(num_views);
+  for (int i = 0; i < num_views; ++i) {
+    for (int j = 0; j < num_views; ++j) {
+      if (i == j || views[i].points.empty()) continue;
+      if (views[i].axis.dot(views[j].axis) < -0.5) continue;
+      int count = 0;
+      for (const Eigen::Vector3d& X : views[i].points) {
+        count += ExpectsPoint(views[j], views[i].center, X, cos_max_angle,
+                              options.max_scale_ratio);
+      }
+      if (count > 0) expected[i].emplace_back(j, count);
+    }
+  }
+  auto expected_count = [&](int i, int j) {
+    const auto it = std::lower_bound(expected[i].begin(), expected[i].end(),
+                                     std::make_pair(j, 0));
+    return it != expected[i].end() && it->first == j ? it->second : 0;
+  };
+  std::set<std::pair<int, int>> predicted;  // (i, j), i < j
+  auto is_predicted = [&](int i, int j) {
+    return predicted.count(i < j ? std::make_pair(i, j) : std::make_pair(j, i)) > 0;
+  };
+  std::vector<std::vector<int>> predicted_neighbours(num_views);
+  for (int i = 0; i < num_views; ++i) {
+    for (const auto& [j, e_ij] : expected[i]) {
+      if (j <= i) continue;
+      const int e_ji = expected_count(j, i);
+      const double ni = static_cast<double>(views[i].points.size());
+      const double nj = static_cast<double>(views[j].points.size());
+      if (std::min(e_ij, e_ji) < options.min_overlap_points) continue;
+      if (e_ij < options.min_overlap_fraction * ni ||
+          e_ji < options.min_overlap_fraction * nj) {
+        continue;
+      }
+      const image_t a = views[i].image_id;
+      const image_t b = views[j].image_id;
+      if (!tried(a, b)) continue;
+      predicted.insert({i, j});
+      predicted_neighbours[i].push_back(j);
+      predicted_neighbours[j].push_back(i);
+      ++report.num_predicted_pairs;
+      ++report.image_predicted_pairs[a];
+      ++report.image_predicted_pairs[b];
+      if (!matched(a, b)) {
+        ++report.num_missing_pairs;
+        ++report.image_missing_pairs[a];
+        ++report.image_missing_pairs[b];
+        report.missing_pairs.push_back(Ordered(a, b));
+      }
+    }
+  }
+  report.fold_score =
+      report.num_predicted_pairs > 0
+          ? static_cast<double>(report.num_missing_pairs) /
+                report.num_predicted_pairs
+          : 0.0;
+  report.folded = report.fold_score > options.max_fold_score &&
+                  report.num_missing_pairs >= options.min_missing_pairs;
+
+  // Pairs the model agrees with or contradicts.
+  std::vector<std::pair<int, int>> consistent;
+  std::vector<int> consistent_inliers;
+  std::vector<int> inconsistent_inliers;
+  for (const auto& [key, pair] : by_pair) {
+    if (!pair->has_rotation || pair->num_inliers < options.min_num_matches) {
+      continue;
+    }
+    const View& v1 = views[index.at(pair->image_id1)];
+    const View& v2 = views[index.at(pair->image_id2)];
+    const double error =
+        AngularDistanceDeg(pair->R, v2.R * v1.R.transpose());
+    if (error <= options.max_rotation_error_deg) {
+      consistent.emplace_back(index.at(pair->image_id1),
+                              index.at(pair->image_id2));
+      consistent_inliers.push_back(pair->num_inliers);
+    } else {
+      inconsistent_inliers.push_back(pair->num_inliers);
+    }
+  }
+  report.num_inconsistent_pairs = static_cast<int>(inconsistent_inliers.size());
+  if (!consistent_inliers.empty()) {
+    std::vector<int> sorted = consistent_inliers;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
+                     sorted.end());
+    const int median = sorted[sorted.size() / 2];
+    for (const int inliers : inconsistent_inliers) {
+      report.num_strong_inconsistent_pairs += inliers >= median;
+    }
+  }
+
+  // Suspects: consistent pairs (a, b) whose common predicted neighbours
+  // mostly match only one of them. A true pair's neighbours see what both
+  // see and match both; a false pair joins images of two different places
+  // that the fold has put together.
+  for (const auto& [i, j] : consistent) {
+    if (!is_predicted(i, j)) continue;
+    int support = 0;
+    int conflict = 0;
+    for (const int c : predicted_neighbours[i]) {
+      if (c == j || !is_predicted(j, c)) continue;
+      const bool mi = matched(views[i].image_id, views[c].image_id);
+      const bool mj = matched(views[j].image_id, views[c].image_id);
+      if (mi && mj) {
+        ++support;
+      } else if (mi != mj) {
+        ++conflict;
+      }
+    }
+    if (conflict >= options.min_suspect_conflicts && conflict > support) {
+      report.suspect_pairs.push_back(
+          Ordered(views[i].image_id, views[j].image_id));
+    }
+  }
+  std::sort(report.suspect_pairs.begin(), report.suspect_pairs.end());
+
+  // Tracks seen from contradictory sides.
+  const double cos_contradictory =
+      std::cos(options.contradictory_ray_angle_deg * kDegToRad);
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    if (point.track.size() < 2) continue;
+    ++report.num_tracks;
+    std::vector<Eigen::Vector3d> rays;
+    for (const TrackElement& element : point.track) {
+      const auto it = index.find(element.image_id);
+      if (it == index.end()) continue;
+      const Eigen::Vector3d ray = views[it->second].center - point.xyz;
+      if (ray.norm() > 0) rays.push_back(ray.normalized());
+      if (rays.size() >= 32) break;  // long tracks: a sample is enough
+    }
+    bool contradictory = false;
+    for (size_t a = 0; a < rays.size() && !contradictory; ++a) {
+      for (size_t b = a + 1; b < rays.size(); ++b) {
+        if (rays[a].dot(rays[b]) < cos_contradictory) {
+          contradictory = true;
+          break;
+        }
+      }
+    }
+    report.num_contradictory_tracks += contradictory;
+  }
+  return report;
+}
+
+std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
+    const FoldDetectionOptions& options, const Reconstruction& reconstruction,
+    const FoldEvidence& evidence, const FoldReport& report) {
+  std::vector<image_t> ids;
+  std::map<image_t, int> index;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    index[image_id] = static_cast<int>(ids.size());
+    ids.push_back(image_id);
+  }
+  const int n = static_cast<int>(ids.size());
+  // Signed graph: trusted pairs pull together (+1 each), missing pairs
+  // push apart (-1 each, scaled so that both kinds weigh the same in total).
+  const std::set<std::pair<image_t, image_t>> suspects(
+      report.suspect_pairs.begin(), report.suspect_pairs.end());
+  std::vector<std::tuple<int, int, double>> edges;
+  int num_trusted = 0;
+  for (const PairEvidence& pair : evidence.pairs) {
+    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
+      continue;
+    }
+    const auto i1 = index.find(pair.image_id1);
+    const auto i2 = index.find(pair.image_id2);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    if (suspects.count(Ordered(pair.image_id1, pair.image_id2))) continue;
+    const Image& image1 = reconstruction.images.at(pair.image_id1);
+    const Image& image2 = reconstruction.images.at(pair.image_id2);
+    const Eigen::Matrix3d R1 = image1.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R2 = image2.cam_from_world.rotation.toRotationMatrix();
+    if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+        options.max_rotation_error_deg) {
+      continue;
+    }
+    edges.emplace_back(i1->second, i2->second, 1.0);
+    ++num_trusted;
+  }
+  const int num_missing = static_cast<int>(report.missing_pairs.size());
+  std::pair<std::vector<image_t>, std::vector<image_t>> sides;
+  if (n < 2 || num_missing == 0 || num_trusted == 0) {
+    sides.first = ids;
+    return sides;
+  }
+  const double negative = static_cast<double>(num_trusted) / num_missing;
+  for (const auto& [a, b] : report.missing_pairs) {
+    const auto i1 = index.find(a);
+    const auto i2 = index.find(b);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    edges.emplace_back(i1->second, i2->second, -negative);
+  }
+  // Leading eigenvector of the signed adjacency (power iteration with a
+  // shift that makes the matrix positive definite), then single flips while
+  // they increase the agreement sum_ij w_ij x_i x_j.
+  std::vector<double> degree(n, 0);
+  for (const auto& [a, b, w] : edges) {
+    degree[a] += std::abs(w);
+    degree[b] += std::abs(w);
+  }
+  const double shift = *std::max_element(degree.begin(), degree.end()) + 1;
+  Eigen::VectorXd x(n);
+  for (int k = 0; k < n; ++k) x[k] = std::sin(1.0 + k);  // deterministic
+  for (int iteration = 0; iteration < 300; ++iteration) {
+    Eigen::VectorXd y = shift * x;
+    for (const auto& [a, b, w] : edges) {
+      y[a] += w * x[b];
+      y[b] += w * x[a];
+    }
+    x = y / y.norm();
+  }
+  std::vector<int> side(n);
+  for (int k = 0; k < n; ++k) side[k] = x[k] >= 0 ? 1 : -1;
+  std::vector<std::vector<std::pair<int, double>>> adjacency(n);
+  for (const auto& [a, b, w] : edges) {
+    adjacency[a].emplace_back(b, w);
+    adjacency[b].emplace_back(a, w);
+  }
+  for (bool improved = true; improved;) {
+    improved = false;
+    for (int k = 0; k < n; ++k) {
+      double gain = 0;  // agreement change if k flips: -2 * sum w x_k x_l
+      for (const auto& [l, w] : adjacency[k]) gain -= 2 * w * side[k] * side[l];
+      if (gain > 1e-9) {
+        side[k] = -side[k];
+        improved = true;
+      }
+    }
+  }
+  int cut_trusted = 0;
+  int cut_missing = 0;
+  for (const auto& [a, b, w] : edges) {
+    if (side[a] == side[b]) continue;
+    (w > 0 ? cut_trusted : cut_missing) += 1;
+  }
+  std::vector<image_t> positive;
+  std::vector<image_t> negative_side;
+  for (int k = 0; k < n; ++k) {
+    (side[k] > 0 ? positive : negative_side).push_back(ids[k]);
+  }
+  VLOG(1) << "fold cut: " << positive.size() << " | " << negative_side.size()
+          << " images, " << cut_missing << " missing and " << cut_trusted
+          << " trusted pairs cut";
+  // The cut explains the fold when most missing pairs cross it (the pairs
+  // it cuts that the model trusts are then the ones that folded it), or when
+  // it separates more missing pairs than it cuts trusted ones.
+  const int num_missing_edges = static_cast<int>(edges.size()) - num_trusted;
+  const bool explains = cut_missing * 5 >= num_missing_edges * 4 ||
+                        cut_missing > cut_trusted;
+  if (positive.empty() || negative_side.empty() || !explains) {
+    sides.first = ids;
+    return sides;
+  }
+  if (positive.size() < negative_side.size()) std::swap(positive, negative_side);
+  sides.first = std::move(positive);
+  sides.second = std::move(negative_side);
+  return sides;
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,148 @@
+#pragma once
+
+// Fold detection for symmetric and repetitive scenes.
+//
+// A folded model places some cameras at the position of their mirrored twin
+// (e.g. a courtyard whose opposite walls look alike): false image pairs whose
+// matches agree with the twin become consistent, and the model is complete
+// and self-consistent, with exit 0. What the model cannot hide is what the
+// database knows and the model contradicts:
+//   - missing correspondences: image pairs the model says look at the same
+//     points from nearly the same direction, but the database holds no
+//     verified matches for them (the images were matched and did not match);
+//   - inconsistent strong pairs: verified pairs with many inliers whose
+//     relative rotation the model contradicts;
+//   - tracks seen from contradictory sides of their point.
+// The fold score is the fraction of the predicted-overlapping (tried) pairs
+// without matches: near 0 for a correct model from exhaustive matching, high
+// where cameras were folded onto their twins' side.
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/types.h"
+
+namespace colmap_irav4 {
+
+struct FoldDetectionOptions {
+  // Rays of two cameras to a point more than this apart (deg): the cameras
+  // are not expected to match the point (descriptors fail at wide angles).
+  double max_view_angle_deg = 30.0;
+  // Distance ratio of two cameras to a point above which they are not
+  // expected to match it (scale change).
+  double max_scale_ratio = 2.0;
+  // A pair is predicted to overlap when each image expects at least this
+  // fraction of the other's model points.
+  double min_overlap_fraction = 0.3;
+  // ... and at least this many of them.
+  int min_overlap_points = 20;
+  // Model points sampled per image (evenly over its observations): bounds the
+  // cost at images^2 * this projections.
+  int max_points_per_image = 300;
+  // A pair with fewer verified inliers counts as not matched (the mapper's
+  // min_num_matches).
+  int min_num_matches = 15;
+  // Models with a higher fold score are reported folded...
+  double max_fold_score = 0.1;
+  // ... when at least this many predicted pairs are missing.
+  int min_missing_pairs = 5;
+  // A verified pair disagreeing with the model's rotations by more than this
+  // (deg) is inconsistent with the model.
+  double max_rotation_error_deg = 5.0;
+  // Two rays of one track more than this apart (deg): the point is seen from
+  // contradictory sides.
+  double contradictory_ray_angle_deg = 120.0;
+  // A used pair is suspected (explains the fold) when at least this many
+  // images predicted to overlap both match exactly one of them, and more of
+  // them do than match both.
+  int min_suspect_conflicts = 2;
+
+  // Throws InputError naming the option (--Fold.*).
+  void Check() const;
+};
+
+// The fold check and its resolution around the mapping of a component
+// (pipeline/fold_resolution.h).
+struct FoldResolutionOptions {
+  // Test every model for a fold (fold score in summary.json, a warning).
+  bool detect = true;
+  // Resolve detected folds (remove suspect pairs and re-map, else split).
+  bool resolve = true;
+  // Rounds of (remove suspect pairs, re-map) before a split is tried.
+  int max_iterations = 2;
+  FoldDetectionOptions detection;
+
+  // Throws InputError naming the option (--Fold.*).
+  void Check() const;
+};
+
+// What the database says about one image pair (any orientation).
+struct PairEvidence {
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  // Verified inlier matches (0: the verification failed or found none).
+  int num_inliers = 0;
+  // Raw (unverified) matches; -1 where the database does not say.
+  int num_matches = -1;
+  // Measured relative rotation cam2_from_cam1 (the view graph's), if any.
+  bool has_rotation = false;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+};
+
+struct FoldEvidence {
+  std::vector<PairEvidence> pairs;
+  // Whether a pair absent from `pairs` was matched and found nothing (true
+  // when the database keeps no record of the pairs it tried, e.g. its raw
+  // matches were deleted: exhaustive matching is then assumed).
+  bool absent_pairs_were_tried = false;
+};
+
+struct FoldReport {
+  // Fraction of the predicted-overlapping tried pairs without matches.
+  double fold_score = 0;
+  bool folded = false;
+  int num_images = 0;
+  int num_predicted_pairs = 0;
+  int num_missing_pairs = 0;
+  // Verified pairs (with a rotation) the model contradicts, and those of them
+  // with at least the median inlier count of the pairs the model agrees with.
+  int num_inconsistent_pairs = 0;
+  int num_strong_inconsistent_pairs = 0;
+  int num_tracks = 0;
+  int num_contradictory_tracks = 0;
+  // Images in order; predicted and missing pairs per image.
+  std::map<image_t, int> image_predicted_pairs;
+  std::map<image_t, int> image_missing_pairs;
+  // (smaller id, larger id).
+  std::vector<std::pair<image_t, image_t>> missing_pairs;
+  // Pairs the model agrees with that explain the conflict (their matches
+  // tie together images whose other predicted neighbours disagree).
+  std::vector<std::pair<image_t, image_t>> suspect_pairs;
+
+  // One line for the log: "fold score 0.42 (31 of 74 predicted pairs
+  // missing), ...".
+  std::string Describe() const;
+};
+
+// Tests the model against the evidence. Only registered images and the
+// model's points are used; cameras must have valid parameters.
+FoldReport DetectFold(const FoldDetectionOptions& options,
+                      const Reconstruction& reconstruction,
+                      const FoldEvidence& evidence);
+
+// The weakest cut of a folded model: a 2-partition of the images that keeps
+// together the images matched by trusted pairs (the model agrees with them,
+// not suspected; weight: inlier count) and separates the images of missing
+// pairs. Returns the two sides (each sorted; the larger first); one side is
+// empty when the cut does not explain the fold (fewer than 80% of the missing
+// pairs cross it, and fewer than the trusted pairs it cuts).
+std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
+    const FoldDetectionOptions& options, const Reconstruction& reconstruction,
+    const FoldEvidence& evidence, const FoldReport& report);
+
+}  // namespace colmap_irav4

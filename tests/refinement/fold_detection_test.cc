@@ -1,0 +1,401 @@
+#include "colmap_irav4/refinement/fold_detection.h"
+
+#include "colmap_irav4/pipeline/fold_resolution.h"
+
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// A courtyard whose opposite walls look alike: points on four walls of a
+// square, symmetric under M = 180 deg about the vertical (y) axis; cameras
+// on a circle around the centre looking outward. The truth model, and a
+// folded one where the cameras of one half sit at their mirrored twin's place
+// (centre M c, rotation R M^T: the twin sees M X where the camera sees X).
+struct Courtyard {
+  Reconstruction truth;
+  Reconstruction folded;
+  FoldEvidence evidence;
+  std::set<image_t> folded_images;
+  std::set<std::pair<image_t, image_t>> false_pairs;
+};
+
+Eigen::Matrix3d Mirror() {
+  return Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
+
+// Visible points of each image: in front, inside the image.
+std::vector<point3D_t> Visible(const Reconstruction& model, const Image& image) {
+  const Camera& camera = model.cameras.at(image.camera_id);
+  std::vector<point3D_t> visible;
+  for (const auto& [id, point] : model.points3D) {
+    const Eigen::Vector3d x = image.cam_from_world * point.xyz;
+    if (x.z() <= 0.1) continue;
+    const double u = camera.params[0] * x.x() / x.z() + camera.params[2];
+    const double v = camera.params[1] * x.y() / x.z() + camera.params[3];
+    if (u >= 0 && v >= 0 && u <= camera.width && v <= camera.height) {
+      visible.push_back(id);
+    }
+  }
+  return visible;
+}
+
+Courtyard MakeCourtyard(int num_cameras, double false_pair_rate,
+                        uint64_t seed) {
+  Courtyard scene;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1, 1);
+  Camera camera;
+  camera.camera_id = 1;
+  camera.model_id = 1;  // PINHOLE
+  camera.width = 1000;
+  camera.height = 800;
+  camera.params = {600, 600, 500, 400};
+  scene.truth.cameras[1] = camera;
+  // Points: walls z = +-10 and x = +-10, each point and its mirror (ids 2k,
+  // 2k + 1).
+  const Eigen::Matrix3d M = Mirror();
+  point3D_t next_id = 0;
+  std::map<point3D_t, point3D_t> mirror_of;
+  for (int k = 0; k < 600; ++k) {
+    Eigen::Vector3d X;
+    const double s = 10 * uniform(rng);
+    const double h = 3 * uniform(rng);
+    X = k % 2 == 0 ? Eigen::Vector3d(s, h, 10) : Eigen::Vector3d(10, h, s);
+    scene.truth.points3D[next_id].xyz = X;
+    scene.truth.points3D[next_id + 1].xyz = M * X;
+    mirror_of[next_id] = next_id + 1;
+    mirror_of[next_id + 1] = next_id;
+    next_id += 2;
+  }
+  // Cameras on a circle of radius 3 looking outward.
+  for (int i = 0; i < num_cameras; ++i) {
+    const double angle = 2 * M_PI * i / num_cameras + 0.01;
+    const Eigen::Vector3d center(3 * std::sin(angle), 0.2 * uniform(rng),
+                                 3 * std::cos(angle));
+    // Camera z axis (world) = outward direction; y axis = world y (down).
+    const Eigen::Vector3d z(std::sin(angle), 0, std::cos(angle));
+    const Eigen::Vector3d y = Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d x = y.cross(z);
+    Eigen::Matrix3d R;
+    R.row(0) = x.transpose();
+    R.row(1) = y.transpose();
+    R.row(2) = z.transpose();
+    Image image;
+    image.image_id = i + 1;
+    image.name = "image" + std::to_string(i + 1);
+    image.camera_id = 1;
+    image.cam_from_world.rotation = Eigen::Quaterniond(R);
+    image.cam_from_world.translation = -R * center;
+    scene.truth.images[image.image_id] = image;
+  }
+  // Observations.
+  std::map<image_t, std::set<point3D_t>> seen;
+  for (auto& [image_id, image] : scene.truth.images) {
+    for (const point3D_t id : Visible(scene.truth, image)) {
+      seen[image_id].insert(id);
+      Point2D point2D;
+      point2D.point3D_id = id;
+      image.points2D.push_back(point2D);
+      scene.truth.points3D[id].track.push_back(
+          {image_id, static_cast<point2D_t>(image.points2D.size() - 1)});
+    }
+  }
+  // Evidence: true pairs (common points) and false mirror-twin pairs (points
+  // of one image whose mirror the other sees), a fraction of them, with
+  // fewer inliers.
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (const auto& [i, image_i] : scene.truth.images) {
+    for (const auto& [j, image_j] : scene.truth.images) {
+      if (j <= i) continue;
+      int common = 0;
+      int mirrored = 0;
+      for (const point3D_t id : seen[i]) {
+        common += seen[j].count(id);
+        mirrored += seen[j].count(mirror_of.at(id));
+      }
+      const Eigen::Matrix3d Ri =
+          image_i.cam_from_world.rotation.toRotationMatrix();
+      const Eigen::Matrix3d Rj =
+          image_j.cam_from_world.rotation.toRotationMatrix();
+      PairEvidence pair;
+      pair.image_id1 = i;
+      pair.image_id2 = j;
+      if (common >= 15) {
+        pair.num_inliers = common;
+        pair.has_rotation = true;
+        pair.R = Rj * Ri.transpose();
+      } else if (mirrored >= 30 && unit(rng) < false_pair_rate) {
+        pair.num_inliers = mirrored / 2;
+        pair.has_rotation = true;
+        pair.R = Rj * M * Ri.transpose();
+        scene.false_pairs.insert({i, j});
+      }
+      scene.evidence.pairs.push_back(pair);  // every pair was tried
+    }
+  }
+  // The folded model: cameras looking towards +x (the east half) are
+  // replaced by their twins and their observations relinked to the mirrors.
+  scene.folded = scene.truth;
+  for (auto& [id, point] : scene.folded.points3D) point.track.clear();
+  for (auto& [image_id, image] : scene.folded.images) {
+    const Eigen::Matrix3d R = image.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Vector3d center = image.ProjectionCenter();
+    const bool fold = center.x() > 0;
+    if (fold) {
+      scene.folded_images.insert(image_id);
+      const Eigen::Matrix3d R_twin = R * M.transpose();
+      image.cam_from_world.rotation = Eigen::Quaterniond(R_twin);
+      image.cam_from_world.translation = -R_twin * (M * center);
+    }
+    for (size_t k = 0; k < image.points2D.size(); ++k) {
+      point3D_t& id = image.points2D[k].point3D_id;
+      if (fold) id = mirror_of.at(id);
+      scene.folded.points3D[id].track.push_back(
+          {image_id, static_cast<point2D_t>(k)});
+    }
+  }
+  return scene;
+}
+
+TEST(FoldDetection, CorrectModelIsClean) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 1);
+  ASSERT_GT(scene.false_pairs.size(), 10u);
+  const FoldReport report =
+      DetectFold(FoldDetectionOptions(), scene.truth, scene.evidence);
+  EXPECT_FALSE(report.folded) << report.Describe();
+  EXPECT_GT(report.num_predicted_pairs, 50);
+  EXPECT_LT(report.fold_score, 0.02) << report.Describe();
+  EXPECT_EQ(report.num_contradictory_tracks, 0);
+  // The false pairs are what the correct model contradicts.
+  EXPECT_EQ(report.num_inconsistent_pairs,
+            static_cast<int>(scene.false_pairs.size()));
+  EXPECT_TRUE(report.suspect_pairs.empty()) << report.suspect_pairs.size();
+}
+
+TEST(FoldDetection, FoldedModelIsDetectedAndItsFalsePairsSuspected) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 2);
+  ASSERT_GT(scene.folded_images.size(), 10u);
+  const FoldReport report =
+      DetectFold(FoldDetectionOptions(), scene.folded, scene.evidence);
+  EXPECT_TRUE(report.folded) << report.Describe();
+  EXPECT_GT(report.fold_score, 0.3) << report.Describe();
+  // True pairs across the fold are contradicted, with their full inliers.
+  EXPECT_GT(report.num_strong_inconsistent_pairs, 5);
+  // Suspects are the false pairs the fold made consistent.
+  ASSERT_FALSE(report.suspect_pairs.empty());
+  int num_false = 0;
+  for (const auto& pair : report.suspect_pairs) {
+    num_false += scene.false_pairs.count(pair);
+  }
+  // A few true pairs at the fold's border are suspected too (their images'
+  // predicted neighbours across the fold do not match them).
+  EXPECT_GE(num_false * 5, static_cast<int>(report.suspect_pairs.size()) * 4)
+      << num_false << " of " << report.suspect_pairs.size();
+  // Most false pairs the fold made consistent are suspected.
+  int num_consistent_false = 0;
+  for (const auto& [a, b] : scene.false_pairs) {
+    const Eigen::Matrix3d Ra = scene.folded.images.at(a)
+                                   .cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d Rb = scene.folded.images.at(b)
+                                   .cam_from_world.rotation.toRotationMatrix();
+    for (const PairEvidence& pair : scene.evidence.pairs) {
+      if (pair.image_id1 == a && pair.image_id2 == b &&
+          (pair.R - Rb * Ra.transpose()).norm() < 1e-6) {
+        ++num_consistent_false;
+      }
+    }
+  }
+  EXPECT_GE(num_false * 2, num_consistent_false)
+      << num_false << " of " << num_consistent_false;
+}
+
+TEST(FoldDetection, CutSeparatesTheFoldedHalf) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 3);
+  const FoldDetectionOptions options;
+  const FoldReport report = DetectFold(options, scene.folded, scene.evidence);
+  ASSERT_TRUE(report.folded);
+  const auto [side1, side2] =
+      FoldCut(options, scene.folded, scene.evidence, report);
+  ASSERT_FALSE(side2.empty());
+  EXPECT_EQ(side1.size() + side2.size(), scene.folded.images.size());
+  // Each side is (almost) entirely folded or entirely unfolded.
+  for (const std::vector<image_t>* side : {&side1, &side2}) {
+    int folded = 0;
+    for (const image_t image_id : *side) {
+      folded += scene.folded_images.count(image_id);
+    }
+    const int n = static_cast<int>(side->size());
+    EXPECT_TRUE(folded <= n / 10 || folded >= n - n / 10)
+        << folded << " of " << n;
+  }
+}
+
+TEST(FoldDetection, NoCutOnACorrectModel) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 4);
+  const FoldDetectionOptions options;
+  const FoldReport report = DetectFold(options, scene.truth, scene.evidence);
+  const auto [side1, side2] = FoldCut(options, scene.truth, scene.evidence,
+                                      report);
+  EXPECT_TRUE(side2.empty());
+  EXPECT_EQ(side1.size(), scene.truth.images.size());
+}
+
+TEST(FoldDetection, UntriedPairsAreNotMissing) {
+  Courtyard scene = MakeCourtyard(40, 0.3, 5);
+  // Only the verified pairs are recorded, as from a database whose raw
+  // matches were deleted... and absent pairs are then not counted as tried.
+  FoldEvidence evidence;
+  for (const PairEvidence& pair : scene.evidence.pairs) {
+    if (pair.num_inliers > 0) evidence.pairs.push_back(pair);
+  }
+  evidence.absent_pairs_were_tried = false;
+  const FoldReport report =
+      DetectFold(FoldDetectionOptions(), scene.folded, evidence);
+  EXPECT_EQ(report.num_missing_pairs, 0);
+  evidence.absent_pairs_were_tried = true;
+  EXPECT_TRUE(DetectFold(FoldDetectionOptions(), scene.folded, evidence).folded);
+}
+
+TEST(FoldDetection, CheckNamesTheOption) {
+  FoldResolutionOptions options;
+  EXPECT_NO_THROW(options.Check());
+  options.detection.max_fold_score = 2;
+  try {
+    options.Check();
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("--Fold.max_fold_score"),
+              std::string::npos);
+  }
+  options = FoldResolutionOptions();
+  options.max_iterations = -1;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+
+// Stand-in stages that "map" a component by copying a given model (the truth
+// or the folded one, as `choose` says from the pairs) onto a GlobalMapper.
+ComponentStages StandInStages(
+    const std::function<const Reconstruction&(
+        const std::vector<ImagePairGeometry>&)>& choose,
+    int* num_runs) {
+  static const DatabaseContents database;
+  static const std::map<camera_t, Camera> cameras;
+  ComponentStages stages;
+  stages.position = [choose, num_runs](
+                        const std::vector<image_t>& images,
+                        const std::vector<ImagePairGeometry>& pairs,
+                        const std::string& prefix, std::string* failure) {
+    ++*num_runs;
+    auto mapper = std::make_unique<GlobalMapper>(GlobalMapperOptions(),
+                                                 database, cameras, images,
+                                                 pairs, prefix);
+    mapper->reconstruction() = choose(pairs);
+    const std::set<image_t> keep(images.begin(), images.end());
+    auto& model_images = mapper->reconstruction().images;
+    for (auto it = model_images.begin(); it != model_images.end();) {
+      it = keep.count(it->first) ? std::next(it) : model_images.erase(it);
+    }
+    return mapper;
+  };
+  stages.refine = [](GlobalMapper*, std::string*) { return true; };
+  return stages;
+}
+
+// The resolution around a stand-in mapper that folds the courtyard while
+// enough false pairs join the two halves, and maps it right otherwise.
+TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 6);
+  std::vector<ImagePairGeometry> pairs;
+  std::vector<image_t> images;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    images.push_back(image_id);
+  }
+  for (const PairEvidence& evidence : scene.evidence.pairs) {
+    if (!evidence.has_rotation) continue;
+    ImagePairGeometry pair;
+    pair.image_id1 = evidence.image_id1;
+    pair.image_id2 = evidence.image_id2;
+    pair.R = evidence.R;
+    pair.num_inliers = evidence.num_inliers;
+    pairs.push_back(pair);
+  }
+  int num_runs = 0;
+  const ComponentStages stages = StandInStages(
+      [&](const std::vector<ImagePairGeometry>& map_pairs)
+          -> const Reconstruction& {
+        int num_cross_false = 0;
+        for (const ImagePairGeometry& pair : map_pairs) {
+          num_cross_false +=
+              scene.false_pairs.count({pair.image_id1, pair.image_id2}) &&
+              scene.folded_images.count(pair.image_id1) !=
+                  scene.folded_images.count(pair.image_id2);
+        }
+        return num_cross_false > 5 ? scene.folded : scene.truth;
+      },
+      &num_runs);
+  FoldResolutionOptions options;
+  std::vector<std::string> notes;
+  std::string failure;
+  const std::vector<FoldCheckedModel> models = MapComponentWithFoldCheck(
+      options, 3, scene.evidence, images, pairs, "", stages, &notes, &failure);
+  ASSERT_FALSE(models.empty()) << failure;
+  for (const FoldCheckedModel& model : models) {
+    EXPECT_TRUE(model.checked);
+    EXPECT_FALSE(model.fold.folded) << model.outcome;
+    EXPECT_EQ(model.outcome.find("folded"), std::string::npos)
+        << model.outcome;
+  }
+  EXPECT_GE(num_runs, 2);
+  EXPECT_FALSE(notes.empty());
+
+  // Without resolution the fold is reported, not hidden.
+  options.resolve = false;
+  notes.clear();
+  const std::vector<FoldCheckedModel> unresolved = MapComponentWithFoldCheck(
+      options, 3, scene.evidence, images, pairs, "", stages, &notes, &failure);
+  ASSERT_EQ(unresolved.size(), 1u);
+  EXPECT_TRUE(unresolved[0].fold.folded);
+  EXPECT_GT(unresolved[0].fold.fold_score, 0.1);
+  EXPECT_EQ(unresolved[0].outcome, "folded (not resolved)");
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("folded"), std::string::npos);
+}
+
+TEST(FoldResolution, CleanModelIsMappedOnceAndCheckedTwice) {
+  const Courtyard scene = MakeCourtyard(40, 0.0, 7);
+  std::vector<image_t> images;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    images.push_back(image_id);
+  }
+  int num_runs = 0;
+  const ComponentStages stages = StandInStages(
+      [&](const std::vector<ImagePairGeometry>&) -> const Reconstruction& {
+        return scene.truth;
+      },
+      &num_runs);
+  std::vector<std::string> notes;
+  std::string failure;
+  const std::vector<FoldCheckedModel> models =
+      MapComponentWithFoldCheck(FoldResolutionOptions(), 3, scene.evidence,
+                                images, {}, "", stages, &notes, &failure);
+  ASSERT_EQ(models.size(), 1u);
+  EXPECT_EQ(num_runs, 1);
+  EXPECT_EQ(models[0].outcome, "clean");
+  EXPECT_LT(models[0].fold.fold_score, 0.02);
+  // After positioning and after refinement.
+  EXPECT_EQ(models[0].stages.size(), 2u);
+  EXPECT_TRUE(notes.empty());
+}
+
+}  // namespace
+}  // namespace colmap_irav4

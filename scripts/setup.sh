@@ -14,6 +14,7 @@ PACKAGES=(
   libopencv-core-dev libopencv-imgcodecs-dev libopencv-imgproc-dev
   python3-matplotlib
   colmap time
+  clang-format
 )
 
 missing=()

@@ -71,6 +71,10 @@ int RunViewGraph(int argc, char** argv) {
   manager.Add("RelativePose.refine_max_num_iterations",
               &options.relative_pose.refine_max_num_iterations,
               "refinement iterations");
+  manager.Add("RelativePose.refine_max_rotation_std_deg",
+              &options.relative_pose.refine_max_rotation_std_deg,
+              "refine only poses whose rotation the inliers determine to "
+              "this standard deviation (deg)");
   manager.Add("RelativePose.refine_max_num_matches",
               &options.relative_pose.refine_max_num_matches,
               "refine on at most this many matches (0: all)");

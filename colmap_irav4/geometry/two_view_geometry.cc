@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <ceres/ceres.h>
-#include <ceres/rotation.h>
 #include <Eigen/Dense>
 #include <Eigen/SVD>
 
@@ -48,6 +46,8 @@ struct Candidate {
   // number of matches under the threshold and in front of both cameras.
   double cost = 0;
   int support = 0;
+  // Set by Refine: the rotation's standard deviation at the start (deg).
+  double rotation_std_deg = -1;
 };
 
 // Normalised correspondences of the inlier matches.
@@ -108,71 +108,19 @@ void AddEssentialCandidates(const Eigen::Matrix3d& E, RelativePoseSource source,
   }
 }
 
-// Sampson error of x2^T [t]x R x1 = 0, scaled to pixels.
-struct SampsonCost {
-  SampsonCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2,
-              double scale)
-      : x1_(x1), x2_(x2), scale_(scale) {}
-
-  template <typename T>
-  bool operator()(const T* q, const T* t, T* residual) const {
-    T R[9];
-    ceres::QuaternionToRotation(q, R);  // row-major
-    // E = [t]x R, row-major.
-    const T tx[9] = {T(0), -t[2], t[1], t[2], T(0), -t[0], -t[1], t[0], T(0)};
-    T E[9];
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) {
-        E[3 * r + c] = tx[3 * r] * R[c] + tx[3 * r + 1] * R[3 + c] +
-                       tx[3 * r + 2] * R[6 + c];
-      }
-    }
-    const T x1[3] = {T(x1_(0)), T(x1_(1)), T(1)};
-    const T x2[3] = {T(x2_(0)), T(x2_(1)), T(1)};
-    T Ex1[3], Etx2[3];
-    for (int r = 0; r < 3; ++r) {
-      Ex1[r] = E[3 * r] * x1[0] + E[3 * r + 1] * x1[1] + E[3 * r + 2] * x1[2];
-      Etx2[r] = E[r] * x2[0] + E[3 + r] * x2[1] + E[6 + r] * x2[2];
-    }
-    const T numerator = x2[0] * Ex1[0] + x2[1] * Ex1[1] + x2[2] * Ex1[2];
-    const T denominator = Ex1[0] * Ex1[0] + Ex1[1] * Ex1[1] +
-                          Etx2[0] * Etx2[0] + Etx2[1] * Etx2[1];
-    residual[0] = T(scale_) * numerator / ceres::sqrt(denominator + T(1e-30));
-    return true;
-  }
-
-  Eigen::Vector2d x1_, x2_;
-  double scale_;
-};
-
-// Transfer error of x2 ~ R x1 (pure rotation), scaled to pixels.
-struct RotationTransferCost {
-  RotationTransferCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2,
-                       double scale)
-      : x1_(x1), x2_(x2), scale_(scale) {}
-
-  template <typename T>
-  bool operator()(const T* q, T* residual) const {
-    const T x1[3] = {T(x1_(0)), T(x1_(1)), T(1)};
-    T p[3];
-    ceres::UnitQuaternionRotatePoint(q, x1, p);
-    residual[0] = T(scale_) * (p[0] / p[2] - T(x2_(0)));
-    residual[1] = T(scale_) * (p[1] / p[2] - T(x2_(1)));
-    return true;
-  }
-
-  Eigen::Vector2d x1_, x2_;
-  double scale_;
-};
-
-// Robust refinement of a candidate on the matches that support it.
+// Robust refinement of a candidate on the matches that support it:
+// Levenberg-Marquardt on the Sampson error (or, for a pure rotation, the
+// transfer error) in pixels under a Cauchy loss, by iteratively reweighted
+// least squares with analytic Jacobians. The pose has 5 (3) degrees of
+// freedom, so each iteration is one pass over the matches and a 5x5 solve:
+// a general solver's per-residual bookkeeping and automatic differentiation
+// took most of the view-graph stage (300-image synthetic scene: ~60% of it).
+// Stops as soon as a step no longer lowers the cost noticeably, so a pose
+// that already explains its inliers costs one or two passes.
 void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
             double focal, const RelativePoseOptions& options,
             Candidate* candidate) {
-  const Eigen::Vector4d qvec = RotationToQuaternion(candidate->R);
-  double q[4] = {qvec(0), qvec(1), qvec(2), qvec(3)};
-  double t[3] = {candidate->t(0), candidate->t(1), candidate->t(2)};
-  ceres::Problem problem;
+  std::vector<size_t> used;
   size_t num_supporting = 0;
   for (const char s : supporting) num_supporting += s;
   const double stride =
@@ -186,37 +134,178 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
     if (!supporting[i]) continue;
     if (static_cast<double>(rank++) < next_sample) continue;
     next_sample += stride;
-    ceres::LossFunction* loss =
-        new ceres::CauchyLoss(options.refine_loss_scale_px);
-    if (candidate->pure_rotation) {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<RotationTransferCost, 2, 4>(
-              new RotationTransferCost(corrs.x1[i], corrs.x2[i], focal)),
-          loss, q);
-    } else {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<SampsonCost, 1, 4, 3>(
-              new SampsonCost(corrs.x1[i], corrs.x2[i], focal)),
-          loss, q, t);
+    used.push_back(i);
+  }
+  const bool pure_rotation = candidate->pure_rotation;
+  if (used.size() < (pure_rotation ? 2u : 5u)) return;
+  const double b = options.refine_loss_scale_px * options.refine_loss_scale_px;
+  const int num_params = pure_rotation ? 3 : 5;
+
+  // Robust cost (Cauchy: b log(1 + r^2 / b)), and optionally the weighted
+  // normal equations at (R, t).
+  auto evaluate = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                      Eigen::Matrix<double, 5, 5>* JtJ,
+                      Eigen::Matrix<double, 5, 1>* Jtr) {
+    double cost = 0;
+    if (JtJ != nullptr) {
+      JtJ->setZero();
+      Jtr->setZero();
+    }
+    if (pure_rotation) {
+      for (const size_t i : used) {
+        const Eigen::Vector3d p = R * corrs.x1[i].homogeneous();
+        if (!(p.z() > 1e-12)) {
+          cost += b * std::log1p(1e6);  // behind: a large, finite cost
+          continue;
+        }
+        const double inv_z = 1.0 / p.z();
+        const Eigen::Vector2d r =
+            focal * (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - corrs.x2[i]);
+        const double r2 = r.squaredNorm();
+        cost += b * std::log1p(r2 / b);
+        if (JtJ == nullptr) continue;
+        const double weight = 1.0 / (1.0 + r2 / b);
+        Eigen::Matrix<double, 2, 3> dproj;
+        dproj << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z,
+            -p.y() * inv_z * inv_z;
+        // d(exp([w]x) p)/dw at 0 = -[p]x.
+        const Eigen::Matrix<double, 2, 3> J = -focal * dproj * CrossMatrix(p);
+        JtJ->topLeftCorner<3, 3>() += weight * J.transpose() * J;
+        Jtr->head<3>() += weight * J.transpose() * r;
+      }
+      return cost;
+    }
+    const Eigen::Matrix3d E = EssentialFromPose(R, t);
+    // dE/dparam: rotation exp([w]x) R (3), translation on its tangent
+    // plane (2).
+    Eigen::Matrix<double, 9, 5> dE;
+    Eigen::Vector3d b1 = t.unitOrthogonal();
+    Eigen::Vector3d b2 = t.cross(b1);
+    const Eigen::Matrix3d tx = CrossMatrix(t);
+    for (int k = 0; k < 5; ++k) {
+      Eigen::Matrix3d D;
+      if (k < 3) {
+        D = tx * CrossMatrix(Eigen::Vector3d::Unit(k)) * R;
+      } else {
+        D = CrossMatrix(k == 3 ? b1 : b2) * R;
+      }
+      dE.col(k) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(D.data());
+    }
+    for (const size_t i : used) {
+      const Eigen::Vector3d x1 = corrs.x1[i].homogeneous();
+      const Eigen::Vector3d x2 = corrs.x2[i].homogeneous();
+      const Eigen::Vector3d Ex1 = E * x1;
+      const Eigen::Vector3d Etx2 = E.transpose() * x2;
+      const double n = x2.dot(Ex1);
+      const double d = Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
+                       Etx2(1) * Etx2(1) + 1e-30;
+      const double inv_sqrt_d = 1.0 / std::sqrt(d);
+      const double r = focal * n * inv_sqrt_d;
+      const double r2 = r * r;
+      cost += b * std::log1p(r2 / b);
+      if (JtJ == nullptr) continue;
+      const double weight = 1.0 / (1.0 + r2 / b);
+      // dr/dE (column-major, as dE's rows): E(a, c) at a + 3 c.
+      Eigen::Matrix<double, 9, 1> drdE;
+      const double k_n = focal * inv_sqrt_d;
+      const double k_d = -0.5 * focal * n * inv_sqrt_d / d;
+      for (int c = 0; c < 3; ++c) {
+        for (int a = 0; a < 3; ++a) {
+          double dd = 0;
+          if (a < 2) dd += 2 * Ex1(a) * x1(c);
+          if (c < 2) dd += 2 * Etx2(c) * x2(a);
+          drdE(a + 3 * c) = k_n * x2(a) * x1(c) + k_d * dd;
+        }
+      }
+      const Eigen::Matrix<double, 5, 1> J = dE.transpose() * drdE;
+      *JtJ += weight * J * J.transpose();
+      *Jtr += weight * r * J;
+    }
+    return cost;
+  };
+  auto update = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                    const Eigen::Matrix<double, 5, 1>& step,
+                    Eigen::Matrix3d* R_new, Eigen::Vector3d* t_new) {
+    *R_new = AngleAxisToRotation(step.head<3>()) * R;
+    if (pure_rotation) {
+      *t_new = t;
+      return;
+    }
+    const Eigen::Vector3d b1 = t.unitOrthogonal();
+    const Eigen::Vector3d b2 = t.cross(b1);
+    *t_new = (t + step(3) * b1 + step(4) * b2).normalized();
+  };
+
+  Eigen::Matrix3d R = candidate->R;
+  Eigen::Vector3d t = candidate->t;
+  Eigen::Matrix<double, 5, 5> JtJ;
+  Eigen::Matrix<double, 5, 1> Jtr;
+  double cost = evaluate(R, t, &JtJ, &Jtr);
+  // How well the inliers determine the rotation: the largest standard
+  // deviation of the rotation (first-order covariance at the start, the
+  // translation marginalised, noise estimated from the residuals). Where it
+  // is large the cost is flat along a valley (a near-planar scene, a short
+  // baseline with few matches) and minimising it fits the noise: on the
+  // 100-image synthetic courtyard every refined pose more than 5 deg off (29
+  // of 1,043) came from such a walk away from an exact start.
+  {
+    double sum_weighted_sq = 0;
+    // Cauchy IRLS residuals at the start: b (exp(cost_i / b) - 1) = r_i^2;
+    // the weighted squared residual is approximated by the robust cost.
+    sum_weighted_sq = cost;
+    const double dof = std::max<double>(1.0, used.size() - num_params);
+    const double sigma_sq = std::max(sum_weighted_sq / dof, 1e-12);
+    const Eigen::MatrixXd information =
+        JtJ.topLeftCorner(num_params, num_params) / sigma_sq;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
+    double std_rad = std::numeric_limits<double>::infinity();
+    if (eigen.info() == Eigen::Success && eigen.eigenvalues()(0) > 0) {
+      const Eigen::MatrixXd covariance = information.inverse();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation_eigen(
+          covariance.topLeftCorner<3, 3>());
+      std_rad = std::sqrt(std::max(0.0, rotation_eigen.eigenvalues()(2)));
+    }
+    candidate->rotation_std_deg = RadToDeg(std_rad);
+    if (!(candidate->rotation_std_deg <= options.refine_max_rotation_std_deg)) {
+      return;
     }
   }
-  if (problem.NumResidualBlocks() == 0) return;
-  problem.SetManifold(q, new ceres::QuaternionManifold);
-  if (!candidate->pure_rotation) {
-    problem.SetManifold(t, new ceres::SphereManifold<3>);
+  double lambda = 1e-4;
+  for (int iteration = 0; iteration < options.refine_max_num_iterations;
+       ++iteration) {
+    Eigen::Matrix<double, 5, 5> A = JtJ;
+    for (int k = 0; k < num_params; ++k) A(k, k) += lambda * (1.0 + JtJ(k, k));
+    Eigen::Matrix<double, 5, 1> step = Eigen::Matrix<double, 5, 1>::Zero();
+    step.head(num_params) = A.topLeftCorner(num_params, num_params)
+                                .ldlt()
+                                .solve(-Jtr.head(num_params));
+    if (!step.allFinite()) break;
+    Eigen::Matrix3d R_new;
+    Eigen::Vector3d t_new;
+    update(R, t, step, &R_new, &t_new);
+    // The normal equations at the trial pose come with its cost: most
+    // steps are accepted, so this saves a pass per iteration.
+    Eigen::Matrix<double, 5, 5> JtJ_new;
+    Eigen::Matrix<double, 5, 1> Jtr_new;
+    const double new_cost = evaluate(R_new, t_new, &JtJ_new, &Jtr_new);
+    if (new_cost < cost) {
+      const double decrease = cost - new_cost;
+      R = R_new;
+      t = t_new;
+      cost = new_cost;
+      JtJ = JtJ_new;
+      Jtr = Jtr_new;
+      lambda = std::max(1e-10, lambda / 10);
+      // Converged: the step changes the cost by a negligible fraction (the
+      // Ceres default function tolerance) or the pose by a negligible angle.
+      if (decrease <= 1e-6 * (cost + decrease) || step.norm() < 1e-10) break;
+    } else {
+      lambda *= 10;
+      if (lambda > 1e10) break;
+    }
   }
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.refine_max_num_iterations;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  if (!summary.IsSolutionUsable()) return;
-  candidate->R = QuaternionToRotation(Eigen::Vector4d(q[0], q[1], q[2], q[3]));
-  if (!candidate->pure_rotation) {
-    candidate->t = Eigen::Vector3d(t[0], t[1], t[2]).normalized();
-  }
+  candidate->R = R;
+  if (!pure_rotation) candidate->t = t;
 }
 
 double MedianTriAngleDeg(const Correspondences& corrs,
@@ -290,6 +379,10 @@ bool RelativePoseOptions::Check() const {
   if (!(min_stored_pose_support >= 0 && min_stored_pose_support <= 1)) {
     throw InputError("--RelativePose.min_stored_pose_support",
                      "must be in [0, 1]");
+  }
+  if (!(refine_max_rotation_std_deg > 0)) {
+    throw InputError("--RelativePose.refine_max_rotation_std_deg",
+                     "must be > 0");
   }
   if (!(min_tri_angle_deg >= 0)) {
     throw InputError("--RelativePose.min_tri_angle_deg", "must be >= 0");
@@ -478,12 +571,22 @@ Eigen::Matrix3d CameraCalibrationMatrix(const Camera& camera) {
   return K;
 }
 
+namespace {
+
+// EstimateRelativePose on the normalised (undistorted) inlier matches.
+RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
+                                         const Camera& camera1,
+                                         const Camera& camera2,
+                                         const Correspondences& corrs,
+                                         const RelativePoseOptions& options);
+
+}  // namespace
+
 RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
                                   const Camera& camera1, const Camera& camera2,
                                   const FeatureKeypoints& keypoints1,
                                   const FeatureKeypoints& keypoints2,
                                   const RelativePoseOptions& options) {
-  RelativePose result;
   Correspondences corrs;
   corrs.x1.reserve(geometry.inlier_matches.size());
   corrs.x2.reserve(geometry.inlier_matches.size());
@@ -495,6 +598,36 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
     corrs.x2.push_back(CameraImageToCamera(
         camera2, keypoints2[match.point2D_idx2].cast<double>()));
   }
+  return EstimateFromCorrespondences(geometry, camera1, camera2, corrs,
+                                     options);
+}
+
+RelativePose EstimateRelativePoseNormalized(
+    const TwoViewGeometry& geometry, const Camera& camera1,
+    const Camera& camera2, const std::vector<Eigen::Vector2d>& normalized1,
+    const std::vector<Eigen::Vector2d>& normalized2,
+    const RelativePoseOptions& options) {
+  Correspondences corrs;
+  corrs.x1.reserve(geometry.inlier_matches.size());
+  corrs.x2.reserve(geometry.inlier_matches.size());
+  for (const FeatureMatch& match : geometry.inlier_matches) {
+    CHECK_LT(match.point2D_idx1, normalized1.size());
+    CHECK_LT(match.point2D_idx2, normalized2.size());
+    corrs.x1.push_back(normalized1[match.point2D_idx1]);
+    corrs.x2.push_back(normalized2[match.point2D_idx2]);
+  }
+  return EstimateFromCorrespondences(geometry, camera1, camera2, corrs,
+                                     options);
+}
+
+namespace {
+
+RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
+                                         const Camera& camera1,
+                                         const Camera& camera2,
+                                         const Correspondences& corrs,
+                                         const RelativePoseOptions& options) {
+  RelativePose result;
   if (corrs.x1.size() < 5) {
     result.failure = "fewer than 5 inlier matches";
     return result;
@@ -619,11 +752,13 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
   if (options.refine && options.refine_max_num_iterations > 0) {
     Candidate refined = chosen;
     Refine(corrs, supporting, focal, options, &refined);
+    result.rotation_std_deg = refined.rotation_std_deg;
     std::vector<char> refined_supporting;
     Score(corrs, focal, options.max_error_px, &refined, &refined_supporting);
     // Refinement minimises a robust cost, not the truncated one: accept it
     // unless it loses support clearly.
-    if (refined.support >= kMinRefinedSupport * chosen.support) {
+    if (refined.rotation_std_deg <= options.refine_max_rotation_std_deg &&
+        refined.support >= kMinRefinedSupport * chosen.support) {
       chosen = refined;
       supporting = refined_supporting;
       result.refined = true;
@@ -640,5 +775,7 @@ RelativePose EstimateRelativePose(const TwoViewGeometry& geometry,
   result.t = result.has_translation ? chosen.t : Eigen::Vector3d::Zero();
   return result;
 }
+
+}  // namespace
 
 }  // namespace colmap_irav4

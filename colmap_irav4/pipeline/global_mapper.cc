@@ -526,6 +526,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "epipolar error threshold of a supporting match (pixels)");
   manager->Add("RelativePose.refine", &rp.refine,
                "refine each relative pose on its inliers");
+  manager->Add("RelativePose.refine_max_rotation_std_deg",
+               &rp.refine_max_rotation_std_deg,
+               "refine only poses whose rotation the inliers determine to "
+               "this standard deviation (deg)");
   manager->Add("RelativePose.min_tri_angle_deg", &rp.min_tri_angle_deg,
                "median triangulation angle below which t is undefined (deg)");
 
@@ -587,6 +591,9 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "auto, sparse_schur, dense_schur or iterative_schur");
   manager->Add("BundleAdjustment.function_tolerance", &ba.function_tolerance,
                "Ceres function tolerance");
+  manager->Add("BundleAdjustment.initial_trust_region_radius",
+               &ba.initial_trust_region_radius,
+               "Levenberg-Marquardt's initial trust region");
   manager->Add("BundleAdjustment.print_progress", &ba.print_progress,
                "print Ceres' iterations");
 

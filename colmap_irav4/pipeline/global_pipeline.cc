@@ -9,6 +9,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <glog/logging.h>
@@ -33,6 +34,7 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_images\": " << num_database_images
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
+      << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
   out << ",\n  \"models\": [";
@@ -235,6 +237,14 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
   stage.Add("models", static_cast<double>(models.size()));
   stage.Finish("", &summary->stages);
   summary->total_seconds = total_timer.ElapsedSeconds();
+  {
+    struct rusage usage;
+    if (getrusage(RUSAGE_SELF, &usage) == 0) {
+      summary->peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
+    }
+  }
+  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
+            << summary->peak_memory_mib << " MiB";
   WriteFileAtomically(output->StagingFilePath("summary.json"),
                       summary->ToJson());
   output->Commit(static_cast<int>(models.size()), {"summary.json"});

@@ -47,6 +47,9 @@ struct GlobalMapperSummary {
   std::vector<StageReport> stages;  // database reading, view graph, writing
   std::vector<ComponentReport> components;
   double total_seconds = 0;
+  // Peak resident memory of the process (getrusage ru_maxrss), MiB, when
+  // the summary is written.
+  double peak_memory_mib = 0;
   std::vector<std::string> notes;  // warnings, skipped stages
 
   std::string ToJson() const;

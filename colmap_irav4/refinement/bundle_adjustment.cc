@@ -169,6 +169,7 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   }
   if (options.refine_points) solver_options.linear_solver_ordering = ordering;
+  solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   return SolveProblem("bundle adjustment", options, solver_options, &problem);
 }
 
@@ -195,6 +196,9 @@ void BundleAdjustmentOptions::Check() const {
   }
   if (max_num_iterations < 1) {
     throw InputError("BundleAdjustment.max_num_iterations", "must be positive");
+  }
+  if (!(initial_trust_region_radius > 0)) {
+    throw InputError("BundleAdjustment.initial_trust_region_radius", "must be positive");
   }
 }
 

@@ -52,6 +52,16 @@ struct BundleAdjustmentOptions {
   double function_tolerance = 1e-5;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
+  // Levenberg-Marquardt's initial trust region (Ceres' default: 1e4). Its
+  // damping (diag(J^T J) / radius) smothers the weakly constrained
+  // directions of a bundle adjustment (camera centres along the flat valleys
+  // of the cost): from 1e4 the radius grows 3x per iteration and the
+  // function tolerance stops the solve long before those directions have
+  // moved (100-image synthetic scene: centre error 6.5 mm where the optimum
+  // is at 5.0 mm, the cost within 3e-5 of it; COLMAP 3.8: 5.5 mm). 1e8
+  // reaches it in fewer iterations; steps that do not fit are rejected and
+  // the radius shrinks, so a large start costs little.
+  double initial_trust_region_radius = 1e8;
   int num_threads = -1;  // -1: the hardware concurrency
   bool print_progress = false;     // Ceres' per-iteration log
   bool show_progress_bar = false;  // progress bar over the iterations

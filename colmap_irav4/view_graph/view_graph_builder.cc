@@ -6,6 +6,7 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/union_find.h"
@@ -156,15 +157,35 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
         calibration_pairs, options.focal_calibration, &cameras);
   }
 
+  // Each image's keypoints are undistorted once (not once per pair: an
+  // image of a dense capture is in hundreds of pairs), then the relative
+  // poses are derived; both in parallel.
+  std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
+  for (const TwoViewGeometry* geometry : candidates) {
+    normalized[geometry->image_id1];
+    normalized[geometry->image_id2];
+  }
+  std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
+  for (auto& slot : normalized) slots.push_back(&slot);
+  ParallelFor(options.num_threads, slots.size(), [&](size_t i) {
+    const image_t image_id = slots[i]->first;
+    const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
+    const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
+    std::vector<Eigen::Vector2d>& points = slots[i]->second;
+    points.reserve(keypoints.size());
+    for (const auto& keypoint : keypoints) {
+      points.push_back(CameraImageToCamera(camera, keypoint.cast<double>()));
+    }
+  });
   std::vector<RelativePose> candidate_poses(candidates.size());
   ParallelFor(options.num_threads, candidates.size(), [&](size_t i) {
     const TwoViewGeometry& geometry = *candidates[i];
     const DatabaseImage& image1 = database.images.at(geometry.image_id1);
     const DatabaseImage& image2 = database.images.at(geometry.image_id2);
-    candidate_poses[i] = EstimateRelativePose(
+    candidate_poses[i] = EstimateRelativePoseNormalized(
         geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
-        database.keypoints.at(geometry.image_id1),
-        database.keypoints.at(geometry.image_id2), options.relative_pose);
+        normalized.at(geometry.image_id1), normalized.at(geometry.image_id2),
+        options.relative_pose);
   });
 
   std::vector<ImagePairGeometry> pairs;

@@ -11,7 +11,8 @@ PACKAGES=(
   libsqlite3-dev sqlite3
   libgoogle-glog-dev libgflags-dev
   libgtest-dev libgmock-dev
-  libopencv-core-dev libopencv-imgcodecs-dev
+  libopencv-core-dev libopencv-imgcodecs-dev libopencv-imgproc-dev
+  python3-matplotlib
   colmap time
   clang-format
 )

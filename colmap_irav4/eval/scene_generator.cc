@@ -1,0 +1,938 @@
+#include "colmap_irav4/eval/scene_generator.h"
+
+#include <algorithm>
+#include <functional>
+#include <cmath>
+#include <random>
+#include <unordered_map>
+#include <unordered_set>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/io/database_writer.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/error.h"
+
+namespace colmap_irav4 {
+namespace {
+
+
+// A vertical wall: segment a-b in the ground plane (x, z), heights [y0, y1],
+// `normal` (x, z) pointing to the side the cameras see it from.
+struct Wall {
+  Eigen::Vector2d a;
+  Eigen::Vector2d b;
+  double y0 = 0;
+  double y1 = 0;
+  Eigen::Vector2d normal;
+  double Length() const { return (b - a).norm(); }
+};
+
+// A closed rectangular loop (half sizes hx, hz, centred on the origin)
+// parameterised by arc length, for camera paths.
+struct RectLoop {
+  double hx = 1;
+  double hz = 1;
+  double Perimeter() const { return 4 * (hx + hz); }
+  // Point at arc length s and the outward normal of its side.
+  void At(double s, Eigen::Vector2d* point, Eigen::Vector2d* outward) const {
+    s = std::fmod(s, Perimeter());
+    if (s < 0) s += Perimeter();
+    const double sides[4] = {2 * hx, 2 * hz, 2 * hx, 2 * hz};
+    int side = 0;
+    while (side < 3 && s > sides[side]) s -= sides[side++];
+    switch (side) {
+      case 0:  // south, z = -hz, x increasing
+        *point = {-hx + s, -hz};
+        *outward = {0, -1};
+        break;
+      case 1:  // east, x = hx
+        *point = {hx, -hz + s};
+        *outward = {1, 0};
+        break;
+      case 2:  // north, z = hz, x decreasing
+        *point = {hx - s, hz};
+        *outward = {0, 1};
+        break;
+      default:  // west, x = -hx
+        *point = {-hx, hz - s};
+        *outward = {-1, 0};
+        break;
+    }
+  }
+};
+
+// Walls of a rectangle with half sizes hx, hz; normals inward or outward.
+std::vector<Wall> RectWalls(double hx, double hz, double height, bool inward) {
+  const Eigen::Vector2d corners[4] = {{-hx, -hz}, {hx, -hz}, {hx, hz}, {-hx, hz}};
+  const Eigen::Vector2d outward[4] = {{0, -1}, {1, 0}, {0, 1}, {-1, 0}};
+  std::vector<Wall> walls;
+  for (int k = 0; k < 4; ++k) {
+    Wall wall;
+    wall.a = corners[k];
+    wall.b = corners[(k + 1) % 4];
+    wall.y0 = 0;
+    wall.y1 = height;
+    wall.normal = inward ? -outward[k] : outward[k];
+    walls.push_back(wall);
+  }
+  return walls;
+}
+
+// cam_from_world rotation of a camera looking along `forward` (world), image
+// y pointing down (world Y is up), rolled by `roll` radians.
+Eigen::Matrix3d LookAlong(const Eigen::Vector3d& forward, double roll) {
+  const Eigen::Vector3d z = forward.normalized();
+  Eigen::Vector3d x = (-Eigen::Vector3d::UnitY()).cross(z).normalized();
+  Eigen::Vector3d y = z.cross(x);
+  const double c = std::cos(roll), s = std::sin(roll);
+  const Eigen::Vector3d xr = c * x + s * y;
+  const Eigen::Vector3d yr = -s * x + c * y;
+  Eigen::Matrix3d R;
+  R.row(0) = xr.transpose();
+  R.row(1) = yr.transpose();
+  R.row(2) = z.transpose();
+  return R;
+}
+
+const Eigen::Quaterniond& MirrorRotation() {
+  // 180 deg about world Y: (x, y, z) -> (-x, y, -z).
+  static const Eigen::Quaterniond q(0, 0, 1, 0);
+  return q;
+}
+
+Eigen::Vector3d Mirror(const Eigen::Vector3d& x) { return {-x.x(), x.y(), -x.z()}; }
+
+uint64_t Mix(uint64_t x) {  // splitmix64
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+Camera MakeCamera(const SceneGeneratorOptions& options, camera_t camera_id,
+                  std::mt19937_64* rng) {
+  const std::string& model_name =
+      options.camera_models[(camera_id - 1) % options.camera_models.size()];
+  Camera camera;
+  camera.camera_id = camera_id;
+  camera.model_id = CameraModelNameToId(model_name);
+  camera.width = options.width;
+  camera.height = options.height;
+  camera.has_prior_focal_length = true;
+  camera.params.assign(CameraModelNumParams(camera.model_id), 0.0);
+  std::uniform_real_distribution<double> vary(0.85, 1.15);
+  const double focal =
+      options.focal_length * (camera_id == 1 ? 1.0 : vary(*rng));
+  const std::vector<int> focal_idxs = CameraModelFocalLengthIdxs(camera.model_id);
+  for (size_t k = 0; k < focal_idxs.size(); ++k) {
+    // Slightly different fx and fy where the model has both.
+    camera.params[focal_idxs[k]] = focal * (k == 0 ? 1.0 : 1.002);
+  }
+  const std::vector<int> pp = CameraModelPrincipalPointIdxs(camera.model_id);
+  camera.params[pp[0]] = 0.5 * options.width + (camera_id == 1 ? 0.0 : 3.0);
+  camera.params[pp[1]] = 0.5 * options.height - (camera_id == 1 ? 0.0 : 2.0);
+  // Mild distortion: first coefficient -0.02, then smaller ones.
+  const std::vector<int> extra = CameraModelExtraParamsIdxs(camera.model_id);
+  for (size_t k = 0; k < extra.size(); ++k) {
+    camera.params[extra[k]] = k == 0 ? -0.02 : 0.002 / (1.0 + k);
+  }
+  if (model_name == "FOV") camera.params[extra[0]] = 0.05;  // omega > 0
+  return camera;
+}
+
+struct Layout {
+  std::vector<Wall> walls;
+  // Camera path: arc-length parameter in [0, path_length); position and
+  // viewing direction for a parameter are drawn by PlaceCamera.
+  double path_length = 0;
+};
+
+struct PointCloud {
+  std::vector<Eigen::Vector3d> xyz;
+  std::vector<int> wall;   // index into Layout::walls
+  std::vector<int> twin;   // index of the twin point, -1 if none
+};
+
+}  // namespace
+
+SceneLayout SceneLayoutFromName(const std::string& name) {
+  if (name == "courtyard") return SceneLayout::kCourtyard;
+  if (name == "street") return SceneLayout::kStreet;
+  if (name == "tower") return SceneLayout::kTower;
+  throw InputError("--layout", "unknown layout '" + name +
+                                   "' (courtyard, street or tower)");
+}
+
+std::string SceneLayoutName(SceneLayout layout) {
+  switch (layout) {
+    case SceneLayout::kCourtyard:
+      return "courtyard";
+    case SceneLayout::kStreet:
+      return "street";
+    case SceneLayout::kTower:
+      return "tower";
+  }
+  return "";
+}
+
+std::string PairKindName(PairKind kind) {
+  switch (kind) {
+    case PairKind::kTrue:
+      return "true";
+    case PairKind::kMirror:
+      return "mirror";
+    case PairKind::kRandom:
+      return "random";
+  }
+  return "";
+}
+
+void SceneGeneratorOptions::Check() const {
+  auto require = [](bool ok, const std::string& name, const std::string& what) {
+    if (!ok) throw InputError("--" + name, what);
+  };
+  require(num_images >= 2 && num_images < 2000000, "num_images", "must be >= 2");
+  require(image_spacing > 0, "image_spacing", "must be > 0");
+  require(point_density > 0, "point_density", "must be > 0");
+  require(unique_point_fraction >= 0 && unique_point_fraction <= 1,
+          "unique_point_fraction", "must be in [0, 1]");
+  require(wall_relief >= 0, "wall_relief", "must be >= 0");
+  require(density_skew >= 0 && density_skew < 1, "density_skew",
+          "must be in [0, 1)");
+  require(num_hotspots >= 1, "num_hotspots", "must be >= 1");
+  require(!camera_models.empty(), "camera_models", "must name a model");
+  for (const std::string& name : camera_models) {
+    require(CameraModelNameToId(name) >= 0, "camera_models",
+            "unknown camera model '" + name + "'");
+  }
+  require(num_cameras >= 1 && num_cameras <= num_images, "num_cameras",
+          "must be in [1, num_images]");
+  require(width >= 16 && height >= 16, "width/height", "must be >= 16 px");
+  require(focal_length > 0, "focal_length", "must be > 0");
+  require(detection_probability > 0 && detection_probability <= 1,
+          "detection_probability", "must be in (0, 1]");
+  require(max_view_distance > 0, "max_view_distance", "must be > 0");
+  require(noise_px >= 0, "noise_px", "must be >= 0");
+  require(clutter_fraction >= 0 && clutter_fraction < 10, "clutter_fraction",
+          "must be in [0, 10)");
+  require(min_num_inliers >= 8, "min_num_inliers", "must be >= 8");
+  require(max_pairs_per_image >= 0, "max_pairs_per_image", "must be >= 0");
+  require(raw_outlier_ratio >= 0 && raw_outlier_ratio <= 10,
+          "raw_outlier_ratio", "must be in [0, 10]");
+  require(mirror_pair_rate >= 0 && mirror_pair_rate < 1, "mirror_pair_rate",
+          "must be in [0, 1)");
+  require(random_pair_rate >= 0 && random_pair_rate < 1, "random_pair_rate",
+          "must be in [0, 1)");
+  require(mirror_pair_rate + random_pair_rate < 1, "mirror_pair_rate",
+          "mirror_pair_rate + random_pair_rate must be < 1");
+  require(false_pair_inlier_fraction > 0 && false_pair_inlier_fraction <= 1,
+          "false_pair_inlier_fraction", "must be in (0, 1]");
+}
+
+Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world) {
+  // (P M)(X) = R M X + t: M is linear, so only the rotation changes.
+  Rigid3d twin = cam_from_world;
+  twin.rotation = (cam_from_world.rotation * MirrorRotation()).normalized();
+  return twin;
+}
+
+GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
+  options.Check();
+  std::mt19937_64 rng(options.seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int n = options.num_images;
+  const double path_length = n * options.image_spacing;
+
+  // Walls and the camera placement rule of the layout.
+  Layout layout;
+  layout.path_length = path_length;
+  RectLoop loop;
+  double street_half_length = 0, street_half_width = 6, module_length = 6;
+  switch (options.layout) {
+    case SceneLayout::kCourtyard: {
+      // Cameras walk a loop ~5 m inside the walls.
+      loop.hx = std::max(1.0, 0.6 * path_length / 4);
+      loop.hz = std::max(1.0, 0.4 * path_length / 4);
+      const double inset = 5.0;
+      layout.walls = RectWalls(loop.hx + inset, loop.hz + inset, 10.0, true);
+      layout.path_length = loop.Perimeter();
+      break;
+    }
+    case SceneLayout::kTower: {
+      // A tall tower; cameras on a loop around it, 8-30 m from its walls.
+      const double hx = std::max(6.0, 0.55 * 0.5 * path_length / 4);
+      const double hz = 0.8 * hx;
+      layout.walls = RectWalls(hx, hz, 30.0, false);
+      loop.hx = hx + 16;
+      loop.hz = hz + 16;
+      layout.path_length = loop.Perimeter();
+      break;
+    }
+    case SceneLayout::kStreet: {
+      street_half_length = std::max(15.0, 0.5 * path_length);
+      for (int side : {-1, 1}) {
+        Wall wall;
+        wall.a = {-street_half_length - 10, side * street_half_width};
+        wall.b = {street_half_length + 10, side * street_half_width};
+        wall.y0 = 0;
+        wall.y1 = 12.0;
+        wall.normal = {0, -side};
+        layout.walls.push_back(wall);
+      }
+      layout.path_length = 2 * street_half_length;
+      break;
+    }
+  }
+
+  // Density along the walls (uneven with density_skew): a slow wave.
+  auto density_factor = [&](double arc) {
+    return (1 - options.density_skew) +
+           options.density_skew * 0.5 * (1 + std::sin(2 * kPi * arc / 23.0));
+  };
+
+  // Points: twins X, M X (the wall set is symmetric under M), then the unique
+  // fraction without twins.
+  PointCloud cloud;
+  std::vector<double> wall_cumulative_area;
+  double total_area = 0;
+  for (const Wall& wall : layout.walls) {
+    total_area += wall.Length() * (wall.y1 - wall.y0);
+    wall_cumulative_area.push_back(total_area);
+  }
+  auto sample_wall_point = [&](int wall_idx, double along, Eigen::Vector3d* xyz) {
+    const Wall& wall = layout.walls[wall_idx];
+    const Eigen::Vector2d dir = (wall.b - wall.a).normalized();
+    const Eigen::Vector2d ground = wall.a + along * dir;
+    const double y = wall.y0 + unit(rng) * (wall.y1 - wall.y0);
+    // Relief behind the wall plane (away from the viewers).
+    const double depth = options.wall_relief * unit(rng);
+    const Eigen::Vector2d p = ground - depth * wall.normal;
+    *xyz = Eigen::Vector3d(p.x(), y, p.y());
+  };
+  // The tower's faces are seen whole from afar: a third of the density keeps
+  // its images' keypoints comparable with the other layouts'.
+  const double expected_points = options.point_density * total_area *
+                                 (options.layout == SceneLayout::kTower ? 0.3 : 1.0);
+  const int64_t num_twin_pairs = static_cast<int64_t>(
+      std::round(0.5 * expected_points * (1 - options.unique_point_fraction)));
+  const int64_t num_unique = static_cast<int64_t>(
+      std::round(expected_points * options.unique_point_fraction));
+  auto add_point = [&](const Eigen::Vector3d& xyz, int wall, int twin) {
+    cloud.xyz.push_back(xyz);
+    cloud.wall.push_back(wall);
+    cloud.twin.push_back(twin);
+  };
+  // Index of the wall M maps `wall` onto.
+  auto mirror_wall = [&](int wall) {
+    const Eigen::Vector2d mid = 0.5 * (layout.walls[wall].a + layout.walls[wall].b);
+    for (size_t k = 0; k < layout.walls.size(); ++k) {
+      const Eigen::Vector2d other = 0.5 * (layout.walls[k].a + layout.walls[k].b);
+      if ((other + mid).norm() < 1e-6) return static_cast<int>(k);
+    }
+    LOG(FATAL) << "walls not symmetric";
+    return -1;
+  };
+  if (options.layout == SceneLayout::kStreet) {
+    // Repeated facade modules on the south wall, their twins on the north.
+    const Wall& south = layout.walls[0];
+    const double length = south.Length();
+    const int num_modules = static_cast<int>(std::ceil(length / module_length));
+    const int per_module = static_cast<int>(
+        std::round(static_cast<double>(num_twin_pairs) / num_modules));
+    std::vector<Eigen::Vector3d> module_points;
+    for (int k = 0; k < per_module; ++k) {
+      Eigen::Vector3d xyz;
+      sample_wall_point(0, unit(rng) * module_length, &xyz);
+      module_points.push_back(xyz);
+    }
+    for (int m = 0; m < num_modules; ++m) {
+      for (const Eigen::Vector3d& base : module_points) {
+        const Eigen::Vector3d xyz = base + Eigen::Vector3d(m * module_length, 0, 0);
+        if (xyz.x() > south.b.x()) continue;
+        if (unit(rng) > density_factor(xyz.x() - south.a.x())) continue;
+        const int index = static_cast<int>(cloud.xyz.size());
+        add_point(xyz, 0, index + 1);
+        add_point(Mirror(xyz), 1, index);
+      }
+    }
+  } else {
+    for (int64_t k = 0; k < num_twin_pairs; ++k) {
+      const int wall = static_cast<int>(
+          std::lower_bound(wall_cumulative_area.begin(), wall_cumulative_area.end(),
+                           unit(rng) * total_area) -
+          wall_cumulative_area.begin());
+      const double along = unit(rng) * layout.walls[wall].Length();
+      Eigen::Vector3d xyz;
+      sample_wall_point(wall, along, &xyz);
+      if (unit(rng) > density_factor(along + 7.0 * wall)) continue;
+      const int index = static_cast<int>(cloud.xyz.size());
+      add_point(xyz, wall, index + 1);
+      add_point(Mirror(xyz), mirror_wall(wall), index);
+    }
+  }
+  for (int64_t k = 0; k < num_unique; ++k) {
+    const int wall = static_cast<int>(
+        std::lower_bound(wall_cumulative_area.begin(), wall_cumulative_area.end(),
+                         unit(rng) * total_area) -
+        wall_cumulative_area.begin());
+    Eigen::Vector3d xyz;
+    sample_wall_point(wall, unit(rng) * layout.walls[wall].Length(), &xyz);
+    add_point(xyz, wall, -1);
+  }
+  const int64_t num_cloud_points = static_cast<int64_t>(cloud.xyz.size());
+
+  // Grid over the ground plane for visibility queries.
+  const double cell = 4.0;
+  auto cell_key = [](int64_t ix, int64_t iz) { return (ix << 32) ^ (iz & 0xffffffff); };
+  std::unordered_map<int64_t, std::vector<int>> grid;
+  for (int64_t k = 0; k < num_cloud_points; ++k) {
+    const int64_t ix = static_cast<int64_t>(std::floor(cloud.xyz[k].x() / cell));
+    const int64_t iz = static_cast<int64_t>(std::floor(cloud.xyz[k].z() / cell));
+    grid[cell_key(ix, iz)].push_back(static_cast<int>(k));
+  }
+
+  GeneratedScene scene;
+  scene.options = options;
+  Reconstruction& truth = scene.truth;
+  for (int c = 1; c <= options.num_cameras; ++c) {
+    truth.cameras[c] = MakeCamera(options, c, &rng);
+  }
+
+  // Camera path parameters: uniform, plus hot spots with density_skew.
+  std::vector<double> hotspots;
+  for (int h = 0; h < options.num_hotspots; ++h) {
+    hotspots.push_back(unit(rng) * layout.path_length);
+  }
+  std::vector<double> params(n);
+  for (int i = 0; i < n; ++i) {
+    if (unit(rng) < options.density_skew) {
+      const double centre = hotspots[i % hotspots.size()];
+      params[i] = centre + normal(rng) * std::max(2.0, layout.path_length / 60);
+    } else {
+      params[i] = (i + unit(rng)) / n * layout.path_length;
+    }
+  }
+  std::sort(params.begin(), params.end());
+
+  // Observations per point: (image, keypoint index).
+  std::vector<std::vector<TrackElement>> observations(num_cloud_points);
+  std::uniform_int_distribution<int> camera_pick(1, options.num_cameras);
+  for (int i = 0; i < n; ++i) {
+    const double s = params[i];
+    Eigen::Vector3d center;
+    Eigen::Vector3d forward;
+    const double yaw = DegToRad(options.layout == SceneLayout::kTower ? 25.0 : 40.0) *
+                       (2 * unit(rng) - 1);
+    double pitch = DegToRad(5 + 15 * unit(rng));
+    Eigen::Vector2d ground = Eigen::Vector2d::Zero();
+    Eigen::Vector2d facing = Eigen::Vector2d::UnitX();
+    switch (options.layout) {
+      case SceneLayout::kCourtyard: {
+        Eigen::Vector2d outward;
+        loop.At(s, &ground, &outward);
+        ground += 1.0 * (2 * unit(rng) - 1) * outward;
+        facing = outward;  // look at the nearest wall
+        break;
+      }
+      case SceneLayout::kTower: {
+        Eigen::Vector2d outward;
+        loop.At(s, &ground, &outward);
+        // 8-30 m from the walls (the loop is 16 m out).
+        ground += (-8 + 22 * unit(rng)) * outward;
+        facing = -outward;
+        pitch = DegToRad(10 + 20 * unit(rng));
+        break;
+      }
+      case SceneLayout::kStreet: {
+        const double side = unit(rng) < 0.5 ? -1 : 1;
+        ground = {std::fmod(s, layout.path_length) - street_half_length,
+                  (2 * unit(rng) - 1) * 0.4 * street_half_width};
+        facing = {0, side};
+        break;
+      }
+    }
+    const Eigen::Vector2d dir(std::cos(yaw) * facing.x() - std::sin(yaw) * facing.y(),
+                              std::sin(yaw) * facing.x() + std::cos(yaw) * facing.y());
+    center = Eigen::Vector3d(ground.x(), 1.6 + 0.3 * normal(rng), ground.y());
+    forward = Eigen::Vector3d(std::cos(pitch) * dir.x(), std::sin(pitch),
+                              std::cos(pitch) * dir.y());
+    Image image;
+    image.image_id = i + 1;
+    image.name = "image" + std::to_string(i + 1) + ".jpg";
+    image.camera_id = options.num_cameras == 1 ? 1 : camera_pick(rng);
+    const Camera& camera = truth.cameras.at(image.camera_id);
+    image.cam_from_world.rotation =
+        Eigen::Quaterniond(LookAlong(forward, DegToRad(3.0) * normal(rng)));
+    image.cam_from_world.translation = -(image.cam_from_world.rotation * center);
+    const Eigen::Matrix3d R = image.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Vector3d& t = image.cam_from_world.translation;
+    const double focal = CameraMeanFocalLength(camera);
+    const double max_u = 0.5 * camera.width / focal * 1.2;
+    const double max_v = 0.5 * camera.height / focal * 1.2;
+    const double range = options.max_view_distance;
+    const int64_t ix0 = static_cast<int64_t>(std::floor((center.x() - range) / cell));
+    const int64_t ix1 = static_cast<int64_t>(std::floor((center.x() + range) / cell));
+    const int64_t iz0 = static_cast<int64_t>(std::floor((center.z() - range) / cell));
+    const int64_t iz1 = static_cast<int64_t>(std::floor((center.z() + range) / cell));
+    const Eigen::Vector2d forward_ground(forward.x(), forward.z());
+    // Half the horizontal field of view plus 25 deg (roll, pitch, cell size).
+    const double min_cos = std::cos(std::min(DegToRad(89.0), std::atan(max_u) + DegToRad(25.0)));
+    for (int64_t ix = ix0; ix <= ix1; ++ix) {
+      for (int64_t iz = iz0; iz <= iz1; ++iz) {
+        // Skip cells wholly behind the camera.
+        const Eigen::Vector2d cell_centre((ix + 0.5) * cell - center.x(),
+                                          (iz + 0.5) * cell - center.z());
+        if (cell_centre.dot(forward_ground.normalized()) < -cell) continue;
+        // ... and cells far outside the horizontal field of view.
+        if (cell_centre.norm() > 2 * cell &&
+            cell_centre.normalized().dot(forward_ground.normalized()) < min_cos) {
+          continue;
+        }
+        const auto it = grid.find(cell_key(ix, iz));
+        if (it == grid.end()) continue;
+        for (const int k : it->second) {
+          const Eigen::Vector3d& X = cloud.xyz[k];
+          const Eigen::Vector3d in_cam = R * X + t;
+          if (in_cam.z() < 0.5 || in_cam.norm() > range) continue;
+          const Wall& wall = layout.walls[cloud.wall[k]];
+          if ((center.x() - X.x()) * wall.normal.x() +
+                  (center.z() - X.z()) * wall.normal.y() <= 0) {
+            continue;  // seen from behind the wall
+          }
+          const Eigen::Vector2d uv = in_cam.hnormalized();
+          if (std::abs(uv.x()) > max_u || std::abs(uv.y()) > max_v) continue;
+          const Eigen::Vector2d xy = CameraCameraToImage(camera, uv);
+          if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera.width ||
+              xy.y() > camera.height) {
+            continue;
+          }
+          if (unit(rng) >= options.detection_probability) continue;
+          Point2D point2D;
+          point2D.xy = xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+          point2D.point3D_id = static_cast<point3D_t>(k) + 1;
+          observations[k].push_back(
+              {image.image_id, static_cast<point2D_t>(image.points2D.size())});
+          image.points2D.push_back(point2D);
+        }
+      }
+    }
+    // Clutter keypoints: features of nothing.
+    const int num_clutter = static_cast<int>(
+        std::round(options.clutter_fraction * image.points2D.size()));
+    for (int k = 0; k < num_clutter; ++k) {
+      Point2D point2D;
+      point2D.xy = Eigen::Vector2d(unit(rng) * camera.width, unit(rng) * camera.height);
+      image.points2D.push_back(point2D);
+    }
+    truth.images[image.image_id] = std::move(image);
+  }
+
+  // Points seen at least twice enter the model (id = cloud index + 1); the
+  // keypoints of the others become clutter.
+  scene.twin_of_point.assign(num_cloud_points + 1, kInvalidPoint3DId);
+  for (int64_t k = 0; k < num_cloud_points; ++k) {
+    if (observations[k].size() < 2) {
+      for (const TrackElement& element : observations[k]) {
+        truth.images.at(element.image_id).points2D[element.point2D_idx].point3D_id =
+            kInvalidPoint3DId;
+      }
+      observations[k].clear();
+      observations[k].shrink_to_fit();
+      continue;
+    }
+    Point3D point;
+    point.xyz = cloud.xyz[k];
+    point.color = Eigen::Matrix<uint8_t, 3, 1>(128, 128, 128);
+    point.track = std::move(observations[k]);
+    truth.points3D.emplace_hint(truth.points3D.end(), k + 1, std::move(point));
+  }
+  for (const auto& [point3D_id, point] : truth.points3D) {
+    const int twin = cloud.twin[point3D_id - 1];
+    if (twin >= 0 && truth.points3D.count(twin + 1)) {
+      scene.twin_of_point[point3D_id] = twin + 1;
+    }
+  }
+  observations.clear();
+
+  // Pairs from the tracks: shared points (true) and twin-shared points
+  // (mirror: image i sees M X where image j sees X), counted per first image
+  // with dense counters.
+  struct Candidate {
+    image_t image_id1, image_id2;
+    int count;
+  };
+  std::vector<const std::vector<TrackElement>*> track_of(num_cloud_points + 1, nullptr);
+  for (const auto& [point3D_id, point] : truth.points3D) track_of[point3D_id] = &point.track;
+  std::vector<Candidate> true_pairs, mirror_candidates;
+  std::vector<int> count(n + 1, 0), mirror_count(n + 1, 0);
+  std::vector<image_t> touched, mirror_touched;
+  for (const auto& [image_id, image] : truth.images) {
+    for (const Point2D& point2D : image.points2D) {
+      if (point2D.point3D_id == kInvalidPoint3DId) continue;
+      for (const TrackElement& element : *track_of[point2D.point3D_id]) {
+        if (element.image_id <= image_id) continue;
+        if (count[element.image_id]++ == 0) touched.push_back(element.image_id);
+      }
+      const point3D_t twin = scene.twin_of_point[point2D.point3D_id];
+      if (twin == kInvalidPoint3DId) continue;
+      for (const TrackElement& element : *track_of[twin]) {
+        if (element.image_id <= image_id) continue;
+        if (mirror_count[element.image_id]++ == 0) {
+          mirror_touched.push_back(element.image_id);
+        }
+      }
+    }
+    std::sort(touched.begin(), touched.end());
+    std::sort(mirror_touched.begin(), mirror_touched.end());
+    for (const image_t other : touched) {
+      if (count[other] >= options.min_num_inliers) {
+        true_pairs.push_back({image_id, other, count[other]});
+      }
+    }
+    for (const image_t other : mirror_touched) {
+      if (mirror_count[other] * options.false_pair_inlier_fraction >=
+              options.min_num_inliers &&
+          mirror_count[other] > count[other]) {
+        mirror_candidates.push_back({image_id, other, mirror_count[other]});
+      }
+    }
+    for (const image_t other : touched) count[other] = 0;
+    for (const image_t other : mirror_touched) mirror_count[other] = 0;
+    touched.clear();
+    mirror_touched.clear();
+  }
+
+  // Each image's best pairs only, if asked.
+  if (options.max_pairs_per_image > 0) {
+    std::vector<std::vector<std::pair<int, size_t>>> by_image(n + 1);
+    for (size_t k = 0; k < true_pairs.size(); ++k) {
+      by_image[true_pairs[k].image_id1].push_back({true_pairs[k].count, k});
+      by_image[true_pairs[k].image_id2].push_back({true_pairs[k].count, k});
+    }
+    std::vector<char> keep(true_pairs.size(), 0);
+    for (auto& list : by_image) {
+      std::sort(list.begin(), list.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first > b.first : a.second < b.second;
+      });
+      for (size_t k = 0;
+           k < list.size() && k < static_cast<size_t>(options.max_pairs_per_image); ++k) {
+        keep[list[k].second] = 1;
+      }
+    }
+    std::vector<Candidate> kept;
+    for (size_t k = 0; k < true_pairs.size(); ++k) {
+      if (keep[k]) kept.push_back(true_pairs[k]);
+    }
+    true_pairs.swap(kept);
+  }
+
+  // Mirror pairs: random candidates until they make mirror_pair_rate of all
+  // pairs; one replaces the true pair of the same images if there is one.
+  std::unordered_map<image_pair_t, size_t> pair_index;
+  std::vector<GeneratedPair> pairs;
+  for (const Candidate& candidate : true_pairs) {
+    GeneratedPair pair;
+    pair.image_id1 = candidate.image_id1;
+    pair.image_id2 = candidate.image_id2;
+    pair.kind = PairKind::kTrue;
+    pair.num_candidates = candidate.count;
+    pair_index[ImagePairToPairId(pair.image_id1, pair.image_id2)] = pairs.size();
+    pairs.push_back(pair);
+  }
+  scene.num_mirror_candidates = static_cast<int>(mirror_candidates.size());
+  std::shuffle(mirror_candidates.begin(), mirror_candidates.end(), rng);
+  int num_mirror = 0;
+  int64_t num_pairs = static_cast<int64_t>(pairs.size());
+  for (const Candidate& candidate : mirror_candidates) {
+    if (num_pairs == 0 ||
+        num_mirror >= options.mirror_pair_rate * num_pairs - 1e-9) {
+      break;
+    }
+    GeneratedPair pair;
+    pair.image_id1 = candidate.image_id1;
+    pair.image_id2 = candidate.image_id2;
+    pair.kind = PairKind::kMirror;
+    pair.num_candidates = candidate.count;
+    const image_pair_t pair_id = ImagePairToPairId(pair.image_id1, pair.image_id2);
+    const auto it = pair_index.find(pair_id);
+    if (it != pair_index.end()) {
+      pairs[it->second] = pair;
+    } else {
+      pair_index[pair_id] = pairs.size();
+      pairs.push_back(pair);
+      ++num_pairs;
+    }
+    ++num_mirror;
+  }
+  if (num_mirror < options.mirror_pair_rate * num_pairs - 1e-9) {
+    LOG(WARNING) << "only " << num_mirror << " mirror-twin pairs possible ("
+                 << mirror_candidates.size() << " candidates), fewer than "
+                 << options.mirror_pair_rate * 100 << "% of " << num_pairs;
+  }
+
+  // Random false pairs: inliers consistent with a random relative pose, whose
+  // second keypoints are new clutter keypoints of image_id2.
+  const int64_t num_random = static_cast<int64_t>(std::round(
+      options.random_pair_rate * num_pairs / (1 - options.random_pair_rate)));
+  std::uniform_int_distribution<image_t> image_pick(1, n);
+  for (int64_t r = 0, attempts = 0; r < num_random && attempts < 100 * num_random + 100;
+       ++attempts) {
+    image_t id1 = image_pick(rng), id2 = image_pick(rng);
+    if (id1 == id2) continue;
+    if (id1 > id2) std::swap(id1, id2);
+    const image_pair_t pair_id = ImagePairToPairId(id1, id2);
+    if (pair_index.count(pair_id)) continue;
+    Image& image1 = truth.images.at(id1);
+    Image& image2 = truth.images.at(id2);
+    if (image1.points2D.empty()) continue;
+    const Camera& camera1 = truth.cameras.at(image1.camera_id);
+    const Camera& camera2 = truth.cameras.at(image2.camera_id);
+    // Random rotation up to 30 deg, random unit translation.
+    const Eigen::Vector3d axis(normal(rng), normal(rng), normal(rng));
+    Rigid3d pose;
+    pose.rotation = Eigen::Quaterniond(
+        Eigen::AngleAxisd(DegToRad(30.0) * unit(rng), axis.normalized()));
+    pose.translation =
+        Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    const int target = options.min_num_inliers +
+                       static_cast<int>(unit(rng) * 2 * options.min_num_inliers);
+    GeneratedPair pair;
+    pair.image_id1 = id1;
+    pair.image_id2 = id2;
+    pair.kind = PairKind::kRandom;
+    pair.random_cam2_from_cam1 = pose;
+    std::uniform_int_distribution<point2D_t> keypoint_pick(0, image1.points2D.size() - 1);
+    std::unordered_set<point2D_t> used;
+    for (int tries = 0; tries < 20 * target && static_cast<int>(
+                                                    pair.random_inliers.size()) < target;
+         ++tries) {
+      const point2D_t idx1 = keypoint_pick(rng);
+      if (!used.insert(idx1).second) continue;
+      const Eigen::Vector2d x1 = CameraImageToCamera(camera1, image1.points2D[idx1].xy);
+      const Eigen::Vector3d X1 = (3 + 27 * unit(rng)) * x1.homogeneous();
+      const Eigen::Vector3d X2 = pose * X1;
+      if (X2.z() < 0.5) continue;
+      const Eigen::Vector2d uv = X2.hnormalized();
+      if (std::abs(uv.x()) > 1.5 || std::abs(uv.y()) > 1.5) continue;
+      Eigen::Vector2d xy = CameraCameraToImage(camera2, uv);
+      if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera2.width ||
+          xy.y() > camera2.height) {
+        continue;
+      }
+      Point2D point2D;
+      point2D.xy = xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+      pair.random_inliers.push_back(
+          {idx1, static_cast<point2D_t>(image2.points2D.size())});
+      image2.points2D.push_back(point2D);
+    }
+    if (static_cast<int>(pair.random_inliers.size()) < options.min_num_inliers) {
+      continue;  // its clutter keypoints stay: harmless
+    }
+    pair.num_candidates = static_cast<int>(pair.random_inliers.size());
+    pair_index[pair_id] = pairs.size();
+    pairs.push_back(std::move(pair));
+    ++r;
+  }
+
+  std::sort(pairs.begin(), pairs.end(), [](const GeneratedPair& a, const GeneratedPair& b) {
+    return a.image_id1 != b.image_id1 ? a.image_id1 < b.image_id1
+                                      : a.image_id2 < b.image_id2;
+  });
+  for (const GeneratedPair& pair : pairs) {
+    switch (pair.kind) {
+      case PairKind::kTrue:
+        ++scene.num_true_pairs;
+        break;
+      case PairKind::kMirror:
+        ++scene.num_mirror_pairs;
+        break;
+      case PairKind::kRandom:
+        ++scene.num_random_pairs;
+        break;
+    }
+  }
+  scene.pairs = std::move(pairs);
+  return scene;
+}
+
+Rigid3d PairRelativePose(const GeneratedScene& scene, const GeneratedPair& pair) {
+  if (pair.kind == PairKind::kRandom) return pair.random_cam2_from_cam1;
+  Rigid3d pose1 = scene.truth.images.at(pair.image_id1).cam_from_world;
+  const Rigid3d& pose2 = scene.truth.images.at(pair.image_id2).cam_from_world;
+  if (pair.kind == PairKind::kMirror) pose1 = MirrorTwinPose(pose1);
+  const Rigid3d world_from_cam1 = pose1.Inverse();
+  Rigid3d relative;
+  relative.rotation = (pose2.rotation * world_from_cam1.rotation).normalized();
+  relative.translation = pose2.rotation * world_from_cam1.translation + pose2.translation;
+  return relative;
+}
+
+namespace {
+
+// Track of a point, through a lookup the caller chooses (the model's map for
+// one pair, a flat table when writing every pair).
+using TrackLookup = std::function<const std::vector<TrackElement>&(point3D_t)>;
+
+// image1's keypoint of X (true pair) or of M X (mirror pair) with image2's
+// keypoint of X, in image1's keypoint order.
+FeatureMatches CandidateMatches(const GeneratedScene& scene, const GeneratedPair& pair,
+                                const TrackLookup& track_of) {
+  FeatureMatches matches;
+  const Image& image1 = scene.truth.images.at(pair.image_id1);
+  for (point2D_t idx1 = 0; idx1 < image1.points2D.size(); ++idx1) {
+    point3D_t point3D_id = image1.points2D[idx1].point3D_id;
+    if (point3D_id == kInvalidPoint3DId) continue;
+    if (pair.kind == PairKind::kMirror) {
+      point3D_id = scene.twin_of_point[point3D_id];
+      if (point3D_id == kInvalidPoint3DId) continue;
+    }
+    for (const TrackElement& element : track_of(point3D_id)) {
+      if (element.image_id == pair.image_id2) {
+        matches.push_back({idx1, element.point2D_idx});
+        break;
+      }
+    }
+  }
+  return matches;
+}
+
+// The stored geometry from the pair's candidate matches (ignored for random
+// pairs, whose inliers are fixed).
+TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
+                                   FeatureMatches candidates, FeatureMatches* raw_matches) {
+  const SceneGeneratorOptions& options = scene.options;
+  std::mt19937_64 rng(Mix(options.seed ^ Mix(ImagePairToPairId(pair.image_id1,
+                                                               pair.image_id2))));
+  const Image& image1 = scene.truth.images.at(pair.image_id1);
+  const Image& image2 = scene.truth.images.at(pair.image_id2);
+  TwoViewGeometry geometry;
+  geometry.image_id1 = pair.image_id1;
+  geometry.image_id2 = pair.image_id2;
+  geometry.config = TwoViewGeometry::CALIBRATED;
+  if (pair.kind == PairKind::kRandom) {
+    geometry.inlier_matches = pair.random_inliers;
+  } else {
+    geometry.inlier_matches = std::move(candidates);
+    if (pair.kind == PairKind::kMirror) {
+      // A false pair matches only part of what its geometry allows.
+      std::shuffle(geometry.inlier_matches.begin(), geometry.inlier_matches.end(), rng);
+      const size_t keep = std::max<size_t>(
+          options.min_num_inliers,
+          static_cast<size_t>(std::round(options.false_pair_inlier_fraction *
+                                         geometry.inlier_matches.size())));
+      if (geometry.inlier_matches.size() > keep) geometry.inlier_matches.resize(keep);
+      std::sort(geometry.inlier_matches.begin(), geometry.inlier_matches.end(),
+                [](const FeatureMatch& a, const FeatureMatch& b) {
+                  return a.point2D_idx1 < b.point2D_idx1;
+                });
+    }
+  }
+
+  const Rigid3d relative = PairRelativePose(scene, pair);
+  const Eigen::Matrix3d R = relative.rotation.toRotationMatrix();
+  const Eigen::Vector3d t = relative.translation.normalized();
+  geometry.E = EssentialFromPose(R, t);
+  const Eigen::Matrix3d K1 =
+      CameraCalibrationMatrix(scene.truth.cameras.at(image1.camera_id));
+  const Eigen::Matrix3d K2 =
+      CameraCalibrationMatrix(scene.truth.cameras.at(image2.camera_id));
+  geometry.F = K2.inverse().transpose() * geometry.E * K1.inverse();
+  geometry.F /= geometry.F.norm();
+  if (options.store_relative_pose) {
+    geometry.has_pose = true;
+    geometry.qvec = Eigen::Vector4d(relative.rotation.w(), relative.rotation.x(),
+                                    relative.rotation.y(), relative.rotation.z());
+    geometry.tvec = t;
+  }
+
+  if (raw_matches) {
+    *raw_matches = geometry.inlier_matches;
+    const int num_wrong = static_cast<int>(
+        std::round(options.raw_outlier_ratio * geometry.inlier_matches.size()));
+    if (!image1.points2D.empty() && !image2.points2D.empty()) {
+      std::uniform_int_distribution<point2D_t> pick1(0, image1.points2D.size() - 1);
+      std::uniform_int_distribution<point2D_t> pick2(0, image2.points2D.size() - 1);
+      for (int k = 0; k < num_wrong; ++k) raw_matches->push_back({pick1(rng), pick2(rng)});
+    }
+  }
+  return geometry;
+}
+
+}  // namespace
+
+TwoViewGeometry PairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
+                             FeatureMatches* raw_matches) {
+  FeatureMatches candidates;
+  if (pair.kind != PairKind::kRandom) {
+    candidates = CandidateMatches(scene, pair, [&](point3D_t id) -> const std::vector<TrackElement>& {
+      return scene.truth.points3D.at(id).track;
+    });
+  }
+  return FinishPairGeometry(scene, pair, std::move(candidates), raw_matches);
+}
+
+void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
+  DatabaseWriter writer(path);
+  for (const auto& [camera_id, camera] : scene.truth.cameras) writer.WriteCamera(camera);
+  for (const auto& [image_id, image] : scene.truth.images) {
+    writer.WriteImage(image_id, image.name, image.camera_id);
+    FeatureKeypoints keypoints;
+    keypoints.reserve(image.points2D.size());
+    for (const Point2D& point2D : image.points2D) keypoints.push_back(point2D.xy.cast<float>());
+    writer.WriteKeypoints(image_id, keypoints);
+  }
+  // Flat track table (the model's map costs a cache miss per level), and the
+  // candidates of all pairs of one first image in one pass over its
+  // keypoints: O(observations * track length) in all.
+  point3D_t max_id = 0;
+  for (const auto& [point3D_id, point] : scene.truth.points3D) max_id = point3D_id;
+  std::vector<const std::vector<TrackElement>*> tracks(max_id + 1, nullptr);
+  for (const auto& [point3D_id, point] : scene.truth.points3D) tracks[point3D_id] = &point.track;
+  FeatureMatches raw_matches;
+  std::unordered_map<image_t, FeatureMatches> true_candidates, mirror_candidates;
+  for (size_t begin = 0; begin < scene.pairs.size();) {
+    const image_t image_id1 = scene.pairs[begin].image_id1;
+    size_t end = begin;
+    true_candidates.clear();
+    mirror_candidates.clear();
+    for (; end < scene.pairs.size() && scene.pairs[end].image_id1 == image_id1; ++end) {
+      const GeneratedPair& pair = scene.pairs[end];
+      if (pair.kind == PairKind::kTrue) true_candidates[pair.image_id2];
+      if (pair.kind == PairKind::kMirror) mirror_candidates[pair.image_id2];
+    }
+    const Image& image1 = scene.truth.images.at(image_id1);
+    for (point2D_t idx1 = 0; idx1 < image1.points2D.size(); ++idx1) {
+      const point3D_t point3D_id = image1.points2D[idx1].point3D_id;
+      if (point3D_id == kInvalidPoint3DId) continue;
+      for (const TrackElement& element : *tracks[point3D_id]) {
+        const auto it = true_candidates.find(element.image_id);
+        if (it != true_candidates.end()) it->second.push_back({idx1, element.point2D_idx});
+      }
+      const point3D_t twin = scene.twin_of_point[point3D_id];
+      if (twin == kInvalidPoint3DId || mirror_candidates.empty()) continue;
+      for (const TrackElement& element : *tracks[twin]) {
+        const auto it = mirror_candidates.find(element.image_id);
+        if (it != mirror_candidates.end()) it->second.push_back({idx1, element.point2D_idx});
+      }
+    }
+    for (size_t k = begin; k < end; ++k) {
+      const GeneratedPair& pair = scene.pairs[k];
+      FeatureMatches candidates;
+      if (pair.kind == PairKind::kTrue) candidates = std::move(true_candidates[pair.image_id2]);
+      if (pair.kind == PairKind::kMirror) {
+        candidates = std::move(mirror_candidates[pair.image_id2]);
+      }
+      const TwoViewGeometry geometry =
+          FinishPairGeometry(scene, pair, std::move(candidates), &raw_matches);
+      writer.WriteMatches(pair.image_id1, pair.image_id2, raw_matches);
+      writer.WriteTwoViewGeometry(geometry);
+    }
+    begin = end;
+  }
+  writer.Commit();
+}
+
+}  // namespace colmap_irav4

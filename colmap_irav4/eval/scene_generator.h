@@ -1,0 +1,147 @@
+#pragma once
+
+// Large synthetic scenes with exact ground truth, for benchmarks and for the
+// symmetric-scene protocol: walls of points (a courtyard seen from inside, a
+// street between two facades, a tower seen from all sides), cameras walking
+// along them, noisy keypoints, and the verified pairs a matcher would store:
+// true pairs, random false pairs and mirror-twin false pairs.
+//
+// The structure is symmetric under M = 180 deg about the vertical (world Y)
+// axis through the origin, (x, y, z) -> (-x, y, -z): points come in twins X,
+// M X (up to a fraction of unique points). A mirror-twin false pair (i, j)
+// matches i's keypoints of M X with j's keypoints of X, i.e. it is a true pair
+// of twin(i) = camera i moved by M (cam_from_world P_i M) and j; such pairs
+// agree with each other around cycles, as on 1DSfM's Gendarmenmarkt.
+//
+// Cost: O(observations * track length) (pairs are found from the tracks,
+// never by testing all image pairs); visibility uses a grid over the ground
+// plane, so each camera only tests the points near it.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "colmap_irav4/geometry/two_view_geometry.h"
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+enum class SceneLayout {
+  kCourtyard,  // rectangle of walls, cameras inside looking at them
+  kStreet,     // two long facades of repeated modules, cameras in between
+  kTower,      // rectangular tower, cameras around it looking at it
+};
+// "courtyard", "street", "tower"; throws InputError for another name.
+SceneLayout SceneLayoutFromName(const std::string& name);
+std::string SceneLayoutName(SceneLayout layout);
+
+struct SceneGeneratorOptions {
+  SceneLayout layout = SceneLayout::kCourtyard;
+  int num_images = 100;
+  // Camera path length per image (m): the scene grows with the number of
+  // images, so that the pairs per image stay bounded.
+  double image_spacing = 0.5;
+  // Points per square metre of wall (before the detection probability).
+  double point_density = 40.0;
+  // Fraction of points without a mirror twin (breaks the symmetry a little,
+  // as real buildings do).
+  double unique_point_fraction = 0.0;
+  // Depth relief of the walls (m): points lie up to this far behind the wall
+  // plane, so that no pair is planar.
+  double wall_relief = 0.6;
+  // Uneven density in [0, 1): this fraction of the cameras crowd around a few
+  // hot spots, and the point density varies along the walls by this factor.
+  double density_skew = 0.0;
+  int num_hotspots = 3;
+  // Cameras: COLMAP model names, one per camera in turn; images are assigned
+  // to num_cameras cameras at random (1: one shared camera).
+  std::vector<std::string> camera_models = {"SIMPLE_RADIAL"};
+  int num_cameras = 1;
+  int width = 1600;
+  int height = 1200;
+  double focal_length = 1200.0;  // px; cameras after the first vary +-15%
+  // Detection: probability that a projecting point yields a keypoint, the
+  // farthest distance at which it does, keypoint noise (px, per coordinate).
+  double detection_probability = 0.8;
+  double max_view_distance = 40.0;
+  double noise_px = 1.0;
+  // Keypoints of nothing (clutter), as a fraction of each image's keypoints.
+  double clutter_fraction = 0.1;
+  // A pair is written when it has at least this many inliers.
+  int min_num_inliers = 15;
+  // Keep only each image's best pairs (most shared points): the pair is kept
+  // if it is among the best of either image. 0: all pairs.
+  int max_pairs_per_image = 0;
+  // Raw (unverified) matches: inliers plus this fraction of wrong ones.
+  double raw_outlier_ratio = 0.25;
+  // Fraction of the true and mirror pairs that are mirror-twin false pairs
+  // (a mirror pair replaces the true pair of the same images, if any), then
+  // fraction of all pairs that are random false pairs (random matches
+  // consistent with a random relative pose).
+  double mirror_pair_rate = 0.0;
+  double random_pair_rate = 0.0;
+  // A false pair matches only this fraction of the correspondences its
+  // (false) geometry would allow.
+  double false_pair_inlier_fraction = 0.4;
+  // Store cam2_from_cam1 in two_view_geometries.qvec/tvec (COLMAP 3.8 leaves
+  // them zero unless asked).
+  bool store_relative_pose = false;
+  uint64_t seed = 1;
+
+  void Check() const;  // throws InputError naming the option
+};
+
+enum class PairKind { kTrue, kMirror, kRandom };
+std::string PairKindName(PairKind kind);
+
+struct GeneratedPair {
+  image_t image_id1 = kInvalidImageId;  // image_id1 < image_id2
+  image_t image_id2 = kInvalidImageId;
+  PairKind kind = PairKind::kTrue;
+  // Correspondences the pair's geometry allows (shared points of a true pair,
+  // twin-shared points of a mirror pair), before thinning.
+  int num_candidates = 0;
+  // Random pairs only: their inliers (generated with the scene, since they
+  // add clutter keypoints to image_id2).
+  FeatureMatches random_inliers;
+  Rigid3d random_cam2_from_cam1;
+};
+
+struct GeneratedScene {
+  SceneGeneratorOptions options;
+  // Exact ground truth: cameras, poses, keypoints (noisy; clutter keypoints
+  // have no point), points with their full tracks.
+  Reconstruction truth;
+  // Twin of each point (kInvalidPoint3DId if unique or not in the model).
+  std::vector<point3D_t> twin_of_point;  // indexed by point3D_id
+  std::vector<GeneratedPair> pairs;      // ordered by (image_id1, image_id2)
+  int num_true_pairs = 0;
+  int num_mirror_pairs = 0;
+  int num_random_pairs = 0;
+  int num_mirror_candidates = 0;  // pairs that could have been mirror pairs
+};
+
+GeneratedScene GenerateScene(const SceneGeneratorOptions& options);
+
+// The stored geometry of a pair (database orientation image_id1 <
+// image_id2): inlier matches, CALIBRATED config, E and F of its (possibly
+// false) relative pose, the pose itself if store_relative_pose. Deterministic
+// (seeded by the scene's seed and the pair), independent of call order.
+// raw_matches (may be null): the inliers plus wrong matches.
+TwoViewGeometry PairGeometry(const GeneratedScene& scene,
+                             const GeneratedPair& pair,
+                             FeatureMatches* raw_matches);
+
+// cam2_from_cam1 that a pair's matches are consistent with: the true relative
+// pose, the twin's (P_2 M P_1^-1) or the random one.
+Rigid3d PairRelativePose(const GeneratedScene& scene, const GeneratedPair& pair);
+
+// M applied to a cam_from_world pose: the pose of the camera's mirror twin.
+Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world);
+
+// Writes `scene` as a new COLMAP 3.8 database (cameras, images, keypoints,
+// matches, two_view_geometries), to a temporary name renamed when complete.
+// Throws InputError if `path` exists.
+void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path);
+
+}  // namespace colmap_irav4

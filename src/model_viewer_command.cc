@@ -1,0 +1,73 @@
+// colmap_irav4 model_viewer: a PNG (or JPEG) picture of a sparse model, top
+// and side views of the points and camera frusta, without a display:
+//   colmap_irav4 model_viewer --input_path sparse/0 --output_path view.png
+
+#include <filesystem>
+#include <iostream>
+
+#include <glog/logging.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "colmap_irav4/eval/model_render.h"
+#include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
+#include "src/command.h"
+
+namespace colmap_irav4 {
+namespace {
+
+int RunModelViewer(int argc, char** argv) {
+  std::string input_path;
+  std::string output_path;
+  ModelRenderOptions options;
+  OptionManager manager(
+      "model_viewer",
+      "Renders a COLMAP model's points and camera frusta (top and side views)\n"
+      "into an image file.");
+  manager.AddRequired("input_path", &input_path, "model directory (.bin or .txt)");
+  manager.AddRequired("output_path", &output_path, "image file (.png or .jpg)");
+  manager.Add("width", &options.width, "picture width (px)");
+  manager.Add("height", &options.height, "picture height (px)");
+  manager.Add("point_radius", &options.point_radius_px, "point radius (px, 0: one pixel)");
+  manager.Add("frustum_scale", &options.frustum_scale,
+              "frustum depth, fraction of the model's extent");
+  manager.Add("extent_percentile", &options.extent_percentile,
+              "view extent: this percentile range of points and centres");
+  if (!manager.Parse(argc, argv)) return 0;
+  options.Check();
+  const std::string extension = std::filesystem::path(output_path).extension().string();
+  if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
+    throw InputError(output_path, "output must end in .png, .jpg or .jpeg");
+  }
+  const Reconstruction model = ReadReconstruction(input_path);
+  if (model.images.empty()) throw InputError(input_path, "model has no images");
+  const cv::Mat picture = RenderModel(model, options);
+  // Written under a temporary name (same extension), renamed when complete.
+  const std::filesystem::path final_path(output_path);
+  const std::filesystem::path temp_path =
+      final_path.parent_path() / (".tmp_" + final_path.filename().string());
+  bool written = false;
+  try {
+    written = cv::imwrite(temp_path.string(), picture);
+  } catch (const cv::Exception& error) {
+    written = false;
+  }
+  if (!written) {
+    std::error_code ignored;
+    std::filesystem::remove(temp_path, ignored);
+    throw InputError(output_path, "cannot write the image");
+  }
+  std::filesystem::rename(temp_path, final_path);
+  LOG(INFO) << "Wrote " << output_path << " (" << picture.cols << "x" << picture.rows
+            << "): " << model.images.size() << " cameras, " << model.points3D.size()
+            << " points";
+  return 0;
+}
+
+CommandRegistrar registrar("model_viewer",
+                           "Renders a model (points, camera frusta) into a PNG",
+                           RunModelViewer);
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -1,0 +1,155 @@
+// Generates a synthetic scene with exact ground truth: a new COLMAP 3.8
+// database (cameras, images, keypoints, matches, verified two-view
+// geometries) and the true model, for benchmarks and the symmetric-scene
+// protocol (see colmap_irav4/eval/scene_generator.h):
+//   scene_generator --output_path OUT --layout courtyard --num_images 1000
+//       [--mirror_pair_rate 0.1] [--random_pair_rate 0.02] [--seed 3] ...
+// writes OUT/database.db, OUT/gt/{cameras,images,points3D}.bin and
+// OUT/pairs.txt (one line per written pair: IMAGE_ID1 IMAGE_ID2 KIND
+// NUM_INLIERS, KIND true|mirror|random).
+
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/eval/scene_generator.h"
+#include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/timer.h"
+
+using namespace colmap_irav4;
+
+namespace {
+
+std::vector<std::string> SplitComma(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream stream(text);
+  std::string part;
+  while (std::getline(stream, part, ',')) {
+    if (!part.empty()) parts.push_back(part);
+  }
+  return parts;
+}
+
+int Run(int argc, char** argv) {
+  std::string output_path;
+  std::string layout = "courtyard";
+  std::string camera_models = "SIMPLE_RADIAL";
+  int seed = 1;
+  bool overwrite = false;
+  SceneGeneratorOptions options;
+  OptionManager manager(
+      "scene_generator",
+      "Writes OUTPUT/database.db (COLMAP 3.8), OUTPUT/gt (the exact model) and\n"
+      "OUTPUT/pairs.txt (pair kinds) for a synthetic scene.");
+  manager.AddRequired("output_path", &output_path, "output directory");
+  manager.Add("overwrite", &overwrite, "replace an existing output");
+  manager.Add("layout", &layout, "courtyard | street | tower");
+  manager.Add("num_images", &options.num_images, "number of images");
+  manager.Add("image_spacing", &options.image_spacing,
+              "camera path length per image (m)");
+  manager.Add("point_density", &options.point_density, "points per m^2 of wall");
+  manager.Add("unique_point_fraction", &options.unique_point_fraction,
+              "fraction of points without a mirror twin");
+  manager.Add("wall_relief", &options.wall_relief, "depth relief of walls (m)");
+  manager.Add("density_skew", &options.density_skew,
+              "uneven density in [0, 1): cameras crowd at hot spots");
+  manager.Add("num_hotspots", &options.num_hotspots, "hot spots of density_skew");
+  manager.Add("camera_models", &camera_models,
+              "comma-separated COLMAP model names, one per camera in turn");
+  manager.Add("num_cameras", &options.num_cameras, "number of cameras");
+  manager.Add("width", &options.width, "image width (px)");
+  manager.Add("height", &options.height, "image height (px)");
+  manager.Add("focal_length", &options.focal_length, "focal length (px)");
+  manager.Add("detection_probability", &options.detection_probability,
+              "probability a visible point gives a keypoint");
+  manager.Add("max_view_distance", &options.max_view_distance,
+              "farthest detected point (m)");
+  manager.Add("noise_px", &options.noise_px, "keypoint noise (px)");
+  manager.Add("clutter_fraction", &options.clutter_fraction,
+              "keypoints of nothing, fraction of each image's");
+  manager.Add("min_num_inliers", &options.min_num_inliers,
+              "fewest inliers of a written pair");
+  manager.Add("max_pairs_per_image", &options.max_pairs_per_image,
+              "keep each image's best pairs only (0: all)");
+  manager.Add("raw_outlier_ratio", &options.raw_outlier_ratio,
+              "wrong raw matches per inlier");
+  manager.Add("mirror_pair_rate", &options.mirror_pair_rate,
+              "fraction of mirror-twin false pairs");
+  manager.Add("random_pair_rate", &options.random_pair_rate,
+              "fraction of random false pairs");
+  manager.Add("false_pair_inlier_fraction", &options.false_pair_inlier_fraction,
+              "fraction of its possible matches a false pair keeps");
+  manager.Add("store_relative_pose", &options.store_relative_pose,
+              "write two_view_geometries.qvec/tvec");
+  manager.Add("seed", &seed, "random seed");
+  if (!manager.Parse(argc, argv)) return 0;
+  options.layout = SceneLayoutFromName(layout);
+  options.camera_models = SplitComma(camera_models);
+  options.seed = static_cast<uint64_t>(seed);
+  options.Check();
+
+  const std::filesystem::path out(output_path);
+  if (std::filesystem::exists(out / "database.db") ||
+      std::filesystem::exists(out / "gt")) {
+    if (!overwrite) {
+      throw InputError(output_path, "already holds database.db or gt "
+                                    "(--overwrite 1 replaces them)");
+    }
+    std::filesystem::remove(out / "database.db");
+    std::filesystem::remove_all(out / "gt");
+    std::filesystem::remove(out / "pairs.txt");
+  }
+  std::filesystem::create_directories(out);
+
+  Timer timer;
+  const GeneratedScene scene = GenerateScene(options);
+  const double generate_seconds = timer.ElapsedSeconds();
+  WriteSceneDatabase(scene, (out / "database.db").string());
+  WriteReconstruction(scene.truth, (out / "gt").string(), "BIN");
+  {
+    const std::string pairs_path = (out / "pairs.txt").string();
+    std::ofstream file(pairs_path + ".tmp");
+    for (const GeneratedPair& pair : scene.pairs) {
+      file << pair.image_id1 << ' ' << pair.image_id2 << ' '
+           << PairKindName(pair.kind) << ' ' << pair.num_candidates << '\n';
+    }
+    file.close();
+    if (!file) throw InputError(pairs_path, "cannot write");
+    std::filesystem::rename(pairs_path + ".tmp", pairs_path);
+  }
+  size_t num_keypoints = 0;
+  for (const auto& [id, image] : scene.truth.images) num_keypoints += image.points2D.size();
+  const int total = scene.num_true_pairs + scene.num_mirror_pairs + scene.num_random_pairs;
+  std::cout << std::fixed << std::setprecision(1) << SceneLayoutName(options.layout)
+            << ": " << scene.truth.images.size() << " images, "
+            << scene.truth.cameras.size() << " cameras, " << scene.truth.points3D.size()
+            << " points (mean track length " << std::setprecision(2)
+            << MeanTrackLength(scene.truth) << "), " << num_keypoints << " keypoints, "
+            << total << " pairs: " << scene.num_true_pairs << " true, "
+            << scene.num_mirror_pairs << " mirror-twin (of "
+            << scene.num_mirror_candidates << " candidates), " << scene.num_random_pairs
+            << " random; generated in " << std::setprecision(1) << generate_seconds
+            << " s, written in " << timer.ElapsedSeconds() - generate_seconds
+            << " s to " << output_path << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_logtostderr = true;
+  try {
+    return Run(argc, argv);
+  } catch (const InputError& error) {
+    std::cerr << "ERROR: " << error.what() << "\n";
+    return 1;
+  }
+}

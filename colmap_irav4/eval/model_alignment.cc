@@ -9,23 +9,9 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/util/statistics.h"
 
 namespace colmap_irav4 {
-namespace {
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  double median = values[mid];
-  if (values.size() % 2 == 0) {
-    median = 0.5 * (median + *std::max_element(values.begin(),
-                                               values.begin() + mid));
-  }
-  return median;
-}
-
-}  // namespace
 
 bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
                   const std::map<std::string, Rigid3d>& reference,

@@ -10,23 +10,9 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/statistics.h"
 
 namespace colmap_irav4 {
-namespace {
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  double median = values[mid];
-  if (values.size() % 2 == 0) {
-    median = 0.5 * (median + *std::max_element(values.begin(),
-                                               values.begin() + mid));
-  }
-  return median;
-}
-
-}  // namespace
 
 bool EstimateSimilarity(const std::vector<Eigen::Vector3d>& src,
                         const std::vector<Eigen::Vector3d>& dst, Sim3d* sim) {

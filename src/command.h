@@ -19,7 +19,8 @@ struct CommandInfo {
 std::map<std::string, CommandInfo>& CommandRegistry();
 
 // Registers a command at static-initialisation time; one per src/*_command.cc:
-//   static CommandRegistrar registrar("view_graph", "Exports ...", RunViewGraph);
+//   static CommandRegistrar registrar("view_graph", "Exports ...",
+//   RunViewGraph);
 struct CommandRegistrar {
   CommandRegistrar(const std::string& name, const std::string& description,
                    CommandFunction function) {

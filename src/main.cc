@@ -53,8 +53,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   // `colmap_irav4 help mapper`: the command's own help (as `mapper -h`).
-  const bool command_help = command == "help" || command == "-h" ||
-                            command == "--help";
+  const bool command_help =
+      command == "help" || command == "-h" || command == "--help";
   const std::string name = command_help ? argv[2] : command;
   const auto it = CommandRegistry().find(name);
   if (it == CommandRegistry().end()) {

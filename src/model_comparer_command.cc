@@ -14,8 +14,8 @@
 
 #include "colmap_irav4/eval/model_alignment.h"
 #include "colmap_irav4/eval/rotation_eval.h"
-#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
@@ -27,8 +27,8 @@ namespace {
 void PrintModel(const std::string& label, const std::string& path,
                 Reconstruction* model) {
   const double error = UpdateReprojectionErrors(model);
-  std::cout << std::left << std::setw(12) << label << std::right << path
-            << ": " << model->images.size() << " registered images, "
+  std::cout << std::left << std::setw(12) << label << std::right << path << ": "
+            << model->images.size() << " registered images, "
             << model->points3D.size() << " points, mean track length "
             << std::fixed << std::setprecision(2) << MeanTrackLength(*model)
             << ", mean reprojection error " << std::setprecision(3) << error
@@ -76,8 +76,8 @@ int RunModelComparer(int argc, char** argv) {
   PoseComparison comparison;
   const bool aligned =
       ComparePoses(PosesByName(model1), reference, ransac, &comparison);
-  std::cout << "common images: " << comparison.num_common << " (model 1: "
-            << comparison.num_estimated
+  std::cout << "common images: " << comparison.num_common
+            << " (model 1: " << comparison.num_estimated
             << ", reference: " << comparison.num_reference
             << "), alignment inliers: " << comparison.num_inliers << "\n";
   if (!aligned) {
@@ -111,7 +111,8 @@ int RunModelComparer(int argc, char** argv) {
   // The similarity's rotation comes from the centres alone; nearly collinear
   // cameras leave it loose. With one rotation fitted to the rotations instead
   // (robust geodesic L1 mean, as for rotation averaging):
-  std::map<std::string, Eigen::Matrix3d> estimated_rotations, reference_rotations;
+  std::map<std::string, Eigen::Matrix3d> estimated_rotations,
+      reference_rotations;
   for (const auto& [name, pose] : PosesByName(model1)) {
     estimated_rotations[name] = pose.rotation.toRotationMatrix();
   }

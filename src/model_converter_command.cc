@@ -38,8 +38,8 @@ int RunModelConverter(int argc, char** argv) {
   WriteReconstruction(reconstruction, output_path, output_type);
   LOG(INFO) << "Wrote " << reconstruction.cameras.size() << " cameras, "
             << reconstruction.images.size() << " images, "
-            << reconstruction.points3D.size() << " points3D to "
-            << output_path << " (" << output_type << ")";
+            << reconstruction.points3D.size() << " points3D to " << output_path
+            << " (" << output_type << ")";
   return 0;
 }
 

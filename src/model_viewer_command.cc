@@ -25,18 +25,21 @@ int RunModelViewer(int argc, char** argv) {
       "model_viewer",
       "Renders a COLMAP model's points and camera frusta (top and side views)\n"
       "into an image file.");
-  manager.AddRequired("input_path", &input_path, "model directory (.bin or .txt)");
+  manager.AddRequired("input_path", &input_path,
+                      "model directory (.bin or .txt)");
   manager.AddRequired("output_path", &output_path, "image file (.png or .jpg)");
   manager.Add("width", &options.width, "picture width (px)");
   manager.Add("height", &options.height, "picture height (px)");
-  manager.Add("point_radius", &options.point_radius_px, "point radius (px, 0: one pixel)");
+  manager.Add("point_radius", &options.point_radius_px,
+              "point radius (px, 0: one pixel)");
   manager.Add("frustum_scale", &options.frustum_scale,
               "frustum depth, fraction of the model's extent");
   manager.Add("extent_percentile", &options.extent_percentile,
               "view extent: this percentile range of points and centres");
   if (!manager.Parse(argc, argv)) return 0;
   options.Check();
-  const std::string extension = std::filesystem::path(output_path).extension().string();
+  const std::string extension =
+      std::filesystem::path(output_path).extension().string();
   if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
     throw InputError(output_path, "output must end in .png, .jpg or .jpeg");
   }
@@ -59,9 +62,9 @@ int RunModelViewer(int argc, char** argv) {
     throw InputError(output_path, "cannot write the image");
   }
   std::filesystem::rename(temp_path, final_path);
-  LOG(INFO) << "Wrote " << output_path << " (" << picture.cols << "x" << picture.rows
-            << "): " << model.images.size() << " cameras, " << model.points3D.size()
-            << " points";
+  LOG(INFO) << "Wrote " << output_path << " (" << picture.cols << "x"
+            << picture.rows << "): " << model.images.size() << " cameras, "
+            << model.points3D.size() << " points";
   return 0;
 }
 

@@ -10,17 +10,17 @@
 
 #include <glog/logging.h>
 
-#include "colmap_irav4/eval/rotation_eval.h"
-#include "colmap_irav4/io/database.h"
 #include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/eval/relpose_io.h"
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/io/database.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
-#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/timer.h"
@@ -78,8 +78,8 @@ void WriteSummary(const std::string& path, const std::string& method,
        << ",\n  \"num_edges_used\": " << num_edges_used
        << ",\n  \"seconds\": " << seconds << ",\n  \"stage_seconds\": {";
   for (size_t k = 0; k < result.stage_seconds.size(); ++k) {
-    json << (k ? ", " : "") << JsonString(result.stage_seconds[k].first)
-         << ": " << result.stage_seconds[k].second;
+    json << (k ? ", " : "") << JsonString(result.stage_seconds[k].first) << ": "
+         << result.stage_seconds[k].second;
   }
   json << "},\n  \"reference_size\": "
        << (irav4 ? irav4->LastReport().n_ref : 0)
@@ -183,8 +183,8 @@ int RunRotationAverager(int argc, char** argv) {
   // Ceres solves and any BLAS / OpenMP runtime loaded with them.
   builder_options.num_threads = averager_options.ira.engine.num_threads;
   LimitBlasThreads(averager_options.ira.engine.num_threads);
-  const int num_inputs = !relpose_path.empty() + !database_path.empty() +
-                         !eg_path.empty();
+  const int num_inputs =
+      !relpose_path.empty() + !database_path.empty() + !eg_path.empty();
   if (num_inputs != 1) {
     throw InputError("rotation_averager",
                      "give exactly one of --relpose_path, --database_path "
@@ -207,8 +207,9 @@ int RunRotationAverager(int argc, char** argv) {
   std::vector<Eigen::Matrix3d> bundler_truth;
   std::vector<bool> has_bundler_truth;
   const std::string input_path =
-      !relpose_path.empty() ? relpose_path
-                            : (!database_path.empty() ? database_path : eg_path);
+      !relpose_path.empty()
+          ? relpose_path
+          : (!database_path.empty() ? database_path : eg_path);
   if (!relpose_path.empty()) {
     graph = ReadRelativePoses(relpose_path);
   } else if (!database_path.empty()) {
@@ -240,16 +241,16 @@ int RunRotationAverager(int argc, char** argv) {
       has_bundler_truth = std::move(has_truth);
     }
   }
-  LOG(INFO) << "Rotation averaging (" << averager->Name() << "): "
-            << graph.NumVertices() << " images, " << graph.NumEdges()
+  LOG(INFO) << "Rotation averaging (" << averager->Name()
+            << "): " << graph.NumVertices() << " images, " << graph.NumEdges()
             << " pairs";
   Timer timer;
   const RotationAveragingResult result = averager->Estimate(graph);
   const double seconds = timer.ElapsedSeconds();
   std::cout << "Estimated " << result.NumEstimated() << " of "
             << graph.NumVertices() << " rotations with " << averager->Name()
-            << " in " << std::fixed << std::setprecision(3)
-            << seconds << " s" << std::endl;
+            << " in " << std::fixed << std::setprecision(3) << seconds << " s"
+            << std::endl;
   if (!result.stage_seconds.empty()) {
     std::cout << "Stages:";
     for (const auto& [stage, seconds] : result.stage_seconds) {
@@ -287,8 +288,8 @@ int RunRotationAverager(int argc, char** argv) {
     }
     LOG_IF(WARNING, num_unknown > 0)
         << gt_path << ": " << num_unknown
-        << " images not estimated or not in the graph (e.g. '"
-        << first_unknown << "'), not evaluated";
+        << " images not estimated or not in the graph (e.g. '" << first_unknown
+        << "'), not evaluated";
     const RotationErrors errors = EvaluateRotations(estimate, truth);
     if (errors.num_compared == 0) {
       throw InputError(gt_path, "no image in common with the estimate");

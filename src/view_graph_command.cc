@@ -7,14 +7,14 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
-#include <sstream>
 #include <iostream>
+#include <sstream>
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/util/error.h"
 #include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/atomic_output.h"
+#include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"

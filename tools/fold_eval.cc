@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
     std::vector<double> center_errors;
     for (int k = 0;; ++k) {
       const fs::path path = fs::path(argv[2]) / std::to_string(k);
-      if (!ExistsBinaryModel(path.string()) && !ExistsTextModel(path.string())) {
+      if (!ExistsBinaryModel(path.string()) &&
+          !ExistsTextModel(path.string())) {
         break;
       }
       const Reconstruction model = ReadReconstruction(path.string());

@@ -13,8 +13,8 @@
 
 #include <glog/logging.h>
 
-#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/eval/onedsfm.h"
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/rotation_averaging/ira.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"

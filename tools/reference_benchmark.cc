@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/eval/onedsfm.h"
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
@@ -91,11 +91,11 @@ int main(int argc, char** argv) {
     if (!manager.Parse(argc, argv)) return 0;
     options.Check();
     const OneDsfmScene scene = ReadOneDsfmScene(scene_dir);
-    std::printf("graph %s: %d vertices, %d edges; outliers %.0f%%, "
-                "random CDS = union of %d, %d trials\n",
-                scene_dir.c_str(), scene.graph.NumVertices(),
-                scene.graph.NumEdges(), 100 * outlier_ratio,
-                options.num_random_cds, trials);
+    std::printf(
+        "graph %s: %d vertices, %d edges; outliers %.0f%%, "
+        "random CDS = union of %d, %d trials\n",
+        scene_dir.c_str(), scene.graph.NumVertices(), scene.graph.NumEdges(),
+        100 * outlier_ratio, options.num_random_cds, trials);
     std::printf("%-6s %-12s %16s %22s %22s %8s %6s\n", "sigma", "reference",
                 "n_ref", "e_ref median (deg)", "e_ref mean (deg)", "time s",
                 "CDS");
@@ -110,8 +110,7 @@ int main(int argc, char** argv) {
       synthetic.seed = static_cast<uint64_t>(seed);
       const SyntheticProblem problem =
           MakeSyntheticProblem(scene.graph, synthetic);
-      const Measure greedy =
-          Run(problem, options, ReferenceMethod::kGreedyCds);
+      const Measure greedy = Run(problem, options, ReferenceMethod::kGreedyCds);
       std::printf("%-6s %-12s %16d %22.3f %22.3f %8.2f %6s\n", item.c_str(),
                   "greedy_cds", greedy.n_ref, greedy.e_ref_median,
                   greedy.e_ref_mean, greedy.seconds,
@@ -144,21 +143,21 @@ int main(int argc, char** argv) {
                   "irav4", irav4.n_ref, irav4.e_ref_median, irav4.e_ref_mean,
                   irav4.seconds, irav4.is_cds ? "yes" : "NO");
       char row[256];
-      std::snprintf(row, sizeof(row),
-                    "%-10s | %5d  %6.2f | %5.1f +- %3.1f  %5.2f +- %4.2f | "
-                    "%5d  %6.2f",
-                    ("s" + item + "/p" +
-                     std::to_string(static_cast<int>(
-                         std::lround(100 * outlier_ratio))))
-                        .c_str(),
-                    greedy.n_ref, greedy.e_ref_median, n_ref.Mean(),
-                    n_ref.Std(), e_median.Mean(), e_median.Std(), irav4.n_ref,
-                    irav4.e_ref_median);
+      std::snprintf(
+          row, sizeof(row),
+          "%-10s | %5d  %6.2f | %5.1f +- %3.1f  %5.2f +- %4.2f | "
+          "%5d  %6.2f",
+          ("s" + item + "/p" +
+           std::to_string(static_cast<int>(std::lround(100 * outlier_ratio))))
+              .c_str(),
+          greedy.n_ref, greedy.e_ref_median, n_ref.Mean(), n_ref.Std(),
+          e_median.Mean(), e_median.Std(), irav4.n_ref, irav4.e_ref_median);
       table_rows.push_back(row);
     }
-    std::printf("\nTable 3 layout (e_ref = median error of the reference, "
-                "deg; IRAv3+ = random CDSs, mean +- std over %d trials):\n",
-                trials);
+    std::printf(
+        "\nTable 3 layout (e_ref = median error of the reference, "
+        "deg; IRAv3+ = random CDSs, mean +- std over %d trials):\n",
+        trials);
     std::printf("%-10s | %-13s | %-27s | %-13s\n", "data", "WCDS (greedy)",
                 "IRAv3+ (random CDSs)", "IRAv4");
     std::printf("%-10s | %5s  %6s | %12s  %12s | %5s  %6s\n", "", "n_ref",

@@ -14,11 +14,11 @@
 #include <string>
 
 #include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/eval/synthetic_scene.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
@@ -33,62 +33,73 @@ using namespace colmap_irav4;
 namespace {
 
 void PrintComparison(const std::string& label, const Reconstruction& model,
-                     const std::map<std::string, Rigid3d>& reference, double unit_scale,
-                     const std::string& unit) {
+                     const std::map<std::string, Rigid3d>& reference,
+                     double unit_scale, const std::string& unit) {
   PoseComparison comparison;
-  if (!ComparePoses(PosesByName(model), reference, SimilarityRansacOptions(), &comparison)) {
+  if (!ComparePoses(PosesByName(model), reference, SimilarityRansacOptions(),
+                    &comparison)) {
     std::cout << label << ": alignment failed\n";
     return;
   }
-  std::cout << std::left << std::setw(28) << label << " images " << model.images.size()
-            << "  rotation err median/max " << comparison.rotation_error_median_deg << " / "
-            << comparison.rotation_error_max_deg << " deg  centre err median/max "
+  std::cout << std::left << std::setw(28) << label << " images "
+            << model.images.size() << "  rotation err median/max "
+            << comparison.rotation_error_median_deg << " / "
+            << comparison.rotation_error_max_deg
+            << " deg  centre err median/max "
             << unit_scale * comparison.center_error_median << " / "
             << unit_scale * comparison.center_error_max << " " << unit << "\n";
 }
 
 // Runs the stages on `reconstruction` (cameras, images with rotations and
 // keypoints) and prints one line per stage.
-void RunStages(const std::vector<ImagePairMatches>& pairs, Reconstruction* reconstruction) {
+void RunStages(const std::vector<ImagePairMatches>& pairs,
+               Reconstruction* reconstruction) {
   Timer total;
   Timer timer;
   TrackBuilderStats track_stats;
-  const std::vector<Track> tracks =
-      BuildTracks(TrackBuilderOptions(), pairs, reconstruction->images, &track_stats);
+  const std::vector<Track> tracks = BuildTracks(
+      TrackBuilderOptions(), pairs, reconstruction->images, &track_stats);
   AddTracksToReconstruction(tracks, reconstruction);
-  std::cout << "tracks            " << std::setw(8) << timer.ElapsedSeconds() << " s  "
-            << tracks.size() << " tracks, " << track_stats.num_inconsistent << " inconsistent\n";
+  std::cout << "tracks            " << std::setw(8) << timer.ElapsedSeconds()
+            << " s  " << tracks.size() << " tracks, "
+            << track_stats.num_inconsistent << " inconsistent\n";
   GlobalPositionerSummary positioning;
-  if (!RunGlobalPositioning(GlobalPositionerOptions(), reconstruction, &positioning)) {
+  if (!RunGlobalPositioning(GlobalPositionerOptions(), reconstruction,
+                            &positioning)) {
     std::cout << "positioning failed\n";
     return;
   }
-  std::cout << "positioning       " << std::setw(8) << positioning.seconds << " s  "
-            << positioning.num_images << " images, " << positioning.num_points << " points, "
-            << positioning.num_observations << " observations, " << positioning.num_iterations
-            << " iterations\n";
+  std::cout << "positioning       " << std::setw(8) << positioning.seconds
+            << " s  " << positioning.num_images << " images, "
+            << positioning.num_points << " points, "
+            << positioning.num_observations << " observations, "
+            << positioning.num_iterations << " iterations\n";
   BundleAdjustmentSummary ba;
   RunBundleAdjustment(BundleAdjustmentOptions(), reconstruction, &ba);
   std::cout << "bundle adjustment " << std::setw(8) << ba.seconds << " s  "
-            << ba.initial_mean_reproj_error << " -> " << ba.final_mean_reproj_error << " px, "
-            << ba.num_rounds << " rounds, " << ba.num_iterations << " iterations, "
+            << ba.initial_mean_reproj_error << " -> "
+            << ba.final_mean_reproj_error << " px, " << ba.num_rounds
+            << " rounds, " << ba.num_iterations << " iterations, "
             << ba.num_observations_filtered << " observations filtered\n";
   timer.Restart();
   const TriangulationSummary triangulation =
       TriangulateTracks(TriangulationOptions(), tracks, reconstruction);
-  std::cout << "retriangulation   " << std::setw(8) << timer.ElapsedSeconds() << " s  "
-            << triangulation.num_points_added << " points\n";
+  std::cout << "retriangulation   " << std::setw(8) << timer.ElapsedSeconds()
+            << " s  " << triangulation.num_points_added << " points\n";
   RunBundleAdjustment(BundleAdjustmentOptions(), reconstruction, &ba);
   std::cout << "bundle adjustment " << std::setw(8) << ba.seconds << " s  "
-            << ba.final_mean_reproj_error << " px, " << ba.num_iterations << " iterations\n";
+            << ba.final_mean_reproj_error << " px, " << ba.num_iterations
+            << " iterations\n";
   timer.Restart();
   const FilterSummary filtering = RunFiltering(FilterOptions(), reconstruction);
-  std::cout << "filtering         " << std::setw(8) << timer.ElapsedSeconds() << " s  "
-            << filtering.num_observations_filtered << " observations, "
-            << filtering.num_points_filtered << " points\n";
-  std::cout << "total             " << std::setw(8) << total.ElapsedSeconds() << " s  "
-            << reconstruction->images.size() << " images, " << reconstruction->points3D.size()
-            << " points, mean track " << MeanTrackLength(*reconstruction) << ", reprojection "
+  std::cout << "filtering         " << std::setw(8) << timer.ElapsedSeconds()
+            << " s  " << filtering.num_observations_filtered
+            << " observations, " << filtering.num_points_filtered
+            << " points\n";
+  std::cout << "total             " << std::setw(8) << total.ElapsedSeconds()
+            << " s  " << reconstruction->images.size() << " images, "
+            << reconstruction->points3D.size() << " points, mean track "
+            << MeanTrackLength(*reconstruction) << ", reprojection "
             << UpdateReprojectionErrors(reconstruction) << " px\n";
 }
 
@@ -104,7 +115,8 @@ int RunStrecha(const std::string& dir) {
     image.name = db_image.name;
     image.camera_id = db_image.camera_id;
     auto it = gt.find(db_image.name);
-    if (it == gt.end()) throw InputError(dir + "/gt_cameras", "no camera for " + db_image.name);
+    if (it == gt.end())
+      throw InputError(dir + "/gt_cameras", "no camera for " + db_image.name);
     image.cam_from_world.rotation =
         Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(0.05), &rng)) *
         it->second.cam_from_world.rotation;
@@ -123,14 +135,16 @@ int RunStrecha(const std::string& dir) {
     }
     pairs.push_back(std::move(pair));
   }
-  std::cout << dir << ": " << database.images.size() << " images, " << pairs.size()
-            << " verified pairs\n";
+  std::cout << dir << ": " << database.images.size() << " images, "
+            << pairs.size() << " verified pairs\n";
   RunStages(pairs, &reconstruction);
   std::map<std::string, Rigid3d> reference;
   for (const auto& [name, camera] : gt) reference[name] = camera.cam_from_world;
-  PrintComparison("ours vs ground truth", reconstruction, reference, 1000, "mm");
-  PrintComparison("COLMAP 3.8 vs ground truth", ReadReconstruction(dir + "/colmap38_incremental"),
-                  reference, 1000, "mm");
+  PrintComparison("ours vs ground truth", reconstruction, reference, 1000,
+                  "mm");
+  PrintComparison("COLMAP 3.8 vs ground truth",
+                  ReadReconstruction(dir + "/colmap38_incremental"), reference,
+                  1000, "mm");
   return 0;
 }
 
@@ -144,10 +158,11 @@ int RunSynthetic(int num_images, int num_points) {
   options.outlier_match_ratio = 0.001;
   Timer timer;
   const SyntheticScene scene = GenerateSyntheticScene(options);
-  std::cout << "synthetic: " << num_images << " images, " << scene.truth.points3D.size()
-            << " points, " << NumObservations(scene.truth) << " observations, "
-            << scene.matches.size() << " pairs (generated in " << timer.ElapsedSeconds()
-            << " s)\n";
+  std::cout << "synthetic: " << num_images << " images, "
+            << scene.truth.points3D.size() << " points, "
+            << NumObservations(scene.truth) << " observations, "
+            << scene.matches.size() << " pairs (generated in "
+            << timer.ElapsedSeconds() << " s)\n";
   Reconstruction reconstruction = StripPoints(scene.truth);
   std::mt19937_64 rng(2);
   for (auto& [image_id, image] : reconstruction.images) {
@@ -157,7 +172,8 @@ int RunSynthetic(int num_images, int num_points) {
     image.cam_from_world.translation.setZero();
   }
   RunStages(scene.matches, &reconstruction);
-  PrintComparison("ours vs truth", reconstruction, PosesByName(scene.truth), 1, "(radius 10)");
+  PrintComparison("ours vs truth", reconstruction, PosesByName(scene.truth), 1,
+                  "(radius 10)");
   return 0;
 }
 
@@ -165,7 +181,8 @@ int RunSynthetic(int num_images, int num_points) {
 
 int main(int argc, char** argv) {
   try {
-    if (argc == 3 && std::string(argv[1]) == "strecha") return RunStrecha(argv[2]);
+    if (argc == 3 && std::string(argv[1]) == "strecha")
+      return RunStrecha(argv[2]);
     if (argc == 4 && std::string(argv[1]) == "synthetic") {
       return RunSynthetic(std::atoi(argv[2]), std::atoi(argv[3]));
     }

@@ -16,8 +16,8 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/eval/relative_pose_eval.h"
-#include "colmap_irav4/io/database.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/io/database.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -53,16 +53,16 @@ void PrintWorstPairs(const DatabaseContents& database,
         database.cameras.at(database.images.at(pair.image_id2).camera_id),
         database.keypoints.at(pair.image_id1),
         database.keypoints.at(pair.image_id2), options.relative_pose);
-    std::printf("    %s %s: R error %.3f deg, t error %.3f deg, %s, %d inliers, "
-                "%d supporting, pose from %s%s, median tri angle %.2f deg\n",
-                view_graph.image_names.at(pair.image_id1).c_str(),
-                view_graph.image_names.at(pair.image_id2).c_str(),
-                e.rotation_errors_deg[0],
-                e.translation_errors_deg.empty() ? -1.0
-                                                 : e.translation_errors_deg[0],
-                TwoViewConfigName(geometry.config).c_str(), pair.num_inliers,
-                pose.num_supporting, RelativePoseSourceName(pose.source).c_str(), pose.refined ? " (refined)" : "",
-                pose.median_tri_angle_deg);
+    std::printf(
+        "    %s %s: R error %.3f deg, t error %.3f deg, %s, %d inliers, "
+        "%d supporting, pose from %s%s, median tri angle %.2f deg\n",
+        view_graph.image_names.at(pair.image_id1).c_str(),
+        view_graph.image_names.at(pair.image_id2).c_str(),
+        e.rotation_errors_deg[0],
+        e.translation_errors_deg.empty() ? -1.0 : e.translation_errors_deg[0],
+        TwoViewConfigName(geometry.config).c_str(), pair.num_inliers,
+        pose.num_supporting, RelativePoseSourceName(pose.source).c_str(),
+        pose.refined ? " (refined)" : "", pose.median_tri_angle_deg);
   }
 }
 
@@ -71,7 +71,8 @@ void PrintWorstPairs(const DatabaseContents& database,
 int main(int argc, char** argv) {
   google::InitGoogleLogging(argv[0]);
   if (argc < 2) {
-    std::cerr << "Usage: relpose_eval [--verbose] [--refine_max_num_matches N] [--num_threads N] SCENE_DIR [SCENE_DIR ...]\n"
+    std::cerr << "Usage: relpose_eval [--verbose] [--refine_max_num_matches N] "
+                 "[--num_threads N] SCENE_DIR [SCENE_DIR ...]\n"
                  "  SCENE_DIR holds database.db and gt_cameras/\n";
     return 1;
   }
@@ -82,7 +83,8 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--verbose") {
       verbose = true;
-    } else if (std::string(argv[i]) == "--refine_max_num_matches" && i + 1 < argc) {
+    } else if (std::string(argv[i]) == "--refine_max_num_matches" &&
+               i + 1 < argc) {
       refine_max_num_matches = std::atoi(argv[++i]);
     } else if (std::string(argv[i]) == "--num_threads" && i + 1 < argc) {
       num_threads = std::atoi(argv[++i]);
@@ -91,9 +93,10 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    std::printf("%-16s %-9s %5s %5s | %8s %8s %8s %5s | %8s %8s %8s %5s | %6s\n",
-                "scene", "refine", "pairs", "no_t", "R_med", "R_mean", "R_max",
-                ">5deg", "t_med", "t_mean", "t_max", ">5deg", "time_s");
+    std::printf(
+        "%-16s %-9s %5s %5s | %8s %8s %8s %5s | %8s %8s %8s %5s | %6s\n",
+        "scene", "refine", "pairs", "no_t", "R_med", "R_mean", "R_max", ">5deg",
+        "t_med", "t_mean", "t_max", ">5deg", "time_s");
     for (const std::string& scene_dir : scene_dirs) {
       std::string name = scene_dir;
       while (!name.empty() && name.back() == '/') name.pop_back();
@@ -112,7 +115,8 @@ int main(int argc, char** argv) {
         options.num_threads = num_threads;
         Timer timer;
         ViewGraphSummary summary;
-        const ViewGraph view_graph = BuildViewGraph(database, options, &summary);
+        const ViewGraph view_graph =
+            BuildViewGraph(database, options, &summary);
         const double seconds = timer.ElapsedSeconds();
         const RelativePoseErrors e = EvaluateRelativePoses(view_graph, gt);
         std::printf(
@@ -127,8 +131,9 @@ int main(int argc, char** argv) {
         if (verbose) PrintWorstPairs(database, view_graph, gt, options);
       }
     }
-    std::printf("(degrees; R: d(R_ij, R_j R_i^T); t: angle of unit t_ij to the "
-                "ground-truth direction; no_t: pairs without translation)\n");
+    std::printf(
+        "(degrees; R: d(R_ij, R_j R_i^T); t: angle of unit t_ij to the "
+        "ground-truth direction; no_t: pairs without translation)\n");
   } catch (const InputError& error) {
     std::cerr << "ERROR: " << error.what() << std::endl;
     return 1;

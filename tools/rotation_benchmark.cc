@@ -18,9 +18,10 @@
 // One row per setting (protocol, sigma, outlier percentage); per method the
 // mean over seeds of the median rotation error (deg, after the geodesic L1
 // alignment), of the number of cameras off by more than 30 and 10 deg, and
-// of the run time in seconds. irav4_paper is IRAv4 without the final refinement (the paper). The process's peak memory is printed at the end.
-// Methods come from the rotation averager factory, so a new method is
-// available here as soon as it is registered there.
+// of the run time in seconds. irav4_paper is IRAv4 without the final refinement
+// (the paper). The process's peak memory is printed at the end. Methods come
+// from the rotation averager factory, so a new method is available here as soon
+// as it is registered there.
 
 #include <sys/resource.h>
 
@@ -35,12 +36,12 @@
 
 #include <glog/logging.h>
 
-#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/eval/onedsfm.h"
+#include "colmap_irav4/eval/rotation_eval.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
-#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
 
@@ -177,8 +178,7 @@ int Run(int argc, char** argv) {
   AddRotationAveragerOptions(&options, &averager_options);
   if (!options.Parse(argc, argv)) return 0;
 
-  const std::vector<std::string> methods =
-      SplitList("methods", methods_text);
+  const std::vector<std::string> methods = SplitList("methods", methods_text);
   for (const std::string& method : methods) {
     CreateRotationAverager(method, averager_options);  // validates the name
   }
@@ -186,8 +186,8 @@ int Run(int argc, char** argv) {
       SplitList("protocols", protocols_text);
   for (const std::string& protocol : protocols) {
     if (protocol != "paper" && protocol != "structured") {
-      throw InputError("--protocols", "expected paper or structured, got '" +
-                                          protocol + "'");
+      throw InputError("--protocols",
+                       "expected paper or structured, got '" + protocol + "'");
     }
   }
   if (num_seeds < 1) throw InputError("--num_seeds", "must be >= 1");
@@ -200,8 +200,8 @@ int Run(int argc, char** argv) {
   }
   if (graph_type == "madrid") sizes = {0};
   if (graph_type != "madrid" && graph_type != "random") {
-    throw InputError("--graph", "expected madrid or random, got '" +
-                                    graph_type + "'");
+    throw InputError("--graph",
+                     "expected madrid or random, got '" + graph_type + "'");
   }
 
   Timer total_timer;
@@ -310,13 +310,11 @@ int Run(int argc, char** argv) {
             double peak = 0.0;
             for (double p : cells[k].peak_mb) peak = std::max(peak, p);
             char cell[96];
-            std::snprintf(cell, sizeof(cell),
-                          "%7.3f %6.1f %6.1f %7.2fs %7.2fs %6.0fMB",
-                          Cell::Mean(cells[k].medians),
-                          Cell::Mean(cells[k].num_far30),
-                          Cell::Mean(cells[k].num_far10),
-                          Cell::Mean(cells[k].seconds),
-                          Cell::Mean(cells[k].cpu_seconds), peak);
+            std::snprintf(
+                cell, sizeof(cell), "%7.3f %6.1f %6.1f %7.2fs %7.2fs %6.0fMB",
+                Cell::Mean(cells[k].medians), Cell::Mean(cells[k].num_far30),
+                Cell::Mean(cells[k].num_far10), Cell::Mean(cells[k].seconds),
+                Cell::Mean(cells[k].cpu_seconds), peak);
             std::printf(" | %-48s", cell);
             size_seconds[k][z] += Cell::Mean(cells[k].cpu_seconds);
             size_peak[k][z] = std::max(size_peak[k][z], peak);
@@ -369,9 +367,10 @@ int Run(int argc, char** argv) {
         sxy += x * y;
       }
       const double slope = (count * sxy - sx * sy) / (count * sxx - sx * sx);
-      std::printf("# %s: time grows as cameras^%.2f (least squares on "
-                  "log-log)\n",
-                  methods[k].c_str(), slope);
+      std::printf(
+          "# %s: time grows as cameras^%.2f (least squares on "
+          "log-log)\n",
+          methods[k].c_str(), slope);
     }
   }
   std::printf("# total %.1f s, peak memory (getrusage maxrss) %.1f MB\n",

@@ -44,23 +44,25 @@ int Run(int argc, char** argv) {
   int seed = 1;
   bool overwrite = false;
   SceneGeneratorOptions options;
-  OptionManager manager(
-      "scene_generator",
-      "Writes OUTPUT/database.db (COLMAP 3.8), OUTPUT/gt (the exact model) and\n"
-      "OUTPUT/pairs.txt (pair kinds) for a synthetic scene.");
+  OptionManager manager("scene_generator",
+                        "Writes OUTPUT/database.db (COLMAP 3.8), OUTPUT/gt "
+                        "(the exact model) and\n"
+                        "OUTPUT/pairs.txt (pair kinds) for a synthetic scene.");
   manager.AddRequired("output_path", &output_path, "output directory");
   manager.Add("overwrite", &overwrite, "replace an existing output");
   manager.Add("layout", &layout, "courtyard | street | tower");
   manager.Add("num_images", &options.num_images, "number of images");
   manager.Add("image_spacing", &options.image_spacing,
               "camera path length per image (m)");
-  manager.Add("point_density", &options.point_density, "points per m^2 of wall");
+  manager.Add("point_density", &options.point_density,
+              "points per m^2 of wall");
   manager.Add("unique_point_fraction", &options.unique_point_fraction,
               "fraction of points without a mirror twin");
   manager.Add("wall_relief", &options.wall_relief, "depth relief of walls (m)");
   manager.Add("density_skew", &options.density_skew,
               "uneven density in [0, 1): cameras crowd at hot spots");
-  manager.Add("num_hotspots", &options.num_hotspots, "hot spots of density_skew");
+  manager.Add("num_hotspots", &options.num_hotspots,
+              "hot spots of density_skew");
   manager.Add("camera_models", &camera_models,
               "comma-separated COLMAP model names, one per camera in turn");
   manager.Add("num_cameras", &options.num_cameras, "number of cameras");
@@ -99,8 +101,9 @@ int Run(int argc, char** argv) {
   if (std::filesystem::exists(out / "database.db") ||
       std::filesystem::exists(out / "gt")) {
     if (!overwrite) {
-      throw InputError(output_path, "already holds database.db or gt "
-                                    "(--overwrite 1 replaces them)");
+      throw InputError(output_path,
+                       "already holds database.db or gt "
+                       "(--overwrite 1 replaces them)");
     }
     std::filesystem::remove(out / "database.db");
     std::filesystem::remove_all(out / "gt");
@@ -125,19 +128,24 @@ int Run(int argc, char** argv) {
     std::filesystem::rename(pairs_path + ".tmp", pairs_path);
   }
   size_t num_keypoints = 0;
-  for (const auto& [id, image] : scene.truth.images) num_keypoints += image.points2D.size();
-  const int total = scene.num_true_pairs + scene.num_mirror_pairs + scene.num_random_pairs;
-  std::cout << std::fixed << std::setprecision(1) << SceneLayoutName(options.layout)
-            << ": " << scene.truth.images.size() << " images, "
-            << scene.truth.cameras.size() << " cameras, " << scene.truth.points3D.size()
-            << " points (mean track length " << std::setprecision(2)
-            << MeanTrackLength(scene.truth) << "), " << num_keypoints << " keypoints, "
-            << total << " pairs: " << scene.num_true_pairs << " true, "
+  for (const auto& [id, image] : scene.truth.images)
+    num_keypoints += image.points2D.size();
+  const int total =
+      scene.num_true_pairs + scene.num_mirror_pairs + scene.num_random_pairs;
+  std::cout << std::fixed << std::setprecision(1)
+            << SceneLayoutName(options.layout) << ": "
+            << scene.truth.images.size() << " images, "
+            << scene.truth.cameras.size() << " cameras, "
+            << scene.truth.points3D.size() << " points (mean track length "
+            << std::setprecision(2) << MeanTrackLength(scene.truth) << "), "
+            << num_keypoints << " keypoints, " << total
+            << " pairs: " << scene.num_true_pairs << " true, "
             << scene.num_mirror_pairs << " mirror-twin (of "
-            << scene.num_mirror_candidates << " candidates), " << scene.num_random_pairs
-            << " random; generated in " << std::setprecision(1) << generate_seconds
-            << " s, written in " << timer.ElapsedSeconds() - generate_seconds
-            << " s to " << output_path << "\n";
+            << scene.num_mirror_candidates << " candidates), "
+            << scene.num_random_pairs << " random; generated in "
+            << std::setprecision(1) << generate_seconds << " s, written in "
+            << timer.ElapsedSeconds() - generate_seconds << " s to "
+            << output_path << "\n";
   return 0;
 }
 

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glog/logging.h>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-#include <glog/logging.h>
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
@@ -31,8 +31,7 @@ bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
   comparison->num_common = static_cast<int>(src.size());
   std::vector<bool> inliers;
   if (!EstimateSimilarityRansac(src, dst, options,
-                                &comparison->estimate_to_reference,
-                                &inliers)) {
+                                &comparison->estimate_to_reference, &inliers)) {
     return false;
   }
   comparison->num_inliers =

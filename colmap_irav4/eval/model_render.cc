@@ -15,8 +15,9 @@ namespace {
 
 double Percentile(std::vector<double> values, double percent) {
   if (values.empty()) return 0;
-  const size_t k = std::min(values.size() - 1,
-                            static_cast<size_t>(percent / 100.0 * (values.size() - 1) + 0.5));
+  const size_t k = std::min(
+      values.size() - 1,
+      static_cast<size_t>(percent / 100.0 * (values.size() - 1) + 0.5));
   std::nth_element(values.begin(), values.begin() + k, values.end());
   return values[k];
 }
@@ -28,8 +29,9 @@ struct Panel {
   double u0 = 0, v0 = 0, scale = 1;
   cv::Point ToPixel(const Eigen::Vector3d& X) const {
     const double u = X.dot(axis_u) - u0, v = X.dot(axis_v) - v0;
-    return cv::Point(area.x + static_cast<int>(std::lround(0.5 * area.width + scale * u)),
-                     area.y + static_cast<int>(std::lround(0.5 * area.height - scale * v)));
+    return cv::Point(
+        area.x + static_cast<int>(std::lround(0.5 * area.width + scale * u)),
+        area.y + static_cast<int>(std::lround(0.5 * area.height - scale * v)));
   }
 };
 
@@ -50,7 +52,8 @@ void ModelRenderOptions::Check() const {
   }
 }
 
-cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& options) {
+cv::Mat RenderModel(const Reconstruction& model,
+                    const ModelRenderOptions& options) {
   options.Check();
   if (model.images.empty()) throw InputError("model has no images");
 
@@ -66,7 +69,8 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
   // Scene points for the extent and the horizontal axes (centres if none).
   std::vector<Eigen::Vector3d> cloud;
   cloud.reserve(model.points3D.size() + centers.size());
-  for (const auto& [point3D_id, point] : model.points3D) cloud.push_back(point.xyz);
+  for (const auto& [point3D_id, point] : model.points3D)
+    cloud.push_back(point.xyz);
   cloud.insert(cloud.end(), centers.begin(), centers.end());
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& X : cloud) mean += X;
@@ -84,7 +88,8 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
   major.normalize();
   const Eigen::Vector3d minor = up.cross(major).normalized();
 
-  cv::Mat canvas(options.height, options.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat canvas(options.height, options.width, CV_8UC3,
+                 cv::Scalar(255, 255, 255));
   const int panel_width = options.width / 2;
   const int margin = std::max(10, options.height / 25);
   Panel panels[2];
@@ -95,15 +100,16 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
   const char* titles[2] = {"top view", "side view"};
   for (int p = 0; p < 2; ++p) {
     Panel& panel = panels[p];
-    panel.area = cv::Rect(p * panel_width + margin, margin + margin,
-                          panel_width - 2 * margin, options.height - 3 * margin);
+    panel.area =
+        cv::Rect(p * panel_width + margin, margin + margin,
+                 panel_width - 2 * margin, options.height - 3 * margin);
     std::vector<double> us, vs;
     for (const auto& [point3D_id, point] : model.points3D) {
       us.push_back(point.xyz.dot(panel.axis_u));
       vs.push_back(point.xyz.dot(panel.axis_v));
     }
-    for (const Eigen::Vector3d& X : model.points3D.empty() ? cloud
-                                                           : std::vector<Eigen::Vector3d>()) {
+    for (const Eigen::Vector3d& X :
+         model.points3D.empty() ? cloud : std::vector<Eigen::Vector3d>()) {
       us.push_back(X.dot(panel.axis_u));
       vs.push_back(X.dot(panel.axis_v));
     }
@@ -122,20 +128,23 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
     panel.v0 = 0.5 * (v_lo + v_hi);
     const double span_u = std::max(1e-9, 1.1 * (u_hi - u_lo));
     const double span_v = std::max(1e-9, 1.1 * (v_hi - v_lo));
-    panel.scale = std::min(panel.area.width / span_u, panel.area.height / span_v);
+    panel.scale =
+        std::min(panel.area.width / span_u, panel.area.height / span_v);
     cv::rectangle(canvas, panel.area, cv::Scalar(200, 200, 200), 1);
     cv::putText(canvas, titles[p], cv::Point(panel.area.x, margin + margin / 2),
                 cv::FONT_HERSHEY_SIMPLEX, 0.0012 * options.height + 0.2,
                 cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
-  const double extent = std::max(1e-9, std::max(panels[0].area.width / panels[0].scale,
-                                                panels[0].area.height / panels[0].scale));
+  const double extent =
+      std::max(1e-9, std::max(panels[0].area.width / panels[0].scale,
+                              panels[0].area.height / panels[0].scale));
 
   // Points: own colours, or by height when the model is all grey.
   bool all_grey = true;
   std::vector<double> heights;
   for (const auto& [point3D_id, point] : model.points3D) {
-    if (!(point.color(0) == point.color(1) && point.color(1) == point.color(2))) {
+    if (!(point.color(0) == point.color(1) &&
+          point.color(1) == point.color(2))) {
       all_grey = false;
     }
     heights.push_back(point.xyz.dot(up));
@@ -150,10 +159,12 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
     for (const auto& [point3D_id, point] : model.points3D) {
       cv::Point pixel = panels[p].ToPixel(point.xyz);
       pixel -= panels[p].area.tl();
-      if (!cv::Rect(0, 0, panel_view.cols, panel_view.rows).contains(pixel)) continue;
+      if (!cv::Rect(0, 0, panel_view.cols, panel_view.rows).contains(pixel))
+        continue;
       cv::Scalar color;
       if (all_grey) {
-        const double t = h_hi > h_lo ? (point.xyz.dot(up) - h_lo) / (h_hi - h_lo) : 0.5;
+        const double t =
+            h_hi > h_lo ? (point.xyz.dot(up) - h_lo) / (h_hi - h_lo) : 0.5;
         const int k = std::clamp(static_cast<int>(255 * t), 0, 255);
         const cv::Vec3b c = colormap.at<cv::Vec3b>(0, k);
         color = cv::Scalar(c[0], c[1], c[2]);
@@ -161,9 +172,11 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
         color = cv::Scalar(point.color(2), point.color(1), point.color(0));
       }
       if (options.point_radius_px == 0) {
-        panel_view.at<cv::Vec3b>(pixel) = cv::Vec3b(color[0], color[1], color[2]);
+        panel_view.at<cv::Vec3b>(pixel) =
+            cv::Vec3b(color[0], color[1], color[2]);
       } else {
-        cv::circle(panel_view, pixel, options.point_radius_px, color, cv::FILLED);
+        cv::circle(panel_view, pixel, options.point_radius_px, color,
+                   cv::FILLED);
       }
     }
   }
@@ -186,8 +199,9 @@ cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& optio
     Eigen::Vector3d corners[4];
     const double signs[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
     for (int k = 0; k < 4; ++k) {
-      corners[k] = world_from_cam * (depth * Eigen::Vector3d(signs[k][0] * half_w,
-                                                             signs[k][1] * half_h, 1));
+      corners[k] =
+          world_from_cam * (depth * Eigen::Vector3d(signs[k][0] * half_w,
+                                                    signs[k][1] * half_h, 1));
     }
     for (const Panel& panel : panels) {
       cv::Mat view = canvas(panel.area);

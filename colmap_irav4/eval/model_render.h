@@ -31,6 +31,7 @@ struct ModelRenderOptions {
 
 // BGR 8-bit image of `model` (white background). Throws InputError if the
 // model has no images.
-cv::Mat RenderModel(const Reconstruction& model, const ModelRenderOptions& options);
+cv::Mat RenderModel(const Reconstruction& model,
+                    const ModelRenderOptions& options);
 
 }  // namespace colmap_irav4

@@ -29,8 +29,8 @@ std::vector<OneDsfmEdge> ReadOneDsfmEdges(const std::string& path,
     edge.j = ParseIndex(path, line, 1, num_images);
     if (edge.i == edge.j) {
       throw InputError(path, "line " + std::to_string(line.number) +
-                                 ": edge from image " +
-                                 std::to_string(edge.i) + " to itself");
+                                 ": edge from image " + std::to_string(edge.i) +
+                                 " to itself");
     }
     const Eigen::Matrix3d stored = ParseRotationMatrix(path, line, 2);
     Eigen::Vector3d direction;  // camera j's centre in camera i's frame
@@ -72,8 +72,7 @@ std::vector<std::string> ReadOneDsfmList(const std::string& path) {
   return names;
 }
 
-std::vector<int> ReadOneDsfmComponent(const std::string& path,
-                                      int num_images) {
+std::vector<int> ReadOneDsfmComponent(const std::string& path, int num_images) {
   std::vector<int> component;
   for (const TextLine& line : ReadTextLines(path)) {
     RequireFieldCount(path, line, 1, 1);
@@ -111,7 +110,8 @@ BundlerFile ReadBundlerFile(const std::string& path) {
     }
     const TextLine& translation = take(3, 3);
     Eigen::Matrix3d R;
-    for (int k = 0; k < 9; ++k) R(k / 3, k % 3) = ParseDouble(path, rotation, k);
+    for (int k = 0; k < 9; ++k)
+      R(k / 3, k % 3) = ParseDouble(path, rotation, k);
     for (int k = 0; k < 3; ++k) {
       camera.t(k) = ParseDouble(path, translation, k);
     }
@@ -160,7 +160,8 @@ OneDsfmScene ReadOneDsfmScene(const std::string& directory) {
   std::vector<std::string> names;
   if (fs::exists(list_path)) names = ReadOneDsfmList(list_path);
   const int num_images = static_cast<int>(names.size());
-  const std::vector<OneDsfmEdge> edges = ReadOneDsfmEdges(edges_path, num_images);
+  const std::vector<OneDsfmEdge> edges =
+      ReadOneDsfmEdges(edges_path, num_images);
   int max_index = num_images - 1;
   for (const OneDsfmEdge& edge : edges) {
     max_index = std::max({max_index, edge.i, edge.j});
@@ -198,10 +199,9 @@ OneDsfmScene ReadOneDsfmScene(const std::string& directory) {
     const BundlerFile bundler = ReadBundlerFile(bundle_path);
     if (num_images > 0 &&
         static_cast<int>(bundler.cameras.size()) != num_images) {
-      throw InputError(bundle_path,
-                       std::to_string(bundler.cameras.size()) +
-                           " cameras but list.txt has " +
-                           std::to_string(num_images) + " images");
+      throw InputError(bundle_path, std::to_string(bundler.cameras.size()) +
+                                        " cameras but list.txt has " +
+                                        std::to_string(num_images) + " images");
     }
     scene.ground_truth.assign(scene.graph.NumVertices(),
                               Eigen::Matrix3d::Identity());

@@ -14,7 +14,8 @@ void Stats(std::vector<double> values, double* median, double* mean,
   if (values.empty()) return;
   std::sort(values.begin(), values.end());
   const size_t n = values.size();
-  *median = n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+  *median =
+      n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
   double sum = 0;
   for (const double value : values) sum += value;
   *mean = sum / n;

@@ -11,8 +11,8 @@
 #include <glog/logging.h>
 #include <unistd.h>
 
-#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/eval/text_parsing.h"
+#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
 
@@ -40,8 +40,8 @@ RotationGraph ReadRelativePoses(const std::string& path) {
     for (int k = 6; k < 9; ++k) ParseDouble(path, line, k);
     if (line.fields.size() == 10 && !line.fields[9].empty() &&
         line.fields[9][0] == '-') {
-      throw InputError(path, at + "inlier count " + line.fields[9] +
-                                 " is negative");
+      throw InputError(path,
+                       at + "inlier count " + line.fields[9] + " is negative");
     }
     const double weight =
         line.fields.size() == 10 ? ParseIndex(path, line, 9) : 1.0;
@@ -56,7 +56,8 @@ RotationGraph ReadRelativePoses(const std::string& path) {
     const int i = vertex(line.fields[0]);
     const int j = vertex(line.fields[1]);
     const std::pair<int, int> key(std::min(i, j), std::max(i, j));
-    const Eigen::Matrix3d R_ordered = i < j ? R : Eigen::Matrix3d(R.transpose());
+    const Eigen::Matrix3d R_ordered =
+        i < j ? R : Eigen::Matrix3d(R.transpose());
     const auto it = seen.find(key);
     if (it != seen.end()) {
       // A repetition is harmless; a different rotation for the same pair
@@ -78,10 +79,10 @@ RotationGraph ReadRelativePoses(const std::string& path) {
   if (graph.NumEdges() == 0) throw InputError(path, "no image pairs");
   LOG_IF(WARNING, num_repeated > 0)
       << path << ": " << num_repeated
-      << " repeated image pairs ignored (first at line "
-      << first_repeated_line << ")";
-  LOG_IF(WARNING, num_self > 1)
-      << path << ": " << num_self << " lines pair an image with itself, skipped";
+      << " repeated image pairs ignored (first at line " << first_repeated_line
+      << ")";
+  LOG_IF(WARNING, num_self > 1) << path << ": " << num_self
+                                << " lines pair an image with itself, skipped";
   return graph;
 }
 
@@ -114,8 +115,8 @@ void WriteAbsoluteRotations(const std::string& path,
   for (size_t v = 0; v < names.size(); ++v) {
     if (!estimated[v]) continue;
     const Eigen::Vector4d q = RotationToQuaternion(rotations[v]);
-    file << names[v] << ' ' << q(0) << ' ' << q(1) << ' ' << q(2) << ' '
-         << q(3) << '\n';
+    file << names[v] << ' ' << q(0) << ' ' << q(1) << ' ' << q(2) << ' ' << q(3)
+         << '\n';
   }
   WriteFileAtomically(path, file.str());
 }

@@ -65,10 +65,11 @@ Eigen::Matrix3d GeodesicL1Mean(const std::vector<Eigen::Matrix3d>& rotations,
   return R;
 }
 
-RotationErrors EvaluateRotations(const std::vector<Eigen::Matrix3d>& estimated,
-                                 const std::vector<bool>& estimated_mask,
-                                 const std::vector<Eigen::Matrix3d>& ground_truth,
-                                 const std::vector<bool>& gt_mask) {
+RotationErrors EvaluateRotations(
+    const std::vector<Eigen::Matrix3d>& estimated,
+    const std::vector<bool>& estimated_mask,
+    const std::vector<Eigen::Matrix3d>& ground_truth,
+    const std::vector<bool>& gt_mask) {
   CHECK_EQ(estimated.size(), ground_truth.size());
   CHECK(estimated_mask.empty() || estimated_mask.size() == estimated.size());
   CHECK(gt_mask.empty() || gt_mask.size() == ground_truth.size());
@@ -96,16 +97,17 @@ RotationErrors EvaluateRotations(const std::vector<Eigen::Matrix3d>& estimated,
   std::vector<double> sorted = errors.errors_deg;
   std::sort(sorted.begin(), sorted.end());
   const size_t n = sorted.size();
-  errors.median_deg = n % 2 == 1 ? sorted[n / 2]
-                                 : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+  errors.median_deg =
+      n % 2 == 1 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
   errors.mean_deg = std::accumulate(sorted.begin(), sorted.end(), 0.0) / n;
   errors.max_deg = sorted.back();
   return errors;
 }
 
-RotationErrors EvaluateRotations(const RotationAveragingResult& result,
-                                 const std::vector<Eigen::Matrix3d>& ground_truth,
-                                 const std::vector<bool>& gt_mask) {
+RotationErrors EvaluateRotations(
+    const RotationAveragingResult& result,
+    const std::vector<Eigen::Matrix3d>& ground_truth,
+    const std::vector<bool>& gt_mask) {
   return EvaluateRotations(result.rotations, result.estimated, ground_truth,
                            gt_mask);
 }

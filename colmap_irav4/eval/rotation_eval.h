@@ -31,13 +31,15 @@ struct RotationErrors {
 
 // Cameras compared: those with estimated_mask[i] && gt_mask[i] (empty mask =
 // all). Sizes must agree (CHECKed). No common camera -> num_compared = 0.
-RotationErrors EvaluateRotations(const std::vector<Eigen::Matrix3d>& estimated,
-                                 const std::vector<bool>& estimated_mask,
-                                 const std::vector<Eigen::Matrix3d>& ground_truth,
-                                 const std::vector<bool>& gt_mask = {});
-RotationErrors EvaluateRotations(const RotationAveragingResult& result,
-                                 const std::vector<Eigen::Matrix3d>& ground_truth,
-                                 const std::vector<bool>& gt_mask = {});
+RotationErrors EvaluateRotations(
+    const std::vector<Eigen::Matrix3d>& estimated,
+    const std::vector<bool>& estimated_mask,
+    const std::vector<Eigen::Matrix3d>& ground_truth,
+    const std::vector<bool>& gt_mask = {});
+RotationErrors EvaluateRotations(
+    const RotationAveragingResult& result,
+    const std::vector<Eigen::Matrix3d>& ground_truth,
+    const std::vector<bool>& gt_mask = {});
 // By name: cameras present in both maps are compared (in name order).
 RotationErrors EvaluateRotations(
     const std::map<std::string, Eigen::Matrix3d>& estimated,

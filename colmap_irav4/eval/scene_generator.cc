@@ -1,8 +1,8 @@
 #include "colmap_irav4/eval/scene_generator.h"
 
 #include <algorithm>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <unordered_map>
 #include <unordered_set>
@@ -16,7 +16,6 @@
 
 namespace colmap_irav4 {
 namespace {
-
 
 // A vertical wall: segment a-b in the ground plane (x, z), heights [y0, y1],
 // `normal` (x, z) pointing to the side the cameras see it from.
@@ -65,7 +64,8 @@ struct RectLoop {
 
 // Walls of a rectangle with half sizes hx, hz; normals inward or outward.
 std::vector<Wall> RectWalls(double hx, double hz, double height, bool inward) {
-  const Eigen::Vector2d corners[4] = {{-hx, -hz}, {hx, -hz}, {hx, hz}, {-hx, hz}};
+  const Eigen::Vector2d corners[4] = {
+      {-hx, -hz}, {hx, -hz}, {hx, hz}, {-hx, hz}};
   const Eigen::Vector2d outward[4] = {{0, -1}, {1, 0}, {0, 1}, {-1, 0}};
   std::vector<Wall> walls;
   for (int k = 0; k < 4; ++k) {
@@ -102,7 +102,9 @@ const Eigen::Quaterniond& MirrorRotation() {
   return q;
 }
 
-Eigen::Vector3d Mirror(const Eigen::Vector3d& x) { return {-x.x(), x.y(), -x.z()}; }
+Eigen::Vector3d Mirror(const Eigen::Vector3d& x) {
+  return {-x.x(), x.y(), -x.z()};
+}
 
 uint64_t Mix(uint64_t x) {  // splitmix64
   x += 0x9e3779b97f4a7c15ull;
@@ -125,7 +127,8 @@ Camera MakeCamera(const SceneGeneratorOptions& options, camera_t camera_id,
   std::uniform_real_distribution<double> vary(0.85, 1.15);
   const double focal =
       options.focal_length * (camera_id == 1 ? 1.0 : vary(*rng));
-  const std::vector<int> focal_idxs = CameraModelFocalLengthIdxs(camera.model_id);
+  const std::vector<int> focal_idxs =
+      CameraModelFocalLengthIdxs(camera.model_id);
   for (size_t k = 0; k < focal_idxs.size(); ++k) {
     // Slightly different fx and fy where the model has both.
     camera.params[focal_idxs[k]] = focal * (k == 0 ? 1.0 : 1.002);
@@ -151,8 +154,8 @@ struct Layout {
 
 struct PointCloud {
   std::vector<Eigen::Vector3d> xyz;
-  std::vector<int> wall;   // index into Layout::walls
-  std::vector<int> twin;   // index of the twin point, -1 if none
+  std::vector<int> wall;  // index into Layout::walls
+  std::vector<int> twin;  // index of the twin point, -1 if none
 };
 
 }  // namespace
@@ -161,8 +164,8 @@ SceneLayout SceneLayoutFromName(const std::string& name) {
   if (name == "courtyard") return SceneLayout::kCourtyard;
   if (name == "street") return SceneLayout::kStreet;
   if (name == "tower") return SceneLayout::kTower;
-  throw InputError("--layout", "unknown layout '" + name +
-                                   "' (courtyard, street or tower)");
+  throw InputError(
+      "--layout", "unknown layout '" + name + "' (courtyard, street or tower)");
 }
 
 std::string SceneLayoutName(SceneLayout layout) {
@@ -193,7 +196,8 @@ void SceneGeneratorOptions::Check() const {
   auto require = [](bool ok, const std::string& name, const std::string& what) {
     if (!ok) throw InputError("--" + name, what);
   };
-  require(num_images >= 2 && num_images < 2000000, "num_images", "must be >= 2");
+  require(num_images >= 2 && num_images < 2000000, "num_images",
+          "must be >= 2");
   require(image_spacing > 0, "image_spacing", "must be > 0");
   require(point_density > 0, "point_density", "must be > 0");
   require(unique_point_fraction >= 0 && unique_point_fraction <= 1,
@@ -302,7 +306,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     total_area += wall.Length() * (wall.y1 - wall.y0);
     wall_cumulative_area.push_back(total_area);
   }
-  auto sample_wall_point = [&](int wall_idx, double along, Eigen::Vector3d* xyz) {
+  auto sample_wall_point = [&](int wall_idx, double along,
+                               Eigen::Vector3d* xyz) {
     const Wall& wall = layout.walls[wall_idx];
     const Eigen::Vector2d dir = (wall.b - wall.a).normalized();
     const Eigen::Vector2d ground = wall.a + along * dir;
@@ -314,8 +319,9 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   };
   // The tower's faces are seen whole from afar: a third of the density keeps
   // its images' keypoints comparable with the other layouts'.
-  const double expected_points = options.point_density * total_area *
-                                 (options.layout == SceneLayout::kTower ? 0.3 : 1.0);
+  const double expected_points =
+      options.point_density * total_area *
+      (options.layout == SceneLayout::kTower ? 0.3 : 1.0);
   const int64_t num_twin_pairs = static_cast<int64_t>(
       std::round(0.5 * expected_points * (1 - options.unique_point_fraction)));
   const int64_t num_unique = static_cast<int64_t>(
@@ -327,9 +333,11 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   };
   // Index of the wall M maps `wall` onto.
   auto mirror_wall = [&](int wall) {
-    const Eigen::Vector2d mid = 0.5 * (layout.walls[wall].a + layout.walls[wall].b);
+    const Eigen::Vector2d mid =
+        0.5 * (layout.walls[wall].a + layout.walls[wall].b);
     for (size_t k = 0; k < layout.walls.size(); ++k) {
-      const Eigen::Vector2d other = 0.5 * (layout.walls[k].a + layout.walls[k].b);
+      const Eigen::Vector2d other =
+          0.5 * (layout.walls[k].a + layout.walls[k].b);
       if ((other + mid).norm() < 1e-6) return static_cast<int>(k);
     }
     LOG(FATAL) << "walls not symmetric";
@@ -350,7 +358,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     }
     for (int m = 0; m < num_modules; ++m) {
       for (const Eigen::Vector3d& base : module_points) {
-        const Eigen::Vector3d xyz = base + Eigen::Vector3d(m * module_length, 0, 0);
+        const Eigen::Vector3d xyz =
+            base + Eigen::Vector3d(m * module_length, 0, 0);
         if (xyz.x() > south.b.x()) continue;
         if (unit(rng) > density_factor(xyz.x() - south.a.x())) continue;
         const int index = static_cast<int>(cloud.xyz.size());
@@ -361,8 +370,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   } else {
     for (int64_t k = 0; k < num_twin_pairs; ++k) {
       const int wall = static_cast<int>(
-          std::lower_bound(wall_cumulative_area.begin(), wall_cumulative_area.end(),
-                           unit(rng) * total_area) -
+          std::lower_bound(wall_cumulative_area.begin(),
+                           wall_cumulative_area.end(), unit(rng) * total_area) -
           wall_cumulative_area.begin());
       const double along = unit(rng) * layout.walls[wall].Length();
       Eigen::Vector3d xyz;
@@ -375,8 +384,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   }
   for (int64_t k = 0; k < num_unique; ++k) {
     const int wall = static_cast<int>(
-        std::lower_bound(wall_cumulative_area.begin(), wall_cumulative_area.end(),
-                         unit(rng) * total_area) -
+        std::lower_bound(wall_cumulative_area.begin(),
+                         wall_cumulative_area.end(), unit(rng) * total_area) -
         wall_cumulative_area.begin());
     Eigen::Vector3d xyz;
     sample_wall_point(wall, unit(rng) * layout.walls[wall].Length(), &xyz);
@@ -386,11 +395,15 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
 
   // Grid over the ground plane for visibility queries.
   const double cell = 4.0;
-  auto cell_key = [](int64_t ix, int64_t iz) { return (ix << 32) ^ (iz & 0xffffffff); };
+  auto cell_key = [](int64_t ix, int64_t iz) {
+    return (ix << 32) ^ (iz & 0xffffffff);
+  };
   std::unordered_map<int64_t, std::vector<int>> grid;
   for (int64_t k = 0; k < num_cloud_points; ++k) {
-    const int64_t ix = static_cast<int64_t>(std::floor(cloud.xyz[k].x() / cell));
-    const int64_t iz = static_cast<int64_t>(std::floor(cloud.xyz[k].z() / cell));
+    const int64_t ix =
+        static_cast<int64_t>(std::floor(cloud.xyz[k].x() / cell));
+    const int64_t iz =
+        static_cast<int64_t>(std::floor(cloud.xyz[k].z() / cell));
     grid[cell_key(ix, iz)].push_back(static_cast<int>(k));
   }
 
@@ -424,8 +437,9 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     const double s = params[i];
     Eigen::Vector3d center;
     Eigen::Vector3d forward;
-    const double yaw = DegToRad(options.layout == SceneLayout::kTower ? 25.0 : 40.0) *
-                       (2 * unit(rng) - 1);
+    const double yaw =
+        DegToRad(options.layout == SceneLayout::kTower ? 25.0 : 40.0) *
+        (2 * unit(rng) - 1);
     double pitch = DegToRad(5 + 15 * unit(rng));
     Eigen::Vector2d ground = Eigen::Vector2d::Zero();
     Eigen::Vector2d facing = Eigen::Vector2d::UnitX();
@@ -454,8 +468,9 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         break;
       }
     }
-    const Eigen::Vector2d dir(std::cos(yaw) * facing.x() - std::sin(yaw) * facing.y(),
-                              std::sin(yaw) * facing.x() + std::cos(yaw) * facing.y());
+    const Eigen::Vector2d dir(
+        std::cos(yaw) * facing.x() - std::sin(yaw) * facing.y(),
+        std::sin(yaw) * facing.x() + std::cos(yaw) * facing.y());
     center = Eigen::Vector3d(ground.x(), 1.6 + 0.3 * normal(rng), ground.y());
     forward = Eigen::Vector3d(std::cos(pitch) * dir.x(), std::sin(pitch),
                               std::cos(pitch) * dir.y());
@@ -466,20 +481,26 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     const Camera& camera = truth.cameras.at(image.camera_id);
     image.cam_from_world.rotation =
         Eigen::Quaterniond(LookAlong(forward, DegToRad(3.0) * normal(rng)));
-    image.cam_from_world.translation = -(image.cam_from_world.rotation * center);
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
     const Eigen::Matrix3d R = image.cam_from_world.rotation.toRotationMatrix();
     const Eigen::Vector3d& t = image.cam_from_world.translation;
     const double focal = CameraMeanFocalLength(camera);
     const double max_u = 0.5 * camera.width / focal * 1.2;
     const double max_v = 0.5 * camera.height / focal * 1.2;
     const double range = options.max_view_distance;
-    const int64_t ix0 = static_cast<int64_t>(std::floor((center.x() - range) / cell));
-    const int64_t ix1 = static_cast<int64_t>(std::floor((center.x() + range) / cell));
-    const int64_t iz0 = static_cast<int64_t>(std::floor((center.z() - range) / cell));
-    const int64_t iz1 = static_cast<int64_t>(std::floor((center.z() + range) / cell));
+    const int64_t ix0 =
+        static_cast<int64_t>(std::floor((center.x() - range) / cell));
+    const int64_t ix1 =
+        static_cast<int64_t>(std::floor((center.x() + range) / cell));
+    const int64_t iz0 =
+        static_cast<int64_t>(std::floor((center.z() - range) / cell));
+    const int64_t iz1 =
+        static_cast<int64_t>(std::floor((center.z() + range) / cell));
     const Eigen::Vector2d forward_ground(forward.x(), forward.z());
     // Half the horizontal field of view plus 25 deg (roll, pitch, cell size).
-    const double min_cos = std::cos(std::min(DegToRad(89.0), std::atan(max_u) + DegToRad(25.0)));
+    const double min_cos =
+        std::cos(std::min(DegToRad(89.0), std::atan(max_u) + DegToRad(25.0)));
     for (int64_t ix = ix0; ix <= ix1; ++ix) {
       for (int64_t iz = iz0; iz <= iz1; ++iz) {
         // Skip cells wholly behind the camera.
@@ -488,7 +509,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         if (cell_centre.dot(forward_ground.normalized()) < -cell) continue;
         // ... and cells far outside the horizontal field of view.
         if (cell_centre.norm() > 2 * cell &&
-            cell_centre.normalized().dot(forward_ground.normalized()) < min_cos) {
+            cell_centre.normalized().dot(forward_ground.normalized()) <
+                min_cos) {
           continue;
         }
         const auto it = grid.find(cell_key(ix, iz));
@@ -499,7 +521,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
           if (in_cam.z() < 0.5 || in_cam.norm() > range) continue;
           const Wall& wall = layout.walls[cloud.wall[k]];
           if ((center.x() - X.x()) * wall.normal.x() +
-                  (center.z() - X.z()) * wall.normal.y() <= 0) {
+                  (center.z() - X.z()) * wall.normal.y() <=
+              0) {
             continue;  // seen from behind the wall
           }
           const Eigen::Vector2d uv = in_cam.hnormalized();
@@ -511,7 +534,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
           }
           if (unit(rng) >= options.detection_probability) continue;
           Point2D point2D;
-          point2D.xy = xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+          point2D.xy =
+              xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
           point2D.point3D_id = static_cast<point3D_t>(k) + 1;
           observations[k].push_back(
               {image.image_id, static_cast<point2D_t>(image.points2D.size())});
@@ -524,7 +548,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         std::round(options.clutter_fraction * image.points2D.size()));
     for (int k = 0; k < num_clutter; ++k) {
       Point2D point2D;
-      point2D.xy = Eigen::Vector2d(unit(rng) * camera.width, unit(rng) * camera.height);
+      point2D.xy =
+          Eigen::Vector2d(unit(rng) * camera.width, unit(rng) * camera.height);
       image.points2D.push_back(point2D);
     }
     truth.images[image.image_id] = std::move(image);
@@ -536,8 +561,9 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   for (int64_t k = 0; k < num_cloud_points; ++k) {
     if (observations[k].size() < 2) {
       for (const TrackElement& element : observations[k]) {
-        truth.images.at(element.image_id).points2D[element.point2D_idx].point3D_id =
-            kInvalidPoint3DId;
+        truth.images.at(element.image_id)
+            .points2D[element.point2D_idx]
+            .point3D_id = kInvalidPoint3DId;
       }
       observations[k].clear();
       observations[k].shrink_to_fit();
@@ -564,8 +590,10 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     image_t image_id1, image_id2;
     int count;
   };
-  std::vector<const std::vector<TrackElement>*> track_of(num_cloud_points + 1, nullptr);
-  for (const auto& [point3D_id, point] : truth.points3D) track_of[point3D_id] = &point.track;
+  std::vector<const std::vector<TrackElement>*> track_of(num_cloud_points + 1,
+                                                         nullptr);
+  for (const auto& [point3D_id, point] : truth.points3D)
+    track_of[point3D_id] = &point.track;
   std::vector<Candidate> true_pairs, mirror_candidates;
   std::vector<int> count(n + 1, 0), mirror_count(n + 1, 0);
   std::vector<image_t> touched, mirror_touched;
@@ -617,8 +645,9 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
       std::sort(list.begin(), list.end(), [](const auto& a, const auto& b) {
         return a.first != b.first ? a.first > b.first : a.second < b.second;
       });
-      for (size_t k = 0;
-           k < list.size() && k < static_cast<size_t>(options.max_pairs_per_image); ++k) {
+      for (size_t k = 0; k < list.size() &&
+                         k < static_cast<size_t>(options.max_pairs_per_image);
+           ++k) {
         keep[list[k].second] = 1;
       }
     }
@@ -639,7 +668,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     pair.image_id2 = candidate.image_id2;
     pair.kind = PairKind::kTrue;
     pair.num_candidates = candidate.count;
-    pair_index[ImagePairToPairId(pair.image_id1, pair.image_id2)] = pairs.size();
+    pair_index[ImagePairToPairId(pair.image_id1, pair.image_id2)] =
+        pairs.size();
     pairs.push_back(pair);
   }
   scene.num_mirror_candidates = static_cast<int>(mirror_candidates.size());
@@ -656,7 +686,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     pair.image_id2 = candidate.image_id2;
     pair.kind = PairKind::kMirror;
     pair.num_candidates = candidate.count;
-    const image_pair_t pair_id = ImagePairToPairId(pair.image_id1, pair.image_id2);
+    const image_pair_t pair_id =
+        ImagePairToPairId(pair.image_id1, pair.image_id2);
     const auto it = pair_index.find(pair_id);
     if (it != pair_index.end()) {
       pairs[it->second] = pair;
@@ -678,8 +709,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   const int64_t num_random = static_cast<int64_t>(std::round(
       options.random_pair_rate * num_pairs / (1 - options.random_pair_rate)));
   std::uniform_int_distribution<image_t> image_pick(1, n);
-  for (int64_t r = 0, attempts = 0; r < num_random && attempts < 100 * num_random + 100;
-       ++attempts) {
+  for (int64_t r = 0, attempts = 0;
+       r < num_random && attempts < 100 * num_random + 100; ++attempts) {
     image_t id1 = image_pick(rng), id2 = image_pick(rng);
     if (id1 == id2) continue;
     if (id1 > id2) std::swap(id1, id2);
@@ -697,21 +728,24 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         Eigen::AngleAxisd(DegToRad(30.0) * unit(rng), axis.normalized()));
     pose.translation =
         Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
-    const int target = options.min_num_inliers +
-                       static_cast<int>(unit(rng) * 2 * options.min_num_inliers);
+    const int target =
+        options.min_num_inliers +
+        static_cast<int>(unit(rng) * 2 * options.min_num_inliers);
     GeneratedPair pair;
     pair.image_id1 = id1;
     pair.image_id2 = id2;
     pair.kind = PairKind::kRandom;
     pair.random_cam2_from_cam1 = pose;
-    std::uniform_int_distribution<point2D_t> keypoint_pick(0, image1.points2D.size() - 1);
+    std::uniform_int_distribution<point2D_t> keypoint_pick(
+        0, image1.points2D.size() - 1);
     std::unordered_set<point2D_t> used;
-    for (int tries = 0; tries < 20 * target && static_cast<int>(
-                                                    pair.random_inliers.size()) < target;
+    for (int tries = 0; tries < 20 * target &&
+                        static_cast<int>(pair.random_inliers.size()) < target;
          ++tries) {
       const point2D_t idx1 = keypoint_pick(rng);
       if (!used.insert(idx1).second) continue;
-      const Eigen::Vector2d x1 = CameraImageToCamera(camera1, image1.points2D[idx1].xy);
+      const Eigen::Vector2d x1 =
+          CameraImageToCamera(camera1, image1.points2D[idx1].xy);
       const Eigen::Vector3d X1 = (3 + 27 * unit(rng)) * x1.homogeneous();
       const Eigen::Vector3d X2 = pose * X1;
       if (X2.z() < 0.5) continue;
@@ -723,12 +757,14 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         continue;
       }
       Point2D point2D;
-      point2D.xy = xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+      point2D.xy =
+          xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
       pair.random_inliers.push_back(
           {idx1, static_cast<point2D_t>(image2.points2D.size())});
       image2.points2D.push_back(point2D);
     }
-    if (static_cast<int>(pair.random_inliers.size()) < options.min_num_inliers) {
+    if (static_cast<int>(pair.random_inliers.size()) <
+        options.min_num_inliers) {
       continue;  // its clutter keypoints stay: harmless
     }
     pair.num_candidates = static_cast<int>(pair.random_inliers.size());
@@ -737,10 +773,11 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     ++r;
   }
 
-  std::sort(pairs.begin(), pairs.end(), [](const GeneratedPair& a, const GeneratedPair& b) {
-    return a.image_id1 != b.image_id1 ? a.image_id1 < b.image_id1
-                                      : a.image_id2 < b.image_id2;
-  });
+  std::sort(pairs.begin(), pairs.end(),
+            [](const GeneratedPair& a, const GeneratedPair& b) {
+              return a.image_id1 != b.image_id1 ? a.image_id1 < b.image_id1
+                                                : a.image_id2 < b.image_id2;
+            });
   for (const GeneratedPair& pair : pairs) {
     switch (pair.kind) {
       case PairKind::kTrue:
@@ -758,7 +795,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   return scene;
 }
 
-Rigid3d PairRelativePose(const GeneratedScene& scene, const GeneratedPair& pair) {
+Rigid3d PairRelativePose(const GeneratedScene& scene,
+                         const GeneratedPair& pair) {
   if (pair.kind == PairKind::kRandom) return pair.random_cam2_from_cam1;
   Rigid3d pose1 = scene.truth.images.at(pair.image_id1).cam_from_world;
   const Rigid3d& pose2 = scene.truth.images.at(pair.image_id2).cam_from_world;
@@ -766,7 +804,8 @@ Rigid3d PairRelativePose(const GeneratedScene& scene, const GeneratedPair& pair)
   const Rigid3d world_from_cam1 = pose1.Inverse();
   Rigid3d relative;
   relative.rotation = (pose2.rotation * world_from_cam1.rotation).normalized();
-  relative.translation = pose2.rotation * world_from_cam1.translation + pose2.translation;
+  relative.translation =
+      pose2.rotation * world_from_cam1.translation + pose2.translation;
   return relative;
 }
 
@@ -778,7 +817,8 @@ using TrackLookup = std::function<const std::vector<TrackElement>&(point3D_t)>;
 
 // image1's keypoint of X (true pair) or of M X (mirror pair) with image2's
 // keypoint of X, in image1's keypoint order.
-FeatureMatches CandidateMatches(const GeneratedScene& scene, const GeneratedPair& pair,
+FeatureMatches CandidateMatches(const GeneratedScene& scene,
+                                const GeneratedPair& pair,
                                 const TrackLookup& track_of) {
   FeatureMatches matches;
   const Image& image1 = scene.truth.images.at(pair.image_id1);
@@ -801,11 +841,13 @@ FeatureMatches CandidateMatches(const GeneratedScene& scene, const GeneratedPair
 
 // The stored geometry from the pair's candidate matches (ignored for random
 // pairs, whose inliers are fixed).
-TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
-                                   FeatureMatches candidates, FeatureMatches* raw_matches) {
+TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
+                                   const GeneratedPair& pair,
+                                   FeatureMatches candidates,
+                                   FeatureMatches* raw_matches) {
   const SceneGeneratorOptions& options = scene.options;
-  std::mt19937_64 rng(Mix(options.seed ^ Mix(ImagePairToPairId(pair.image_id1,
-                                                               pair.image_id2))));
+  std::mt19937_64 rng(Mix(
+      options.seed ^ Mix(ImagePairToPairId(pair.image_id1, pair.image_id2))));
   const Image& image1 = scene.truth.images.at(pair.image_id1);
   const Image& image2 = scene.truth.images.at(pair.image_id2);
   TwoViewGeometry geometry;
@@ -818,12 +860,14 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedP
     geometry.inlier_matches = std::move(candidates);
     if (pair.kind == PairKind::kMirror) {
       // A false pair matches only part of what its geometry allows.
-      std::shuffle(geometry.inlier_matches.begin(), geometry.inlier_matches.end(), rng);
+      std::shuffle(geometry.inlier_matches.begin(),
+                   geometry.inlier_matches.end(), rng);
       const size_t keep = std::max<size_t>(
           options.min_num_inliers,
           static_cast<size_t>(std::round(options.false_pair_inlier_fraction *
                                          geometry.inlier_matches.size())));
-      if (geometry.inlier_matches.size() > keep) geometry.inlier_matches.resize(keep);
+      if (geometry.inlier_matches.size() > keep)
+        geometry.inlier_matches.resize(keep);
       std::sort(geometry.inlier_matches.begin(), geometry.inlier_matches.end(),
                 [](const FeatureMatch& a, const FeatureMatch& b) {
                   return a.point2D_idx1 < b.point2D_idx1;
@@ -843,8 +887,9 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedP
   geometry.F /= geometry.F.norm();
   if (options.store_relative_pose) {
     geometry.has_pose = true;
-    geometry.qvec = Eigen::Vector4d(relative.rotation.w(), relative.rotation.x(),
-                                    relative.rotation.y(), relative.rotation.z());
+    geometry.qvec =
+        Eigen::Vector4d(relative.rotation.w(), relative.rotation.x(),
+                        relative.rotation.y(), relative.rotation.z());
     geometry.tvec = t;
   }
 
@@ -853,9 +898,12 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedP
     const int num_wrong = static_cast<int>(
         std::round(options.raw_outlier_ratio * geometry.inlier_matches.size()));
     if (!image1.points2D.empty() && !image2.points2D.empty()) {
-      std::uniform_int_distribution<point2D_t> pick1(0, image1.points2D.size() - 1);
-      std::uniform_int_distribution<point2D_t> pick2(0, image2.points2D.size() - 1);
-      for (int k = 0; k < num_wrong; ++k) raw_matches->push_back({pick1(rng), pick2(rng)});
+      std::uniform_int_distribution<point2D_t> pick1(
+          0, image1.points2D.size() - 1);
+      std::uniform_int_distribution<point2D_t> pick2(
+          0, image2.points2D.size() - 1);
+      for (int k = 0; k < num_wrong; ++k)
+        raw_matches->push_back({pick1(rng), pick2(rng)});
     }
   }
   return geometry;
@@ -863,42 +911,50 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene, const GeneratedP
 
 }  // namespace
 
-TwoViewGeometry PairGeometry(const GeneratedScene& scene, const GeneratedPair& pair,
+TwoViewGeometry PairGeometry(const GeneratedScene& scene,
+                             const GeneratedPair& pair,
                              FeatureMatches* raw_matches) {
   FeatureMatches candidates;
   if (pair.kind != PairKind::kRandom) {
-    candidates = CandidateMatches(scene, pair, [&](point3D_t id) -> const std::vector<TrackElement>& {
-      return scene.truth.points3D.at(id).track;
-    });
+    candidates = CandidateMatches(
+        scene, pair, [&](point3D_t id) -> const std::vector<TrackElement>& {
+          return scene.truth.points3D.at(id).track;
+        });
   }
   return FinishPairGeometry(scene, pair, std::move(candidates), raw_matches);
 }
 
 void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
   DatabaseWriter writer(path);
-  for (const auto& [camera_id, camera] : scene.truth.cameras) writer.WriteCamera(camera);
+  for (const auto& [camera_id, camera] : scene.truth.cameras)
+    writer.WriteCamera(camera);
   for (const auto& [image_id, image] : scene.truth.images) {
     writer.WriteImage(image_id, image.name, image.camera_id);
     FeatureKeypoints keypoints;
     keypoints.reserve(image.points2D.size());
-    for (const Point2D& point2D : image.points2D) keypoints.push_back(point2D.xy.cast<float>());
+    for (const Point2D& point2D : image.points2D)
+      keypoints.push_back(point2D.xy.cast<float>());
     writer.WriteKeypoints(image_id, keypoints);
   }
   // Flat track table (the model's map costs a cache miss per level), and the
   // candidates of all pairs of one first image in one pass over its
   // keypoints: O(observations * track length) in all.
   point3D_t max_id = 0;
-  for (const auto& [point3D_id, point] : scene.truth.points3D) max_id = point3D_id;
+  for (const auto& [point3D_id, point] : scene.truth.points3D)
+    max_id = point3D_id;
   std::vector<const std::vector<TrackElement>*> tracks(max_id + 1, nullptr);
-  for (const auto& [point3D_id, point] : scene.truth.points3D) tracks[point3D_id] = &point.track;
+  for (const auto& [point3D_id, point] : scene.truth.points3D)
+    tracks[point3D_id] = &point.track;
   FeatureMatches raw_matches;
-  std::unordered_map<image_t, FeatureMatches> true_candidates, mirror_candidates;
+  std::unordered_map<image_t, FeatureMatches> true_candidates,
+      mirror_candidates;
   for (size_t begin = 0; begin < scene.pairs.size();) {
     const image_t image_id1 = scene.pairs[begin].image_id1;
     size_t end = begin;
     true_candidates.clear();
     mirror_candidates.clear();
-    for (; end < scene.pairs.size() && scene.pairs[end].image_id1 == image_id1; ++end) {
+    for (; end < scene.pairs.size() && scene.pairs[end].image_id1 == image_id1;
+         ++end) {
       const GeneratedPair& pair = scene.pairs[end];
       if (pair.kind == PairKind::kTrue) true_candidates[pair.image_id2];
       if (pair.kind == PairKind::kMirror) mirror_candidates[pair.image_id2];
@@ -909,19 +965,22 @@ void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
       if (point3D_id == kInvalidPoint3DId) continue;
       for (const TrackElement& element : *tracks[point3D_id]) {
         const auto it = true_candidates.find(element.image_id);
-        if (it != true_candidates.end()) it->second.push_back({idx1, element.point2D_idx});
+        if (it != true_candidates.end())
+          it->second.push_back({idx1, element.point2D_idx});
       }
       const point3D_t twin = scene.twin_of_point[point3D_id];
       if (twin == kInvalidPoint3DId || mirror_candidates.empty()) continue;
       for (const TrackElement& element : *tracks[twin]) {
         const auto it = mirror_candidates.find(element.image_id);
-        if (it != mirror_candidates.end()) it->second.push_back({idx1, element.point2D_idx});
+        if (it != mirror_candidates.end())
+          it->second.push_back({idx1, element.point2D_idx});
       }
     }
     for (size_t k = begin; k < end; ++k) {
       const GeneratedPair& pair = scene.pairs[k];
       FeatureMatches candidates;
-      if (pair.kind == PairKind::kTrue) candidates = std::move(true_candidates[pair.image_id2]);
+      if (pair.kind == PairKind::kTrue)
+        candidates = std::move(true_candidates[pair.image_id2]);
       if (pair.kind == PairKind::kMirror) {
         candidates = std::move(mirror_candidates[pair.image_id2]);
       }

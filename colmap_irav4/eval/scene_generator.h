@@ -134,7 +134,8 @@ TwoViewGeometry PairGeometry(const GeneratedScene& scene,
 
 // cam2_from_cam1 that a pair's matches are consistent with: the true relative
 // pose, the twin's (P_2 M P_1^-1) or the random one.
-Rigid3d PairRelativePose(const GeneratedScene& scene, const GeneratedPair& pair);
+Rigid3d PairRelativePose(const GeneratedScene& scene,
+                         const GeneratedPair& pair);
 
 // M applied to a cam_from_world pose: the pose of the camera's mirror twin.
 Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world);

@@ -32,7 +32,8 @@ Camera MakeCamera(const SyntheticSceneOptions& options, camera_t camera_id) {
 
 // cam_from_world rotation of a camera at `center` looking at `target`, image
 // y axis pointing roughly along world -Y.
-Eigen::Matrix3d LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target) {
+Eigen::Matrix3d LookAt(const Eigen::Vector3d& center,
+                       const Eigen::Vector3d& target) {
   const Eigen::Vector3d z = (target - center).normalized();
   const Eigen::Vector3d x = z.cross(-Eigen::Vector3d::UnitY()).normalized();
   const Eigen::Vector3d y = z.cross(x);
@@ -61,10 +62,12 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
     }
     const double angle =
         DegToRad(options.arc_angle_deg) *
-        (options.num_images == 1 ? 0.0 : (i / (options.num_images - 1.0) - 0.5));
-    const Eigen::Vector3d center(options.arc_radius * std::sin(angle),
-                                 options.height_jitter * options.arc_radius * uniform(rng),
-                                 -options.arc_radius * std::cos(angle));
+        (options.num_images == 1 ? 0.0
+                                 : (i / (options.num_images - 1.0) - 0.5));
+    const Eigen::Vector3d center(
+        options.arc_radius * std::sin(angle),
+        options.height_jitter * options.arc_radius * uniform(rng),
+        -options.arc_radius * std::cos(angle));
     const Eigen::Vector3d target(0.05 * options.arc_radius * uniform(rng),
                                  0.05 * options.arc_radius * uniform(rng),
                                  0.05 * options.arc_radius * uniform(rng));
@@ -73,13 +76,15 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
     image.name = "image" + std::to_string(i + 1) + ".jpg";
     image.camera_id = camera_id;
     image.cam_from_world.rotation = Eigen::Quaterniond(LookAt(center, target));
-    image.cam_from_world.translation = -(image.cam_from_world.rotation * center);
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
     truth.images[image.image_id] = image;
   }
 
   for (int k = 0; k < options.num_points; ++k) {
-    const Eigen::Vector3d xyz = options.point_half_extent *
-                                Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+    const Eigen::Vector3d xyz =
+        options.point_half_extent *
+        Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
     Point3D point;
     point.xyz = xyz;
     std::vector<std::pair<image_t, Eigen::Vector2d>> observations;
@@ -88,7 +93,8 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
       const Eigen::Vector3d in_cam = image.cam_from_world * xyz;
       if (in_cam.z() < 1e-3) continue;
       Eigen::Vector2d xy = CameraCameraToImage(camera, in_cam.hnormalized());
-      if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera.width || xy.y() > camera.height) {
+      if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera.width ||
+          xy.y() > camera.height) {
         continue;
       }
       if (unit(rng) >= options.visibility) continue;
@@ -102,7 +108,8 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
       Point2D point2D;
       point2D.xy = xy;
       point2D.point3D_id = point3D_id;
-      point.track.push_back({image_id, static_cast<point2D_t>(image.points2D.size())});
+      point.track.push_back(
+          {image_id, static_cast<point2D_t>(image.points2D.size())});
       image.points2D.push_back(point2D);
     }
     truth.points3D[point3D_id] = point;
@@ -125,14 +132,15 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
   for (auto& [key, pair] : pairs) {
     const Image& image1 = truth.images.at(pair.image_id1);
     const Image& image2 = truth.images.at(pair.image_id2);
-    const int num_outliers =
-        static_cast<int>(std::round(options.outlier_match_ratio * pair.matches.size()));
+    const int num_outliers = static_cast<int>(
+        std::round(options.outlier_match_ratio * pair.matches.size()));
     std::uniform_int_distribution<size_t> idx1(0, image1.points2D.size() - 1);
     std::uniform_int_distribution<size_t> idx2(0, image2.points2D.size() - 1);
     for (int n = 0; n < num_outliers; ++n) {
       const point2D_t p1 = idx1(rng);
       const point2D_t p2 = idx2(rng);
-      if (image1.points2D[p1].point3D_id == image2.points2D[p2].point3D_id) continue;
+      if (image1.points2D[p1].point3D_id == image2.points2D[p2].point3D_id)
+        continue;
       pair.matches.emplace_back(p1, p2);
     }
     scene.matches.push_back(std::move(pair));
@@ -144,7 +152,8 @@ Reconstruction StripPoints(const Reconstruction& truth) {
   Reconstruction reconstruction = truth;
   reconstruction.points3D.clear();
   for (auto& [image_id, image] : reconstruction.images) {
-    for (Point2D& point2D : image.points2D) point2D.point3D_id = kInvalidPoint3DId;
+    for (Point2D& point2D : image.points2D)
+      point2D.point3D_id = kInvalidPoint3DId;
   }
   return reconstruction;
 }

@@ -14,8 +14,8 @@ namespace {
 
 [[noreturn]] void Fail(const std::string& path, const TextLine& line,
                        const std::string& problem) {
-  throw InputError(path, "line " + std::to_string(line.number) + ": " +
-                             problem);
+  throw InputError(path,
+                   "line " + std::to_string(line.number) + ": " + problem);
 }
 
 }  // namespace
@@ -48,8 +48,8 @@ void RequireFieldCount(const std::string& path, const TextLine& line,
       min_count == max_count
           ? std::to_string(min_count)
           : std::to_string(min_count) + " to " + std::to_string(max_count);
-  Fail(path, line, "expected " + expected + " fields, found " +
-                       std::to_string(count));
+  Fail(path, line,
+       "expected " + expected + " fields, found " + std::to_string(count));
 }
 
 double ParseDouble(const std::string& path, const TextLine& line, int field) {
@@ -59,8 +59,9 @@ double ParseDouble(const std::string& path, const TextLine& line, int field) {
   const double value = std::strtod(text.c_str(), &end);
   if (end == text.c_str() || *end != '\0' || errno == ERANGE ||
       !std::isfinite(value)) {
-    Fail(path, line, "field " + std::to_string(field + 1) + " '" + text +
-                         "' is not a finite number");
+    Fail(path, line,
+         "field " + std::to_string(field + 1) + " '" + text +
+             "' is not a finite number");
   }
   return value;
 }
@@ -72,13 +73,15 @@ int ParseIndex(const std::string& path, const TextLine& line, int field,
   errno = 0;
   const long value = std::strtol(text.c_str(), &end, 10);
   if (end == text.c_str() || *end != '\0' || errno == ERANGE) {
-    Fail(path, line, "field " + std::to_string(field + 1) + " '" + text +
-                         "' is not an integer");
+    Fail(path, line,
+         "field " + std::to_string(field + 1) + " '" + text +
+             "' is not an integer");
   }
   if (value < 0 || (bound > 0 && value >= bound) || value > 2000000000L) {
-    Fail(path, line, "index " + text + " out of range" +
-                         (bound > 0 ? " [0, " + std::to_string(bound) + ")"
-                                    : std::string()));
+    Fail(path, line,
+         "index " + text + " out of range" +
+             (bound > 0 ? " [0, " + std::to_string(bound) + ")"
+                        : std::string()));
   }
   return static_cast<int>(value);
 }

@@ -54,9 +54,8 @@ Eigen::Matrix3d ProjectToRotation(const Eigen::Matrix3d& M) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(
       M, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0
-                ? -1.0
-                : 1.0;
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0
+                                                                          : 1.0;
   return svd.matrixU() * D * svd.matrixV().transpose();
 }
 

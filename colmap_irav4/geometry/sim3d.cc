@@ -5,9 +5,9 @@
 #include <cmath>
 #include <random>
 
+#include <glog/logging.h>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-#include <glog/logging.h>
 
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/statistics.h"

@@ -83,8 +83,8 @@ void Score(const Correspondences& corrs, double focal, double max_error_px,
   if (supporting != nullptr) supporting->assign(corrs.x1.size(), 0);
   for (size_t i = 0; i < corrs.x1.size(); ++i) {
     double error_sq = max_error_sq;
-    if (MatchError(*candidate, E, corrs.x1[i], corrs.x2[i], focal,
-                   max_error_sq, &error_sq)) {
+    if (MatchError(*candidate, E, corrs.x1[i], corrs.x2[i], focal, max_error_sq,
+                   &error_sq)) {
       candidate->cost += error_sq;
       ++candidate->support;
       if (supporting != nullptr) (*supporting)[i] = 1;
@@ -125,7 +125,8 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
   for (const char s : supporting) num_supporting += s;
   const double stride =
       options.refine_max_num_matches > 0 &&
-              num_supporting > static_cast<size_t>(options.refine_max_num_matches)
+              num_supporting >
+                  static_cast<size_t>(options.refine_max_num_matches)
           ? static_cast<double>(num_supporting) / options.refine_max_num_matches
           : 1.0;
   double next_sample = 0;
@@ -160,7 +161,8 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
         }
         const double inv_z = 1.0 / p.z();
         const Eigen::Vector2d r =
-            focal * (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - corrs.x2[i]);
+            focal *
+            (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - corrs.x2[i]);
         const double r2 = r.squaredNorm();
         cost += b * std::log1p(r2 / b);
         if (JtJ == nullptr) continue;
@@ -364,28 +366,34 @@ int TwoViewConfigFromName(const std::string& name) {
 
 void RelativePoseOptions::Check() const {
   if (!(max_error_px > 0)) {
-    throw OptionError(&max_error_px, "RelativePose.max_error_px", "must be > 0");
+    throw OptionError(&max_error_px, "RelativePose.max_error_px",
+                      "must be > 0");
   }
   if (!(refine_loss_scale_px > 0)) {
-    throw OptionError(&refine_loss_scale_px, "RelativePose.refine_loss_scale_px", "must be > 0");
+    throw OptionError(&refine_loss_scale_px,
+                      "RelativePose.refine_loss_scale_px", "must be > 0");
   }
   if (refine_max_num_matches < 0) {
-    throw OptionError(&refine_max_num_matches, "RelativePose.refine_max_num_matches", "must be >= 0");
+    throw OptionError(&refine_max_num_matches,
+                      "RelativePose.refine_max_num_matches", "must be >= 0");
   }
   if (refine_max_num_iterations < 0) {
-    throw OptionError(&refine_max_num_iterations, "RelativePose.refine_max_num_iterations",
-                     "must be >= 0");
+    throw OptionError(&refine_max_num_iterations,
+                      "RelativePose.refine_max_num_iterations", "must be >= 0");
   }
   if (!(min_stored_pose_support >= 0 && min_stored_pose_support <= 1)) {
-    throw OptionError(&min_stored_pose_support, "RelativePose.min_stored_pose_support",
-                     "must be in [0, 1]");
+    throw OptionError(&min_stored_pose_support,
+                      "RelativePose.min_stored_pose_support",
+                      "must be in [0, 1]");
   }
   if (!(refine_max_rotation_std_deg > 0)) {
     throw OptionError(&refine_max_rotation_std_deg,
-                      "RelativePose.refine_max_rotation_std_deg", "must be > 0");
+                      "RelativePose.refine_max_rotation_std_deg",
+                      "must be > 0");
   }
   if (!(min_tri_angle_deg >= 0)) {
-    throw OptionError(&min_tri_angle_deg, "RelativePose.min_tri_angle_deg", "must be >= 0");
+    throw OptionError(&min_tri_angle_deg, "RelativePose.min_tri_angle_deg",
+                      "must be >= 0");
   }
 }
 
@@ -419,8 +427,8 @@ void DecomposeEssentialMatrix(const Eigen::Matrix3d& E,
                               std::vector<Eigen::Vector3d>* t) {
   R->clear();
   t->clear();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(E,
-                                        Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+      E, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d U = svd.matrixU();
   Eigen::Matrix3d V = svd.matrixV();
   if (U.determinant() < 0) U = -U;
@@ -519,8 +527,8 @@ bool EstimateEssentialEightPoint(const std::vector<Eigen::Vector2d>& points1,
   Eigen::Matrix3d En;
   En << e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7), e(8);
   const Eigen::Matrix3d M = T2.transpose() * En * T1;
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M,
-                                        Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+      M, Eigen::ComputeFullU | Eigen::ComputeFullV);
   *E = svd.matrixU() * Eigen::Vector3d(1, 1, 0).asDiagonal() *
        svd.matrixV().transpose();
   return true;
@@ -533,8 +541,8 @@ double SampsonErrorSquared(const Eigen::Matrix3d& E, const Eigen::Vector2d& x1,
   const Eigen::Vector3d Ex1 = E * x1h;
   const Eigen::Vector3d Etx2 = E.transpose() * x2h;
   const double numerator = x2h.dot(Ex1);
-  const double denominator = Ex1.head<2>().squaredNorm() +
-                             Etx2.head<2>().squaredNorm();
+  const double denominator =
+      Ex1.head<2>().squaredNorm() + Etx2.head<2>().squaredNorm();
   if (!(denominator > 0)) return std::numeric_limits<double>::infinity();
   return numerator * numerator / denominator;
 }
@@ -713,8 +721,8 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
     for (size_t i = 0; i < corrs.x1.size(); ++i) {
       const Eigen::Vector3d p = Hn * corrs.x1[i].homogeneous();
       num_homography_inliers +=
-          p.z() != 0 && (p.hnormalized() - corrs.x2[i]).norm() * focal <
-                            options.max_error_px;
+          p.z() != 0 &&
+          (p.hnormalized() - corrs.x2[i]).norm() * focal < options.max_error_px;
     }
   }
   const bool near_planar =
@@ -723,11 +731,12 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
   for (const RelativePoseSource source : kPreference) {
     for (size_t i = 0; i < candidates.size(); ++i) {
       if (candidates[i].source != source ||
-          candidates[i].cost > (near_planar ? kCostTolerance : 1.0) * min_cost +
-                                   tolerance) {
+          candidates[i].cost >
+              (near_planar ? kCostTolerance : 1.0) * min_cost + tolerance) {
         continue;
       }
-      if (best_derived < 0 || candidates[i].cost < candidates[best_derived].cost) {
+      if (best_derived < 0 ||
+          candidates[i].cost < candidates[best_derived].cost) {
         best_derived = static_cast<int>(i);
       }
     }
@@ -769,8 +778,9 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
   result.R = chosen.R;
   result.num_supporting = chosen.support;
   result.median_tri_angle_deg = MedianTriAngleDeg(corrs, supporting, chosen.R);
-  result.has_translation = !chosen.pure_rotation &&
-                           result.median_tri_angle_deg >= options.min_tri_angle_deg;
+  result.has_translation =
+      !chosen.pure_rotation &&
+      result.median_tri_angle_deg >= options.min_tri_angle_deg;
   result.t = result.has_translation ? chosen.t : Eigen::Vector3d::Zero();
   return result;
 }

@@ -41,7 +41,7 @@ bool FileExists(const std::string& path) {
 int64_t FileSize(const std::string& path) {
   struct stat info;
   return stat(path.c_str(), &info) == 0 ? static_cast<int64_t>(info.st_size)
-                                         : -1;
+                                        : -1;
 }
 
 int64_t MtimeNs(const struct stat& info) {
@@ -77,7 +77,9 @@ std::string SqliteProblem(sqlite3* db, int rc, int busy_timeout_ms) {
          (db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
 }
 
-std::string Bytes(int num_bytes) { return std::to_string(num_bytes) + " bytes"; }
+std::string Bytes(int num_bytes) {
+  return std::to_string(num_bytes) + " bytes";
+}
 
 }  // namespace
 
@@ -101,7 +103,8 @@ struct Database::Statement {
     const int rc = sqlite3_step(stmt);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    database_.Fail(SqliteProblem(database_.db_, rc, database_.busy_timeout_ms_));
+    database_.Fail(
+        SqliteProblem(database_.db_, rc, database_.busy_timeout_ms_));
   }
   int64_t Int(int column) const { return sqlite3_column_int64(stmt, column); }
   double Double(int column) const {
@@ -112,12 +115,16 @@ struct Database::Statement {
   }
   std::string Text(int column) const {
     const unsigned char* text = sqlite3_column_text(stmt, column);
-    return text == nullptr ? std::string() : std::string(
-        reinterpret_cast<const char*>(text));
+    return text == nullptr ? std::string()
+                           : std::string(reinterpret_cast<const char*>(text));
   }
-  const void* Blob(int column) const { return sqlite3_column_blob(stmt, column); }
+  const void* Blob(int column) const {
+    return sqlite3_column_blob(stmt, column);
+  }
   int BlobBytes(int column) const { return sqlite3_column_bytes(stmt, column); }
-  void Bind(int index, int64_t value) { sqlite3_bind_int64(stmt, index, value); }
+  void Bind(int index, int64_t value) {
+    sqlite3_bind_int64(stmt, index, value);
+  }
 
   const Database& database_;
   sqlite3_stmt* stmt = nullptr;
@@ -150,11 +157,13 @@ Database::Database(const std::string& path, const DatabaseReadOptions& options)
     if (wal_size <= 0) {
       open_mode_ = DatabaseOpenMode::kImmutable;
     } else if (!FileExists(path + "-shm")) {
-      Fail("WAL-mode database with committed changes in its -wal file but "
-           "no -shm file: reading it would create a -shm file next to it. "
-           "Recover it once with `sqlite3 " + path +
-           " 'PRAGMA wal_checkpoint;'` (or by opening it with COLMAP), "
-           "then retry");
+      Fail(
+          "WAL-mode database with committed changes in its -wal file but "
+          "no -shm file: reading it would create a -shm file next to it. "
+          "Recover it once with `sqlite3 " +
+          path +
+          " 'PRAGMA wal_checkpoint;'` (or by opening it with COLMAP), "
+          "then retry");
     }
   }
   const bool immutable = open_mode_ == DatabaseOpenMode::kImmutable;
@@ -179,8 +188,8 @@ Database::Database(const std::string& path, const DatabaseReadOptions& options)
       }
       // The first read of the file: fails here if it is not SQLite.
       sqlite3_stmt* probe = nullptr;
-      int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master",
-                                  -1, &probe, nullptr);
+      int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master", -1,
+                                  &probe, nullptr);
       if (rc == SQLITE_OK) {
         rc = sqlite3_step(probe);
         if (rc == SQLITE_ROW) rc = SQLITE_OK;
@@ -266,8 +275,9 @@ void Database::CheckUnchanged() const {
                     MtimeNs(info) == opened_mtime_ns_ &&
                     FileSize(path_ + "-wal") <= 0;
   if (!same) {
-    Fail("changed while it was being read (another process is writing it); "
-         "retry when the writer has finished");
+    Fail(
+        "changed while it was being read (another process is writing it); "
+        "retry when the writer has finished");
   }
 }
 
@@ -328,8 +338,9 @@ std::vector<DatabaseImage> Database::ReadAllImages() const {
   std::vector<DatabaseImage> images;
   std::string sql = "SELECT image_id, name, camera_id";
   if (schema_.has_image_prior_columns) {
-    sql += ", prior_qw, prior_qx, prior_qy, prior_qz, prior_tx, prior_ty, "
-           "prior_tz";
+    sql +=
+        ", prior_qw, prior_qx, prior_qy, prior_qz, prior_tx, prior_ty, "
+        "prior_tz";
   }
   sql += " FROM images ORDER BY image_id";
   Statement statement(*this, sql);
@@ -354,9 +365,8 @@ std::vector<DatabaseImage> Database::ReadAllImages() const {
         image.has_prior_rotation = image.prior_qvec.norm() > 0;
       }
       if (position) {
-        image.prior_tvec =
-            Eigen::Vector3d(statement.Double(7), statement.Double(8),
-                            statement.Double(9));
+        image.prior_tvec = Eigen::Vector3d(
+            statement.Double(7), statement.Double(8), statement.Double(9));
         image.has_prior_position = true;
       }
     }
@@ -366,9 +376,10 @@ std::vector<DatabaseImage> Database::ReadAllImages() const {
   if (schema_.has_pose_priors_table) {
     const std::set<std::string> columns = TableColumns("pose_priors");
     // 3.10: image_id; 4.x: corr_data_id (the image of a camera sensor).
-    const std::string id_column = columns.count("image_id")      ? "image_id"
-                                  : columns.count("corr_data_id") ? "corr_data_id"
-                                                                  : "";
+    const std::string id_column = columns.count("image_id") ? "image_id"
+                                  : columns.count("corr_data_id")
+                                      ? "corr_data_id"
+                                      : "";
     if (!id_column.empty() && columns.count("position") > 0) {
       Statement priors(*this,
                        "SELECT " + id_column + ", position FROM pose_priors");
@@ -401,15 +412,14 @@ FeatureKeypoints Database::ReadKeypoints(image_t image_id) const {
   if (rows < 0) Fail(what + ": negative row count");
   if (rows == 0) return keypoints;
   if (cols != 2 && cols != 4 && cols != 6) {
-    Fail(what + ": " + std::to_string(cols) +
-         " columns, expected 2, 4 or 6");
+    Fail(what + ": " + std::to_string(cols) + " columns, expected 2, 4 or 6");
   }
   const int64_t expected = rows * cols * static_cast<int64_t>(sizeof(float));
   const int bytes = statement.BlobBytes(2);
   if (bytes != expected) {
     Fail(what + ": data blob has " + Bytes(bytes) + ", expected " +
-         std::to_string(rows) + " x " + std::to_string(cols) +
-         " floats (" + std::to_string(expected) + " bytes)");
+         std::to_string(rows) + " x " + std::to_string(cols) + " floats (" +
+         std::to_string(expected) + " bytes)");
   }
   const float* data = static_cast<const float*>(statement.Blob(2));
   keypoints.resize(rows);
@@ -517,8 +527,8 @@ TwoViewGeometry Database::ReadTwoViewGeometryRow(Statement* statement) const {
   const auto [id1, id2] = PairIdToImagePair(static_cast<image_pair_t>(pair_id));
   geometry.image_id1 = id1;
   geometry.image_id2 = id2;
-  const std::string what = "two_view_geometries of " +
-                           PairName(static_cast<image_pair_t>(pair_id));
+  const std::string what =
+      "two_view_geometries of " + PairName(static_cast<image_pair_t>(pair_id));
   std::string problem;
   if (!DecodeMatches(statement->Int(1), statement->Int(2), statement->Blob(3),
                      statement->BlobBytes(3), &geometry.inlier_matches,
@@ -559,8 +569,8 @@ TwoViewGeometry Database::ReadTwoViewGeometryRow(Statement* statement) const {
       // COLMAP 3.8 stores zeros unless asked to estimate the pose; identity
       // with zero translation carries no information either.
       const bool zero = !(qvec.norm() > 1e-6);
-      const bool identity = tvec.isZero(0) && qvec(0) != 0 &&
-                            qvec.tail<3>().isZero(0);
+      const bool identity =
+          tvec.isZero(0) && qvec(0) != 0 && qvec.tail<3>().isZero(0);
       if (!zero && !identity) {
         geometry.has_pose = true;
         geometry.qvec = qvec.normalized();
@@ -573,12 +583,12 @@ TwoViewGeometry Database::ReadTwoViewGeometryRow(Statement* statement) const {
 
 bool Database::ReadTwoViewGeometry(image_t image_id1, image_t image_id2,
                                    TwoViewGeometry* geometry) const {
-  std::string sql =
-      "SELECT pair_id, rows, cols, data, config, F, E, H";
+  std::string sql = "SELECT pair_id, rows, cols, data, config, F, E, H";
   if (schema_.has_two_view_pose) sql += ", qvec, tvec";
   sql += " FROM two_view_geometries WHERE pair_id = ?";
   Statement statement(*this, sql);
-  statement.Bind(1, static_cast<int64_t>(ImagePairToPairId(image_id1, image_id2)));
+  statement.Bind(1,
+                 static_cast<int64_t>(ImagePairToPairId(image_id1, image_id2)));
   if (!statement.Step()) return false;
   *geometry = ReadTwoViewGeometryRow(&statement);
   if (SwapImagePair(image_id1, image_id2)) *geometry = geometry->Inverse();
@@ -698,8 +708,8 @@ DatabaseContents ReadDatabase(const std::string& path,
   std::set<camera_t> used_cameras;
   for (DatabaseImage& image : database.ReadAllImages()) {
     if (contents.cameras.count(image.camera_id) == 0) {
-      throw InputError(path, "image " + std::to_string(image.image_id) +
-                                 " '" + image.name + "' refers to camera " +
+      throw InputError(path, "image " + std::to_string(image.image_id) + " '" +
+                                 image.name + "' refers to camera " +
                                  std::to_string(image.camera_id) +
                                  ", which is not in the cameras table");
     }
@@ -723,8 +733,8 @@ DatabaseContents ReadDatabase(const std::string& path,
     camera = ResetCameraIntrinsics(camera);
     contents.reset_cameras.push_back(camera_id);
     warn(what + problem + "; reset to focal " +
-         std::to_string(camera.params[CameraModelFocalLengthIdxs(
-             camera.model_id)[0]]) +
+         std::to_string(
+             camera.params[CameraModelFocalLengthIdxs(camera.model_id)[0]]) +
          " px, centred principal point, no distortion");
   }
   // Keypoints: non-finite or outside the image can never be an observation.
@@ -752,15 +762,15 @@ DatabaseContents ReadDatabase(const std::string& path,
     }
     if (num_nonfinite > 0) {
       contents.num_keypoints_invalid["non-finite keypoint"] += num_nonfinite;
-      warn("image " + std::to_string(image_id) + " '" + image.name + "': " +
-           std::to_string(num_nonfinite) +
+      warn("image " + std::to_string(image_id) + " '" + image.name +
+           "': " + std::to_string(num_nonfinite) +
            " non-finite keypoints, never used as observations");
     }
     if (num_outside > 0) {
       contents.num_keypoints_invalid["keypoint outside the image"] +=
           num_outside;
-      warn("image " + std::to_string(image_id) + " '" + image.name + "': " +
-           std::to_string(num_outside) + " keypoints outside the " +
+      warn("image " + std::to_string(image_id) + " '" + image.name +
+           "': " + std::to_string(num_outside) + " keypoints outside the " +
            std::to_string(camera.width) + " x " +
            std::to_string(camera.height) +
            " image, never used as observations");
@@ -785,8 +795,9 @@ DatabaseContents ReadDatabase(const std::string& path,
         ImagePairToPairId(geometry.image_id1, geometry.image_id2);
     if (pairs.count(pair_id) > 0) {
       ++contents.num_pairs_dropped["stored in both orders"];
-      warn(what + ": the pair is stored in both orders; the row in COLMAP's "
-                  "order (smaller image id first) is used");
+      warn(what +
+           ": the pair is stored in both orders; the row in COLMAP's "
+           "order (smaller image id first) is used");
       if (!swapped) pairs[pair_id] = std::move(geometry);
       continue;
     }
@@ -800,8 +811,9 @@ DatabaseContents ReadDatabase(const std::string& path,
     const auto keypoints2 = contents.keypoints.find(geometry.image_id2);
     if (keypoints1 == contents.keypoints.end() ||
         keypoints2 == contents.keypoints.end()) {
-      throw InputError(path, what + ": refers to an image that is not in "
-                                    "the images table");
+      throw InputError(path, what +
+                                 ": refers to an image that is not in "
+                                 "the images table");
     }
     for (const FeatureMatch& match : geometry.inlier_matches) {
       if (match.point2D_idx1 >= keypoints1->second.size() ||
@@ -811,8 +823,7 @@ DatabaseContents ReadDatabase(const std::string& path,
                       ", " + std::to_string(match.point2D_idx2) +
                       ") is out of range of the images' " +
                       std::to_string(keypoints1->second.size()) + " and " +
-                      std::to_string(keypoints2->second.size()) +
-                      " keypoints");
+                      std::to_string(keypoints2->second.size()) + " keypoints");
       }
     }
     const auto invalid1 = invalid_keypoints.find(geometry.image_id1);

@@ -35,7 +35,7 @@ struct DatabaseImage {
 // Which COLMAP schema a database has (detected from its tables and columns).
 struct DatabaseSchema {
   bool has_matches_table = false;
-  bool has_two_view_pose = false;      // two_view_geometries.qvec/tvec (3.8+)
+  bool has_two_view_pose = false;        // two_view_geometries.qvec/tvec (3.8+)
   bool has_image_prior_columns = false;  // images.prior_* (<= 3.9)
   bool has_pose_priors_table = false;    // 3.10+
   bool has_rigs_table = false;           // 4.x: rigs, frames, frame_data

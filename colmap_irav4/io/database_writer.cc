@@ -59,8 +59,9 @@ void BindBlob(sqlite3_stmt* statement, int index, const void* data,
 
 DatabaseWriter::DatabaseWriter(const std::string& path) : path_(path) {
   if (std::filesystem::exists(path)) {
-    throw InputError(path, "exists; the database writer only creates new "
-                           "databases");
+    throw InputError(path,
+                     "exists; the database writer only creates new "
+                     "databases");
   }
   temp_path_ = path + ".tmp" + std::to_string(getpid());
   std::error_code error;
@@ -80,8 +81,8 @@ DatabaseWriter::DatabaseWriter(const std::string& path) : path_(path) {
   camera_stmt_ = Prepare(
       "INSERT INTO cameras(camera_id, model, width, height, params, "
       "prior_focal_length) VALUES(?, ?, ?, ?, ?, ?);");
-  image_stmt_ = Prepare(
-      "INSERT INTO images(image_id, name, camera_id) VALUES(?, ?, ?);");
+  image_stmt_ =
+      Prepare("INSERT INTO images(image_id, name, camera_id) VALUES(?, ?, ?);");
   keypoints_stmt_ = Prepare(
       "INSERT INTO keypoints(image_id, rows, cols, data) VALUES(?, ?, 2, ?);");
   matches_stmt_ = Prepare(
@@ -104,9 +105,9 @@ DatabaseWriter::~DatabaseWriter() {
 }
 
 void DatabaseWriter::Fail(const std::string& problem) const {
-  throw InputError(path_, problem + (db_ ? std::string(" (") +
-                                               sqlite3_errmsg(db_) + ")"
-                                         : std::string()));
+  throw InputError(
+      path_, problem + (db_ ? std::string(" (") + sqlite3_errmsg(db_) + ")"
+                            : std::string()));
 }
 
 void DatabaseWriter::Exec(const std::string& sql) {
@@ -162,7 +163,8 @@ void DatabaseWriter::WriteKeypoints(image_t image_id,
     blob.push_back(xy.y());
   }
   sqlite3_bind_int64(keypoints_stmt_, 1, image_id);
-  sqlite3_bind_int64(keypoints_stmt_, 2, static_cast<int64_t>(keypoints.size()));
+  sqlite3_bind_int64(keypoints_stmt_, 2,
+                     static_cast<int64_t>(keypoints.size()));
   BindBlob(keypoints_stmt_, 3, blob.data(), blob.size() * sizeof(float));
   Step(keypoints_stmt_, "keypoints of image " + std::to_string(image_id));
 }
@@ -171,8 +173,9 @@ void DatabaseWriter::WriteMatches(image_t image_id1, image_t image_id2,
                                   const FeatureMatches& matches) {
   const std::vector<uint32_t> blob =
       MatchesBlob(matches, SwapImagePair(image_id1, image_id2));
-  sqlite3_bind_int64(matches_stmt_, 1,
-                     static_cast<int64_t>(ImagePairToPairId(image_id1, image_id2)));
+  sqlite3_bind_int64(
+      matches_stmt_, 1,
+      static_cast<int64_t>(ImagePairToPairId(image_id1, image_id2)));
   sqlite3_bind_int64(matches_stmt_, 2, static_cast<int64_t>(matches.size()));
   BindBlob(matches_stmt_, 3, blob.data(), blob.size() * sizeof(uint32_t));
   Step(matches_stmt_, "matches of images " + std::to_string(image_id1) +
@@ -182,10 +185,11 @@ void DatabaseWriter::WriteMatches(image_t image_id1, image_t image_id2,
 void DatabaseWriter::WriteTwoViewGeometry(const TwoViewGeometry& input) {
   const TwoViewGeometry geometry =
       SwapImagePair(input.image_id1, input.image_id2) ? input.Inverse() : input;
-  const std::vector<uint32_t> blob = MatchesBlob(geometry.inlier_matches, false);
+  const std::vector<uint32_t> blob =
+      MatchesBlob(geometry.inlier_matches, false);
   sqlite3_bind_int64(geometry_stmt_, 1,
-                     static_cast<int64_t>(ImagePairToPairId(geometry.image_id1,
-                                                            geometry.image_id2)));
+                     static_cast<int64_t>(ImagePairToPairId(
+                         geometry.image_id1, geometry.image_id2)));
   sqlite3_bind_int64(geometry_stmt_, 2,
                      static_cast<int64_t>(geometry.inlier_matches.size()));
   BindBlob(geometry_stmt_, 3, blob.data(), blob.size() * sizeof(uint32_t));
@@ -210,9 +214,9 @@ void DatabaseWriter::WriteTwoViewGeometry(const TwoViewGeometry& input) {
 
 void DatabaseWriter::Commit() {
   Exec("COMMIT;");
-  for (sqlite3_stmt** statement : {&camera_stmt_, &image_stmt_,
-                                   &keypoints_stmt_, &matches_stmt_,
-                                   &geometry_stmt_}) {
+  for (sqlite3_stmt** statement :
+       {&camera_stmt_, &image_stmt_, &keypoints_stmt_, &matches_stmt_,
+        &geometry_stmt_}) {
     sqlite3_finalize(*statement);
     *statement = nullptr;
   }
@@ -220,8 +224,9 @@ void DatabaseWriter::Commit() {
   db_ = nullptr;
   std::error_code error;
   std::filesystem::rename(temp_path_, path_, error);
-  if (error) throw InputError(path_, "cannot rename " + temp_path_ + ": " +
-                                         error.message());
+  if (error)
+    throw InputError(path_,
+                     "cannot rename " + temp_path_ + ": " + error.message());
   committed_ = true;
 }
 

@@ -4,9 +4,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -244,12 +244,13 @@ std::string ImageRecordProblem(const Image& image,
   if (!std::isfinite(norm) || !(norm > 1e-8)) {
     std::ostringstream value;
     value << q.w() << " " << q.x() << " " << q.y() << " " << q.z();
-    return "image " + id + " (" + image.name + ") has an invalid rotation "
-           "quaternion (" + value.str() + ")";
+    return "image " + id + " (" + image.name +
+           ") has an invalid rotation "
+           "quaternion (" +
+           value.str() + ")";
   }
   if (!image.cam_from_world.translation.allFinite()) {
-    return "image " + id + " (" + image.name +
-           ") has a non-finite translation";
+    return "image " + id + " (" + image.name + ") has a non-finite translation";
   }
   if (reconstruction.cameras.count(image.camera_id) == 0) {
     return "image " + id + " (" + image.name + ") references camera " +
@@ -720,8 +721,8 @@ std::string ImagesTextBytes(const Reconstruction& reconstruction) {
     }
     const Eigen::Vector4d q = WrittenQuaternion(image);
     const Eigen::Vector3d& t = image.cam_from_world.translation;
-    out << image_id << " " << q(0) << " " << q(1) << " " << q(2) << " "
-        << q(3) << " " << t.x() << " " << t.y() << " " << t.z() << " "
+    out << image_id << " " << q(0) << " " << q(1) << " " << q(2) << " " << q(3)
+        << " " << t.x() << " " << t.y() << " " << t.z() << " "
         << image.camera_id << " " << image.name << "\n";
     for (size_t i = 0; i < image.points2D.size(); ++i) {
       const Point2D& point2D = image.points2D[i];

@@ -35,7 +35,8 @@ StageReport FoldStage(const std::string& name, const FoldReport& fold,
 }
 
 std::vector<ImagePairGeometry> PairsWithin(
-    const std::vector<ImagePairGeometry>& pairs, const std::set<image_t>& images) {
+    const std::vector<ImagePairGeometry>& pairs,
+    const std::set<image_t>& images) {
   std::vector<ImagePairGeometry> kept;
   for (const ImagePairGeometry& pair : pairs) {
     if (images.count(pair.image_id1) && images.count(pair.image_id2)) {
@@ -66,8 +67,6 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
 
 }  // namespace
 
-
-
 FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
                                const std::vector<ImagePairGeometry>& pairs,
                                const std::set<image_t>& images) {
@@ -87,25 +86,27 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
     entry(a, b).num_matches = num_matches;
   }
   for (const TwoViewGeometry& geometry : database.two_view_geometries) {
-    if (!images.count(geometry.image_id1) || !images.count(geometry.image_id2)) {
+    if (!images.count(geometry.image_id1) ||
+        !images.count(geometry.image_id2)) {
       continue;
     }
     PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
     // Failed verifications are stored with no inliers (config UNDEFINED).
-    pair.num_inliers =
-        geometry.config == TwoViewGeometry::UNDEFINED
-            ? 0
-            : static_cast<int>(geometry.inlier_matches.size());
+    pair.num_inliers = geometry.config == TwoViewGeometry::UNDEFINED
+                           ? 0
+                           : static_cast<int>(geometry.inlier_matches.size());
   }
   for (const ImagePairGeometry& geometry : pairs) {
-    if (!images.count(geometry.image_id1) || !images.count(geometry.image_id2)) {
+    if (!images.count(geometry.image_id1) ||
+        !images.count(geometry.image_id2)) {
       continue;
     }
     PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
     pair.has_rotation = true;
     // Oriented image_id1 -> image_id2 of the evidence (smaller id first).
-    pair.R = geometry.image_id1 == pair.image_id1 ? geometry.R
-                                                  : Eigen::Matrix3d(geometry.R.transpose());
+    pair.R = geometry.image_id1 == pair.image_id1
+                 ? geometry.R
+                 : Eigen::Matrix3d(geometry.R.transpose());
     pair.num_inliers = std::max(pair.num_inliers, geometry.num_inliers);
   }
   for (auto& [pair_id, pair] : by_id) evidence.pairs.push_back(pair);
@@ -165,9 +166,9 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     attempt->model.fold = DetectFold(
         options.detection, attempt->model.mapper->reconstruction(), evidence);
     attempt->model.checked = true;
-    const StageReport stage = FoldStage("fold check (" + when + ")",
-                                        attempt->model.fold,
-                                        timer.ElapsedSeconds());
+    const StageReport stage =
+        FoldStage("fold check (" + when + ")", attempt->model.fold,
+                  timer.ElapsedSeconds());
     attempt->model.stages.push_back(stage);
     attempt->model.outcome = attempt->model.fold.folded ? "folded" : "clean";
     LOG(INFO) << check_prefix << "fold check (" << when
@@ -177,7 +178,8 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     if (attempt->refined) return attempt->ok;
     attempt->refined = true;
     attempt->ok = stages.refine(attempt->model.mapper.get(), &attempt->failure);
-    if (attempt->ok && options.detect) check(attempt, "after refinement", run_prefix);
+    if (attempt->ok && options.detect)
+      check(attempt, "after refinement", run_prefix);
     return attempt->ok;
   };
   // Positions, checks; refines (and checks again) unless folded and to be
@@ -246,7 +248,8 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
       std::vector<ImagePairGeometry> reoriented;
       for (const ImagePairGeometry& pair : pairs) {
         const bool cross =
-            (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
+            (in_side1.count(pair.image_id1) &&
+             in_side2.count(pair.image_id2)) ||
             (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
         if (!cross ||
             ContradictedByModel(pair, folded,
@@ -263,17 +266,17 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
           PairComponents(reoriented);
       if (num_dropped > 0 && !components.empty() &&
           static_cast<int>(components[0].size()) >= min_model_size) {
-        Attempt attempt = run(
-            components[0],
-            PairsWithin(reoriented, std::set<image_t>(components[0].begin(),
-                                                      components[0].end())),
-            prefix);
+        Attempt attempt =
+            run(components[0],
+                PairsWithin(reoriented, std::set<image_t>(components[0].begin(),
+                                                          components[0].end())),
+                prefix);
         if (attempt.ok && !attempt.model.fold.folded &&
             refine(&attempt, prefix) && !attempt.model.fold.folded &&
             attempt.model.mapper->reconstruction().images.size() * 4 >=
                 folded.images.size() * 3) {
-          LOG(INFO) << prefix << "fold resolved: "
-                    << attempt.model.fold.Describe();
+          LOG(INFO) << prefix
+                    << "fold resolved: " << attempt.model.fold.Describe();
           notes->push_back(prefix + "fold resolved by removing " +
                            std::to_string(num_dropped) +
                            " pairs that agree with it across its cut");
@@ -313,16 +316,17 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     LOG(INFO) << prefix << "fold resolution " << iteration + 1 << ": "
               << before - current.size()
               << " suspect pairs removed, mapping again";
-    const std::vector<std::vector<image_t>> components = PairComponents(current);
+    const std::vector<std::vector<image_t>> components =
+        PairComponents(current);
     if (components.empty() ||
         static_cast<int>(components[0].size()) < min_model_size) {
       break;
     }
-    Attempt attempt = run(components[0],
-                          PairsWithin(current, std::set<image_t>(
-                                                   components[0].begin(),
+    Attempt attempt =
+        run(components[0],
+            PairsWithin(current, std::set<image_t>(components[0].begin(),
                                                    components[0].end())),
-                          prefix);
+            prefix);
     if (!attempt.ok) break;
     // Only a better-supported model replaces the previous one.
     const bool better =

@@ -23,8 +23,6 @@
 
 namespace colmap_irav4 {
 
-
-
 // The database's evidence about the pairs of `images`: every verified
 // geometry (with its inlier count), every pair the raw matches table records
 // as tried, and the view graph's measured rotations.

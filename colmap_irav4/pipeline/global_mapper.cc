@@ -1,11 +1,11 @@
 #include "colmap_irav4/pipeline/global_mapper.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <numeric>
 #include <set>
-#include <unistd.h>
 
 #include <glog/logging.h>
 
@@ -21,8 +21,7 @@ namespace {
 
 // The images of the model with their rotations and all their keypoints.
 Reconstruction MakeReconstruction(
-    const DatabaseContents& database,
-    const std::map<camera_t, Camera>& cameras,
+    const DatabaseContents& database, const std::map<camera_t, Camera>& cameras,
     const std::map<image_t, Eigen::Matrix3d>& rotations) {
   Reconstruction reconstruction;
   for (const auto& [image_id, R] : rotations) {
@@ -213,8 +212,7 @@ bool GlobalMapper::BuildTracks() {
     pair_matches.image_id2 = geometry.image_id2;
     pair_matches.matches.reserve(geometry.inlier_matches.size());
     for (const FeatureMatch& match : geometry.inlier_matches) {
-      pair_matches.matches.emplace_back(match.point2D_idx1,
-                                        match.point2D_idx2);
+      pair_matches.matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
     }
     matches.push_back(std::move(pair_matches));
   }
@@ -229,8 +227,8 @@ bool GlobalMapper::BuildTracks() {
     // the others are triangulated from the refined poses afterwards.
     const std::vector<Track> positioning_tracks =
         !options_.skip_retriangulation
-            ? SelectTracksForPositioning(
-                  tracks_, options_.positioning_tracks_per_image)
+            ? SelectTracksForPositioning(tracks_,
+                                         options_.positioning_tracks_per_image)
             : tracks_;
     AddTracksToReconstruction(positioning_tracks, &reconstruction_);
     num_positioning_tracks = positioning_tracks.size();
@@ -256,8 +254,9 @@ bool GlobalMapper::Positioning() {
     }
     stage.Add("iterations",
               static_cast<double>(positioner_summary.num_iterations));
-    stage.Add("observations filtered",
-              static_cast<double>(positioner_summary.num_observations_filtered));
+    stage.Add(
+        "observations filtered",
+        static_cast<double>(positioner_summary.num_observations_filtered));
   } else {
     TranslationAveragingSummary averaging_summary;
     if (!RunTranslationAveraging(options_.translation_averaging, pairs_,
@@ -318,8 +317,10 @@ bool GlobalMapper::Retriangulation() {
   const TriangulationSummary triangulation =
       TriangulateTracks(options_.triangulation, tracks_, &reconstruction_);
   retriangulated_ = true;
-  stage.Add("tracks tried", static_cast<double>(triangulation.num_tracks_tried));
-  stage.Add("points added", static_cast<double>(triangulation.num_points_added));
+  stage.Add("tracks tried",
+            static_cast<double>(triangulation.num_tracks_tried));
+  stage.Add("points added",
+            static_cast<double>(triangulation.num_points_added));
   stage.Add("observations added",
             static_cast<double>(triangulation.num_observations_added));
   AddModelFigures(&stage);
@@ -359,12 +360,11 @@ int GlobalMapper::ColorPoints(const std::string& image_path) {
   StageTimer stage("colours");
   int num_missing = 0;
   if (!image_path.empty() && !options_.skip_colors) {
-    num_missing =
-        ColorPointsFromImages(image_path, &reconstruction_,
-                              options_.color_image_downscale,
-                              options_.num_threads);
-    stage.Add("images read", static_cast<double>(
-                                 reconstruction_.images.size() - num_missing));
+    num_missing = ColorPointsFromImages(image_path, &reconstruction_,
+                                        options_.color_image_downscale,
+                                        options_.num_threads);
+    stage.Add("images read",
+              static_cast<double>(reconstruction_.images.size() - num_missing));
     stage.Add("images missing", static_cast<double>(num_missing));
   } else {
     for (auto& [point3D_id, point] : reconstruction_.points3D) {
@@ -378,8 +378,9 @@ int GlobalMapper::ColorPoints(const std::string& image_path) {
 
 void RotationFilterOptions::Check() const {
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
-    throw OptionError(&max_rotation_error_deg, "RotationFilter.max_rotation_error_deg",
-                     "must be in (0, 180]");
+    throw OptionError(&max_rotation_error_deg,
+                      "RotationFilter.max_rotation_error_deg",
+                      "must be in (0, 180]");
   }
 }
 
@@ -412,27 +413,31 @@ void GlobalMapperOptions::Check() const {
   if (std::find(methods.begin(), methods.end(), rotation_method) ==
       methods.end()) {
     throw OptionError(&rotation_method, "Mapper.rotation_method",
-                     "unknown method '" + rotation_method + "' (one of " +
-                         RotationAveragerMethodList() + ")");
+                      "unknown method '" + rotation_method + "' (one of " +
+                          RotationAveragerMethodList() + ")");
   }
   if (positioning_method != "global_positioning" &&
       positioning_method != "translation_averaging") {
     throw OptionError(&positioning_method, "Mapper.positioning_method",
-                     "unknown method '" + positioning_method +
-                         "' (global_positioning or translation_averaging)");
+                      "unknown method '" + positioning_method +
+                          "' (global_positioning or translation_averaging)");
   }
   if (num_threads == 0 || num_threads < -1) {
-    throw OptionError(&num_threads, "Mapper.num_threads", "must be -1 (all cores) or > 0");
+    throw OptionError(&num_threads, "Mapper.num_threads",
+                      "must be -1 (all cores) or > 0");
   }
   if (progress < -1 || progress > 1) {
-    throw OptionError(&progress, "Mapper.progress", "must be -1 (auto), 0 or 1");
+    throw OptionError(&progress, "Mapper.progress",
+                      "must be -1 (auto), 0 or 1");
   }
   if (color_image_downscale != 1 && color_image_downscale != 2 &&
       color_image_downscale != 4 && color_image_downscale != 8) {
-    throw OptionError(&color_image_downscale, "Mapper.color_image_downscale", "must be 1, 2, 4 or 8");
+    throw OptionError(&color_image_downscale, "Mapper.color_image_downscale",
+                      "must be 1, 2, 4 or 8");
   }
   if (num_ba_iterations < 0) {
-    throw OptionError(&num_ba_iterations, "Mapper.num_ba_iterations", "must be >= 0");
+    throw OptionError(&num_ba_iterations, "Mapper.num_ba_iterations",
+                      "must be >= 0");
   }
   view_graph.Check();
   rotation_averaging.Check();
@@ -442,7 +447,8 @@ void GlobalMapperOptions::Check() const {
   translation_averaging.Check();
   triangulation.Check();
   if (positioning_tracks_per_image < 0) {
-    throw OptionError(&positioning_tracks_per_image, "Mapper.positioning_tracks_per_image", "must be >= 0");
+    throw OptionError(&positioning_tracks_per_image,
+                      "Mapper.positioning_tracks_per_image", "must be >= 0");
   }
   bundle_adjustment.Check();
   filtering.Check();
@@ -467,7 +473,6 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.rotation_averaging.log_progress = show_progress;
   return stages;
 }
-
 
 std::vector<ImagePairGeometry> FilterPairsByRotation(
     const std::vector<ImagePairGeometry>& pairs,
@@ -513,10 +518,9 @@ std::vector<std::vector<image_t>> PairComponents(
   std::vector<std::vector<image_t>> components;
   for (auto& [root, images] : by_root) components.push_back(std::move(images));
   // Stable: equal sizes keep the order of their smallest image id.
-  std::stable_sort(components.begin(), components.end(),
-                   [](const auto& a, const auto& b) {
-                     return a.size() > b.size();
-                   });
+  std::stable_sort(
+      components.begin(), components.end(),
+      [](const auto& a, const auto& b) { return a.size() > b.size(); });
   return components;
 }
 

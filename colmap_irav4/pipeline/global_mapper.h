@@ -20,10 +20,10 @@
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/positioning/translation_averaging.h"
-#include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/refinement/fold_detection.h"
+#include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -102,7 +102,6 @@ struct GlobalMapperOptions {
   // 100 images or on a terminal).
   GlobalMapperOptions ForStages(size_t num_images) const;
 };
-
 
 // The rotation method used when none is given: irav4 when registered in the
 // factory, else the best available baseline.

@@ -1,16 +1,16 @@
 #include "colmap_irav4/pipeline/global_pipeline.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <memory>
 #include <set>
 #include <sstream>
-#include <sys/resource.h>
-#include <unistd.h>
 
 #include <glog/logging.h>
 
@@ -53,8 +53,7 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"mean_reprojection_error_per_point\": "
         << JsonNumber(c.mean_reprojection_error_per_point)
         << ",\n     \"mean_reprojection_error\": "
-        << JsonNumber(c.mean_reprojection_error)
-        << ", \"fold_score\": "
+        << JsonNumber(c.mean_reprojection_error) << ", \"fold_score\": "
         << JsonNumber(c.fold_score < 0 ? std::nan("") : c.fold_score)
         << ", \"folded\": " << (c.folded ? "true" : "false")
         << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
@@ -99,14 +98,16 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
   for (const auto& [reason, count] : view_graph_summary.num_dropped) {
     num_dropped += count;
   }
-  stage.Add("pairs read", static_cast<double>(view_graph_summary.num_pairs_read));
+  stage.Add("pairs read",
+            static_cast<double>(view_graph_summary.num_pairs_read));
   stage.Add("pairs kept", static_cast<double>(view_graph.pairs.size()));
   stage.Add("pairs dropped", static_cast<double>(num_dropped));
   stage.Add("connected images",
             static_cast<double>(view_graph.image_names.size()));
   stage.Add("components", static_cast<double>(components.size()));
-  stage.Add("largest component",
-            components.empty() ? 0.0 : static_cast<double>(components[0].size()));
+  stage.Add(
+      "largest component",
+      components.empty() ? 0.0 : static_cast<double>(components[0].size()));
   stage.Finish("", &summary->stages);
 
   if (components.empty() ||
@@ -115,8 +116,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     // pairs are there but a filter or their configuration removed them.
     std::string dropped;
     for (const auto& [reason, count] : view_graph_summary.num_dropped) {
-      dropped += (dropped.empty() ? "" : ", ") + std::to_string(count) + " " +
-                 reason;
+      dropped +=
+          (dropped.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
     }
     throw InputError(
         database.path,
@@ -208,7 +209,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     report.mean_reprojection_error = UpdateReprojectionErrors(&reconstruction);
     report.mean_reprojection_error_per_point =
         MeanPointReprojectionError(reconstruction);
-    report.num_registered_images = static_cast<int>(reconstruction.images.size());
+    report.num_registered_images =
+        static_cast<int>(reconstruction.images.size());
     report.num_points = static_cast<int>(reconstruction.points3D.size());
     report.num_observations = static_cast<int>(NumObservations(reconstruction));
     report.mean_track_length = MeanTrackLength(reconstruction);
@@ -234,9 +236,8 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
                        GlobalMapperSummary* summary) {
   StageTimer stage("writing");
   for (size_t k = 0; k < models.size(); ++k) {
-    WriteReconstruction(models[k],
-                        output->StagingModelPath(static_cast<int>(k)),
-                        output_type);
+    WriteReconstruction(
+        models[k], output->StagingModelPath(static_cast<int>(k)), output_type);
   }
   for (const std::string& stale :
        output->StaleModelDirectories(static_cast<int>(models.size()))) {
@@ -313,8 +314,9 @@ GlobalMapperSummary RunGlobalMapperOnDatabase(
     stage.Add(reason + "s dropped", static_cast<double>(count));
   }
   if (database.num_matches_dropped_invalid_keypoint > 0) {
-    stage.Add("inlier matches dropped (invalid keypoint)",
-              static_cast<double>(database.num_matches_dropped_invalid_keypoint));
+    stage.Add(
+        "inlier matches dropped (invalid keypoint)",
+        static_cast<double>(database.num_matches_dropped_invalid_keypoint));
   }
   stage.Finish("", &summary.stages);
 

@@ -76,8 +76,7 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
 // about). Appends the "writing" stage to the summary.
 void WriteMapperOutput(const std::vector<Reconstruction>& models,
                        const std::string& output_type, const Timer& total_timer,
-                       OutputTransaction* output,
-                       GlobalMapperSummary* summary);
+                       OutputTransaction* output, GlobalMapperSummary* summary);
 
 // The whole command: reads the database read-only, maps, writes the output
 // with WriteMapperOutput.

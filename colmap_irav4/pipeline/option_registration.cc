@@ -85,12 +85,10 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "IRAv4 clustering: a cluster takes only its community and "
                "boundary cameras tied to it at least as strongly as to "
                "their own (IRAv3's pre-selection); false = any camera");
-  manager->Add("RotationAveraging.max_cluster_size",
-               &options->max_cluster_size,
+  manager->Add("RotationAveraging.max_cluster_size", &options->max_cluster_size,
                "IRAv4 clustering: a cluster stops competing at this size "
                "until the fallback pass (0 = no cap)");
-  manager->Add("RotationAveraging.reference_method",
-               &options->reference_method,
+  manager->Add("RotationAveraging.reference_method", &options->reference_method,
                "alignment reference: irav4 | greedy_cds | random_cds");
   manager->Add("RotationAveraging.weighted_greedy_cds",
                &options->weighted_greedy_cds,
@@ -99,11 +97,9 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "random CDSs united in the random_cds reference");
   manager->Add("RotationAveraging.seed", &options->seed,
                "seed of the random choices (random_cds)");
-  manager->Add("RotationAveraging.num_final_rounds",
-               &options->num_final_rounds,
+  manager->Add("RotationAveraging.num_final_rounds", &options->num_final_rounds,
                "rounds of inlier selection + global optimisation at the end");
-  manager->Add("RotationAveraging.final_refinement",
-               &options->final_refinement,
+  manager->Add("RotationAveraging.final_refinement", &options->final_refinement,
                "IRAv4 after its final optimisation: guarded (default: "
                "l1_irls kept only if it lowers the Geman-McClure cost, else "
                "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
@@ -180,7 +176,6 @@ void AddRotationFilterOptions(OptionManager* manager,
   manager->Add("RotationFilter.max_rotation_error_deg",
                &o->max_rotation_error_deg,
                "drop pairs disagreeing with the averaged rotations (deg)");
-
 }
 
 void AddTrackOptions(OptionManager* manager, TrackBuilderOptions* o) {
@@ -188,11 +183,9 @@ void AddTrackOptions(OptionManager* manager, TrackBuilderOptions* o) {
                "shorter tracks are dropped");
   manager->Add("Tracks.max_track_length", &o->max_track_length,
                "longer tracks are dropped");
-  manager->Add("Tracks.max_duplicate_distance",
-               &o->max_duplicate_distance,
+  manager->Add("Tracks.max_duplicate_distance", &o->max_duplicate_distance,
                "two observations of a track in one image closer than this "
                "(px) are merged, farther: the track is dropped");
-
 }
 
 void AddGlobalPositioningOptions(OptionManager* manager,
@@ -213,7 +206,6 @@ void AddGlobalPositioningOptions(OptionManager* manager,
                "Ceres function tolerance");
   manager->Add("GlobalPositioning.print_progress", &gp.print_progress,
                "print Ceres' iterations");
-
 }
 
 void AddTranslationAveragingOptions(OptionManager* manager,
@@ -227,12 +219,10 @@ void AddTranslationAveragingOptions(OptionManager* manager,
 }
 
 void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
-  manager->Add("Triangulation.max_reproj_error",
-               &o->max_reproj_error,
+  manager->Add("Triangulation.max_reproj_error", &o->max_reproj_error,
                "inlier threshold of (re)triangulation (px)");
   manager->Add("Triangulation.min_tri_angle", &o->min_tri_angle,
                "minimum triangulation angle (deg)");
-
 }
 
 void AddBundleAdjustmentOptions(OptionManager* manager,
@@ -258,7 +248,6 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.initial_trust_region_radius,
                "Levenberg-Marquardt's initial trust region radius (large: "
                "solves reach the optimum's flat directions)");
-
 }
 
 void AddFilterOptions(OptionManager* manager, FilterOptions* o) {
@@ -311,8 +300,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   BundleAdjustmentOptions& ba = o.bundle_adjustment;
   manager->Add("Mapper.ba_refine_focal_length", &ba.refine_focal_length,
                "refine focal lengths in bundle adjustment");
-  manager->Add("Mapper.ba_refine_principal_point",
-               &ba.refine_principal_point,
+  manager->Add("Mapper.ba_refine_principal_point", &ba.refine_principal_point,
                "refine principal points in bundle adjustment");
   manager->Add("Mapper.ba_refine_extra_params", &ba.refine_extra_params,
                "refine distortion parameters in bundle adjustment");
@@ -345,7 +333,6 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "the point colours");
   manager->Add("Mapper.skip_colors", &o.skip_colors,
                "do not read images for point colours (grey)");
-
 
   // The stages' structs, each under its own prefix; the view graph's
   // min_num_inliers under COLMAP's --Mapper.min_num_matches, its threads are

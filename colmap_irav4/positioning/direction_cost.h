@@ -14,12 +14,14 @@ namespace colmap_irav4 {
 // (variable projection: same minima, and no per-observation parameter
 // blocks, so that Schur elimination of the points leaves only the cameras).
 struct ProjectedDirectionCost {
-  explicit ProjectedDirectionCost(const Eigen::Vector3d& direction) : direction_(direction) {}
+  explicit ProjectedDirectionCost(const Eigen::Vector3d& direction)
+      : direction_(direction) {}
 
   template <typename T>
   bool operator()(const T* a, const T* b, T* residuals) const {
     const T u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    T scale = u[0] * T(direction_[0]) + u[1] * T(direction_[1]) + u[2] * T(direction_[2]);
+    T scale = u[0] * T(direction_[0]) + u[1] * T(direction_[1]) +
+              u[2] * T(direction_[2]);
     if (scale < T(1)) scale = T(1);
     for (int k = 0; k < 3; ++k) residuals[k] = scale * T(direction_[k]) - u[k];
     return true;
@@ -34,7 +36,8 @@ struct ProjectedDirectionCost {
 };
 
 // "huber", "cauchy" or "trivial" (nullptr).
-inline ceres::LossFunction* CreateLossFunction(const std::string& name, double scale) {
+inline ceres::LossFunction* CreateLossFunction(const std::string& name,
+                                               double scale) {
   if (name == "huber") return new ceres::HuberLoss(scale);
   if (name == "cauchy") return new ceres::CauchyLoss(scale);
   return nullptr;

@@ -20,29 +20,37 @@ namespace colmap_irav4 {
 
 void GlobalPositionerOptions::Check() const {
   if (min_track_length < 2) {
-    throw OptionError(&min_track_length, "GlobalPositioning.min_track_length", "must be at least 2");
+    throw OptionError(&min_track_length, "GlobalPositioning.min_track_length",
+                      "must be at least 2");
   }
   if (loss_function != "huber" && loss_function != "cauchy" &&
       loss_function != "trivial") {
-    throw OptionError(&loss_function, "GlobalPositioning.loss_function",
-                     "must be huber, cauchy or trivial, not '" + loss_function + "'");
+    throw OptionError(
+        &loss_function, "GlobalPositioning.loss_function",
+        "must be huber, cauchy or trivial, not '" + loss_function + "'");
   }
   if (!(loss_scale > 0)) {
-    throw OptionError(&loss_scale, "GlobalPositioning.loss_scale", "must be positive");
+    throw OptionError(&loss_scale, "GlobalPositioning.loss_scale",
+                      "must be positive");
   }
   if (!(initialization_box > 0)) {
-    throw OptionError(&initialization_box, "GlobalPositioning.initialization_box", "must be positive");
+    throw OptionError(&initialization_box,
+                      "GlobalPositioning.initialization_box",
+                      "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
-    throw OptionError(&max_angular_error_deg, "GlobalPositioning.max_angular_error_deg",
-                     "must be in [0, 180)");
+    throw OptionError(&max_angular_error_deg,
+                      "GlobalPositioning.max_angular_error_deg",
+                      "must be in [0, 180)");
   }
   if (max_num_iterations < 1) {
-    throw OptionError(&max_num_iterations, "GlobalPositioning.max_num_iterations", "must be positive");
+    throw OptionError(&max_num_iterations,
+                      "GlobalPositioning.max_num_iterations",
+                      "must be positive");
   }
   if (!(function_tolerance >= 0)) {
-    throw OptionError(&function_tolerance, "GlobalPositioning.function_tolerance",
-                      "must be >= 0");
+    throw OptionError(&function_tolerance,
+                      "GlobalPositioning.function_tolerance", "must be >= 0");
   }
 }
 
@@ -69,16 +77,19 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
       ++num_image_observations[element.image_id];
     }
   }
-  for (point3D_t point3D_id : dropped_points) DeletePoint3D(point3D_id, reconstruction);
+  for (point3D_t point3D_id : dropped_points)
+    DeletePoint3D(point3D_id, reconstruction);
   local_summary.num_points_dropped = dropped_points.size();
   std::vector<image_t> dropped_images;
   for (const auto& [image_id, image] : reconstruction->images) {
-    if (!num_image_observations.count(image_id)) dropped_images.push_back(image_id);
+    if (!num_image_observations.count(image_id))
+      dropped_images.push_back(image_id);
   }
   for (image_t image_id : dropped_images) DeleteImage(image_id, reconstruction);
   local_summary.num_images_dropped = dropped_images.size();
   if (reconstruction->images.size() < 2) {
-    LOG(WARNING) << "Global positioning: fewer than two images are observed by tracks of "
+    LOG(WARNING) << "Global positioning: fewer than two images are observed by "
+                    "tracks of "
                  << options.min_track_length << " or more images";
     if (summary != nullptr) *summary = local_summary;
     return false;
@@ -92,10 +103,12 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   std::map<image_t, Eigen::Vector3d> centers;
   std::map<image_t, Eigen::Matrix3d> world_from_cam;
   for (const auto& [image_id, image] : reconstruction->images) {
-    world_from_cam[image_id] = image.cam_from_world.rotation.toRotationMatrix().transpose();
-    centers[image_id] = options.random_initialization
-                            ? Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng))
-                            : image.ProjectionCenter();
+    world_from_cam[image_id] =
+        image.cam_from_world.rotation.toRotationMatrix().transpose();
+    centers[image_id] =
+        options.random_initialization
+            ? Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng))
+            : image.ProjectionCenter();
   }
   const image_t gauge_image_id = centers.begin()->first;
   if (options.random_initialization) {
@@ -108,7 +121,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   const Eigen::Vector3d gauge_offset = centers[gauge_image_id];
   for (auto& [image_id, center] : centers) center -= gauge_offset;
   if (!options.random_initialization) {
-    for (auto& [point3D_id, point] : reconstruction->points3D) point.xyz -= gauge_offset;
+    for (auto& [point3D_id, point] : reconstruction->points3D)
+      point.xyz -= gauge_offset;
   }
 
   struct Observation {
@@ -137,10 +151,12 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   for (size_t k = 0; k < observations.size(); ++k) {
     const Observation& observation = observations[k];
     double* center = centers.at(observation.image_id).data();
-    double* point = reconstruction->points3D.at(observation.point3D_id).xyz.data();
-    problem.AddResidualBlock(ProjectedDirectionCost::Create(observation.direction),
-                             CreateLossFunction(options.loss_function, options.loss_scale),
-                             center, point);
+    double* point =
+        reconstruction->points3D.at(observation.point3D_id).xyz.data();
+    problem.AddResidualBlock(
+        ProjectedDirectionCost::Create(observation.direction),
+        CreateLossFunction(options.loss_function, options.loss_scale), center,
+        point);
     ordering->AddElementToGroup(point, 0);
     ordering->AddElementToGroup(center, 1);
   }
@@ -161,7 +177,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   local_summary.num_iterations = solver_summary.iterations.size();
   local_summary.initial_cost = solver_summary.initial_cost;
   local_summary.final_cost = solver_summary.final_cost;
-  local_summary.converged = solver_summary.termination_type == ceres::CONVERGENCE;
+  local_summary.converged =
+      solver_summary.termination_type == ceres::CONVERGENCE;
   if (!solver_summary.IsSolutionUsable()) {
     LOG(WARNING) << "Global positioning: " << solver_summary.message;
     if (summary != nullptr) *summary = local_summary;
@@ -177,9 +194,11 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
     for (const Observation& observation : observations) {
       auto point_it = reconstruction->points3D.find(observation.point3D_id);
       if (point_it == reconstruction->points3D.end()) continue;
-      const Eigen::Vector3d ray = point_it->second.xyz - centers.at(observation.image_id);
+      const Eigen::Vector3d ray =
+          point_it->second.xyz - centers.at(observation.image_id);
       if (ray.dot(observation.direction) < min_cos * ray.norm()) {
-        DeleteObservation(observation.image_id, observation.point2D_idx, reconstruction);
+        DeleteObservation(observation.image_id, observation.point2D_idx,
+                          reconstruction);
         ++local_summary.num_observations_filtered;
       }
     }
@@ -188,8 +207,9 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   local_summary.num_points = reconstruction->points3D.size();
   local_summary.seconds = timer.ElapsedSeconds();
   VLOG(1) << "Global positioning: " << local_summary.num_images << " images, "
-          << local_summary.num_points << " points, " << local_summary.num_observations
-          << " observations, " << local_summary.num_iterations << " iterations, "
+          << local_summary.num_points << " points, "
+          << local_summary.num_observations << " observations, "
+          << local_summary.num_iterations << " iterations, "
           << local_summary.seconds << " s";
   if (summary != nullptr) *summary = local_summary;
   return true;

@@ -14,10 +14,11 @@ namespace colmap_irav4 {
 //     r_ik = s_ik d_ik - (X_k - c_i),   s_ik >= 1 (a scale per observation),
 // under a robust loss. The scales are eliminated in closed form
 // (s_ik = max(1, <d_ik, X_k - c_i>), variable projection), so that Ceres sees
-// only centres and points and Schur-eliminates the points. The gauge: the first image's centre is held at the
-// origin, the rotations fix the orientation and the lower bound of the scales
-// fixes the scale (the nearest points end up about one unit from a camera).
-// Initialisation is random in a box (seeded), so no prior poses are needed.
+// only centres and points and Schur-eliminates the points. The gauge: the first
+// image's centre is held at the origin, the rotations fix the orientation and
+// the lower bound of the scales fixes the scale (the nearest points end up
+// about one unit from a camera). Initialisation is random in a box (seeded), so
+// no prior poses are needed.
 struct GlobalPositionerOptions {
   // Tracks with fewer observations in the model's images are left out (and
   // their points deleted: retriangulation recovers them later).
@@ -54,11 +55,11 @@ struct GlobalPositionerOptions {
 };
 
 struct GlobalPositionerSummary {
-  int num_images = 0;        // images positioned
+  int num_images = 0;          // images positioned
   int num_images_dropped = 0;  // images without usable observations (deleted)
-  int num_points = 0;        // points positioned
+  int num_points = 0;          // points positioned
   int num_points_dropped = 0;  // tracks too short (deleted)
-  int num_observations = 0;  // residuals
+  int num_observations = 0;    // residuals
   int num_observations_filtered = 0;  // unlinked by max_angular_error_deg
   int num_iterations = 0;
   double initial_cost = 0;

@@ -26,14 +26,16 @@ bool ElementLess(const TrackElement& a, const TrackElement& b) {
 
 void TrackBuilderOptions::Check() const {
   if (min_track_length < 2) {
-    throw OptionError(&min_track_length, "Tracks.min_track_length", "must be at least 2");
+    throw OptionError(&min_track_length, "Tracks.min_track_length",
+                      "must be at least 2");
   }
   if (max_track_length < min_track_length) {
     throw OptionError(&max_track_length, "Tracks.max_track_length",
-                     "must be at least min_track_length");
+                      "must be at least min_track_length");
   }
   if (!(max_duplicate_distance >= 0.0)) {
-    throw OptionError(&max_duplicate_distance, "Tracks.max_duplicate_distance", "must be >= 0");
+    throw OptionError(&max_duplicate_distance, "Tracks.max_duplicate_distance",
+                      "must be >= 0");
   }
 }
 
@@ -51,7 +53,8 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
         ObservationKey(image_id, point2D_idx), observations.size());
     if (inserted) {
       auto image_it = images.find(image_id);
-      CHECK(image_it != images.end()) << "match refers to unknown image " << image_id;
+      CHECK(image_it != images.end())
+          << "match refers to unknown image " << image_id;
       CHECK_LT(point2D_idx, image_it->second.points2D.size())
           << "match refers to a missing keypoint of image " << image_id;
       observations.push_back({image_id, point2D_idx});
@@ -89,7 +92,8 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
     bool consistent = true;
     for (size_t begin = 0; begin < track.size() && consistent;) {
       size_t end = begin + 1;
-      while (end < track.size() && track[end].image_id == track[begin].image_id) {
+      while (end < track.size() &&
+             track[end].image_id == track[begin].image_id) {
         ++end;
       }
       const Image& image = images.at(track[begin].image_id);
@@ -129,8 +133,8 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
   return tracks;
 }
 
-std::vector<point3D_t> AddTracksToReconstruction(const std::vector<Track>& tracks,
-                                                 Reconstruction* reconstruction) {
+std::vector<point3D_t> AddTracksToReconstruction(
+    const std::vector<Track>& tracks, Reconstruction* reconstruction) {
   std::vector<point3D_t> point3D_ids;
   point3D_ids.reserve(tracks.size());
   for (const Track& track : tracks) {

@@ -48,7 +48,7 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
 // Adds one Point3D (position unknown: zero, error -1) per track to the
 // reconstruction and links the observations (points2D[].point3D_id). Returns
 // the new point ids in track order.
-std::vector<point3D_t> AddTracksToReconstruction(const std::vector<Track>& tracks,
-                                                 Reconstruction* reconstruction);
+std::vector<point3D_t> AddTracksToReconstruction(
+    const std::vector<Track>& tracks, Reconstruction* reconstruction);
 
 }  // namespace colmap_irav4

@@ -35,7 +35,8 @@ struct NormalizedDirectionCost {
     const T squared_norm = u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + T(1e-24);
     T factor;
     if (bata_) {
-      T dot = u[0] * T(direction_[0]) + u[1] * T(direction_[1]) + u[2] * T(direction_[2]);
+      T dot = u[0] * T(direction_[0]) + u[1] * T(direction_[1]) +
+              u[2] * T(direction_[2]);
       if (dot < T(0)) dot = T(0);
       factor = dot / squared_norm;
     } else {
@@ -45,7 +46,8 @@ struct NormalizedDirectionCost {
     return true;
   }
 
-  static ceres::CostFunction* Create(const Eigen::Vector3d& direction, bool bata) {
+  static ceres::CostFunction* Create(const Eigen::Vector3d& direction,
+                                     bool bata) {
     return new ceres::AutoDiffCostFunction<NormalizedDirectionCost, 3, 3, 3>(
         new NormalizedDirectionCost(direction, bata));
   }
@@ -59,7 +61,8 @@ struct NormalizedDirectionCost {
 // eigenvalue of A^T A (dense: fine up to ~1500 images), its sign chosen so
 // that most baselines agree with their directions.
 bool LinearInitialization(
-    const std::vector<std::tuple<image_t, image_t, Eigen::Vector3d>>& constraints,
+    const std::vector<std::tuple<image_t, image_t, Eigen::Vector3d>>&
+        constraints,
     std::map<image_t, Eigen::Vector3d>* centers) {
   const int n = centers->size();
   if (n < 2 || n > 1500) return false;
@@ -91,15 +94,18 @@ bool LinearInitialization(
   for (int k = 1; k < n; ++k) solution[k] = x.segment<3>(3 * (k - 1));
   int num_agree = 0;
   for (const auto& [id1, id2, v] : constraints) {
-    num_agree += (solution[index.at(id2)] - solution[index.at(id1)]).dot(v) > 0 ? 1 : -1;
+    num_agree +=
+        (solution[index.at(id2)] - solution[index.at(id1)]).dot(v) > 0 ? 1 : -1;
   }
   const double sign = num_agree >= 0 ? 1.0 : -1.0;
   // Scale so that the median baseline is ~100 (away from the degenerate 0).
   std::vector<double> baselines;
   for (const auto& [id1, id2, v] : constraints) {
-    baselines.push_back((solution[index.at(id2)] - solution[index.at(id1)]).norm());
+    baselines.push_back(
+        (solution[index.at(id2)] - solution[index.at(id1)]).norm());
   }
-  std::nth_element(baselines.begin(), baselines.begin() + baselines.size() / 2, baselines.end());
+  std::nth_element(baselines.begin(), baselines.begin() + baselines.size() / 2,
+                   baselines.end());
   const double median = baselines[baselines.size() / 2];
   if (!(median > 0)) return false;
   for (auto& [image_id, center] : *centers) {
@@ -111,22 +117,33 @@ bool LinearInitialization(
 }  // namespace
 
 void TranslationAveragingOptions::Check() const {
-  if (loss_function != "huber" && loss_function != "cauchy" && loss_function != "trivial") {
-    throw OptionError(&loss_function, "TranslationAveraging.loss_function",
-                     "must be huber, cauchy or trivial, not '" + loss_function + "'");
+  if (loss_function != "huber" && loss_function != "cauchy" &&
+      loss_function != "trivial") {
+    throw OptionError(
+        &loss_function, "TranslationAveraging.loss_function",
+        "must be huber, cauchy or trivial, not '" + loss_function + "'");
   }
   if (cost != "bata" && cost != "chordal") {
-    throw OptionError(&cost, "TranslationAveraging.cost", "must be bata or chordal, not '" + cost + "'");
+    throw OptionError(&cost, "TranslationAveraging.cost",
+                      "must be bata or chordal, not '" + cost + "'");
   }
-  if (!(loss_scale > 0)) throw OptionError(&loss_scale, "TranslationAveraging.loss_scale", "must be positive");
+  if (!(loss_scale > 0))
+    throw OptionError(&loss_scale, "TranslationAveraging.loss_scale",
+                      "must be positive");
   if (!(initialization_box > 0)) {
-    throw OptionError(&initialization_box, "TranslationAveraging.initialization_box", "must be positive");
+    throw OptionError(&initialization_box,
+                      "TranslationAveraging.initialization_box",
+                      "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
-    throw OptionError(&max_angular_error_deg, "TranslationAveraging.max_angular_error_deg", "must be in [0, 180)");
+    throw OptionError(&max_angular_error_deg,
+                      "TranslationAveraging.max_angular_error_deg",
+                      "must be in [0, 180)");
   }
   if (max_num_iterations < 1) {
-    throw OptionError(&max_num_iterations, "TranslationAveraging.max_num_iterations", "must be positive");
+    throw OptionError(&max_num_iterations,
+                      "TranslationAveraging.max_num_iterations",
+                      "must be positive");
   }
 }
 
@@ -147,13 +164,15 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
   for (const ImagePairGeometry& pair : pairs) {
     if (pair.image_id1 == pair.image_id2) continue;
     auto it2 = reconstruction->images.find(pair.image_id2);
-    if (!reconstruction->images.count(pair.image_id1) || it2 == reconstruction->images.end()) {
+    if (!reconstruction->images.count(pair.image_id1) ||
+        it2 == reconstruction->images.end()) {
       continue;
     }
     const double norm = pair.t.norm();
     if (!(norm > 1e-12)) continue;
-    constraints.push_back({pair.image_id1, pair.image_id2,
-                           -(it2->second.cam_from_world.rotation.inverse() * (pair.t / norm))});
+    constraints.push_back(
+        {pair.image_id1, pair.image_id2,
+         -(it2->second.cam_from_world.rotation.inverse() * (pair.t / norm))});
     centers[pair.image_id1];
     centers[pair.image_id2];
   }
@@ -164,13 +183,15 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
   for (image_t image_id : dropped) DeleteImage(image_id, reconstruction);
   local_summary.num_images_dropped = dropped.size();
   if (centers.size() < 2) {
-    LOG(WARNING) << "Translation averaging: fewer than two images in usable pairs";
+    LOG(WARNING)
+        << "Translation averaging: fewer than two images in usable pairs";
     if (summary != nullptr) *summary = local_summary;
     return false;
   }
 
   std::vector<std::tuple<image_t, image_t, Eigen::Vector3d>> init_constraints;
-  for (const Constraint& c : constraints) init_constraints.emplace_back(c.image_id1, c.image_id2, c.direction);
+  for (const Constraint& c : constraints)
+    init_constraints.emplace_back(c.image_id1, c.image_id2, c.direction);
   bool initialized = false;
   if (options.linear_initialization) {
     initialized = LinearInitialization(init_constraints, &centers);
@@ -195,8 +216,10 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
       double* c1 = centers.at(constraint.image_id1).data();
       double* c2 = centers.at(constraint.image_id2).data();
       problem.AddResidualBlock(
-          NormalizedDirectionCost::Create(constraint.direction, options.cost == "bata"),
-          CreateLossFunction(options.loss_function, options.loss_scale), c1, c2);
+          NormalizedDirectionCost::Create(constraint.direction,
+                                          options.cost == "bata"),
+          CreateLossFunction(options.loss_function, options.loss_scale), c1,
+          c2);
     }
     problem.SetParameterBlockConstant(centers.at(gauge_image_id).data());
 
@@ -214,7 +237,8 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
     }
   }
   for (auto& [image_id, image] : reconstruction->images) {
-    image.cam_from_world.translation = -(image.cam_from_world.rotation * centers.at(image_id));
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * centers.at(image_id));
   }
   if (options.max_angular_error_deg > 0) {
     const double min_cos = std::cos(DegToRad(options.max_angular_error_deg));

@@ -13,8 +13,8 @@ namespace colmap_irav4 {
 // held fixed, an alternative to global positioning (BATA, Zhuang et al., CVPR
 // 2018). Each pair (i, j) with t_ij (cam_j_from_cam_i, unit) gives the world
 // direction of u = c_j - c_i, v_ij = -R_j^T t_ij. BATA minimises
-// sum rho(|u d_ij - v_ij|) over centres and per-pair scales d_ij >= 0; with d_ij
-// eliminated (d = max(<u, v>, 0) / |u|^2) the residual is
+// sum rho(|u d_ij - v_ij|) over centres and per-pair scales d_ij >= 0; with
+// d_ij eliminated (d = max(<u, v>, 0) / |u|^2) the residual is
 //     r_ij = v_ij - u max(<u, v_ij>, 0) / |u|^2,
 // whose norm is the sine of the angle between u and v_ij (1 beyond 90 deg):
 // bounded, so long and short baselines and wrong pairs weigh alike. Solved
@@ -41,7 +41,7 @@ struct TranslationAveragingOptions {
   double function_tolerance = 1e-7;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
-  int num_threads = -1;  // -1: the hardware concurrency
+  int num_threads = -1;            // -1: the hardware concurrency
   bool print_progress = false;     // Ceres' per-iteration log
   bool show_progress_bar = false;  // progress bar over the iterations
 
@@ -53,7 +53,7 @@ struct TranslationAveragingSummary {
   int num_images = 0;          // positioned
   int num_images_dropped = 0;  // in no usable pair (deleted from the model)
   int num_pairs = 0;
-  int num_outlier_pairs = 0;   // over max_angular_error_deg after solving
+  int num_outlier_pairs = 0;  // over max_angular_error_deg after solving
   int num_iterations = 0;
   double seconds = 0;
 };

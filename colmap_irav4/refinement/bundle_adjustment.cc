@@ -32,7 +32,8 @@ struct ReprojectionCost {
         q * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(point) +
         Eigen::Map<const Eigen::Matrix<T, 3, 1>>(translation);
     T x, y;
-    CameraModelImgFromCam<T>(model_id_, params, in_cam[0], in_cam[1], in_cam[2], &x, &y);
+    CameraModelImgFromCam<T>(model_id_, params, in_cam[0], in_cam[1], in_cam[2],
+                             &x, &y);
     residuals[0] = x - T(xy_[0]);
     residuals[1] = y - T(xy_[1]);
     return true;
@@ -44,18 +45,24 @@ struct ReprojectionCost {
 
 template <int kNumParams>
 ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy) {
-  return new ceres::AutoDiffCostFunction<ReprojectionCost<kNumParams>, 2, 4, 3, 3,
-                                         kNumParams>(
+  return new ceres::AutoDiffCostFunction<ReprojectionCost<kNumParams>, 2, 4, 3,
+                                         3, kNumParams>(
       new ReprojectionCost<kNumParams>(model_id, xy));
 }
 
-ceres::CostFunction* CreateReprojectionCost(int model_id, const Eigen::Vector2d& xy) {
+ceres::CostFunction* CreateReprojectionCost(int model_id,
+                                            const Eigen::Vector2d& xy) {
   switch (CameraModelNumParams(model_id)) {
-    case 3: return MakeCost<3>(model_id, xy);
-    case 4: return MakeCost<4>(model_id, xy);
-    case 5: return MakeCost<5>(model_id, xy);
-    case 8: return MakeCost<8>(model_id, xy);
-    case 12: return MakeCost<12>(model_id, xy);
+    case 3:
+      return MakeCost<3>(model_id, xy);
+    case 4:
+      return MakeCost<4>(model_id, xy);
+    case 5:
+      return MakeCost<5>(model_id, xy);
+    case 8:
+      return MakeCost<8>(model_id, xy);
+    case 12:
+      return MakeCost<12>(model_id, xy);
   }
   LOG(FATAL) << "unsupported camera model " << model_id;
   return nullptr;
@@ -67,9 +74,11 @@ ceres::CostFunction* CreateReprojectionCost(int model_id, const Eigen::Vector2d&
 // crawl whenever many residuals sit in the linear region (its corrector drops
 // their curvature): 59 iterations instead of 12 on fountain-P11 for the same
 // result.
-ceres::LossFunction* MakeLoss(const std::string& name, double scale, double error) {
+ceres::LossFunction* MakeLoss(const std::string& name, double scale,
+                              double error) {
   if (name == "huber") {
-    return error > scale ? new ceres::ScaledLoss(nullptr, scale / error, ceres::TAKE_OWNERSHIP)
+    return error > scale ? new ceres::ScaledLoss(nullptr, scale / error,
+                                                 ceres::TAKE_OWNERSHIP)
                          : nullptr;
   }
   if (name == "huber_ceres") return new ceres::HuberLoss(scale);
@@ -99,10 +108,12 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
       if ((image.cam_from_world * point.xyz).z() <= 0) continue;
       const double error =
           options.loss_function == "huber"
-              ? ReprojectionError(camera, image, point.xyz, image.points2D[element.point2D_idx].xy)
+              ? ReprojectionError(camera, image, point.xyz,
+                                  image.points2D[element.point2D_idx].xy)
               : 0.0;
       problem.AddResidualBlock(
-          CreateReprojectionCost(camera.model_id, image.points2D[element.point2D_idx].xy),
+          CreateReprojectionCost(camera.model_id,
+                                 image.points2D[element.point2D_idx].xy),
           MakeLoss(options.loss_function, options.loss_scale, error),
           image.cam_from_world.rotation.coeffs().data(),
           image.cam_from_world.translation.data(), point.xyz.data(),
@@ -112,7 +123,8 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     }
     if (problem.HasParameterBlock(point.xyz.data())) {
       ordering->AddElementToGroup(point.xyz.data(), 0);
-      if (!options.refine_points) problem.SetParameterBlockConstant(point.xyz.data());
+      if (!options.refine_points)
+        problem.SetParameterBlockConstant(point.xyz.data());
     }
   }
   if (problem.NumResidualBlocks() == 0) return ceres::Solver::Summary();
@@ -132,10 +144,12 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     } else if (options.fix_gauge && k == 1) {
       const Image& first = reconstruction->images.at(images[0]);
       const Eigen::Vector3d baseline =
-          image.cam_from_world.rotation * (image.ProjectionCenter() - first.ProjectionCenter());
+          image.cam_from_world.rotation *
+          (image.ProjectionCenter() - first.ProjectionCenter());
       int fixed_coordinate = 0;
       baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
-      problem.SetManifold(translation, new ceres::SubsetManifold(3, {fixed_coordinate}));
+      problem.SetManifold(translation,
+                          new ceres::SubsetManifold(3, {fixed_coordinate}));
     }
   }
 
@@ -147,14 +161,18 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     auto add = [&constant](const std::vector<int>& idxs) {
       constant.insert(constant.end(), idxs.begin(), idxs.end());
     };
-    if (!options.refine_focal_length) add(CameraModelFocalLengthIdxs(camera.model_id));
-    if (!options.refine_principal_point) add(CameraModelPrincipalPointIdxs(camera.model_id));
-    if (!options.refine_extra_params) add(CameraModelExtraParamsIdxs(camera.model_id));
+    if (!options.refine_focal_length)
+      add(CameraModelFocalLengthIdxs(camera.model_id));
+    if (!options.refine_principal_point)
+      add(CameraModelPrincipalPointIdxs(camera.model_id));
+    if (!options.refine_extra_params)
+      add(CameraModelExtraParamsIdxs(camera.model_id));
     const int num_params = camera.params.size();
     if (static_cast<int>(constant.size()) >= num_params) {
       problem.SetParameterBlockConstant(camera.params.data());
     } else if (!constant.empty()) {
-      problem.SetManifold(camera.params.data(), new ceres::SubsetManifold(num_params, constant));
+      problem.SetManifold(camera.params.data(),
+                          new ceres::SubsetManifold(num_params, constant));
     }
   }
 
@@ -169,7 +187,8 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   }
   if (options.refine_points) solver_options.linear_solver_ordering = ordering;
-  solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
+  solver_options.initial_trust_region_radius =
+      options.initial_trust_region_radius;
   return SolveProblem("bundle adjustment", options, solver_options, &problem);
 }
 
@@ -179,27 +198,38 @@ void BundleAdjustmentOptions::Check() const {
   if (loss_function != "huber" && loss_function != "huber_ceres" &&
       loss_function != "cauchy" && loss_function != "trivial") {
     throw OptionError(&loss_function, "BundleAdjustment.loss_function",
-                     "must be huber, huber_ceres, cauchy or trivial, not '" + loss_function + "'");
+                      "must be huber, huber_ceres, cauchy or trivial, not '" +
+                          loss_function + "'");
   }
-  if (!(loss_scale > 0)) throw OptionError(&loss_scale, "BundleAdjustment.loss_scale", "must be positive");
-  if (num_rounds < 1) throw OptionError(&num_rounds, "BundleAdjustment.num_rounds", "must be at least 1");
+  if (!(loss_scale > 0))
+    throw OptionError(&loss_scale, "BundleAdjustment.loss_scale",
+                      "must be positive");
+  if (num_rounds < 1)
+    throw OptionError(&num_rounds, "BundleAdjustment.num_rounds",
+                      "must be at least 1");
   if (!(min_filtered_fraction >= 0 && min_filtered_fraction < 1)) {
-    throw OptionError(&min_filtered_fraction, "BundleAdjustment.min_filtered_fraction", "must be in [0, 1)");
+    throw OptionError(&min_filtered_fraction,
+                      "BundleAdjustment.min_filtered_fraction",
+                      "must be in [0, 1)");
   }
   if (!(max_reproj_error >= 0)) {
-    throw OptionError(&max_reproj_error, "BundleAdjustment.max_reproj_error", "must be >= 0");
+    throw OptionError(&max_reproj_error, "BundleAdjustment.max_reproj_error",
+                      "must be >= 0");
   }
   if (linear_solver != "auto" && linear_solver != "sparse_schur" &&
       linear_solver != "dense_schur" && linear_solver != "iterative_schur") {
-    throw OptionError(&linear_solver, "BundleAdjustment.linear_solver",
-                     "must be auto, sparse_schur, dense_schur or iterative_schur");
+    throw OptionError(
+        &linear_solver, "BundleAdjustment.linear_solver",
+        "must be auto, sparse_schur, dense_schur or iterative_schur");
   }
   if (max_num_iterations < 1) {
-    throw OptionError(&max_num_iterations, "BundleAdjustment.max_num_iterations", "must be positive");
+    throw OptionError(&max_num_iterations,
+                      "BundleAdjustment.max_num_iterations",
+                      "must be positive");
   }
   if (!(function_tolerance >= 0)) {
-    throw OptionError(&function_tolerance, "BundleAdjustment.function_tolerance",
-                      "must be >= 0");
+    throw OptionError(&function_tolerance,
+                      "BundleAdjustment.function_tolerance", "must be >= 0");
   }
   if (!(initial_trust_region_radius > 0)) {
     throw OptionError(&initial_trust_region_radius,
@@ -214,7 +244,8 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
   options.Check();
   Timer timer;
   BundleAdjustmentSummary local_summary;
-  local_summary.initial_mean_reproj_error = UpdateReprojectionErrors(reconstruction);
+  local_summary.initial_mean_reproj_error =
+      UpdateReprojectionErrors(reconstruction);
   bool success = true;
   for (int round = 0; round < options.num_rounds; ++round) {
     // Huber by reweighting: a few solves, each from the last one's errors.
@@ -229,22 +260,25 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
       }
     }
     ++local_summary.num_rounds;
-    local_summary.converged = solver_summary.termination_type == ceres::CONVERGENCE;
+    local_summary.converged =
+        solver_summary.termination_type == ceres::CONVERGENCE;
     if (solver_summary.termination_type == ceres::FAILURE) {
       LOG(WARNING) << "Bundle adjustment: " << solver_summary.message;
       success = false;
       break;
     }
     if (options.max_reproj_error <= 0) break;
-    const size_t num_filtered =
-        FilterObservationsWithLargeReprojectionError(options.max_reproj_error, reconstruction);
+    const size_t num_filtered = FilterObservationsWithLargeReprojectionError(
+        options.max_reproj_error, reconstruction);
     local_summary.num_observations_filtered += num_filtered;
     if (num_filtered == 0 ||
-        num_filtered < options.min_filtered_fraction * NumObservations(*reconstruction)) {
+        num_filtered <
+            options.min_filtered_fraction * NumObservations(*reconstruction)) {
       break;
     }
   }
-  local_summary.final_mean_reproj_error = UpdateReprojectionErrors(reconstruction);
+  local_summary.final_mean_reproj_error =
+      UpdateReprojectionErrors(reconstruction);
   local_summary.num_images = reconstruction->images.size();
   local_summary.num_points = reconstruction->points3D.size();
   local_summary.num_observations = NumObservations(*reconstruction);
@@ -253,8 +287,8 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
           << local_summary.num_iterations << " iterations, reprojection error "
           << local_summary.initial_mean_reproj_error << " -> "
           << local_summary.final_mean_reproj_error << " px, "
-          << local_summary.num_observations_filtered << " observations filtered, "
-          << local_summary.seconds << " s";
+          << local_summary.num_observations_filtered
+          << " observations filtered, " << local_summary.seconds << " s";
   if (summary != nullptr) *summary = local_summary;
   return success;
 }

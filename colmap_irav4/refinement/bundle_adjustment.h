@@ -62,7 +62,7 @@ struct BundleAdjustmentOptions {
   // reaches it in fewer iterations; steps that do not fit are rejected and
   // the radius shrinks, so a large start costs little.
   double initial_trust_region_radius = 1e8;
-  int num_threads = -1;  // -1: the hardware concurrency
+  int num_threads = -1;            // -1: the hardware concurrency
   bool print_progress = false;     // Ceres' per-iteration log
   bool show_progress_bar = false;  // progress bar over the iterations
 
@@ -73,10 +73,10 @@ struct BundleAdjustmentOptions {
 struct BundleAdjustmentSummary {
   int num_rounds = 0;
   int num_images = 0;
-  int num_points = 0;                  // after the last round
-  int num_observations = 0;            // after the last round
-  int num_observations_filtered = 0;   // over all rounds
-  int num_iterations = 0;              // over all rounds
+  int num_points = 0;                    // after the last round
+  int num_observations = 0;              // after the last round
+  int num_observations_filtered = 0;     // over all rounds
+  int num_iterations = 0;                // over all rounds
   double initial_mean_reproj_error = 0;  // px, before the first round
   double final_mean_reproj_error = 0;    // px, after filtering
   double seconds = 0;

@@ -11,15 +11,15 @@
 
 namespace colmap_irav4 {
 
-size_t FilterObservationsWithLargeReprojectionError(double max_reproj_error,
-                                                    Reconstruction* reconstruction) {
+size_t FilterObservationsWithLargeReprojectionError(
+    double max_reproj_error, Reconstruction* reconstruction) {
   std::vector<TrackElement> outliers;
   for (const auto& [point3D_id, point] : reconstruction->points3D) {
     for (const TrackElement& element : point.track) {
       const Image& image = reconstruction->images.at(element.image_id);
       const Camera& camera = reconstruction->cameras.at(image.camera_id);
-      const double error = ReprojectionError(camera, image, point.xyz,
-                                             image.points2D[element.point2D_idx].xy);
+      const double error = ReprojectionError(
+          camera, image, point.xyz, image.points2D[element.point2D_idx].xy);
       if (!(error <= max_reproj_error)) outliers.push_back(element);
     }
   }
@@ -29,12 +29,14 @@ size_t FilterObservationsWithLargeReprojectionError(double max_reproj_error,
   return outliers.size();
 }
 
-double MaxTriangulationAngle(const Reconstruction& reconstruction, const Point3D& point) {
+double MaxTriangulationAngle(const Reconstruction& reconstruction,
+                             const Point3D& point) {
   std::vector<Eigen::Vector3d> rays;
   rays.reserve(point.track.size());
   for (const TrackElement& element : point.track) {
     const Eigen::Vector3d ray =
-        point.xyz - reconstruction.images.at(element.image_id).ProjectionCenter();
+        point.xyz -
+        reconstruction.images.at(element.image_id).ProjectionCenter();
     const double norm = ray.norm();
     if (norm > 0) rays.push_back(ray / norm);
   }
@@ -57,29 +59,35 @@ size_t FilterPointsWithSmallTriangulationAngle(double min_tri_angle_deg,
       filtered.push_back(point3D_id);
     }
   }
-  for (point3D_t point3D_id : filtered) DeletePoint3D(point3D_id, reconstruction);
+  for (point3D_t point3D_id : filtered)
+    DeletePoint3D(point3D_id, reconstruction);
   return filtered.size();
 }
 
 void FilterOptions::Check() const {
   if (!(max_reproj_error > 0)) {
-    throw OptionError(&max_reproj_error, "Filter.max_reproj_error", "must be positive");
+    throw OptionError(&max_reproj_error, "Filter.max_reproj_error",
+                      "must be positive");
   }
   if (!(min_tri_angle >= 0 && min_tri_angle < 180)) {
-    throw OptionError(&min_tri_angle, "Filter.min_tri_angle", "must be in [0, 180)");
+    throw OptionError(&min_tri_angle, "Filter.min_tri_angle",
+                      "must be in [0, 180)");
   }
   if (min_num_observations_per_image < 0) {
-    throw OptionError(&min_num_observations_per_image, "Filter.min_num_observations_per_image", "must be >= 0");
+    throw OptionError(&min_num_observations_per_image,
+                      "Filter.min_num_observations_per_image", "must be >= 0");
   }
 }
 
-FilterSummary RunFiltering(const FilterOptions& options, Reconstruction* reconstruction) {
+FilterSummary RunFiltering(const FilterOptions& options,
+                           Reconstruction* reconstruction) {
   options.Check();
   FilterSummary summary;
   summary.num_observations_filtered =
-      FilterObservationsWithLargeReprojectionError(options.max_reproj_error, reconstruction);
-  summary.num_points_filtered =
-      FilterPointsWithSmallTriangulationAngle(options.min_tri_angle, reconstruction);
+      FilterObservationsWithLargeReprojectionError(options.max_reproj_error,
+                                                   reconstruction);
+  summary.num_points_filtered = FilterPointsWithSmallTriangulationAngle(
+      options.min_tri_angle, reconstruction);
   if (options.min_num_observations_per_image > 0) {
     std::vector<image_t> filtered;
     for (const auto& [image_id, image] : reconstruction->images) {
@@ -97,13 +105,16 @@ FilterSummary RunFiltering(const FilterOptions& options, Reconstruction* reconst
   return summary;
 }
 
-void TransformReconstruction(const Sim3d& new_from_old, Reconstruction* reconstruction) {
+void TransformReconstruction(const Sim3d& new_from_old,
+                             Reconstruction* reconstruction) {
   const Eigen::Quaterniond R(new_from_old.R);
   for (auto& [image_id, image] : reconstruction->images) {
     // x_cam' = scale * x_cam: same projections.
-    const Eigen::Quaterniond rotation = image.cam_from_world.rotation * R.inverse();
+    const Eigen::Quaterniond rotation =
+        image.cam_from_world.rotation * R.inverse();
     image.cam_from_world.translation =
-        new_from_old.scale * image.cam_from_world.translation - rotation * new_from_old.t;
+        new_from_old.scale * image.cam_from_world.translation -
+        rotation * new_from_old.t;
     image.cam_from_world.rotation = rotation.normalized();
   }
   for (auto& [point3D_id, point] : reconstruction->points3D) {
@@ -112,10 +123,12 @@ void TransformReconstruction(const Sim3d& new_from_old, Reconstruction* reconstr
 }
 
 void NormalizationOptions::Check() const {
-  if (!(extent > 0)) throw OptionError(&extent, "Normalization.extent", "must be positive");
-  if (!(min_percentile >= 0 && min_percentile < max_percentile && max_percentile <= 1)) {
+  if (!(extent > 0))
+    throw OptionError(&extent, "Normalization.extent", "must be positive");
+  if (!(min_percentile >= 0 && min_percentile < max_percentile &&
+        max_percentile <= 1)) {
     throw OptionError(&min_percentile, "Normalization.min_percentile",
-                     "need 0 <= min_percentile < max_percentile <= 1");
+                      "need 0 <= min_percentile < max_percentile <= 1");
   }
 }
 
@@ -142,10 +155,12 @@ Sim3d NormalizeReconstruction(const NormalizationOptions& options,
     for (const auto& location : locations) values.push_back(location[axis]);
     std::sort(values.begin(), values.end());
     const auto at = [&values](double fraction) {
-      return values[static_cast<size_t>(std::round(fraction * (values.size() - 1)))];
+      return values[static_cast<size_t>(
+          std::round(fraction * (values.size() - 1)))];
     };
     median[axis] = at(0.5);
-    spread = std::max(spread, at(options.max_percentile) - at(options.min_percentile));
+    spread = std::max(spread,
+                      at(options.max_percentile) - at(options.min_percentile));
   }
   transform.scale = spread > 1e-12 ? options.extent / spread : 1.0;
   transform.t = -transform.scale * median;

@@ -8,11 +8,12 @@ namespace colmap_irav4 {
 // Unlinks observations whose reprojection error exceeds max_reproj_error (px)
 // or whose point is behind the camera; points left with fewer than two
 // observations are deleted. Returns the number of observations removed.
-size_t FilterObservationsWithLargeReprojectionError(double max_reproj_error,
-                                                    Reconstruction* reconstruction);
+size_t FilterObservationsWithLargeReprojectionError(
+    double max_reproj_error, Reconstruction* reconstruction);
 
 // Largest angle (rad) between the viewing rays of a point's observations.
-double MaxTriangulationAngle(const Reconstruction& reconstruction, const Point3D& point);
+double MaxTriangulationAngle(const Reconstruction& reconstruction,
+                             const Point3D& point);
 
 // Deletes points whose largest triangulation angle is below min_tri_angle_deg
 // (their depth is unreliable). Returns the number of points deleted.
@@ -39,11 +40,13 @@ struct FilterSummary {
   size_t num_images_filtered = 0;
 };
 
-FilterSummary RunFiltering(const FilterOptions& options, Reconstruction* reconstruction);
+FilterSummary RunFiltering(const FilterOptions& options,
+                           Reconstruction* reconstruction);
 
 // Applies x' = scale * R x + t to the whole model (points and poses; the
 // images are unchanged).
-void TransformReconstruction(const Sim3d& new_from_old, Reconstruction* reconstruction);
+void TransformReconstruction(const Sim3d& new_from_old,
+                             Reconstruction* reconstruction);
 
 struct NormalizationOptions {
   // Extent of the central part of the model after normalisation.

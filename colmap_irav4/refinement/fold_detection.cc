@@ -45,9 +45,8 @@ bool ExpectsPoint(const View& view, const Eigen::Vector3d& from_center,
   if (n_view > max_scale_ratio * n_from || n_from > max_scale_ratio * n_view) {
     return false;
   }
-  const Eigen::Vector2d pixel =
-      CameraCameraToImage(*view.camera, Eigen::Vector2d(x.x() / x.z(),
-                                                        x.y() / x.z()));
+  const Eigen::Vector2d pixel = CameraCameraToImage(
+      *view.camera, Eigen::Vector2d(x.x() / x.z(), x.y() / x.z()));
   return pixel.allFinite() && pixel.x() >= 0 && pixel.y() >= 0 &&
          pixel.x() <= static_cast<double>(view.camera->width) &&
          pixel.y() <= static_cast<double>(view.camera->height);
@@ -87,7 +86,8 @@ void FoldDetectionOptions::Check() const {
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
     throw InputError("--Fold.max_rotation_error_deg", "must be in (0, 180]");
   }
-  if (!(contradictory_ray_angle_deg > 0 && contradictory_ray_angle_deg <= 180)) {
+  if (!(contradictory_ray_angle_deg > 0 &&
+        contradictory_ray_angle_deg <= 180)) {
     throw InputError("--Fold.contradictory_ray_angle_deg",
                      "must be in (0, 180]");
   }
@@ -191,7 +191,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   };
   std::set<std::pair<int, int>> predicted;  // (i, j), i < j
   auto is_predicted = [&](int i, int j) {
-    return predicted.count(i < j ? std::make_pair(i, j) : std::make_pair(j, i)) > 0;
+    return predicted.count(i < j ? std::make_pair(i, j)
+                                 : std::make_pair(j, i)) > 0;
   };
   std::vector<std::vector<int>> predicted_neighbours(num_views);
   for (int i = 0; i < num_views; ++i) {
@@ -222,11 +223,10 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
       }
     }
   }
-  report.fold_score =
-      report.num_predicted_pairs > 0
-          ? static_cast<double>(report.num_missing_pairs) /
-                report.num_predicted_pairs
-          : 0.0;
+  report.fold_score = report.num_predicted_pairs > 0
+                          ? static_cast<double>(report.num_missing_pairs) /
+                                report.num_predicted_pairs
+                          : 0.0;
   report.folded = report.fold_score > options.max_fold_score &&
                   report.num_missing_pairs >= options.min_missing_pairs;
 
@@ -240,8 +240,7 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     }
     const View& v1 = views[index.at(pair->image_id1)];
     const View& v2 = views[index.at(pair->image_id2)];
-    const double error =
-        AngularDistanceDeg(pair->R, v2.R * v1.R.transpose());
+    const double error = AngularDistanceDeg(pair->R, v2.R * v1.R.transpose());
     if (error <= options.max_rotation_error_deg) {
       consistent.emplace_back(index.at(pair->image_id1),
                               index.at(pair->image_id2));
@@ -340,8 +339,10 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     if (suspects.count(Ordered(pair.image_id1, pair.image_id2))) continue;
     const Image& image1 = reconstruction.images.at(pair.image_id1);
     const Image& image2 = reconstruction.images.at(pair.image_id2);
-    const Eigen::Matrix3d R1 = image1.cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Matrix3d R2 = image2.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R1 =
+        image1.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R2 =
+        image2.cam_from_world.rotation.toRotationMatrix();
     if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
         options.max_rotation_error_deg) {
       continue;
@@ -417,13 +418,14 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   // it cuts that the model trusts are then the ones that folded it), or when
   // it separates more missing pairs than it cuts trusted ones.
   const int num_missing_edges = static_cast<int>(edges.size()) - num_trusted;
-  const bool explains = cut_missing * 5 >= num_missing_edges * 4 ||
-                        cut_missing > cut_trusted;
+  const bool explains =
+      cut_missing * 5 >= num_missing_edges * 4 || cut_missing > cut_trusted;
   if (positive.empty() || negative_side.empty() || !explains) {
     sides.first = ids;
     return sides;
   }
-  if (positive.size() < negative_side.size()) std::swap(positive, negative_side);
+  if (positive.size() < negative_side.size())
+    std::swap(positive, negative_side);
   sides.first = std::move(positive);
   sides.second = std::move(negative_side);
   return sides;

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include <Eigen/Dense>
 #include <glog/logging.h>
+#include <Eigen/Dense>
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/scene/camera_models.h"
@@ -37,12 +37,15 @@ void RefinePoint(const std::vector<Ray>& rays, const std::vector<int>& subset,
     Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
     Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();
     for (int r : subset) {
-      const Eigen::Matrix3d R = rays[r].image->cam_from_world.rotation.toRotationMatrix();
-      const Eigen::Vector3d p = R * X + rays[r].image->cam_from_world.translation;
+      const Eigen::Matrix3d R =
+          rays[r].image->cam_from_world.rotation.toRotationMatrix();
+      const Eigen::Vector3d p =
+          R * X + rays[r].image->cam_from_world.translation;
       if (p.z() <= 0) return;
       const double inv_z = 1.0 / p.z();
       const Eigen::Vector2d residual =
-          rays[r].focal * (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - rays[r].normalized);
+          rays[r].focal *
+          (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - rays[r].normalized);
       Eigen::Matrix<double, 2, 3> J;
       J << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z, -p.y() * inv_z * inv_z;
       const Eigen::Matrix<double, 2, 3> JR = rays[r].focal * J * R;
@@ -58,13 +61,15 @@ void RefinePoint(const std::vector<Ray>& rays, const std::vector<int>& subset,
 }
 
 // Inliers of `xyz` among `rays` (in front, within the reprojection error).
-std::vector<int> Inliers(const std::vector<Ray>& rays, const std::vector<int>& candidates,
+std::vector<int> Inliers(const std::vector<Ray>& rays,
+                         const std::vector<int>& candidates,
                          const Eigen::Vector3d& xyz, double max_reproj_error,
                          double* sum_error) {
   std::vector<int> inliers;
   *sum_error = 0;
   for (int r : candidates) {
-    const double error = ReprojectionError(*rays[r].camera, *rays[r].image, xyz, rays[r].xy);
+    const double error =
+        ReprojectionError(*rays[r].camera, *rays[r].image, xyz, rays[r].xy);
     if (error <= max_reproj_error) {
       inliers.push_back(r);
       *sum_error += error;
@@ -79,7 +84,8 @@ double MaxAngleCos(const std::vector<Ray>& rays, const std::vector<int>& subset,
   for (size_t a = 0; a < subset.size(); ++a) {
     const Eigen::Vector3d ra = (xyz - rays[subset[a]].center).normalized();
     for (size_t b = a + 1; b < subset.size(); ++b) {
-      min_cos = std::min(min_cos, ra.dot((xyz - rays[subset[b]].center).normalized()));
+      min_cos = std::min(min_cos,
+                         ra.dot((xyz - rays[subset[b]].center).normalized()));
     }
   }
   return min_cos;
@@ -108,8 +114,9 @@ bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
   return xyz->allFinite();
 }
 
-bool TriangulateDLT(const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
-                    const std::vector<Eigen::Vector2d>& points, Eigen::Vector3d* xyz) {
+bool TriangulateDLT(
+    const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
+    const std::vector<Eigen::Vector2d>& points, Eigen::Vector3d* xyz) {
   CHECK_EQ(cams_from_world.size(), points.size());
   if (points.size() < 2) return false;
   Eigen::MatrixXd A(2 * points.size(), 4);
@@ -127,14 +134,19 @@ bool TriangulateDLT(const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_wo
 
 void TriangulationOptions::Check() const {
   if (!(max_reproj_error > 0)) {
-    throw OptionError(&max_reproj_error, "Triangulation.max_reproj_error", "must be positive");
+    throw OptionError(&max_reproj_error, "Triangulation.max_reproj_error",
+                      "must be positive");
   }
   if (!(min_tri_angle >= 0 && min_tri_angle < 180)) {
-    throw OptionError(&min_tri_angle, "Triangulation.min_tri_angle", "must be in [0, 180)");
+    throw OptionError(&min_tri_angle, "Triangulation.min_tri_angle",
+                      "must be in [0, 180)");
   }
-  if (max_num_trials < 1) throw OptionError(&max_num_trials, "Triangulation.max_num_trials", "must be positive");
+  if (max_num_trials < 1)
+    throw OptionError(&max_num_trials, "Triangulation.max_num_trials",
+                      "must be positive");
   if (max_points_per_track < 1) {
-    throw OptionError(&max_points_per_track, "Triangulation.max_points_per_track", "must be positive");
+    throw OptionError(&max_points_per_track,
+                      "Triangulation.max_points_per_track", "must be positive");
   }
 }
 
@@ -164,12 +176,15 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
       ray.image = &image;
       ray.camera = &reconstruction->cameras.at(image.camera_id);
       ray.xy = point2D.xy;
-      const Eigen::Vector2d normalized = CameraImageToCamera(*ray.camera, point2D.xy);
+      const Eigen::Vector2d normalized =
+          CameraImageToCamera(*ray.camera, point2D.xy);
       if (!normalized.allFinite()) continue;
       ray.normalized = normalized;
       ray.focal = CameraMeanFocalLength(*ray.camera);
       ray.center = centers.at(element.image_id);
-      ray.direction = (image.cam_from_world.rotation.inverse() * normalized.homogeneous()).normalized();
+      ray.direction =
+          (image.cam_from_world.rotation.inverse() * normalized.homogeneous())
+              .normalized();
       rays.push_back(ray);
     }
     if (rays.size() < 2) continue;
@@ -177,13 +192,16 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
 
     std::vector<int> remaining(rays.size());
     for (size_t r = 0; r < rays.size(); ++r) remaining[r] = r;
-    for (int found = 0; found < options.max_points_per_track && remaining.size() >= 2; ++found) {
+    for (int found = 0;
+         found < options.max_points_per_track && remaining.size() >= 2;
+         ++found) {
       // Candidate pairs.
       std::vector<std::pair<int, int>> pairs;
       const size_t n = remaining.size();
       if (n * (n - 1) / 2 <= static_cast<size_t>(options.max_num_trials)) {
         for (size_t a = 0; a < n; ++a) {
-          for (size_t b = a + 1; b < n; ++b) pairs.emplace_back(remaining[a], remaining[b]);
+          for (size_t b = a + 1; b < n; ++b)
+            pairs.emplace_back(remaining[a], remaining[b]);
         }
       } else {
         std::uniform_int_distribution<size_t> dist(0, n - 1);
@@ -199,11 +217,13 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
         if (rays[a].direction.dot(rays[b].direction) > min_angle_cos) continue;
         Eigen::Vector3d xyz;
         if (!TriangulateMidpoint({rays[a].center, rays[b].center},
-                                 {rays[a].direction, rays[b].direction}, &xyz)) {
+                                 {rays[a].direction, rays[b].direction},
+                                 &xyz)) {
           continue;
         }
         double error;
-        std::vector<int> inliers = Inliers(rays, remaining, xyz, options.max_reproj_error, &error);
+        std::vector<int> inliers =
+            Inliers(rays, remaining, xyz, options.max_reproj_error, &error);
         if (inliers.size() > best_inliers.size() ||
             (inliers.size() == best_inliers.size() && error < best_error)) {
           best_inliers = std::move(inliers);
@@ -236,8 +256,9 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
       ++summary.num_points_added;
       summary.num_observations_added += point_track.size();
       std::vector<int> rest;
-      std::set_difference(remaining.begin(), remaining.end(), best_inliers.begin(),
-                          best_inliers.end(), std::back_inserter(rest));
+      std::set_difference(remaining.begin(), remaining.end(),
+                          best_inliers.begin(), best_inliers.end(),
+                          std::back_inserter(rest));
       remaining = std::move(rest);
     }
   }

@@ -5,8 +5,8 @@
 
 #include <Eigen/Core>
 
-#include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/track.h"
 
 namespace colmap_irav4 {
 
@@ -19,9 +19,9 @@ bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
 
 // Multi-view DLT from cam_from_world matrices and normalised image points
 // (x/z, y/z). Returns false if degenerate or the point is at infinity.
-bool TriangulateDLT(const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
-                    const std::vector<Eigen::Vector2d>& points,
-                    Eigen::Vector3d* xyz);
+bool TriangulateDLT(
+    const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
+    const std::vector<Eigen::Vector2d>& points, Eigen::Vector3d* xyz);
 
 struct TriangulationOptions {
   // Inlier threshold on the reprojection error, px (COLMAP's
@@ -43,7 +43,7 @@ struct TriangulationOptions {
 };
 
 struct TriangulationSummary {
-  size_t num_tracks_tried = 0;     // tracks with >= 2 unlinked observations
+  size_t num_tracks_tried = 0;  // tracks with >= 2 unlinked observations
   size_t num_points_added = 0;
   size_t num_observations_added = 0;
 };

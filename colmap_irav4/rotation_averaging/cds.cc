@@ -88,19 +88,19 @@ std::vector<int> GreedyCds(const RotationGraph& graph, bool weighted) {
       start = v;
     }
   }
-  return GrowCds(graph, start, weighted,
-                 [](const std::vector<int>& candidates,
-                    const std::vector<double>& white_score) {
-                   int best_v = -1;
-                   for (int v : candidates) {
-                     if (best_v < 0 || white_score[v] > white_score[best_v] ||
-                         (white_score[v] == white_score[best_v] &&
-                          v < best_v)) {
-                       best_v = v;
-                     }
-                   }
-                   return best_v;
-                 });
+  return GrowCds(
+      graph, start, weighted,
+      [](const std::vector<int>& candidates,
+         const std::vector<double>& white_score) {
+        int best_v = -1;
+        for (int v : candidates) {
+          if (best_v < 0 || white_score[v] > white_score[best_v] ||
+              (white_score[v] == white_score[best_v] && v < best_v)) {
+            best_v = v;
+          }
+        }
+        return best_v;
+      });
 }
 
 std::vector<int> RandomCds(const RotationGraph& graph, uint64_t seed) {

@@ -145,9 +145,8 @@ double LevelModularity(const LevelGraph& level, const std::vector<int>& labels,
                        double resolution) {
   const double two_m = 2 * level.total_weight;
   if (two_m <= 0) return 0;
-  const int k = labels.empty()
-                    ? 0
-                    : *std::max_element(labels.begin(), labels.end()) + 1;
+  const int k =
+      labels.empty() ? 0 : *std::max_element(labels.begin(), labels.end()) + 1;
   std::vector<double> in(k, 0.0), tot(k, 0.0);
   for (int i = 0; i < level.NumNodes(); ++i) {
     tot[labels[i]] += level.Strength(i);
@@ -165,9 +164,8 @@ double LevelModularity(const LevelGraph& level, const std::vector<int>& labels,
 
 std::vector<std::vector<int>> Groups(const std::vector<int>& vertices,
                                      const std::vector<int>& labels) {
-  const int k = labels.empty()
-                    ? 0
-                    : *std::max_element(labels.begin(), labels.end()) + 1;
+  const int k =
+      labels.empty() ? 0 : *std::max_element(labels.begin(), labels.end()) + 1;
   std::vector<std::vector<int>> groups(k);
   for (size_t i = 0; i < labels.size(); ++i) {
     groups[labels[i]].push_back(vertices[i]);
@@ -295,10 +293,9 @@ std::vector<std::vector<int>> DetectCommunities(
   options.Check();
   std::vector<int> all(graph.NumVertices());
   std::iota(all.begin(), all.end(), 0);
-  std::vector<std::vector<int>> communities =
-      Groups(all, LouvainCommunities(graph, options.resolution,
-                                     options.max_passes,
-                                     options.min_modularity_gain));
+  std::vector<std::vector<int>> communities = Groups(
+      all, LouvainCommunities(graph, options.resolution, options.max_passes,
+                              options.min_modularity_gain));
 
   // Too large: Louvain inside (it finds the finer structure that the global
   // resolution limit hides), else connected BFS chunks.
@@ -314,9 +311,9 @@ std::vector<std::vector<int>> DetectCommunities(
       }
       const RotationGraph sub = graph.InducedSubgraph(community);
       std::vector<std::vector<int>> parts =
-          Groups(community, LouvainCommunities(sub, options.resolution,
-                                               options.max_passes,
-                                               options.min_modularity_gain));
+          Groups(community,
+                 LouvainCommunities(sub, options.resolution, options.max_passes,
+                                    options.min_modularity_gain));
       if (parts.size() <= 1) {
         parts = BfsChunks(graph, community, options.max_community_size);
         for (auto& part : parts) communities.push_back(std::move(part));
@@ -340,8 +337,8 @@ std::vector<std::vector<int>> DetectCommunities(
     int worst = -1;
     for (size_t c = 0; c < communities.size(); ++c) {
       if (stuck[communities[c].front()]) continue;
-      const bool too_small = static_cast<int>(communities[c].size()) <
-                             options.min_community_size;
+      const bool too_small =
+          static_cast<int>(communities[c].size()) < options.min_community_size;
       if (!too_small && ContainsTriangle(graph, communities[c])) continue;
       if (worst < 0 || communities[c].size() < communities[worst].size()) {
         worst = static_cast<int>(c);

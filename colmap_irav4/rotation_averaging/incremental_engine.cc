@@ -25,21 +25,27 @@ void IncrementalOptions::Check() const {
     throw OptionError(field, "RotationAveraging." + name, problem);
   };
   if (!(theta_deg > 0.0 && theta_deg < 180.0)) {
-    fail(&theta_deg, "theta_deg", "must be in (0, 180), got " + std::to_string(theta_deg));
+    fail(&theta_deg, "theta_deg",
+         "must be in (0, 180), got " + std::to_string(theta_deg));
   }
   if (!(global_growth_ratio >= 0.0)) {
     fail(&global_growth_ratio, "global_growth_ratio",
          "must be >= 0, got " + std::to_string(global_growth_ratio));
   }
-  if (max_num_iterations < 1) fail(&max_num_iterations, "max_num_iterations", "must be >= 1");
+  if (max_num_iterations < 1)
+    fail(&max_num_iterations, "max_num_iterations", "must be >= 1");
   if (max_num_local_iterations < 1) {
     fail(&max_num_local_iterations, "max_num_local_iterations", "must be >= 1");
   }
-  if (!(function_tolerance > 0.0)) fail(&function_tolerance, "function_tolerance", "must be > 0");
-  if (max_seed_triplets < 0) fail(&max_seed_triplets, "max_seed_triplets", "must be >= 0");
-  if (max_precomputations < 0) fail(&max_precomputations, "max_precomputations", "must be >= 0");
+  if (!(function_tolerance > 0.0))
+    fail(&function_tolerance, "function_tolerance", "must be > 0");
+  if (max_seed_triplets < 0)
+    fail(&max_seed_triplets, "max_seed_triplets", "must be >= 0");
+  if (max_precomputations < 0)
+    fail(&max_precomputations, "max_precomputations", "must be >= 0");
   if (max_direct_solver_vertices < 0) {
-    fail(&max_direct_solver_vertices, "max_direct_solver_vertices", "must be >= 0");
+    fail(&max_direct_solver_vertices, "max_direct_solver_vertices",
+         "must be >= 0");
   }
   if (num_threads < 1) fail(&num_threads, "num_threads", "must be >= 1");
   if (intermediate_global_iterations < 1) {
@@ -61,8 +67,8 @@ inline double CosDistance(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
 }
 
 // R_{from,to} R without copying the (possibly transposed) measurement.
-inline Eigen::Matrix3d Chain(const RotationGraph& graph, int edge_idx,
-                             int from, const Eigen::Matrix3d& R) {
+inline Eigen::Matrix3d Chain(const RotationGraph& graph, int edge_idx, int from,
+                             const Eigen::Matrix3d& R) {
   const RelativeRotation& edge = graph.Edge(edge_idx);
   if (edge.i == from) return edge.R_ij * R;
   return edge.R_ij.transpose() * R;
@@ -72,8 +78,9 @@ inline Eigen::Matrix3d Chain(const RotationGraph& graph, int edge_idx,
 inline double CosToEdge(const RotationGraph& graph, int edge_idx, int from,
                         const Eigen::Matrix3d& X) {
   const RelativeRotation& edge = graph.Edge(edge_idx);
-  const double dot = edge.i == from ? (edge.R_ij.array() * X.array()).sum()
-                                    : (edge.R_ij.transpose().array() * X.array()).sum();
+  const double dot = edge.i == from
+                         ? (edge.R_ij.array() * X.array()).sum()
+                         : (edge.R_ij.transpose().array() * X.array()).sum();
   return std::clamp((dot - 1.0) * 0.5, -1.0, 1.0);
 }
 
@@ -105,8 +112,8 @@ struct FixedNeighborError {
   template <typename T>
   bool operator()(const T* q_j, T* residual) const {
     const Eigen::Map<const Eigen::Quaternion<T>> Q_j(q_j);
-    const Eigen::Quaternion<T> E = q_ij_inverse.template cast<T>() * Q_j *
-                                   q_i_inverse.template cast<T>();
+    const Eigen::Quaternion<T> E =
+        q_ij_inverse.template cast<T>() * Q_j * q_i_inverse.template cast<T>();
     const T wxyz[4] = {E.w(), E.x(), E.y(), E.z()};
     ceres::QuaternionToAngleAxis(wxyz, residual);
     return true;
@@ -244,8 +251,7 @@ double IncrementalEngine::OptimizeTriplet(int i, int j, int k, int e_ij,
     R[k] = R_ik;
     fixed[i] = true;
     OptimizeRotationsOnEdges(graph_, {e_ij, e_ik, e_jk}, {i, j, k}, fixed,
-                             L1IrlsOptions(),
-                             options_.max_num_local_iterations,
+                             L1IrlsOptions(), options_.max_num_local_iterations,
                              options_.global_step_tolerance_deg, &R);
     fixed[i] = false;
     *R_i = R[i];
@@ -319,9 +325,10 @@ bool IncrementalEngine::InitializeFromBestTriplet(
       const auto& adj_j = (*adjacency_)[j];
       // Both lists sorted by neighbour: walk them for common k > j.
       size_t x = a + 1;
-      size_t y = std::upper_bound(adj_j.begin(), adj_j.end(),
-                                  std::make_pair(j, std::numeric_limits<int>::max())) -
-                 adj_j.begin();
+      size_t y =
+          std::upper_bound(adj_j.begin(), adj_j.end(),
+                           std::make_pair(j, std::numeric_limits<int>::max())) -
+          adj_j.begin();
       while (x < adj_i.size() && y < adj_j.size()) {
         const int k_i = adj_i[x].first;
         const int k_j = adj_j[y].first;
@@ -368,8 +375,8 @@ bool IncrementalEngine::InitializeFromBestTriplet(
   int winner[3] = {-1, -1, -1};
   for (const Triangle& t : best) {
     Eigen::Matrix3d R_i, R_j, R_k;
-    const double reward =
-        OptimizeTriplet(t.i, t.j, t.k, t.e_ij, t.e_ik, t.e_jk, &R_i, &R_j, &R_k);
+    const double reward = OptimizeTriplet(t.i, t.j, t.k, t.e_ij, t.e_ik, t.e_jk,
+                                          &R_i, &R_j, &R_k);
     ++stats_.num_triangles_optimized;
     if (reward > best_reward) {  // strict: ties keep the better pre-score
       best_reward = reward;
@@ -633,10 +640,9 @@ void IncrementalEngine::LocalOptimize(int p,
   using Cost = ceres::AutoDiffCostFunction<FixedNeighborError, 3, 4>;
   for (int e : inlier_edges) {
     const int n = graph_.OtherEnd(e, p);
-    problem.AddResidualBlock(
-        new Cost(new FixedNeighborError(graph_.RotationFrom(e, n),
-                                        rotations_[n])),
-        nullptr, q_p.data());
+    problem.AddResidualBlock(new Cost(new FixedNeighborError(
+                                 graph_.RotationFrom(e, n), rotations_[n])),
+                             nullptr, q_p.data());
   }
   problem.SetManifold(q_p.data(), &manifold);
   ceres::Solver::Options solver_options;
@@ -668,8 +674,9 @@ void IncrementalEngine::AddVertex(const Candidate& candidate) {
   LocalOptimize(p, inlier_edges);  // Eq. 10
   stats_.local_seconds += timer.ElapsedSeconds();
 
-  const bool global = NumSelected() >= static_cast<double>(size_at_last_global_) *
-                                           (1.0 + options_.global_growth_ratio);
+  const bool global =
+      NumSelected() >= static_cast<double>(size_at_last_global_) *
+                           (1.0 + options_.global_growth_ratio);
   if (global) GlobalOptimize(false);  // makes every candidate stale
 
   const Timer reward_timer;
@@ -764,12 +771,12 @@ void IncrementalEngine::GlobalOptimize(bool converge) {
         fixed[selected_list_[s]] = true;
       }
     }
-    const int num_iterations =
-        converge ? options_.max_num_iterations
-                 : options_.intermediate_global_iterations;
+    const int num_iterations = converge
+                                   ? options_.max_num_iterations
+                                   : options_.intermediate_global_iterations;
     OptimizeRotationsOnEdges(graph_, edges, vertices, fixed, L1IrlsOptions(),
-                             num_iterations,
-                             options_.global_step_tolerance_deg, &rotations_);
+                             num_iterations, options_.global_step_tolerance_deg,
+                             &rotations_);
     VLOG(2) << "global optimisation: " << vertices.size() << " vertices, "
             << inliers.size() << "/" << num_edges << " inlier edges";
   }
@@ -841,8 +848,7 @@ void IncrementalEngine::GlobalOptimizeCeres(
     ceres::Solve(solver_options, &problem, &summary);
     VLOG(2) << "global optimisation: " << num_used << " vertices, "
             << inliers.size() << "/" << stats_.last_global_num_edges
-            << " inlier edges, "
-            << summary.BriefReport();
+            << " inlier edges, " << summary.BriefReport();
     for (int s = 0; s < num_selected; ++s) {
       if (used[s]) rotations_[selected_list_[s]] = FromQuaternionStorage(q[s]);
     }

@@ -217,8 +217,7 @@ class IncrementalEngine {
                          Eigen::Matrix3d* R_k);
   void LocalOptimize(int p, const std::vector<int>& inlier_neighbors);
   void GlobalOptimizeCeres(const std::vector<std::pair<int, int>>& inliers,
-                           const std::vector<int>& local_index,
-                           bool converge);
+                           const std::vector<int>& local_index, bool converge);
   // Rebuilds a candidate's pre-computations and rewards from scratch.
   void RecomputeCandidate(int p);
   // Adds the newly selected x to candidate p's pre-computations.

@@ -35,7 +35,8 @@ RotationAveragingResult Ira::Estimate(const RotationGraph& graph) {
   if (!engine.InitializeFromBestTriplet()) {
     int start = largest.front();
     for (int v : largest) {
-      if (engine.Adjacency(v).size() > engine.Adjacency(start).size()) start = v;
+      if (engine.Adjacency(v).size() > engine.Adjacency(start).size())
+        start = v;
     }
     LOG(WARNING) << "IRA: no triangle passes the chaining check; growing "
                     "from the vertex of largest degree ("

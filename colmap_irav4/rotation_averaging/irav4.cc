@@ -135,9 +135,8 @@ double GemanMcClureCost(const RotationGraph& graph,
   const double s2 = sigma * sigma;
   for (const RelativeRotation& e : graph.Edges()) {
     if (!estimated[e.i] || !estimated[e.j]) continue;
-    const double r =
-        RotationAngle(e.R_ij.transpose() * rotations[e.j] *
-                      rotations[e.i].transpose());
+    const double r = RotationAngle(e.R_ij.transpose() * rotations[e.j] *
+                                   rotations[e.i].transpose());
     cost += r * r / (r * r + s2);
   }
   return cost;
@@ -211,33 +210,37 @@ std::string ReferenceMethodToString(ReferenceMethod method) {
   return "?";
 }
 
-
 void Irav4Options::Check() const {
   engine.Check();
   communities.Check();
   ReferenceMethodFromString(reference_method);
   if (num_random_cds < 1) {
-    throw OptionError(&num_random_cds, "RotationAveraging.num_random_cds", "must be >= 1");
+    throw OptionError(&num_random_cds, "RotationAveraging.num_random_cds",
+                      "must be >= 1");
   }
   if (max_cluster_size < 0) {
-    throw OptionError(&max_cluster_size, "RotationAveraging.max_cluster_size", "must be >= 0");
+    throw OptionError(&max_cluster_size, "RotationAveraging.max_cluster_size",
+                      "must be >= 0");
   }
   if (num_final_rounds < 0) {
-    throw OptionError(&num_final_rounds, "RotationAveraging.num_final_rounds", "must be >= 0");
+    throw OptionError(&num_final_rounds, "RotationAveraging.num_final_rounds",
+                      "must be >= 0");
   }
   if (final_refinement != "none" && final_refinement != "irls" &&
       final_refinement != "l1_irls" && final_refinement != "guarded") {
     throw OptionError(&final_refinement, "RotationAveraging.final_refinement",
-                     "must be none, irls, l1_irls or guarded, got '" +
-                         final_refinement + "'");
+                      "must be none, irls, l1_irls or guarded, got '" +
+                          final_refinement + "'");
   }
   if (!(reseed_threshold_deg > 0 && reseed_threshold_deg < 180)) {
-    throw OptionError(&reseed_threshold_deg, "RotationAveraging.reseed_threshold_deg",
-                     "must be in (0, 180)");
+    throw OptionError(&reseed_threshold_deg,
+                      "RotationAveraging.reseed_threshold_deg",
+                      "must be in (0, 180)");
   }
   if (!(reseed_support_fraction >= 0 && reseed_support_fraction <= 1)) {
-    throw OptionError(&reseed_support_fraction, "RotationAveraging.reseed_support_fraction",
-                     "must be in [0, 1]");
+    throw OptionError(&reseed_support_fraction,
+                      "RotationAveraging.reseed_support_fraction",
+                      "must be in [0, 1]");
   }
   refinement.Check();
 }
@@ -246,8 +249,7 @@ int ReseedBadlySupportedVertices(const RotationGraph& graph,
                                  const Irav4Options& options,
                                  const std::vector<bool>& estimated,
                                  std::vector<Eigen::Matrix3d>* rotations) {
-  const double cos_threshold =
-      std::cos(DegToRad(options.reseed_threshold_deg));
+  const double cos_threshold = std::cos(DegToRad(options.reseed_threshold_deg));
   // angle(A, B) < threshold  <=>  trace(A^T B) > 1 + 2 cos(threshold).
   const double min_trace = 1.0 + 2.0 * cos_threshold;
   auto agree = [&](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
@@ -303,8 +305,8 @@ AlignmentReference BuildAlignmentReference(const RotationGraph& graph,
     case ReferenceMethod::kIrav4:
       return TaskSpecificReference(graph, options);
     case ReferenceMethod::kGreedyCds:
-      return EstimateVertexSet(
-          graph, options, GreedyCds(graph, options.weighted_greedy_cds));
+      return EstimateVertexSet(graph, options,
+                               GreedyCds(graph, options.weighted_greedy_cds));
     case ReferenceMethod::kRandomCds:
       return EstimateVertexSet(
           graph, options,
@@ -328,10 +330,9 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
 
   // Work on the largest connected component (domination is per component).
   Timer timer;
-  const std::vector<std::vector<int>> components =
-      input.ConnectedComponents();
-  const bool whole = components.front().size() ==
-                     static_cast<size_t>(num_input);
+  const std::vector<std::vector<int>> components = input.ConnectedComponents();
+  const bool whole =
+      components.front().size() == static_cast<size_t>(num_input);
   RotationGraph component_graph;
   if (!whole) component_graph = input.InducedSubgraph(components.front());
   const RotationGraph& graph = whole ? input : component_graph;
@@ -394,7 +395,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   // restricted to their potential clusters; the seeds are kept.
   std::vector<int> cluster_of_community(communities.size(), -1);
   for (int c = 0; c < num_clusters; ++c) {
-    if (cluster_community[c] >= 0) cluster_of_community[cluster_community[c]] = c;
+    if (cluster_community[c] >= 0)
+      cluster_of_community[cluster_community[c]] = c;
   }
   // potential[c][v]; edges_into_potential[c][v] = v's edges into it.
   std::vector<std::vector<bool>> potential(num_clusters,
@@ -445,8 +447,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
                                     timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
       << "IRAv4: " << report_.num_communities << " communities, "
-      << num_clusters << " cluster seeds (" << result.stage_seconds.back().second
-      << " s)";
+      << num_clusters << " cluster seeds ("
+      << result.stage_seconds.back().second << " s)";
 
   // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
   // clusters joins, by normalised reward. A cluster's best candidate only
@@ -476,7 +478,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
     while (num_affiliated < n) {
       int chosen = -1;
       for (int c = 0; c < num_clusters; ++c) {
-        if (!fallback && max_size > 0 && clusters[c]->NumSelected() >= max_size) {
+        if (!fallback && max_size > 0 &&
+            clusters[c]->NumSelected() >= max_size) {
           continue;
         }
         if (stale[c]) {
@@ -533,9 +536,10 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   report_.n_ref = static_cast<int>(reference.vertices.size());
   result.stage_seconds.emplace_back("reference", timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
-      << "IRAv4: " << options_.reference_method << " reference n_ref = "
-      << report_.n_ref << (reference.is_cds ? " (connected dominating)" : "")
-      << " (" << result.stage_seconds.back().second << " s)";
+      << "IRAv4: " << options_.reference_method
+      << " reference n_ref = " << report_.n_ref
+      << (reference.is_cds ? " (connected dominating)" : "") << " ("
+      << result.stage_seconds.back().second << " s)";
 
   // 4. Common-vertex-guided alignment of each cluster and global alignment.
   timer.Restart();
@@ -562,14 +566,13 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
         // frame stands in for it.
         alignment.success = true;
       } else if (round == 0) {
-        alignment = AlignClusterToReference(graph, cluster_rotations,
-                                            in_cluster, reference.rotations,
-                                            reference.selected,
-                                            alignment_options);
+        alignment = AlignClusterToReference(
+            graph, cluster_rotations, in_cluster, reference.rotations,
+            reference.selected, alignment_options);
       } else {
-        alignment = AlignClusterToReference(graph, cluster_rotations,
-                                            in_cluster, rotations, estimated,
-                                            alignment_options);
+        alignment =
+            AlignClusterToReference(graph, cluster_rotations, in_cluster,
+                                    rotations, estimated, alignment_options);
       }
       if (!alignment.success) {
         failed.push_back(c);
@@ -590,9 +593,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
                  << " vertices) did not align; its vertices are placed one "
                     "by one from their aligned neighbours";
   }
-  report_.num_individually_placed =
-      PlaceRemainingVertices(graph, options_.engine.theta_deg, &estimated,
-                             &rotations);
+  report_.num_individually_placed = PlaceRemainingVertices(
+      graph, options_.engine.theta_deg, &estimated, &rotations);
   clusters.clear();  // release the engines before the final problem
   result.stage_seconds.emplace_back("alignment", timer.ElapsedSeconds());
   LOG_IF(INFO, options_.log_progress)
@@ -672,8 +674,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       report_.num_reseeded_vertices =
           ReseedBadlySupportedVertices(graph, options_, estimated, &rotations);
       if (report_.num_reseeded_vertices > 0) {
-        report_.num_refinement_iterations += RefineRotationsIrls(
-            graph, refinement, estimated, root, &rotations);
+        report_.num_refinement_iterations +=
+            RefineRotationsIrls(graph, refinement, estimated, root, &rotations);
       }
       LOG_IF(INFO, options_.log_progress)
           << "IRAv4: re-seeded " << report_.num_reseeded_vertices

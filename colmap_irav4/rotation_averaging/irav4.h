@@ -16,9 +16,9 @@ namespace colmap_irav4 {
 
 // How the global alignment reference is built.
 enum class ReferenceMethod {
-  kIrav4,       // task-specific CDS: the engine grown until dominating
-  kGreedyCds,   // Guha-Khuller greedy CDS (WCDS-style), estimated by engine
-  kRandomCds,   // union of random CDSs (IRAv3+-style), estimated by engine
+  kIrav4,      // task-specific CDS: the engine grown until dominating
+  kGreedyCds,  // Guha-Khuller greedy CDS (WCDS-style), estimated by engine
+  kRandomCds,  // union of random CDSs (IRAv3+-style), estimated by engine
 };
 // "irav4" | "greedy_cds" | "random_cds"; throws InputError otherwise.
 ReferenceMethod ReferenceMethodFromString(const std::string& name);
@@ -85,7 +85,6 @@ struct Irav4Options {
   void Check() const;  // throws InputError naming the option
 };
 
-
 // A reference: the selected vertices and their rotations (one entry per
 // graph vertex, meaningful where `selected`).
 struct AlignmentReference {
@@ -123,15 +122,15 @@ int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
 
 // What the last Estimate did, for reports and benchmarks.
 struct Irav4Report {
-  int num_vertices = 0;            // of the largest connected component
+  int num_vertices = 0;  // of the largest connected component
   int num_communities = 0;
-  int num_clusters = 0;            // communities that produced a seed
-  std::vector<int> cluster_sizes;  // after on-the-fly clustering
-  int num_fallback_vertices = 0;   // affiliated by the fallback pass
-  int num_failed_alignments = 0;   // clusters aligned to nothing
-  int num_individually_placed = 0; // vertices placed one by one instead
+  int num_clusters = 0;             // communities that produced a seed
+  std::vector<int> cluster_sizes;   // after on-the-fly clustering
+  int num_fallback_vertices = 0;    // affiliated by the fallback pass
+  int num_failed_alignments = 0;    // clusters aligned to nothing
+  int num_individually_placed = 0;  // vertices placed one by one instead
   int n_ref = 0;
-  AlignmentReference reference;    // indices of the input graph
+  AlignmentReference reference;  // indices of the input graph
   int num_vertex_guided_alignments = 0;
   int num_final_inlier_edges = 0;
   int num_refinement_iterations = 0;  // final_refinement irls

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <memory>
 
+#include <glog/logging.h>
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
-#include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
@@ -18,26 +18,31 @@
 namespace colmap_irav4 {
 
 void L1IrlsOptions::Check() const {
-  auto require = [](bool condition, const void* field,
-                    const std::string& name, const std::string& problem) {
+  auto require = [](bool condition, const void* field, const std::string& name,
+                    const std::string& problem) {
     if (!condition) {
       throw OptionError(field, "RotationAveraging." + name, problem);
     }
   };
-  require(l1_max_iterations >= 0, &l1_max_iterations, "l1_max_iterations", "must be >= 0");
-  require(l1_step_tolerance_deg >= 0, &l1_step_tolerance_deg, "l1_step_tolerance_deg",
+  require(l1_max_iterations >= 0, &l1_max_iterations, "l1_max_iterations",
           "must be >= 0");
+  require(l1_step_tolerance_deg >= 0, &l1_step_tolerance_deg,
+          "l1_step_tolerance_deg", "must be >= 0");
   require(l1_epsilon_deg > 0, &l1_epsilon_deg, "l1_epsilon_deg", "must be > 0");
-  require(irls_max_iterations >= 0, &irls_max_iterations, "irls_max_iterations", "must be >= 0");
-  require(irls_step_tolerance_deg >= 0, &irls_step_tolerance_deg, "irls_step_tolerance_deg",
+  require(irls_max_iterations >= 0, &irls_max_iterations, "irls_max_iterations",
           "must be >= 0");
+  require(irls_step_tolerance_deg >= 0, &irls_step_tolerance_deg,
+          "irls_step_tolerance_deg", "must be >= 0");
   require(gm_sigma_deg > 0, &gm_sigma_deg, "gm_sigma_deg", "must be > 0");
   require(linear_solver == "auto" || linear_solver == "cholesky" ||
-              linear_solver == "cg", &linear_solver, "linear_solver", "must be auto, cholesky or cg, got '" +
-                               linear_solver + "'");
-  require(max_cholesky_flops >= 0, &max_cholesky_flops, "max_cholesky_flops", "must be >= 0");
+              linear_solver == "cg",
+          &linear_solver, "linear_solver",
+          "must be auto, cholesky or cg, got '" + linear_solver + "'");
+  require(max_cholesky_flops >= 0, &max_cholesky_flops, "max_cholesky_flops",
+          "must be >= 0");
   require(cg_tolerance > 0, &cg_tolerance, "cg_tolerance", "must be > 0");
-  require(cg_max_iterations > 0, &cg_max_iterations, "cg_max_iterations", "must be > 0");
+  require(cg_max_iterations > 0, &cg_max_iterations, "cg_max_iterations",
+          "must be > 0");
 }
 
 namespace {
@@ -114,8 +119,7 @@ class TangentSystem {
   bool Solve(const std::vector<double>& weights,
              const std::vector<Eigen::Vector3d>& b, Eigen::MatrixX3d* x) {
     const int n = matrix_.rows();
-    std::fill(matrix_.valuePtr(), matrix_.valuePtr() + matrix_.nonZeros(),
-              0.0);
+    std::fill(matrix_.valuePtr(), matrix_.valuePtr() + matrix_.nonZeros(), 0.0);
     Eigen::MatrixX3d rhs = Eigen::MatrixX3d::Zero(n, 3);
     double* values = matrix_.valuePtr();
     for (size_t k = 0; k < edges_.size(); ++k) {
@@ -176,7 +180,9 @@ class TangentProblem {
   TangentProblem(const RotationGraph& graph, const std::vector<int>& order,
                  const std::vector<bool>& gauge, const L1IrlsOptions& options,
                  std::vector<Eigen::Matrix3d>* rotations)
-      : graph_(graph), order_(order), options_(options),
+      : graph_(graph),
+        order_(order),
+        options_(options),
         rotations_(*rotations) {
     std::vector<bool> member(graph.NumVertices(), false);
     unknown_index_.assign(graph.NumVertices(), -1);
@@ -196,8 +202,11 @@ class TangentProblem {
                  const std::vector<bool>& gauge, std::vector<int> edges,
                  const L1IrlsOptions& options,
                  std::vector<Eigen::Matrix3d>* rotations)
-      : graph_(graph), order_(order), options_(options),
-        rotations_(*rotations), edges_(std::move(edges)) {
+      : graph_(graph),
+        order_(order),
+        options_(options),
+        rotations_(*rotations),
+        edges_(std::move(edges)) {
     unknown_index_.assign(graph.NumVertices(), -1);
     for (int v : order_) {
       if (!gauge[v]) unknown_index_[v] = num_unknowns_++;
@@ -229,9 +238,8 @@ class TangentProblem {
   // Relinearised IRLS-L1 steps; returns the number of iterations run.
   int RunL1(const Timer& timer, Timer* progress_timer) {
     const double epsilon = DegToRad(options_.l1_epsilon_deg);
-    return Run("L1", options_.l1_max_iterations,
-               options_.l1_step_tolerance_deg, timer, progress_timer,
-               [epsilon](double r2) {
+    return Run("L1", options_.l1_max_iterations, options_.l1_step_tolerance_deg,
+               timer, progress_timer, [epsilon](double r2) {
                  return 1.0 / std::max(std::sqrt(r2), epsilon);
                });
   }
@@ -380,8 +388,7 @@ RotationAveragingResult L1IrlsAverager::Estimate(const RotationGraph& graph) {
   std::vector<bool> gauge(graph.NumVertices(), false);
   gauge[tree.root] = true;
   Timer stage_timer;
-  TangentProblem problem(graph, tree.order, gauge, options_,
-                         &result.rotations);
+  TangentProblem problem(graph, tree.order, gauge, options_, &result.rotations);
   // Progress lines at most once a second, and one per stage.
   Timer progress_timer;
   int num_iterations = problem.RunL1(timer, &progress_timer);

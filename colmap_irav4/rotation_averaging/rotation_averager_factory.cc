@@ -17,7 +17,7 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
       {"irav4",
        [](const RotationAveragerOptions& o) {
          Irav4Options irav4 = o.irav4;
-         irav4.engine = o.ira.engine;  // one set of engine options
+         irav4.engine = o.ira.engine;   // one set of engine options
          irav4.refinement = o.l1_irls;  // one set of IRLS options
          irav4.log_progress = irav4.log_progress || o.log_progress;
          return std::make_unique<Irav4>(irav4);
@@ -63,7 +63,6 @@ void RotationAveragerOptions::Check() const {
   irav4_with_engine.Check();
   l1_irls.Check();
 }
-
 
 std::vector<std::string> RotationAveragerMethods() {
   std::vector<std::string> names;

@@ -24,7 +24,6 @@ struct RotationAveragerOptions {
   void Check() const;
 };
 
-
 // The methods, in the order the help text lists them.
 std::vector<std::string> RotationAveragerMethods();
 // "a, b, c" for help texts and error messages.

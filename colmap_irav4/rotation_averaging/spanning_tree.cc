@@ -77,9 +77,8 @@ RotationAveragingResult ChainRotationsAlongTree(const RotationGraph& graph,
   for (int v : tree.order) {
     if (v != tree.root) {
       const int parent = tree.parent[v];
-      result.rotations[v] =
-          graph.RotationFrom(tree.parent_edge[v], parent) *
-          result.rotations[parent];
+      result.rotations[v] = graph.RotationFrom(tree.parent_edge[v], parent) *
+                            result.rotations[parent];
     }
     result.estimated[v] = true;
   }

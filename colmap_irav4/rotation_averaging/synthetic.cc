@@ -14,21 +14,22 @@ namespace colmap_irav4 {
 void SyntheticOptions::Check() const {
   if (!(noise_sigma_deg >= 0.0)) {
     throw OptionError(&noise_sigma_deg, "sigmas",
-                     "must be >= 0, got " + std::to_string(noise_sigma_deg));
+                      "must be >= 0, got " + std::to_string(noise_sigma_deg));
   }
   if (!(outlier_ratio >= 0.0 && outlier_ratio <= 1.0)) {
-    throw OptionError(&outlier_ratio, "outlier_ratios",
-                     "must be in [0, 1], got " + std::to_string(outlier_ratio));
+    throw OptionError(
+        &outlier_ratio, "outlier_ratios",
+        "must be in [0, 1], got " + std::to_string(outlier_ratio));
   }
   if (!(structured_outlier_ratio >= 0.0 && structured_outlier_ratio <= 1.0)) {
-    throw InputError("SyntheticOptions.structured_outlier_ratio",
-                     "must be in [0, 1], got " +
-                         std::to_string(structured_outlier_ratio));
+    throw InputError(
+        "SyntheticOptions.structured_outlier_ratio",
+        "must be in [0, 1], got " + std::to_string(structured_outlier_ratio));
   }
   if (!(twin_overlap_deg > 0.0 && twin_overlap_deg <= 180.0)) {
-    throw InputError("SyntheticOptions.twin_overlap_deg",
-                     "must be in (0, 180], got " +
-                         std::to_string(twin_overlap_deg));
+    throw InputError(
+        "SyntheticOptions.twin_overlap_deg",
+        "must be in (0, 180], got " + std::to_string(twin_overlap_deg));
   }
   if (!(upright_sigma_deg >= 0.0)) {
     throw InputError("SyntheticOptions.upright_sigma_deg", "must be >= 0");
@@ -125,8 +126,8 @@ void DrawMeasurements(const std::vector<std::pair<int, int>>& edges,
     if (!problem->edge_is_structured_outlier[e]) order.push_back(e);
   }
   const int64_t num_candidates = static_cast<int64_t>(order.size());
-  const int64_t num_outliers = std::llround(
-      options.outlier_ratio * static_cast<double>(num_candidates));
+  const int64_t num_outliers =
+      std::llround(options.outlier_ratio * static_cast<double>(num_candidates));
   for (int64_t k = 0; k < num_outliers; ++k) {
     std::uniform_int_distribution<int64_t> pick(k, num_candidates - 1);
     std::swap(order[k], order[pick(rng)]);

@@ -40,9 +40,9 @@ struct SyntheticOptions {
 };
 
 struct SyntheticProblem {
-  RotationGraph graph;                       // structure + noisy measurements
-  std::vector<Eigen::Matrix3d> ground_truth; // cam_from_world per vertex
-  std::vector<bool> edge_is_outlier;         // per edge index of `graph`
+  RotationGraph graph;                        // structure + noisy measurements
+  std::vector<Eigen::Matrix3d> ground_truth;  // cam_from_world per vertex
+  std::vector<bool> edge_is_outlier;          // per edge index of `graph`
   // Per edge: a structured (mirrored twin) outlier; also in edge_is_outlier.
   std::vector<bool> edge_is_structured_outlier;
   int num_twin_pairs = 0;  // edges eligible for a structured outlier

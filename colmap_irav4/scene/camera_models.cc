@@ -5,9 +5,9 @@
 
 #include <Eigen/Geometry>
 
-#include <Eigen/LU>
 #include <ceres/jet.h>
 #include <glog/logging.h>
+#include <Eigen/LU>
 
 namespace colmap_irav4 {
 namespace {
@@ -56,8 +56,8 @@ Eigen::Vector2d InvertDistortion(int model_id, const double* extra,
   Eigen::Vector2d p = target;
   for (int iteration = 0; iteration < kMaxNumIterations; ++iteration) {
     Jet ud, vd;
-    CameraModelDistort(model_id, extra_jets, Jet(p.x(), 0), Jet(p.y(), 1),
-                       &ud, &vd);
+    CameraModelDistort(model_id, extra_jets, Jet(p.x(), 0), Jet(p.y(), 1), &ud,
+                       &vd);
     const Eigen::Vector2d residual(ud.a - target.x(), vd.a - target.y());
     Eigen::Matrix2d jacobian;
     jacobian.row(0) = ud.v.transpose();
@@ -74,8 +74,8 @@ Eigen::Vector2d InvertDistortion(int model_id, const double* extra,
   // no solution: say so rather than return where Newton stopped.
   double ud, vd;
   CameraModelDistort(model_id, extra, p.x(), p.y(), &ud, &vd);
-  if (!p.allFinite() ||
-      (Eigen::Vector2d(ud, vd) - target).norm() > 1e-9 * (1.0 + target.norm())) {
+  if (!p.allFinite() || (Eigen::Vector2d(ud, vd) - target).norm() >
+                            1e-9 * (1.0 + target.norm())) {
     return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
   return p;
@@ -99,8 +99,7 @@ std::string CameraModelIdToName(int model_id) {
 }
 
 int CameraModelNumParams(int model_id) {
-  return IsValidCameraModelId(model_id) ? kModelInfos[model_id].num_params
-                                        : -1;
+  return IsValidCameraModelId(model_id) ? kModelInfos[model_id].num_params : -1;
 }
 
 std::string CameraModelParamsInfo(int model_id) {
@@ -199,12 +198,14 @@ Eigen::Vector2d ImageToUndistortedPlane(const Camera& camera,
 Eigen::Vector2d CameraImageToCamera(const Camera& camera,
                                     const Eigen::Vector2d& image_point) {
   bool equidistant;
-  Eigen::Vector2d p = ImageToUndistortedPlane(camera, image_point, &equidistant);
+  Eigen::Vector2d p =
+      ImageToUndistortedPlane(camera, image_point, &equidistant);
   if (equidistant) {
     // Equidistant plane -> pinhole plane: r = tan(theta).
     const double theta = p.norm();
     if (theta >= 0.5 * M_PI) {
-      return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+      return Eigen::Vector2d::Constant(
+          std::numeric_limits<double>::quiet_NaN());
     }
     if (theta > 1e-8) {
       p *= std::tan(theta) / theta;
@@ -231,9 +232,9 @@ Eigen::Vector2d CameraCameraToImage(const Camera& camera,
                                     const Eigen::Vector2d& camera_point) {
   CheckCamera(camera);
   Eigen::Vector2d image_point;
-  CameraModelImgFromCam(camera.model_id, camera.params.data(),
-                        camera_point.x(), camera_point.y(), 1.0,
-                        &image_point.x(), &image_point.y());
+  CameraModelImgFromCam(camera.model_id, camera.params.data(), camera_point.x(),
+                        camera_point.y(), 1.0, &image_point.x(),
+                        &image_point.y());
   return image_point;
 }
 

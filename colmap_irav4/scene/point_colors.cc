@@ -59,12 +59,11 @@ int ColorPointsFromImages(const std::string& image_path,
       const double dx = x - x0;
       const double dy = y - y0;
       Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
-      const double w[4] = {(1 - dx) * (1 - dy), dx * (1 - dy),
-                           (1 - dx) * dy, dx * dy};
-      const cv::Vec3b* pixels[4] = {&bgr.at<cv::Vec3b>(y0, x0),
-                                    &bgr.at<cv::Vec3b>(y0, x0 + 1),
-                                    &bgr.at<cv::Vec3b>(y0 + 1, x0),
-                                    &bgr.at<cv::Vec3b>(y0 + 1, x0 + 1)};
+      const double w[4] = {(1 - dx) * (1 - dy), dx * (1 - dy), (1 - dx) * dy,
+                           dx * dy};
+      const cv::Vec3b* pixels[4] = {
+          &bgr.at<cv::Vec3b>(y0, x0), &bgr.at<cv::Vec3b>(y0, x0 + 1),
+          &bgr.at<cv::Vec3b>(y0 + 1, x0), &bgr.at<cv::Vec3b>(y0 + 1, x0 + 1)};
       for (int k = 0; k < 4; ++k) {
         rgb += w[k] * Eigen::Vector3d((*pixels[k])[2], (*pixels[k])[1],
                                       (*pixels[k])[0]);
@@ -96,8 +95,8 @@ int ColorPointsFromImages(const std::string& image_path,
     }
     const Eigen::Vector3d mean = it->second.first / it->second.second;
     for (int c = 0; c < 3; ++c) {
-      point.color[c] = static_cast<uint8_t>(
-          std::clamp(std::round(mean[c]), 0.0, 255.0));
+      point.color[c] =
+          static_cast<uint8_t>(std::clamp(std::round(mean[c]), 0.0, 255.0));
     }
   }
   return num_missing;

@@ -8,11 +8,13 @@
 
 namespace colmap_irav4 {
 
-point3D_t AddPoint3D(const Eigen::Vector3d& xyz, const std::vector<TrackElement>& track,
+point3D_t AddPoint3D(const Eigen::Vector3d& xyz,
+                     const std::vector<TrackElement>& track,
                      Reconstruction* reconstruction) {
-  const point3D_t point3D_id = reconstruction->points3D.empty()
-                                   ? 1
-                                   : reconstruction->points3D.rbegin()->first + 1;
+  const point3D_t point3D_id =
+      reconstruction->points3D.empty()
+          ? 1
+          : reconstruction->points3D.rbegin()->first + 1;
   Point3D& point = reconstruction->points3D[point3D_id];
   point.xyz = xyz;
   point.track = track;
@@ -34,14 +36,16 @@ void DeletePoint3D(point3D_t point3D_id, Reconstruction* reconstruction) {
     auto image_it = reconstruction->images.find(element.image_id);
     if (image_it == reconstruction->images.end()) continue;
     Point2D& point2D = image_it->second.points2D.at(element.point2D_idx);
-    if (point2D.point3D_id == point3D_id) point2D.point3D_id = kInvalidPoint3DId;
+    if (point2D.point3D_id == point3D_id)
+      point2D.point3D_id = kInvalidPoint3DId;
   }
   reconstruction->points3D.erase(it);
 }
 
 bool DeleteObservation(image_t image_id, point2D_t point2D_idx,
                        Reconstruction* reconstruction) {
-  Point2D& point2D = reconstruction->images.at(image_id).points2D.at(point2D_idx);
+  Point2D& point2D =
+      reconstruction->images.at(image_id).points2D.at(point2D_idx);
   const point3D_t point3D_id = point2D.point3D_id;
   if (point3D_id == kInvalidPoint3DId) return false;
   point2D.point3D_id = kInvalidPoint3DId;
@@ -70,7 +74,8 @@ void DeleteImage(image_t image_id, Reconstruction* reconstruction) {
 }
 
 double ReprojectionError(const Camera& camera, const Image& image,
-                         const Eigen::Vector3d& xyz, const Eigen::Vector2d& xy) {
+                         const Eigen::Vector3d& xyz,
+                         const Eigen::Vector2d& xy) {
   const Eigen::Vector3d in_cam = image.cam_from_world * xyz;
   if (in_cam.z() <= std::numeric_limits<double>::epsilon()) {
     return std::numeric_limits<double>::infinity();

@@ -11,7 +11,8 @@ namespace colmap_irav4 {
 
 // Adds a point (id = largest id + 1, or 1) and links its observations, which
 // must exist and be free. Returns the id.
-point3D_t AddPoint3D(const Eigen::Vector3d& xyz, const std::vector<TrackElement>& track,
+point3D_t AddPoint3D(const Eigen::Vector3d& xyz,
+                     const std::vector<TrackElement>& track,
                      Reconstruction* reconstruction);
 // Removes the point and unlinks its observations.
 void DeletePoint3D(point3D_t point3D_id, Reconstruction* reconstruction);

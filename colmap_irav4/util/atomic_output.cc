@@ -23,9 +23,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* const kOwnNames[] = {
-    "cameras.bin", "images.bin", "points3D.bin", "cameras.txt",
-    "images.txt",  "points3D.txt", "summary.json"};
+const char* const kOwnNames[] = {"cameras.bin", "images.bin", "points3D.bin",
+                                 "cameras.txt", "images.txt", "points3D.txt",
+                                 "summary.json"};
 
 // Async-signal-safe version of IsOwnOutputFileName (no allocation).
 bool IsOwnName(const char* name) {
@@ -197,8 +197,8 @@ std::string WriteTemporary(const std::string& path, const std::string& bytes) {
   ok = close(fd) == 0 && ok;
   if (!ok) {
     unlink(temporary.c_str());
-    throw InputError(path, "cannot write file" +
-                               (problem.empty() ? "" : ": " + problem));
+    throw InputError(
+        path, "cannot write file" + (problem.empty() ? "" : ": " + problem));
   }
   return temporary;
 }
@@ -252,8 +252,8 @@ void WriteFilesAtomically(
       for (size_t i = k; i < temporaries.size(); ++i) {
         unlink(temporaries[i].c_str());
       }
-      throw InputError(path, "cannot rename the temporary file into place: " +
-                                 problem);
+      throw InputError(
+          path, "cannot rename the temporary file into place: " + problem);
     }
   }
 }
@@ -362,13 +362,12 @@ OutputTransaction::OutputTransaction(const std::string& output_dir)
                        std::to_string(static_cast<long>(getpid()))))
                    .string();
   if (mkdir(temporary_.c_str(), 0777) != 0) {
-    throw InputError(output_dir, "cannot write in the output directory: " +
-                                     Errno());
+    throw InputError(output_dir,
+                     "cannot write in the output directory: " + Errno());
   }
   ArmCleanup(temporary_);
   try {
-    const std::string problem =
-        ModelDirectoryProblem((out / "0").string());
+    const std::string problem = ModelDirectoryProblem((out / "0").string());
     if (!problem.empty()) throw InputError((out / "0").string(), problem);
     if (fs::is_directory(out / "summary.json")) {
       throw InputError((out / "summary.json").string(),
@@ -457,7 +456,8 @@ std::vector<std::string> OutputTransaction::Commit(
         if (std::rename(entry.path().c_str(), (staged / name).c_str()) != 0) {
           throw InputError(entry.path().string(),
                            "cannot keep this file in the new model "
-                           "directory: " + Errno());
+                           "directory: " +
+                               Errno());
         }
         warnings.push_back(target.string() + "/" + name +
                            ": not a model file; kept in the new model "
@@ -483,7 +483,8 @@ std::vector<std::string> OutputTransaction::Commit(
     warnings.push_back(kept + ": left in the temporary directory");
   }
   for (const std::string& path : StaleModelDirectories(num_models)) {
-    warnings.push_back(path + ": left over from an earlier run (this run made " +
+    warnings.push_back(path +
+                       ": left over from an earlier run (this run made " +
                        std::to_string(num_models) + " model(s)); not removed");
   }
   for (const std::string& warning : warnings) LOG(WARNING) << warning;

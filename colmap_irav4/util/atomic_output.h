@@ -39,8 +39,9 @@ constexpr char kTemporaryMarker[] = ".colmap_irav4_tmp.";
 bool IsOwnOutputFileName(const std::string& name);
 
 // Writes `bytes` to `path` (its directory must exist) through a temporary
-// file in the same directory, flushed to disk, and an atomic rename. Throws InputError naming the path on failure (the
-// temporary file is removed; an existing file at `path` is untouched).
+// file in the same directory, flushed to disk, and an atomic rename. Throws
+// InputError naming the path on failure (the temporary file is removed; an
+// existing file at `path` is untouched).
 void WriteFileAtomically(const std::string& path, const std::string& bytes);
 
 // Writes several files of one directory (created if missing): all temporary

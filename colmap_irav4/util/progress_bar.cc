@@ -61,9 +61,9 @@ void ProgressBar::Draw() {
     const int decile = percent / 10;
     if (decile == last_decile_) return;
     last_decile_ = decile;
-    line << label_ << ": " << percent << "% (" << done_ << "/" << total_
-         << ") " << std::fixed << std::setprecision(1)
-         << timer_.ElapsedSeconds() << " s\n";
+    line << label_ << ": " << percent << "% (" << done_ << "/" << total_ << ") "
+         << std::fixed << std::setprecision(1) << timer_.ElapsedSeconds()
+         << " s\n";
     *stream_ << line.str() << std::flush;
   }
 }

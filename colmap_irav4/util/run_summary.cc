@@ -49,10 +49,18 @@ std::string JsonString(const std::string& text) {
   std::string out = "\"";
   for (const char c : text) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char buffer[8];
@@ -78,8 +86,8 @@ void AppendStagesJson(const std::vector<StageReport>& stages,
   *out << "[";
   for (size_t i = 0; i < stages.size(); ++i) {
     const StageReport& stage = stages[i];
-    *out << (i ? "," : "") << "\n" << indent << "  {\"name\": "
-         << JsonString(stage.name)
+    *out << (i ? "," : "") << "\n"
+         << indent << "  {\"name\": " << JsonString(stage.name)
          << ", \"seconds\": " << JsonNumber(stage.seconds)
          << ", \"cpu_seconds\": " << JsonNumber(stage.cpu_seconds);
     for (const auto& [name, value] : stage.figures) {

@@ -13,8 +13,8 @@ inline double Median(std::vector<double> values) {
   std::nth_element(values.begin(), values.begin() + mid, values.end());
   double median = values[mid];
   if (values.size() % 2 == 0) {
-    median = 0.5 * (median + *std::max_element(values.begin(),
-                                               values.begin() + mid));
+    median = 0.5 *
+             (median + *std::max_element(values.begin(), values.begin() + mid));
   }
   return median;
 }

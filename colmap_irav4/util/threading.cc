@@ -21,8 +21,8 @@ int ResolveNumThreads(int num_threads) {
 void ParallelFor(int num_threads, size_t n,
                  const std::function<void(size_t)>& body) {
   if (n == 0) return;
-  const size_t num_workers = std::min<size_t>(
-      static_cast<size_t>(ResolveNumThreads(num_threads)), n);
+  const size_t num_workers =
+      std::min<size_t>(static_cast<size_t>(ResolveNumThreads(num_threads)), n);
   if (num_workers == 1) {
     for (size_t i = 0; i < n; ++i) body(i);
     return;

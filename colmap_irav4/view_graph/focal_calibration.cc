@@ -7,8 +7,8 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/SVD>
 #include <glog/logging.h>
+#include <Eigen/SVD>
 
 #include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/scene/camera_models.h"
@@ -173,38 +173,45 @@ class Calibrator {
 void FocalCalibrationOptions::Check() const {
   if (!(min_focal_ratio > 0 && min_focal_ratio < 1)) {
     throw OptionError(&min_focal_ratio, "ViewGraph.calibration_min_focal_ratio",
-                     "must be in (0, 1)");
+                      "must be in (0, 1)");
   }
   if (!(max_focal_ratio > 1)) {
-    throw OptionError(&max_focal_ratio, "ViewGraph.calibration_max_focal_ratio", "must be > 1");
+    throw OptionError(&max_focal_ratio, "ViewGraph.calibration_max_focal_ratio",
+                      "must be > 1");
   }
   if (num_grid_points < 3) {
-    throw OptionError(&num_grid_points, "ViewGraph.calibration_num_grid_points", "must be >= 3");
+    throw OptionError(&num_grid_points, "ViewGraph.calibration_num_grid_points",
+                      "must be >= 3");
   }
   if (min_num_pairs < 1) {
-    throw OptionError(&min_num_pairs, "ViewGraph.calibration_min_num_pairs", "must be >= 1");
+    throw OptionError(&min_num_pairs, "ViewGraph.calibration_min_num_pairs",
+                      "must be >= 1");
   }
   if (!(loss_scale > 0)) {
-    throw OptionError(&loss_scale, "ViewGraph.calibration_loss_scale", "must be > 0");
+    throw OptionError(&loss_scale, "ViewGraph.calibration_loss_scale",
+                      "must be > 0");
   }
   if (!(max_agreeing_cost > 0)) {
-    throw OptionError(&max_agreeing_cost, "ViewGraph.calibration_max_agreeing_cost", "must be > 0");
+    throw OptionError(&max_agreeing_cost,
+                      "ViewGraph.calibration_max_agreeing_cost", "must be > 0");
   }
   if (num_sweeps < 1) {
-    throw OptionError(&num_sweeps, "ViewGraph.calibration_num_sweeps", "must be >= 1");
+    throw OptionError(&num_sweeps, "ViewGraph.calibration_num_sweeps",
+                      "must be >= 1");
   }
   if (!(min_cost_increase >= 1)) {
-    throw OptionError(&min_cost_increase, "ViewGraph.calibration_min_cost_increase",
-                     "must be >= 1");
+    throw OptionError(&min_cost_increase,
+                      "ViewGraph.calibration_min_cost_increase",
+                      "must be >= 1");
   }
 }
-
 
 double EssentialSingularValueCost(const Eigen::Matrix3d& F,
                                   const Eigen::Matrix3d& K1,
                                   const Eigen::Matrix3d& K2) {
   const Eigen::Matrix3d E = K2.transpose() * F * K1;
-  const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(E).singularValues();
+  const Eigen::Vector3d s =
+      Eigen::JacobiSVD<Eigen::Matrix3d>(E).singularValues();
   return s(0) + s(1) > 0 ? (s(0) - s(1)) / (s(0) + s(1)) : 1.0;
 }
 

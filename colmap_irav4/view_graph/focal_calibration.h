@@ -30,8 +30,8 @@ struct FocalCalibrationOptions {
   int min_num_pairs = 3;
   // Cauchy scale of the per-pair cost (s1 - s2) / (s1 + s2); small, so that
   // the pairs agreeing most closely decide (on Strecha fountain with the focal
-  // x1.3, scale 0.05 gave -4.9%, 0.002 -1.4%, 0.001 -0.7%: pairs with a strongly curved
-  // but biased cost otherwise pull the estimate).
+  // x1.3, scale 0.05 gave -4.9%, 0.002 -1.4%, 0.001 -0.7%: pairs with a
+  // strongly curved but biased cost otherwise pull the estimate).
   double loss_scale = 0.001;
   // Coordinate-descent sweeps over the cameras (several free cameras), each
   // a common factor for all, then one factor per camera.
@@ -39,17 +39,17 @@ struct FocalCalibrationOptions {
   // A pair agrees with a focal if its cost there is below this.
   double max_agreeing_cost = 0.01;
   // Ill-conditioning guard: the mean cost of the pairs agreeing with the
-  // minimum (at least min_num_pairs of them are needed) at the focal x / 1.25 and x 1.25 must both
-  // exceed the one at the minimum by this factor. The shared Maupertuis
-  // database (focal guess 2302.8, reference 1847.53) has 1.41 and would give
-  // 1737.8 (-5.9%), with which its relative rotations are 0.8-2.9 deg off the
-  // reference model (< 1 deg at 1847.53): such weak estimates are not used.
+  // minimum (at least min_num_pairs of them are needed) at the focal x / 1.25
+  // and x 1.25 must both exceed the one at the minimum by this factor. The
+  // shared Maupertuis database (focal guess 2302.8, reference 1847.53) has 1.41
+  // and would give 1737.8 (-5.9%), with which its relative rotations are
+  // 0.8-2.9 deg off the reference model (< 1 deg at 1847.53): such weak
+  // estimates are not used.
   double min_cost_increase = 1.5;
 
   // Throws InputError naming the option if invalid.
   void Check() const;
 };
-
 
 // One pair's fundamental matrix (x2^T F x1 = 0, pixels) between two cameras.
 struct FocalCalibrationPair {

@@ -31,21 +31,24 @@ std::vector<std::string> SplitComma(const std::string& text) {
 
 void ViewGraphBuilderOptions::Check() const {
   if (min_num_inliers < 0) {
-    throw OptionError(&min_num_inliers, "ViewGraph.min_num_inliers", "must be >= 0");
+    throw OptionError(&min_num_inliers, "ViewGraph.min_num_inliers",
+                      "must be >= 0");
   }
   if (num_threads == 0 || num_threads < -1) {
-    throw OptionError(&num_threads, "ViewGraph.num_threads", "must be -1 (all cores) or >= 1");
+    throw OptionError(&num_threads, "ViewGraph.num_threads",
+                      "must be -1 (all cores) or >= 1");
   }
   if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1)) {
-    throw OptionError(&min_inlier_ratio, "ViewGraph.min_inlier_ratio", "must be in [0, 1]");
+    throw OptionError(&min_inlier_ratio, "ViewGraph.min_inlier_ratio",
+                      "must be in [0, 1]");
   }
   for (const std::string& name : SplitComma(drop_configs)) {
     if (TwoViewConfigFromName(name) < 0) {
       throw OptionError(&drop_configs, "ViewGraph.drop_configs",
-                       "unknown configuration '" + name +
-                           "' (UNDEFINED, DEGENERATE, CALIBRATED, "
-                           "UNCALIBRATED, PLANAR, PANORAMIC, "
-                           "PLANAR_OR_PANORAMIC, WATERMARK, MULTIPLE)");
+                        "unknown configuration '" + name +
+                            "' (UNDEFINED, DEGENERATE, CALIBRATED, "
+                            "UNCALIBRATED, PLANAR, PANORAMIC, "
+                            "PLANAR_OR_PANORAMIC, WATERMARK, MULTIPLE)");
     }
   }
   focal_calibration.Check();
@@ -81,9 +84,8 @@ void ViewGraphSummary::Print(std::ostream& stream) const {
   }
   for (const FocalCalibrationResult& result : focal_calibration) {
     stream << "  camera " << result.camera_id << " focal " << result.guess_focal
-           << " -> " << result.focal << " px (" << result.num_pairs
-           << " pairs" << (result.calibrated ? "" : ", kept: " + result.reason)
-           << ")\n";
+           << " -> " << result.focal << " px (" << result.num_pairs << " pairs"
+           << (result.calibrated ? "" : ", kept: " + result.reason) << ")\n";
   }
   stream << "  connected components: " << num_components << "\n"
          << "  images in the largest component: " << num_images_in_component

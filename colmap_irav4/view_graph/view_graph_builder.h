@@ -41,7 +41,7 @@ struct ViewGraphSummary {
   int num_images = 0;
   int num_pairs_read = 0;
   int num_pairs_kept = 0;
-  std::map<std::string, int> num_dropped;  // by reason
+  std::map<std::string, int> num_dropped;         // by reason
   std::map<std::string, int> num_kept_by_source;  // relative pose source
   int num_kept_without_translation = 0;
   int num_components = 0;

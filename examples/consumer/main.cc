@@ -27,7 +27,8 @@ Eigen::Matrix3d RandomRotation(std::mt19937_64* rng, double max_angle_rad) {
 }
 
 double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  const double c = std::clamp(((a.transpose() * b).trace() - 1.0) / 2.0, -1.0, 1.0);
+  const double c =
+      std::clamp(((a.transpose() * b).trace() - 1.0) / 2.0, -1.0, 1.0);
   return std::acos(c) * 180.0 / M_PI;
 }
 
@@ -59,20 +60,21 @@ int main() {
   const std::unique_ptr<colmap_irav4::RotationAverager> averager =
       colmap_irav4::CreateRotationAverager(
           "irav4", colmap_irav4::RotationAveragerOptions());
-  const colmap_irav4::RotationAveragingResult result = averager->Estimate(graph);
+  const colmap_irav4::RotationAveragingResult result =
+      averager->Estimate(graph);
 
   // Remove the gauge: align on camera 0 (R_est = R_true G).
   const Eigen::Matrix3d gauge = truth[0].transpose() * result.rotations[0];
   double max_error_deg = 0.0;
   for (int i = 0; i < kNumCameras; ++i) {
     if (!result.estimated[i]) continue;
-    max_error_deg = std::max(
-        max_error_deg, AngleDeg(truth[i] * gauge, result.rotations[i]));
+    max_error_deg = std::max(max_error_deg,
+                             AngleDeg(truth[i] * gauge, result.rotations[i]));
   }
   const bool ok = result.NumEstimated() == kNumCameras && max_error_deg < 2.0;
   std::cout << averager->Name() << ": " << result.NumEstimated() << "/"
             << kNumCameras << " rotations from " << graph.NumEdges()
-            << " pairs, max error " << max_error_deg << " deg: "
-            << (ok ? "OK" : "FAILED") << std::endl;
+            << " pairs, max error " << max_error_deg
+            << " deg: " << (ok ? "OK" : "FAILED") << std::endl;
   return ok ? 0 : 1;
 }

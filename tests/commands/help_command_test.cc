@@ -36,8 +36,8 @@ TEST(HelpCommand, HelpListsTheCommands) {
   const RunResult result = RunProgram("help");
   EXPECT_EQ(result.exit_code, 0);
   EXPECT_NE(result.output.find("Commands:"), std::string::npos);
-  for (const char* command : {"mapper", "rotation_averager", "view_graph",
-                              "model_comparer"}) {
+  for (const char* command :
+       {"mapper", "rotation_averager", "view_graph", "model_comparer"}) {
     EXPECT_NE(result.output.find(std::string("  ") + command),
               std::string::npos)
         << command;

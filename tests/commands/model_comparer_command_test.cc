@@ -9,8 +9,8 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/database_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -22,10 +22,10 @@ struct RunResult {
 
 RunResult RunComparer(const std::string& arguments, const test::TempDir& temp) {
   const std::string log = temp.File("run.log");
-  const int status = std::system((std::string(COLMAP_IRAV4_BINARY) +
-                                  " model_comparer " + arguments + " > " +
-                                  log + " 2>&1")
-                                     .c_str());
+  const int status =
+      std::system((std::string(COLMAP_IRAV4_BINARY) + " model_comparer " +
+                   arguments + " > " + log + " 2>&1")
+                      .c_str());
   RunResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   std::ifstream file(log);
@@ -41,22 +41,22 @@ double FigureAfter(const std::string& text, const std::string& label) {
   return std::stod(text.substr(at + label.size()));
 }
 
-const std::string kScene =
-    DataDir() + "/strecha/fountain-P11";
+const std::string kScene = DataDir() + "/strecha/fountain-P11";
 
 TEST(ModelComparerCommand, ColmapModelAgainstGroundTruth) {
   COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   test::TempDir temp;
   const RunResult run = RunComparer("--input_path1 " + kScene +
-                                "/colmap38_incremental --gt_path " + kScene +
-                                "/gt_cameras",
-                            temp);
+                                        "/colmap38_incremental --gt_path " +
+                                        kScene + "/gt_cameras",
+                                    temp);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("11 registered images"), std::string::npos)
       << run.output;
   EXPECT_NE(run.output.find("alignment inliers: 11"), std::string::npos);
   // The data README: about 0.05 deg and 2.5 mm.
-  const double rotation = FigureAfter(run.output, "rotation error [deg]: median ");
+  const double rotation =
+      FigureAfter(run.output, "rotation error [deg]: median ");
   const double centre = FigureAfter(run.output, "centre error: median ");
   EXPECT_GT(rotation, 0.0);
   EXPECT_LT(rotation, 0.1) << run.output;
@@ -84,8 +84,9 @@ TEST(ModelComparerCommand, NeedsExactlyOneReference) {
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("--input_path2/--gt_path"), std::string::npos)
       << run.output;
-  run = RunComparer("--input_path1 " + temp.File("nothing") + " --input_path2 " + model,
-            temp);
+  run = RunComparer(
+      "--input_path1 " + temp.File("nothing") + " --input_path2 " + model,
+      temp);
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find(temp.File("nothing")), std::string::npos)
       << run.output;

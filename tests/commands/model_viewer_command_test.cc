@@ -22,16 +22,19 @@ namespace {
 int RunViewer(const std::string& arguments, const test::TempDir& temp,
               std::string* output) {
   const std::string log = temp.File("run.log");
-  const int status = std::system((std::string(COLMAP_IRAV4_BINARY) +
-                                  " model_viewer " + arguments + " > " + log + " 2>&1")
-                                     .c_str());
+  const int status =
+      std::system((std::string(COLMAP_IRAV4_BINARY) + " model_viewer " +
+                   arguments + " > " + log + " 2>&1")
+                      .c_str());
   std::ifstream file(log);
-  output->assign(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
+  output->assign(std::istreambuf_iterator<char>(file),
+                 std::istreambuf_iterator<char>());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 // Pixels that are not white, and red frustum pixels, in a panel.
-void CountPixels(const cv::Mat& image, const cv::Rect& area, int* non_white, int* red) {
+void CountPixels(const cv::Mat& image, const cv::Rect& area, int* non_white,
+                 int* red) {
   *non_white = 0;
   *red = 0;
   for (int y = area.y; y < area.y + area.height; ++y) {
@@ -45,8 +48,8 @@ void CountPixels(const cv::Mat& image, const cv::Rect& area, int* non_white, int
 
 TEST(ModelViewerCommand, RendersFountainTopAndSideViews) {
   test::TempDir temp;
-  const std::string model =
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11/colmap38_incremental";
+  const std::string model = std::string(COLMAP_IRAV4_DATA_DIR) +
+                            "/strecha/fountain-P11/colmap38_incremental";
   const std::string png = temp.File("view.png");
   std::string output;
   ASSERT_EQ(RunViewer("--input_path " + model + " --output_path " + png +
@@ -58,7 +61,8 @@ TEST(ModelViewerCommand, RendersFountainTopAndSideViews) {
   ASSERT_FALSE(image.empty());
   EXPECT_EQ(image.cols, 1000);
   EXPECT_EQ(image.rows, 500);
-  for (const cv::Rect& half : {cv::Rect(0, 0, 500, 500), cv::Rect(500, 0, 500, 500)}) {
+  for (const cv::Rect& half :
+       {cv::Rect(0, 0, 500, 500), cv::Rect(500, 0, 500, 500)}) {
     int non_white = 0, red = 0;
     CountPixels(image, half, &non_white, &red);
     // Thousands of points and 11 frusta in each view; far from blank.
@@ -72,15 +76,16 @@ TEST(ModelViewerCommand, RendersFountainTopAndSideViews) {
 TEST(ModelViewerCommand, BadInputIsAClearErrorAndWritesNothing) {
   test::TempDir temp;
   std::string output;
-  EXPECT_EQ(RunViewer("--input_path " + temp.File("missing") + " --output_path " +
-                          temp.File("v.png"),
+  EXPECT_EQ(RunViewer("--input_path " + temp.File("missing") +
+                          " --output_path " + temp.File("v.png"),
                       temp, &output),
             1);
   EXPECT_NE(output.find("missing"), std::string::npos) << output;
   EXPECT_FALSE(std::filesystem::exists(temp.File("v.png")));
-  const std::string model =
-      std::string(COLMAP_IRAV4_DATA_DIR) + "/strecha/fountain-P11/colmap38_incremental";
-  EXPECT_EQ(RunViewer("--input_path " + model + " --output_path " + temp.File("v.txt"),
+  const std::string model = std::string(COLMAP_IRAV4_DATA_DIR) +
+                            "/strecha/fountain-P11/colmap38_incremental";
+  EXPECT_EQ(RunViewer("--input_path " + model + " --output_path " +
+                          temp.File("v.txt"),
                       temp, &output),
             1);
   EXPECT_NE(output.find(".png"), std::string::npos) << output;
@@ -100,7 +105,8 @@ TEST(ModelRender, CamerasOfASyntheticCourtyardAreDrawnWhereTheyAre) {
   ASSERT_EQ(image.cols, 800);
   ASSERT_EQ(image.rows, 400);
   int centre_non_white = 0, centre_red = 0;
-  CountPixels(image, cv::Rect(170, 170, 60, 60), &centre_non_white, &centre_red);
+  CountPixels(image, cv::Rect(170, 170, 60, 60), &centre_non_white,
+              &centre_red);
   int all_non_white = 0, all_red = 0;
   CountPixels(image, cv::Rect(0, 0, 400, 400), &all_non_white, &all_red);
   EXPECT_EQ(centre_non_white, 0);

@@ -11,9 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include "colmap_irav4/eval/relpose_io.h"
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/eval/relpose_io.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "tests/test_utils/data.h"
 
@@ -105,11 +105,12 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
   const std::string gt = (TempDir() / "gt.txt").string();
   WriteScene(problem, relpose, gt);
   std::map<std::string, double> median;
-  for (const std::string method : {"spanning_tree", "l1_irls", "ira", "irav4"}) {
+  for (const std::string method :
+       {"spanning_tree", "l1_irls", "ira", "irav4"}) {
     const std::string output = (TempDir() / (method + ".txt")).string();
-    const CommandRun run = RunCommand("--relpose_path " + relpose + " --method " +
-                               method + " --output_path " + output +
-                               " --gt_path " + gt);
+    const CommandRun run =
+        RunCommand("--relpose_path " + relpose + " --method " + method +
+                   " --output_path " + output + " --gt_path " + gt);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     EXPECT_NE(run.out.find("Rotation errors vs " + gt + ": 100 cameras"),
               std::string::npos)
@@ -145,8 +146,7 @@ TEST(RotationAveragerCommand, SummaryJsonPerMethod) {
     EXPECT_NE(json.find("\"stage_seconds\": {\""), std::string::npos) << json;
     if (method == "irav4") {
       // A reference and at least one cluster, whose sizes add up to 80.
-      EXPECT_EQ(json.find("\"reference_size\": 0,"), std::string::npos)
-          << json;
+      EXPECT_EQ(json.find("\"reference_size\": 0,"), std::string::npos) << json;
       const size_t open = json.find("\"cluster_sizes\": [");
       ASSERT_NE(open, std::string::npos) << json;
       std::stringstream sizes(json.substr(open + 18));
@@ -159,10 +159,8 @@ TEST(RotationAveragerCommand, SummaryJsonPerMethod) {
       }
       EXPECT_EQ(total, 80) << json;
     } else {
-      EXPECT_NE(json.find("\"reference_size\": 0,"), std::string::npos)
-          << json;
-      EXPECT_NE(json.find("\"cluster_sizes\": []"), std::string::npos)
-          << json;
+      EXPECT_NE(json.find("\"reference_size\": 0,"), std::string::npos) << json;
+      EXPECT_NE(json.find("\"cluster_sizes\": []"), std::string::npos) << json;
     }
   }
 }
@@ -182,8 +180,7 @@ TEST(RotationAveragerCommand, StrechaDatabaseAgainstGtCameras) {
   COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
   // The real path: COLMAP database -> view graph -> rotations, evaluated
   // against the LIDAR ground truth directory.
-  const std::string scene =
-      DataDir() + "/strecha/fountain-P11";
+  const std::string scene = DataDir() + "/strecha/fountain-P11";
   for (const std::string method :
        {"irav4", "ira", "l1_irls", "spanning_tree"}) {
     const std::string output =
@@ -225,10 +222,11 @@ TEST(RotationAveragerCommand, OneDsfmDirectoryWithBundlerGroundTruth) {
   for (int k = 0; k < num_images; ++k) {
     list << "images/" << k << ".jpg 0 1000\n";
     if (k != 5) cc << k << "\n";  // image 5 is outside the component
-    if (k == 7) {  // not reconstructed by Bundler
+    if (k == 7) {                 // not reconstructed by Bundler
       bundle << "0 0 0\n0 0 0\n0 0 0\n0 0 0\n0 0 0\n";
     } else {
-      bundle << "1000 0 0\n" << R_bundler[k] << "\n"
+      bundle << "1000 0 0\n"
+             << R_bundler[k] << "\n"
              << (-R_bundler[k] * centers[k]).transpose() << "\n";
     }
     for (int j = k + 1; j < num_images; j += 1 + k % 3) {
@@ -244,8 +242,8 @@ TEST(RotationAveragerCommand, OneDsfmDirectoryWithBundlerGroundTruth) {
   cc.close();
   egs.close();
   bundle.close();
-  const CommandRun run = RunCommand("--eg_path " + dir.string() +
-                                    " --method l1_irls");
+  const CommandRun run =
+      RunCommand("--eg_path " + dir.string() + " --method l1_irls");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("Estimated 29 of 29 rotations"), std::string::npos)
       << run.out;
@@ -261,8 +259,9 @@ TEST(RotationAveragerCommand, DisconnectedGraphWarnsAndKeepsLargest) {
       "a b 1 0 0 0 1 0 0 50\nb c 1 0 0 0 1 0 0 50\nc a 1 0 0 0 1 0 0 50\n"
       "x y 1 0 0 0 1 0 0 50\n");
   const std::string output = (TempDir() / "disconnected_out.txt").string();
-  const CommandRun run = RunCommand("--relpose_path " + relpose +
-                             " --method spanning_tree --output_path " + output);
+  const CommandRun run =
+      RunCommand("--relpose_path " + relpose +
+                 " --method spanning_tree --output_path " + output);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("2 connected components; estimating the largest (3 "
                          "of 5 images)"),
@@ -276,12 +275,12 @@ TEST(RotationAveragerCommand, DisconnectedGraphWarnsAndKeepsLargest) {
 }
 
 TEST(RotationAveragerCommand, UnknownImageInGroundTruthWarns) {
-  const std::string relpose = WriteFile(
-      "small.txt", "a b 1 0 0 0 1 0 0 50\nb c 1 0 0 0 1 0 0 50\n");
-  const std::string gt =
-      WriteFile("small_gt.txt", "a 1 0 0 0\nb 1 0 0 0\nc 1 0 0 0\nzz 1 0 0 0\n");
+  const std::string relpose =
+      WriteFile("small.txt", "a b 1 0 0 0 1 0 0 50\nb c 1 0 0 0 1 0 0 50\n");
+  const std::string gt = WriteFile(
+      "small_gt.txt", "a 1 0 0 0\nb 1 0 0 0\nc 1 0 0 0\nzz 1 0 0 0\n");
   const CommandRun run = RunCommand("--relpose_path " + relpose +
-                             " --method l1_irls --gt_path " + gt);
+                                    " --method l1_irls --gt_path " + gt);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("1 images not estimated or not in the graph (e.g. "
                          "'zz')"),
@@ -292,7 +291,7 @@ TEST(RotationAveragerCommand, UnknownImageInGroundTruthWarns) {
   // No common image at all: a clear error.
   const std::string other = WriteFile("other_gt.txt", "zz 1 0 0 0\n");
   const CommandRun none = RunCommand("--relpose_path " + relpose +
-                              " --method l1_irls --gt_path " + other);
+                                     " --method l1_irls --gt_path " + other);
   EXPECT_EQ(none.exit_code, 1);
   EXPECT_NE(none.err.find(other + ": no image in common"), std::string::npos)
       << none.err;
@@ -314,8 +313,8 @@ TEST(RotationAveragerCommand, MalformedInputGivesOneLineError) {
   for (const Case& c : cases) {
     const std::string path = WriteFile(c.file, c.text);
     const std::string output = (TempDir() / ("out_" + c.file)).string();
-    const CommandRun run = RunCommand("--relpose_path " + path + " --output_path " +
-                               output);
+    const CommandRun run =
+        RunCommand("--relpose_path " + path + " --output_path " + output);
     EXPECT_EQ(run.exit_code, 1) << c.file << ": " << run.err;
     EXPECT_NE(run.err.find("ERROR: " + path + ": " + c.expected),
               std::string::npos)
@@ -341,8 +340,8 @@ TEST(RotationAveragerCommand, MalformedInputGivesOneLineError) {
   run = RunCommand("--relpose_path " + relpose + " --method nope");
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("--method: unknown method 'nope'"), std::string::npos);
-  run = RunCommand("--relpose_path " + relpose + " --eg_path " +
-                   eg_dir.string());
+  run =
+      RunCommand("--relpose_path " + relpose + " --eg_path " + eg_dir.string());
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("exactly one of"), std::string::npos);
   // The rest needs the shared data (the checks above have run).

@@ -53,9 +53,8 @@ TEST(ModelAlignment, RansacIgnoresOutliers) {
   }
   Sim3d sim;
   std::vector<bool> inliers;
-  ASSERT_TRUE(
-      EstimateSimilarityRansac(src, dst, SimilarityRansacOptions(), &sim,
-                               &inliers));
+  ASSERT_TRUE(EstimateSimilarityRansac(src, dst, SimilarityRansacOptions(),
+                                       &sim, &inliers));
   EXPECT_NEAR(sim.scale, truth.scale, 1e-6);
   EXPECT_LT(AngularDistanceDeg(sim.R, truth.R), 1e-4);
   for (int k = 0; k < 40; ++k) EXPECT_EQ(inliers[k], k % 4 != 0) << k;

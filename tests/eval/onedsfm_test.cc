@@ -16,8 +16,7 @@
 namespace colmap_irav4 {
 namespace {
 
-const std::string kMadrid =
-    DataDir() + "/1dsfm/Madrid_Metropolis";
+const std::string kMadrid = DataDir() + "/1dsfm/Madrid_Metropolis";
 
 std::string TempPath(const std::string& name) {
   const std::filesystem::path dir =
@@ -56,8 +55,8 @@ std::vector<double> TriangleCycleErrors(const std::vector<OneDsfmEdge>& edges) {
                             std::back_inserter(common));
       for (int k : common) {
         if (k <= j) continue;
-        errors.push_back(AngularDistanceDeg(
-            rotation[{j, k}] * rotation[{i, j}], rotation[{i, k}]));
+        errors.push_back(AngularDistanceDeg(rotation[{j, k}] * rotation[{i, j}],
+                                            rotation[{i, k}]));
       }
     }
   }
@@ -93,12 +92,15 @@ TEST(OneDsfm, MadridRotationDirectionFromTripletCycles) {
   const std::vector<double> transposed = TriangleCycleErrors(stored);
   ASSERT_EQ(ours.size(), transposed.size());
   EXPECT_GT(ours.size(), 1000000u);
-  COLMAP_IRAV4_FIGURES << ours.size() << " triangles, cycle error (deg) with R_ij = "
-            << "R_j R_i^T / with its transpose: median " << Quantile(ours, 0.5)
-            << " / " << Quantile(transposed, 0.5) << ", 10% quantile "
-            << Quantile(ours, 0.1) << " / " << Quantile(transposed, 0.1)
-            << ", fraction within 3 deg " << FractionBelow(ours, 3.0) << " / "
-            << FractionBelow(transposed, 3.0) << std::endl;
+  COLMAP_IRAV4_FIGURES << ours.size()
+                       << " triangles, cycle error (deg) with R_ij = "
+                       << "R_j R_i^T / with its transpose: median "
+                       << Quantile(ours, 0.5) << " / "
+                       << Quantile(transposed, 0.5) << ", 10% quantile "
+                       << Quantile(ours, 0.1) << " / "
+                       << Quantile(transposed, 0.1)
+                       << ", fraction within 3 deg " << FractionBelow(ours, 3.0)
+                       << " / " << FractionBelow(transposed, 3.0) << std::endl;
   EXPECT_LT(Quantile(ours, 0.5), Quantile(transposed, 0.5));
   EXPECT_LT(Quantile(ours, 0.1), 0.75 * Quantile(transposed, 0.1));
   EXPECT_GT(FractionBelow(ours, 3.0), 1.5 * FractionBelow(transposed, 3.0));
@@ -132,7 +134,8 @@ TEST(OneDsfm, BundlerCamerasLookDownMinusZ) {
   std::ostringstream text;
   text.precision(17);
   text << "# Bundle file v0.3\n2 2\n";
-  text << "1000 0.01 -0.02\n" << R_bundler << "\n"
+  text << "1000 0.01 -0.02\n"
+       << R_bundler << "\n"
        << t_bundler.transpose() << "\n";
   text << "0 0 0\n0 0 0\n0 0 0\n0 0 0\n0 0 0\n";  // not reconstructed
   for (const Eigen::Vector3d& X : points) {
@@ -197,8 +200,9 @@ TEST(OneDsfm, MalformedComponentAndBundler) {
   const std::string empty_cc = WriteFile("empty_cc.txt", "\n");
   ExpectInputError([&] { ReadOneDsfmComponent(empty_cc, 5); }, empty_cc,
                    "no image indices");
-  const std::string bad_rotation = WriteFile(
-      "bad.out", "# Bundle file v0.3\n1 0\n1 0 0\n1 0 0\n0 1 0\n1 0 0\n0 0 0\n");
+  const std::string bad_rotation =
+      WriteFile("bad.out",
+                "# Bundle file v0.3\n1 0\n1 0 0\n1 0 0\n0 1 0\n1 0 0\n0 0 0\n");
   ExpectInputError([&] { ReadBundlerFile(bad_rotation); }, bad_rotation,
                    "line 4: the 3x3 matrix is not a rotation");
   const std::string truncated =

@@ -31,9 +31,10 @@ TEST(RelposeIo, ReadsPairsInOurConvention) {
   text.precision(17);
   text << "# comment\na.jpg b.jpg " << q.transpose() << " 0 0 1 57\n"
        << "b.jpg c.jpg 1 0 0 0 1 0 0\n"
-       << "b.jpg a.jpg " << -q(0) << " " << q(1) << " " << q(2) << " "
-       << q(3) << " 1 0 0 3\n";  // repeated pair (same rotation): ignored
-  const RotationGraph graph = ReadRelativePoses(WriteFile("ok.txt", text.str()));
+       << "b.jpg a.jpg " << -q(0) << " " << q(1) << " " << q(2) << " " << q(3)
+       << " 1 0 0 3\n";  // repeated pair (same rotation): ignored
+  const RotationGraph graph =
+      ReadRelativePoses(WriteFile("ok.txt", text.str()));
   ASSERT_EQ(graph.NumVertices(), 3);
   ASSERT_EQ(graph.NumEdges(), 2);
   EXPECT_EQ(graph.Name(0), "a.jpg");
@@ -91,8 +92,9 @@ TEST(RelposeIo, MalformedInputNamesFileAndLine) {
       EXPECT_NE(message.find(cases[k].second), std::string::npos) << message;
     }
   }
-  EXPECT_THROW(ReadAbsoluteRotations(WriteFile("dup.txt", "a 1 0 0 0\na 1 0 0 0\n")),
-               InputError);
+  EXPECT_THROW(
+      ReadAbsoluteRotations(WriteFile("dup.txt", "a 1 0 0 0\na 1 0 0 0\n")),
+      InputError);
   EXPECT_THROW(ReadAbsoluteRotations(WriteFile("cols.txt", "a 1 0 0\n")),
                InputError);
 }

@@ -81,10 +81,10 @@ TEST(RotationEval, MasksAndNamesSelectCommonCameras) {
   errors = EvaluateRotations(result, gt, {true, true, true, false, true, true});
   EXPECT_EQ(errors.num_compared, 4);
 
-  std::map<std::string, Eigen::Matrix3d> est_map{{"a", gt[0]}, {"b", gt[1]},
-                                                 {"c", gt[2]}};
-  std::map<std::string, Eigen::Matrix3d> gt_map{{"b", gt[1]}, {"c", gt[2]},
-                                                {"d", gt[3]}};
+  std::map<std::string, Eigen::Matrix3d> est_map{
+      {"a", gt[0]}, {"b", gt[1]}, {"c", gt[2]}};
+  std::map<std::string, Eigen::Matrix3d> gt_map{
+      {"b", gt[1]}, {"c", gt[2]}, {"d", gt[3]}};
   errors = EvaluateRotations(est_map, gt_map);
   EXPECT_EQ(errors.num_compared, 2);
   EXPECT_LT(errors.max_deg, 1e-6);

@@ -30,7 +30,8 @@ SceneGeneratorOptions SmallOptions(SceneLayout layout) {
 
 // Largest algebraic epipolar residual |x2^T E x1| of the pair's inliers
 // (normalised coordinates, noise-free when noise_px = 0).
-double MaxEpipolarResidual(const GeneratedScene& scene, const TwoViewGeometry& geometry) {
+double MaxEpipolarResidual(const GeneratedScene& scene,
+                           const TwoViewGeometry& geometry) {
   const Image& image1 = scene.truth.images.at(geometry.image_id1);
   const Image& image2 = scene.truth.images.at(geometry.image_id2);
   const Camera& camera1 = scene.truth.cameras.at(image1.camera_id);
@@ -65,17 +66,20 @@ TEST(SceneGenerator, TruePairsAgreeWithTheTruePoseMirrorPairsWithTheTwin) {
     int checked[3] = {0, 0, 0};
     for (const GeneratedPair& pair : scene.pairs) {
       const TwoViewGeometry geometry = PairGeometry(scene, pair, nullptr);
-      ASSERT_GE(static_cast<int>(geometry.inlier_matches.size()), options.min_num_inliers);
+      ASSERT_GE(static_cast<int>(geometry.inlier_matches.size()),
+                options.min_num_inliers);
       // Exact keypoints: epipolar residuals ~0 (normalised units; 1e-9 is far
       // below a pixel, 1 px ~ 1e-3 here).
-      EXPECT_LT(MaxEpipolarResidual(scene, geometry), 1e-7) << PairKindName(pair.kind);
+      EXPECT_LT(MaxEpipolarResidual(scene, geometry), 1e-7)
+          << PairKindName(pair.kind);
       // E from the true relative pose for a true pair; for a mirror pair the
       // true pose does NOT explain its matches, the twin's does.
       const Image& image1 = scene.truth.images.at(pair.image_id1);
       const Image& image2 = scene.truth.images.at(pair.image_id2);
       const Rigid3d world_from_1 = image1.cam_from_world.Inverse();
       const Eigen::Matrix3d R_true =
-          (image2.cam_from_world.rotation * world_from_1.rotation).toRotationMatrix();
+          (image2.cam_from_world.rotation * world_from_1.rotation)
+              .toRotationMatrix();
       const Eigen::Matrix3d R_twin =
           (image2.cam_from_world.rotation *
            MirrorTwinPose(image1.cam_from_world).Inverse().rotation)
@@ -88,8 +92,10 @@ TEST(SceneGenerator, TruePairsAgreeWithTheTruePoseMirrorPairsWithTheTwin) {
         EXPECT_LT(AngularDistanceDeg(R_stored, R_twin), 1e-6);
         EXPECT_GT(AngularDistanceDeg(R_stored, R_true), 30.0);
         // Twin of the twin is the camera itself.
-        const Rigid3d back = MirrorTwinPose(MirrorTwinPose(image1.cam_from_world));
-        EXPECT_LT((back.translation - image1.cam_from_world.translation).norm(), 1e-9);
+        const Rigid3d back =
+            MirrorTwinPose(MirrorTwinPose(image1.cam_from_world));
+        EXPECT_LT((back.translation - image1.cam_from_world.translation).norm(),
+                  1e-9);
       }
       ++checked[static_cast<int>(pair.kind)];
     }
@@ -146,7 +152,8 @@ TEST(SceneGenerator, DeterministicAndSeeded) {
   test::TempDir temp;
   WriteSceneDatabase(a, temp.File("a.db"));
   WriteSceneDatabase(b, temp.File("b.db"));
-  EXPECT_EQ(test::HashFile(temp.File("a.db")), test::HashFile(temp.File("b.db")));
+  EXPECT_EQ(test::HashFile(temp.File("a.db")),
+            test::HashFile(temp.File("b.db")));
   // Never overwrites.
   EXPECT_THROW(WriteSceneDatabase(a, temp.File("a.db")), InputError);
 }
@@ -158,7 +165,8 @@ TEST(SceneGenerator, BadOptionsNameTheOption) {
     options.Check();
     FAIL();
   } catch (const InputError& error) {
-    EXPECT_NE(std::string(error.what()).find("mirror_pair_rate"), std::string::npos);
+    EXPECT_NE(std::string(error.what()).find("mirror_pair_rate"),
+              std::string::npos);
   }
   options = SceneGeneratorOptions();
   options.camera_models = {"NO_SUCH_MODEL"};
@@ -187,7 +195,8 @@ TEST(SceneGenerator, DatabaseReadsBackAndTheMapperMapsACleanScene) {
     EXPECT_EQ(contents.images.at(image_id).name, image.name);
   }
   for (size_t k = 0; k < scene.pairs.size(); ++k) {
-    const TwoViewGeometry expected = PairGeometry(scene, scene.pairs[k], nullptr);
+    const TwoViewGeometry expected =
+        PairGeometry(scene, scene.pairs[k], nullptr);
     const TwoViewGeometry& read = contents.two_view_geometries[k];
     ASSERT_EQ(read.image_id1, expected.image_id1);
     ASSERT_EQ(read.inlier_matches.size(), expected.inlier_matches.size());

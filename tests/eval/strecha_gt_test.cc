@@ -6,8 +6,8 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
-#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/database_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -16,7 +16,8 @@ const std::string kDataDir = DataDir();
 
 TEST(StrechaGroundTruth, ReadsFountainCameras) {
   COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11/gt_cameras");
-  const auto cameras = ReadStrechaGroundTruth(kDataDir + "/strecha/fountain-P11/gt_cameras");
+  const auto cameras =
+      ReadStrechaGroundTruth(kDataDir + "/strecha/fountain-P11/gt_cameras");
   ASSERT_EQ(cameras.size(), 11u);
   ASSERT_TRUE(cameras.count("0000.jpg"));
   const StrechaCamera& camera = cameras.at("0000.jpg");
@@ -42,7 +43,8 @@ TEST(StrechaGroundTruth, ReadsFountainCameras) {
   }
   mean_view.normalize();
   for (const auto& [name, c] : cameras) {
-    const Eigen::Vector3d view = c.cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d view =
+        c.cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ();
     EXPECT_GT(view.dot(mean_view), 0.5) << name;
   }
 }
@@ -57,15 +59,20 @@ TEST(StrechaGroundTruth, WindowsLineEndsAndErrors) {
   EXPECT_EQ(camera.height, 480);
   Eigen::Matrix3d world_from_cam;
   world_from_cam << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-  EXPECT_LT(AngularDistanceDeg(camera.cam_from_world.rotation.toRotationMatrix(),
-                               world_from_cam.transpose()), 1e-9);
+  EXPECT_LT(
+      AngularDistanceDeg(camera.cam_from_world.rotation.toRotationMatrix(),
+                         world_from_cam.transpose()),
+      1e-9);
   EXPECT_LT((camera.cam_from_world.translation +
-             world_from_cam.transpose() * Eigen::Vector3d(1, 2, 3)).norm(), 1e-12);
+             world_from_cam.transpose() * Eigen::Vector3d(1, 2, 3))
+                .norm(),
+            1e-12);
   const std::string truncated = dir.File("b.jpg.camera");
   std::ofstream(truncated) << "100 0 50\n0 100 40\n";
   EXPECT_THROW(ReadStrechaCamera(truncated), InputError);
   const std::string not_rotation = dir.File("c.jpg.camera");
-  std::ofstream(not_rotation) << "1 0 0 0 1 0 0 0 1 0 0 0 2 0 0 0 1 0 0 0 1 0 0 0 10 10\n";
+  std::ofstream(not_rotation)
+      << "1 0 0 0 1 0 0 0 1 0 0 0 2 0 0 0 1 0 0 0 1 0 0 0 10 10\n";
   try {
     ReadStrechaCamera(not_rotation);
     ADD_FAILURE();

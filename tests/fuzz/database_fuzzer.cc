@@ -73,17 +73,24 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
        "BLOB, qvec BLOB, tvec BLOB);"
        "INSERT INTO images VALUES (1, 'a.jpg', 1, NULL, NULL, NULL, NULL, "
        "NULL, NULL, NULL), (2, 'b.jpg', 1, 1, 0, 0, 0, 1, 2, 3);");
-  Insert(db, "INSERT INTO cameras VALUES (1, ?, ?, ?, ?, ?)",
-         {{true, p[0]}, {true, p[1]}, {true, p[2]}, {false, p[3]},
-          {true, p[4]}});
+  Insert(
+      db, "INSERT INTO cameras VALUES (1, ?, ?, ?, ?, ?)",
+      {{true, p[0]}, {true, p[1]}, {true, p[2]}, {false, p[3]}, {true, p[4]}});
   Insert(db, "INSERT INTO keypoints VALUES (1, ?, ?, ?)",
          {{true, p[5]}, {true, p[6]}, {false, p[7]}});
   Insert(db, "INSERT INTO keypoints VALUES (2, ?, ?, ?)",
          {{true, p[8]}, {true, p[9]}, {false, p[10]}});
-  Insert(db, "INSERT INTO two_view_geometries VALUES (?, ?, ?, ?, ?, ?, ?, ?, "
-             "?, ?)",
-         {{true, p[11]}, {true, p[12]}, {true, p[13]}, {false, p[14]},
-          {true, p[15]}, {false, p[16]}, {false, p[17]}, {false, p[18]},
+  Insert(db,
+         "INSERT INTO two_view_geometries VALUES (?, ?, ?, ?, ?, ?, ?, ?, "
+         "?, ?)",
+         {{true, p[11]},
+          {true, p[12]},
+          {true, p[13]},
+          {false, p[14]},
+          {true, p[15]},
+          {false, p[16]},
+          {false, p[17]},
+          {false, p[18]},
           {false, p[19].substr(0, p[19].size() / 2)},
           {false, p[19].substr(p[19].size() / 2)}});
   sqlite3_close(db);

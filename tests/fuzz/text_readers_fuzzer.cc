@@ -6,10 +6,10 @@
 
 #include <cstdint>
 
-#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/eval/relpose_io.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/fuzz/fuzz_utils.h"
 

@@ -37,17 +37,18 @@ TEST(Rotation, AngleAxisRoundTrip) {
   std::mt19937_64 rng(8);
   for (int k = 0; k < 100; ++k) {
     const Eigen::Matrix3d R = RandomRotation(&rng);
-    EXPECT_LT(AngularDistanceDeg(R, AngleAxisToRotation(RotationToAngleAxis(R))),
-              1e-6);
+    EXPECT_LT(
+        AngularDistanceDeg(R, AngleAxisToRotation(RotationToAngleAxis(R))),
+        1e-6);
   }
 }
 
 TEST(Rotation, RandomRotationWithAngleHasThatAngle) {
   std::mt19937_64 rng(9);
   for (double deg : {0.5, 5.0, 90.0, 179.0}) {
-    EXPECT_NEAR(RadToDeg(RotationAngle(RandomRotationWithAngle(DegToRad(deg),
-                                                               &rng))),
-                deg, 1e-6);
+    EXPECT_NEAR(
+        RadToDeg(RotationAngle(RandomRotationWithAngle(DegToRad(deg), &rng))),
+        deg, 1e-6);
   }
 }
 

@@ -3,10 +3,10 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/util/error.h"
 #include "colmap_irav4/scene/camera_models.h"
-#include "tests/test_utils/synthetic_two_view.h"
+#include "colmap_irav4/util/error.h"
 #include "tests/test_utils/record.h"
+#include "tests/test_utils/synthetic_two_view.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -15,8 +15,10 @@ using test::MakeCamera;
 using test::MakeSyntheticPair;
 using test::SyntheticPair;
 
-double TranslationErrorDeg(const Eigen::Vector3d& t1, const Eigen::Vector3d& t2) {
-  return RadToDeg(std::acos(std::clamp(t1.normalized().dot(t2.normalized()), -1.0, 1.0)));
+double TranslationErrorDeg(const Eigen::Vector3d& t1,
+                           const Eigen::Vector3d& t2) {
+  return RadToDeg(
+      std::acos(std::clamp(t1.normalized().dot(t2.normalized()), -1.0, 1.0)));
 }
 
 TEST(TwoViewGeometry, EssentialDecompositionContainsTruePose) {
@@ -31,7 +33,8 @@ TEST(TwoViewGeometry, EssentialDecompositionContainsTruePose) {
     int found = 0;
     for (size_t i = 0; i < Rs.size(); ++i) {
       EXPECT_TRUE(IsRotation(Rs[i], 1e-9));
-      if (AngularDistanceDeg(Rs[i], R) < 1e-6 && (ts[i] - t).norm() < 1e-9) ++found;
+      if (AngularDistanceDeg(Rs[i], R) < 1e-6 && (ts[i] - t).norm() < 1e-9)
+        ++found;
     }
     EXPECT_EQ(found, 1);
   }
@@ -42,7 +45,10 @@ TEST(TwoViewGeometry, HomographyDecompositionContainsTruePose) {
   for (int trial = 0; trial < 20; ++trial) {
     const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(20), &rng);
     const Eigen::Vector3d t = Eigen::Vector3d::Random();
-    const Eigen::Vector3d n = (Eigen::Vector3d::Random() * 0.3 + Eigen::Vector3d(0, 0, 1)).normalized() / 4.0;
+    const Eigen::Vector3d n =
+        (Eigen::Vector3d::Random() * 0.3 + Eigen::Vector3d(0, 0, 1))
+            .normalized() /
+        4.0;
     // x2 ~ (R + t n^T) x1 for points with n^T X1 = 1; any positive scale.
     const Eigen::Matrix3d H = 2.5 * (R + t * n.transpose());
     std::vector<Eigen::Matrix3d> Rs;
@@ -55,7 +61,8 @@ TEST(TwoViewGeometry, HomographyDecompositionContainsTruePose) {
       // Each solution reproduces H.
       EXPECT_LT((Rs[i] + ts[i] * ns[i].transpose() - H / 2.5).norm(), 1e-6);
       // (t, n) are defined up to t n^T: the decomposition's n is unit.
-      if (AngularDistanceDeg(Rs[i], R) < 1e-5 && (ts[i] - t * n.norm()).norm() < 1e-6 &&
+      if (AngularDistanceDeg(Rs[i], R) < 1e-5 &&
+          (ts[i] - t * n.norm()).norm() < 1e-6 &&
           (ns[i] - n.normalized()).norm() < 1e-6) {
         ++found;
       }
@@ -77,11 +84,14 @@ TEST(TwoViewGeometry, EightPointRecoversEssentialMatrix) {
   const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
   const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(10), &rng);
   const Eigen::Vector3d t(1, 0.2, 0.1);
-  const SyntheticPair pair = MakeSyntheticPair(camera, camera, R, t, 50, 0, false, &rng);
+  const SyntheticPair pair =
+      MakeSyntheticPair(camera, camera, R, t, 50, 0, false, &rng);
   std::vector<Eigen::Vector2d> x1, x2;
   for (const FeatureMatch& m : pair.geometry.inlier_matches) {
-    x1.push_back(CameraImageToCamera(camera, pair.keypoints1[m.point2D_idx1].cast<double>()));
-    x2.push_back(CameraImageToCamera(camera, pair.keypoints2[m.point2D_idx2].cast<double>()));
+    x1.push_back(CameraImageToCamera(
+        camera, pair.keypoints1[m.point2D_idx1].cast<double>()));
+    x2.push_back(CameraImageToCamera(
+        camera, pair.keypoints2[m.point2D_idx2].cast<double>()));
   }
   Eigen::Matrix3d E;
   ASSERT_TRUE(EstimateEssentialEightPoint(x1, x2, &E));
@@ -96,23 +106,32 @@ TEST(TwoViewGeometry, EightPointRecoversEssentialMatrix) {
 TEST(TwoViewGeometry, InverseSwapsEverything) {
   std::mt19937_64 rng(4);
   const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
-  SyntheticPair pair = MakeSyntheticPair(camera, camera, RandomRotationWithAngle(0.2, &rng),
-                                         Eigen::Vector3d(1, 0, 0.3), 30, 0, false, &rng);
+  SyntheticPair pair =
+      MakeSyntheticPair(camera, camera, RandomRotationWithAngle(0.2, &rng),
+                        Eigen::Vector3d(1, 0, 0.3), 30, 0, false, &rng);
   pair.geometry.has_pose = true;
   pair.geometry.qvec = RotationToQuaternion(pair.R);
   pair.geometry.tvec = Eigen::Vector3d(1, 0, 0.3);
   const TwoViewGeometry inverse = pair.geometry.Inverse();
   EXPECT_EQ(inverse.image_id1, 2u);
   EXPECT_EQ(inverse.image_id2, 1u);
-  EXPECT_EQ(inverse.inlier_matches[3].point2D_idx1, pair.geometry.inlier_matches[3].point2D_idx2);
-  EXPECT_EQ(inverse.inlier_matches[3].point2D_idx2, pair.geometry.inlier_matches[3].point2D_idx1);
+  EXPECT_EQ(inverse.inlier_matches[3].point2D_idx1,
+            pair.geometry.inlier_matches[3].point2D_idx2);
+  EXPECT_EQ(inverse.inlier_matches[3].point2D_idx2,
+            pair.geometry.inlier_matches[3].point2D_idx1);
   EXPECT_LT((inverse.F - pair.geometry.F.transpose()).norm(), 1e-15);
-  EXPECT_LT((inverse.H * pair.geometry.H - Eigen::Matrix3d::Identity()).norm(), 1e-9);
-  EXPECT_LT(AngularDistanceDeg(QuaternionToRotation(inverse.qvec), pair.R.transpose()), 1e-9);
+  EXPECT_LT((inverse.H * pair.geometry.H - Eigen::Matrix3d::Identity()).norm(),
+            1e-9);
+  EXPECT_LT(AngularDistanceDeg(QuaternionToRotation(inverse.qvec),
+                               pair.R.transpose()),
+            1e-9);
   // x1 = R^T x2 - R^T t.
-  EXPECT_LT((inverse.tvec + pair.R.transpose() * pair.geometry.tvec).norm(), 1e-12);
+  EXPECT_LT((inverse.tvec + pair.R.transpose() * pair.geometry.tvec).norm(),
+            1e-12);
   const TwoViewGeometry twice = inverse.Inverse();
-  EXPECT_LT((twice.H / twice.H(2, 2) - pair.geometry.H / pair.geometry.H(2, 2)).norm(), 1e-9);
+  EXPECT_LT((twice.H / twice.H(2, 2) - pair.geometry.H / pair.geometry.H(2, 2))
+                .norm(),
+            1e-9);
   EXPECT_LT((twice.tvec - pair.geometry.tvec).norm(), 1e-12);
 }
 
@@ -125,22 +144,25 @@ struct Case {
 };
 
 void ExpectRecovered(const Case& c, double noise_px, double max_rotation_deg,
-                     double max_translation_deg, RelativePoseSource expected_source,
-                     uint64_t seed) {
+                     double max_translation_deg,
+                     RelativePoseSource expected_source, uint64_t seed) {
   SCOPED_TRACE(c.model + " config " + TwoViewConfigName(c.config));
   std::mt19937_64 rng(seed);
   const Camera camera1 = MakeCamera(CameraModelNameToId(c.model), 1);
   const Camera camera2 = MakeCamera(CameraModelNameToId(c.model), 2);
   const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(15), &rng);
-  const Eigen::Vector3d t = c.pure_rotation ? Eigen::Vector3d::Zero() : Eigen::Vector3d(-1.2, 0.3, 0.4);
-  SyntheticPair pair = MakeSyntheticPair(camera1, camera2, R, t, 300, noise_px, c.planar, &rng);
+  const Eigen::Vector3d t = c.pure_rotation ? Eigen::Vector3d::Zero()
+                                            : Eigen::Vector3d(-1.2, 0.3, 0.4);
+  SyntheticPair pair =
+      MakeSyntheticPair(camera1, camera2, R, t, 300, noise_px, c.planar, &rng);
   pair.geometry.config = c.config;
   if (!c.keep_E) pair.geometry.E.setZero();
   if (!c.keep_F) pair.geometry.F.setZero();
   if (!c.keep_H) pair.geometry.H.setZero();
   RelativePoseOptions options;
-  const RelativePose pose = EstimateRelativePose(pair.geometry, camera1, camera2,
-                                                 pair.keypoints1, pair.keypoints2, options);
+  const RelativePose pose =
+      EstimateRelativePose(pair.geometry, camera1, camera2, pair.keypoints1,
+                           pair.keypoints2, options);
   ASSERT_TRUE(pose.success) << pose.failure;
   EXPECT_LT(AngularDistanceDeg(pose.R, R), max_rotation_deg);
   EXPECT_EQ(pose.has_translation, !c.pure_rotation);
@@ -154,12 +176,14 @@ void ExpectRecovered(const Case& c, double noise_px, double max_rotation_deg,
   }
   EXPECT_GT(pose.num_supporting, 280);
   // The reversed pair gives the inverse pose.
-  const RelativePose reverse = EstimateRelativePose(pair.geometry.Inverse(), camera2, camera1,
-                                                    pair.keypoints2, pair.keypoints1, options);
+  const RelativePose reverse =
+      EstimateRelativePose(pair.geometry.Inverse(), camera2, camera1,
+                           pair.keypoints2, pair.keypoints1, options);
   ASSERT_TRUE(reverse.success);
   EXPECT_LT(AngularDistanceDeg(reverse.R, R.transpose()), max_rotation_deg);
   if (!c.pure_rotation) {
-    EXPECT_LT(TranslationErrorDeg(reverse.t, -(R.transpose() * t)), max_translation_deg);
+    EXPECT_LT(TranslationErrorDeg(reverse.t, -(R.transpose() * t)),
+              max_translation_deg);
   }
 }
 
@@ -170,33 +194,34 @@ TEST(TwoViewGeometry, RelativePoseFromEachGeometryExact) {
   const int kPano = TwoViewGeometry::PANORAMIC;
   const int kPop = TwoViewGeometry::PLANAR_OR_PANORAMIC;
   // Exact data: the first candidate source that fits wins and is exact.
-  ExpectRecovered({"PINHOLE", kCal, true, false, false, false, false}, 0, 1e-4, 1e-3,
-                  RelativePoseSource::kEssential, 10);
-  ExpectRecovered({"PINHOLE", kUncal, false, true, false, false, false}, 0, 1e-4, 1e-3,
-                  RelativePoseSource::kFundamental, 11);
-  ExpectRecovered({"SIMPLE_PINHOLE", kPlanar, false, false, true, true, false}, 0, 1e-4, 1e-3,
-                  RelativePoseSource::kHomography, 12);
-  ExpectRecovered({"PINHOLE", kPop, true, true, true, true, false}, 0, 1e-4, 1e-3,
-                  RelativePoseSource::kEssential, 13);
-  ExpectRecovered({"PINHOLE", kPano, false, false, true, false, true}, 0, 1e-4, 0,
-                  RelativePoseSource::kRotation, 14);
+  ExpectRecovered({"PINHOLE", kCal, true, false, false, false, false}, 0, 1e-4,
+                  1e-3, RelativePoseSource::kEssential, 10);
+  ExpectRecovered({"PINHOLE", kUncal, false, true, false, false, false}, 0,
+                  1e-4, 1e-3, RelativePoseSource::kFundamental, 11);
+  ExpectRecovered({"SIMPLE_PINHOLE", kPlanar, false, false, true, true, false},
+                  0, 1e-4, 1e-3, RelativePoseSource::kHomography, 12);
+  ExpectRecovered({"PINHOLE", kPop, true, true, true, true, false}, 0, 1e-4,
+                  1e-3, RelativePoseSource::kEssential, 13);
+  ExpectRecovered({"PINHOLE", kPano, false, false, true, false, true}, 0, 1e-4,
+                  0, RelativePoseSource::kRotation, 14);
   // Nothing stored: re-estimated from the matches.
-  ExpectRecovered({"PINHOLE", kCal, false, false, false, false, false}, 0, 1e-4, 1e-3,
-                  RelativePoseSource::kEightPoint, 15);
+  ExpectRecovered({"PINHOLE", kCal, false, false, false, false, false}, 0, 1e-4,
+                  1e-3, RelativePoseSource::kEightPoint, 15);
 }
 
 TEST(TwoViewGeometry, RelativePoseWithDistortionAndNoise) {
   const int kCal = TwoViewGeometry::CALIBRATED;
   const int kPop = TwoViewGeometry::PLANAR_OR_PANORAMIC;
   const int kPano = TwoViewGeometry::PANORAMIC;
-  for (const std::string model : {"SIMPLE_RADIAL", "OPENCV", "OPENCV_FISHEYE"}) {
+  for (const std::string model :
+       {"SIMPLE_RADIAL", "OPENCV", "OPENCV_FISHEYE"}) {
     // E on undistorted points, as COLMAP estimates it for calibrated pairs.
-    ExpectRecovered({model, kCal, true, false, false, false, false}, 0.5, 0.3, 3,
-                    RelativePoseSource::kNone, 20);
+    ExpectRecovered({model, kCal, true, false, false, false, false}, 0.5, 0.3,
+                    3, RelativePoseSource::kNone, 20);
     ExpectRecovered({model, kPop, true, false, true, true, false}, 0.5, 0.3, 3,
                     RelativePoseSource::kNone, 21);
-    ExpectRecovered({model, kPano, false, false, true, false, true}, 0.5, 0.3, 0,
-                    RelativePoseSource::kNone, 22);
+    ExpectRecovered({model, kPano, false, false, true, false, true}, 0.5, 0.3,
+                    0, RelativePoseSource::kNone, 22);
   }
 }
 
@@ -208,25 +233,29 @@ TEST(TwoViewGeometry, RefinementImprovesNoisyPoses) {
   for (int trial = 0; trial < 20; ++trial) {
     std::mt19937_64 rng(100 + trial);
     const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(10), &rng);
-    SyntheticPair pair = MakeSyntheticPair(camera, camera, R, Eigen::Vector3d(1, 0.1, 0.2),
-                                           200, 1.0, false, &rng);
+    SyntheticPair pair = MakeSyntheticPair(
+        camera, camera, R, Eigen::Vector3d(1, 0.1, 0.2), 200, 1.0, false, &rng);
     pair.geometry.E.setZero();
     pair.geometry.F.setZero();
     pair.geometry.H.setZero();
     RelativePoseOptions options;
     options.refine = false;
-    const RelativePose plain = EstimateRelativePose(pair.geometry, camera, camera,
-                                                    pair.keypoints1, pair.keypoints2, options);
+    const RelativePose plain =
+        EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                             pair.keypoints2, options);
     options.refine = true;
-    const RelativePose refined = EstimateRelativePose(pair.geometry, camera, camera,
-                                                      pair.keypoints1, pair.keypoints2, options);
+    const RelativePose refined =
+        EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                             pair.keypoints2, options);
     ASSERT_TRUE(plain.success && refined.success);
     EXPECT_TRUE(refined.refined);
     error_plain += AngularDistanceDeg(plain.R, R);
     error_refined += AngularDistanceDeg(refined.R, R);
   }
-  ::colmap_irav4::test::RecordFiguresF("mean rotation error over 20 noisy pairs: eight-point %.4f deg, refined %.4f deg\n",
-              error_plain / 20, error_refined / 20);
+  ::colmap_irav4::test::RecordFiguresF(
+      "mean rotation error over 20 noisy pairs: eight-point %.4f deg, refined "
+      "%.4f deg\n",
+      error_plain / 20, error_refined / 20);
   EXPECT_LT(error_refined, 0.8 * error_plain);
 }
 
@@ -235,28 +264,29 @@ TEST(TwoViewGeometry, StoredPoseUsedOnlyWhenConsistent) {
   const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
   const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(12), &rng);
   const Eigen::Vector3d t(1, 0.2, -0.1);
-  SyntheticPair pair = MakeSyntheticPair(camera, camera, R, t, 200, 0.3, false, &rng);
+  SyntheticPair pair =
+      MakeSyntheticPair(camera, camera, R, t, 200, 0.3, false, &rng);
   pair.geometry.has_pose = true;
   pair.geometry.qvec = RotationToQuaternion(R);
   pair.geometry.tvec = 2.0 * t;
   RelativePoseOptions options;
-  RelativePose pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
-                                           pair.keypoints2, options);
+  RelativePose pose = EstimateRelativePose(
+      pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2, options);
   ASSERT_TRUE(pose.success);
   EXPECT_EQ(pose.source, RelativePoseSource::kStored);
   EXPECT_LT(AngularDistanceDeg(pose.R, R), 0.2);  // refined on noisy matches
   // Without refinement the stored pose is returned as is.
   options.refine = false;
-  pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2,
-                              options);
+  pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                              pair.keypoints2, options);
   EXPECT_EQ(pose.source, RelativePoseSource::kStored);
   EXPECT_LT(AngularDistanceDeg(pose.R, R), 1e-9);
   EXPECT_LT((pose.t - t.normalized()).norm(), 1e-12);
   options.refine = true;
   // A stored pose that contradicts the matches (transposed R) is ignored.
   pair.geometry.qvec = RotationToQuaternion(R.transpose());
-  pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2,
-                              options);
+  pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                              pair.keypoints2, options);
   ASSERT_TRUE(pose.success);
   EXPECT_NE(pose.source, RelativePoseSource::kStored);
   EXPECT_LT(AngularDistanceDeg(pose.R, R), 0.2);
@@ -265,10 +295,12 @@ TEST(TwoViewGeometry, StoredPoseUsedOnlyWhenConsistent) {
 TEST(TwoViewGeometry, FailsWithoutEnoughMatches) {
   std::mt19937_64 rng(40);
   const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
-  SyntheticPair pair = MakeSyntheticPair(camera, camera, Eigen::Matrix3d::Identity(),
-                                         Eigen::Vector3d(1, 0, 0), 4, 0, false, &rng);
-  const RelativePose pose = EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
-                                                 pair.keypoints2, RelativePoseOptions());
+  SyntheticPair pair =
+      MakeSyntheticPair(camera, camera, Eigen::Matrix3d::Identity(),
+                        Eigen::Vector3d(1, 0, 0), 4, 0, false, &rng);
+  const RelativePose pose =
+      EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                           pair.keypoints2, RelativePoseOptions());
   EXPECT_FALSE(pose.success);
   EXPECT_FALSE(pose.failure.empty());
 }
@@ -284,7 +316,8 @@ TEST(TwoViewGeometry, OptionsCheck) {
 }
 
 TEST(TwoViewGeometry, ConfigNames) {
-  EXPECT_EQ(TwoViewConfigName(TwoViewGeometry::PLANAR_OR_PANORAMIC), "PLANAR_OR_PANORAMIC");
+  EXPECT_EQ(TwoViewConfigName(TwoViewGeometry::PLANAR_OR_PANORAMIC),
+            "PLANAR_OR_PANORAMIC");
   EXPECT_EQ(TwoViewConfigFromName("WATERMARK"), 7);
   EXPECT_EQ(TwoViewConfigFromName("nope"), -1);
   EXPECT_EQ(TwoViewConfigName(42), "UNKNOWN(42)");

@@ -10,8 +10,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <set>
 #include <string>
 
@@ -34,9 +34,9 @@ constexpr int64_t kPairFactor = 2147483647;
 
 std::string CopyExampleDatabase(const TempDir& temp) {
   const std::string copy = temp.File("database.db");
-  fs::copy_file(std::string(COLMAP_IRAV4_SOURCE_DIR) +
-                    "/tests/data/fountain-P11.db",
-                copy);
+  fs::copy_file(
+      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
+      copy);
   fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
   return copy;
 }
@@ -138,9 +138,9 @@ TEST(DatabaseConsistency, LiveRollbackWriterIsWaitedForThenAClearError) {
   options.busy_timeout_ms = 300;
   const auto start = std::chrono::steady_clock::now();
   const std::string error = ErrorOf([&] { ReadDatabase(path, options); });
-  const double waited = std::chrono::duration<double>(
-                            std::chrono::steady_clock::now() - start)
-                            .count();
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   EXPECT_NE(error.find(path + ": database is locked by another process"),
             std::string::npos)
       << error;
@@ -246,8 +246,9 @@ TEST(DatabaseRecords, NonFiniteKeypointsNeverBecomeObservations) {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
     sqlite3_stmt* stmt = nullptr;
-    sqlite3_prepare_v2(db, "SELECT rows, cols, data FROM keypoints WHERE image_id = 1",
-                       -1, &stmt, nullptr);
+    sqlite3_prepare_v2(
+        db, "SELECT rows, cols, data FROM keypoints WHERE image_id = 1", -1,
+        &stmt, nullptr);
     ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
     const int rows = sqlite3_column_int(stmt, 0);
     const int cols = sqlite3_column_int(stmt, 1);

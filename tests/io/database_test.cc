@@ -10,10 +10,10 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
-#include "tests/test_utils/database_test_utils.h"
-#include "tests/test_utils/synthetic_two_view.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/record.h"
+#include "tests/test_utils/synthetic_two_view.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -42,7 +42,8 @@ double MedianFundamentalErrorPx(const TwoViewGeometry& geometry,
     const Eigen::Vector2d x2 = keypoints2[match.point2D_idx2].cast<double>();
     errors.push_back(std::sqrt(SampsonErrorSquared(geometry.F, x1, x2)));
   }
-  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2,
+                   errors.end());
   return errors[errors.size() / 2];
 }
 
@@ -73,9 +74,11 @@ TEST(Database, ReadsColmap38StrechaDatabase) {
     const FeatureKeypoints keypoints = database.ReadKeypoints(1);
     EXPECT_EQ(keypoints.size(), 10496u);  // 6 columns in the blob; x, y kept
     for (const Eigen::Vector2f& xy : keypoints) {
-      ASSERT_TRUE(xy.x() >= 0 && xy.x() <= 3072 && xy.y() >= 0 && xy.y() <= 2048);
+      ASSERT_TRUE(xy.x() >= 0 && xy.x() <= 3072 && xy.y() >= 0 &&
+                  xy.y() <= 2048);
     }
-    const std::vector<TwoViewGeometry> geometries = database.ReadAllTwoViewGeometries();
+    const std::vector<TwoViewGeometry> geometries =
+        database.ReadAllTwoViewGeometries();
     ASSERT_EQ(geometries.size(), 55u);
     std::map<int, int> configs;
     for (const TwoViewGeometry& geometry : geometries) {
@@ -101,10 +104,13 @@ TEST(Database, ReadsColmap38StrechaDatabase) {
 
     // Requesting the pair the other way round inverts the geometry.
     TwoViewGeometry forward, backward;
-    ASSERT_TRUE(database.ReadTwoViewGeometry(g.image_id1, g.image_id2, &forward));
-    ASSERT_TRUE(database.ReadTwoViewGeometry(g.image_id2, g.image_id1, &backward));
+    ASSERT_TRUE(
+        database.ReadTwoViewGeometry(g.image_id1, g.image_id2, &forward));
+    ASSERT_TRUE(
+        database.ReadTwoViewGeometry(g.image_id2, g.image_id1, &backward));
     EXPECT_EQ(backward.image_id1, g.image_id2);
-    EXPECT_EQ(backward.inlier_matches[10].point2D_idx1, forward.inlier_matches[10].point2D_idx2);
+    EXPECT_EQ(backward.inlier_matches[10].point2D_idx1,
+              forward.inlier_matches[10].point2D_idx2);
     EXPECT_LT((backward.F - forward.F.transpose()).norm(), 1e-12);
     EXPECT_LT(MedianFundamentalErrorPx(backward, k2, k1), 1.0);
     TwoViewGeometry absent;
@@ -129,7 +135,8 @@ TEST(Database, ReadsOlderSchemaWithoutPoseColumns) {
   EXPECT_FALSE(contents.schema.has_two_view_pose);
   EXPECT_EQ(contents.schema.Description(), "COLMAP <= 3.7");
   ASSERT_EQ(contents.cameras.size(), 1u);
-  EXPECT_EQ(CameraModelIdToName(contents.cameras.at(1).model_id), "SIMPLE_PINHOLE");
+  EXPECT_EQ(CameraModelIdToName(contents.cameras.at(1).model_id),
+            "SIMPLE_PINHOLE");
   EXPECT_EQ(contents.images.size(), 4u);
   EXPECT_EQ(contents.images.at(1).name, "00.jpg");
   EXPECT_EQ(contents.keypoints.at(1).size(), 6424u);
@@ -145,28 +152,35 @@ TEST(Database, ReadsOlderSchemaWithoutPoseColumns) {
 // (reference_model, COLMAP's text format).
 TEST(Database, OlderSchemaRelativePosesMatchReferenceModel) {
   COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37");
-  const std::map<std::string, Eigen::Matrix3d> reference = test::ModelRotationsByName(
-      kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model");
+  const std::map<std::string, Eigen::Matrix3d> reference =
+      test::ModelRotationsByName(
+          kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model");
   ASSERT_EQ(reference.size(), 4u);
   DatabaseContents contents = ReadDatabase(kMaupertuis);
   // The database holds COLMAP's initial focal guess (1.2 x 1919 px); F -> E
   // needs the true intrinsics: take the reference model's refined camera.
   EXPECT_NEAR(contents.cameras.at(1).params[0], 1.2 * 1919, 1e-9);
   const Camera reference_camera =
-      ReadReconstruction(kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model")
+      ReadReconstruction(kDataDir +
+                         "/colmap_samples/maupertuis_colmap37/reference_model")
           .cameras.at(1);
   ASSERT_EQ(CameraModelIdToName(reference_camera.model_id), "SIMPLE_PINHOLE");
   contents.cameras.at(1).params = reference_camera.params;
   ViewGraphSummary summary;
-  const ViewGraph view_graph = BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
+  const ViewGraph view_graph =
+      BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
   ASSERT_EQ(view_graph.pairs.size(), 6u);
   for (const ImagePairGeometry& pair : view_graph.pairs) {
-    const Eigen::Matrix3d R1 = reference.at(view_graph.image_names.at(pair.image_id1));
-    const Eigen::Matrix3d R2 = reference.at(view_graph.image_names.at(pair.image_id2));
+    const Eigen::Matrix3d R1 =
+        reference.at(view_graph.image_names.at(pair.image_id1));
+    const Eigen::Matrix3d R2 =
+        reference.at(view_graph.image_names.at(pair.image_id2));
     const double error = AngularDistanceDeg(pair.R, R2 * R1.transpose());
-    ::colmap_irav4::test::RecordFiguresF("maupertuis %s-%s: relative rotation error %.3f deg (%d inliers)\n",
-                view_graph.image_names.at(pair.image_id1).c_str(),
-                view_graph.image_names.at(pair.image_id2).c_str(), error, pair.num_inliers);
+    ::colmap_irav4::test::RecordFiguresF(
+        "maupertuis %s-%s: relative rotation error %.3f deg (%d inliers)\n",
+        view_graph.image_names.at(pair.image_id1).c_str(),
+        view_graph.image_names.at(pair.image_id2).c_str(), error,
+        pair.num_inliers);
     EXPECT_LT(error, 1.0);
   }
 }
@@ -189,7 +203,8 @@ TEST(Database, FisheyeCamerasWithoutMatchesGiveEmptyGraph) {
   EXPECT_TRUE(contents.two_view_geometries.empty());
   EXPECT_TRUE(contents.keypoints.at(1).empty());
   ViewGraphSummary summary;
-  const ViewGraph view_graph = BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
+  const ViewGraph view_graph =
+      BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
   EXPECT_TRUE(view_graph.pairs.empty());
   EXPECT_TRUE(view_graph.image_names.empty());
   EXPECT_EQ(summary.num_images, 6);
@@ -225,34 +240,42 @@ TEST(Database, ImmutableOpenLeavesWalDatabaseAndDirectoryUntouched) {
 
 // Writes a synthetic pair (image ids 1, 2, camera 1 PINHOLE) into an open
 // database of either schema; returns the pair.
-test::SyntheticPair WriteSyntheticPair(SqliteWriter* writer, bool colmap4, bool swap_names) {
+test::SyntheticPair WriteSyntheticPair(SqliteWriter* writer, bool colmap4,
+                                       bool swap_names) {
   std::mt19937_64 rng(7);
   const Camera camera = test::MakeCamera(CameraModelNameToId("PINHOLE"));
   const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(12), &rng);
   test::SyntheticPair pair = test::MakeSyntheticPair(
-      camera, camera, R, Eigen::Vector3d(0.9, -0.2, 0.3), 120, 0.2, false, &rng);
-  writer->Run("INSERT INTO cameras VALUES (1, 1, 1600, 1200, ?, 1)", {ToBlob(camera.params)});
+      camera, camera, R, Eigen::Vector3d(0.9, -0.2, 0.3), 120, 0.2, false,
+      &rng);
+  writer->Run("INSERT INTO cameras VALUES (1, 1, 1600, 1200, ?, 1)",
+              {ToBlob(camera.params)});
   if (colmap4) {
     writer->Exec("INSERT INTO rigs VALUES (1, 1, 0);");
     writer->Exec("INSERT INTO frames VALUES (1, 1), (2, 1);");
     writer->Exec("INSERT INTO frame_data VALUES (1, 1, 1, 0), (2, 2, 1, 0);");
-    writer->Exec(std::string("INSERT INTO images VALUES (1, '") + (swap_names ? "b.jpg" : "a.jpg") +
-                 "', 1), (2, '" + (swap_names ? "a.jpg" : "b.jpg") + "', 1);");
+    writer->Exec(std::string("INSERT INTO images VALUES (1, '") +
+                 (swap_names ? "b.jpg" : "a.jpg") + "', 1), (2, '" +
+                 (swap_names ? "a.jpg" : "b.jpg") + "', 1);");
     writer->Run("INSERT INTO pose_priors VALUES (1, 2, 1, 0, ?, NULL, NULL, 1)",
                 {ToBlob(std::vector<double>{4.0, 5.0, 6.0})});
   } else {
-    writer->Exec("INSERT INTO images VALUES (1, 'a.jpg', 1, NULL, NULL, NULL, NULL, NULL, NULL, NULL),"
-                 " (2, 'b.jpg', 1, 1, 0, 0, 0, 1, 2, 3);");
+    writer->Exec(
+        "INSERT INTO images VALUES (1, 'a.jpg', 1, NULL, NULL, NULL, NULL, "
+        "NULL, NULL, NULL),"
+        " (2, 'b.jpg', 1, 1, 0, 0, 0, 1, 2, 3);");
   }
   for (int image_id = 1; image_id <= 2; ++image_id) {
-    const FeatureKeypoints& keypoints = image_id == 1 ? pair.keypoints1 : pair.keypoints2;
+    const FeatureKeypoints& keypoints =
+        image_id == 1 ? pair.keypoints1 : pair.keypoints2;
     // 4 columns (x, y, scale, orientation) as COLMAP < 3.0 wrote them.
     std::vector<float> data;
     for (const Eigen::Vector2f& xy : keypoints) {
       data.insert(data.end(), {xy.x(), xy.y(), 2.0f, 0.5f});
     }
-    writer->Run("INSERT INTO keypoints VALUES (?, ?, 4, ?)",
-                {image_id, static_cast<int64_t>(keypoints.size()), ToBlob(data)});
+    writer->Run(
+        "INSERT INTO keypoints VALUES (?, ?, 4, ?)",
+        {image_id, static_cast<int64_t>(keypoints.size()), ToBlob(data)});
   }
   std::vector<uint32_t> matches;
   for (const FeatureMatch& m : pair.geometry.inlier_matches) {
@@ -265,14 +288,17 @@ test::SyntheticPair WriteSyntheticPair(SqliteWriter* writer, bool colmap4, bool 
       for (int c = 0; c < 3; ++c) values.push_back(M(r, c));
     return ToBlob(values);
   };
-  writer->Run("INSERT INTO two_view_geometries VALUES (?, ?, 2, ?, 2, ?, ?, ?, ?, ?)",
-              {static_cast<int64_t>(ImagePairToPairId(1, 2)),
-               static_cast<int64_t>(pair.geometry.inlier_matches.size()), ToBlob(matches),
-               row_major(pair.geometry.F), row_major(pair.geometry.E), row_major(pair.geometry.H),
-               ToBlob(std::vector<double>{0, 0, 0, 0}), ToBlob(std::vector<double>{0, 0, 0})});
+  writer->Run(
+      "INSERT INTO two_view_geometries VALUES (?, ?, 2, ?, 2, ?, ?, ?, ?, ?)",
+      {static_cast<int64_t>(ImagePairToPairId(1, 2)),
+       static_cast<int64_t>(pair.geometry.inlier_matches.size()),
+       ToBlob(matches), row_major(pair.geometry.F), row_major(pair.geometry.E),
+       row_major(pair.geometry.H), ToBlob(std::vector<double>{0, 0, 0, 0}),
+       ToBlob(std::vector<double>{0, 0, 0})});
   writer->Run("INSERT INTO matches VALUES (?, ?, 2, ?)",
               {static_cast<int64_t>(ImagePairToPairId(1, 2)),
-               static_cast<int64_t>(pair.geometry.inlier_matches.size()), ToBlob(matches)});
+               static_cast<int64_t>(pair.geometry.inlier_matches.size()),
+               ToBlob(matches)});
   return pair;
 }
 
@@ -298,7 +324,8 @@ TEST(Database, ReadsSyntheticColmap38Database) {
   EXPECT_LT((geometry.H - pair.geometry.H).norm(), 1e-12);
   EXPECT_FALSE(geometry.has_pose);
   ViewGraphSummary summary;
-  const ViewGraph view_graph = BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
+  const ViewGraph view_graph =
+      BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
   ASSERT_EQ(view_graph.pairs.size(), 1u);
   EXPECT_LT(AngularDistanceDeg(view_graph.pairs[0].R, pair.R), 0.1);
 }
@@ -326,13 +353,16 @@ TEST(Database, ReadsSyntheticColmap4Database) {
     EXPECT_TRUE(contents.images.at(2).has_prior_position);
     EXPECT_EQ(contents.images.at(2).prior_tvec, Eigen::Vector3d(4, 5, 6));
     ViewGraphSummary summary;
-    const ViewGraph view_graph = BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
+    const ViewGraph view_graph =
+        BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);
     ASSERT_EQ(view_graph.pairs.size(), 1u);
-    // The pair stays in id order (1 -> 2) whatever the names: R = cam2_from_cam1.
+    // The pair stays in id order (1 -> 2) whatever the names: R =
+    // cam2_from_cam1.
     EXPECT_EQ(view_graph.pairs[0].image_id1, 1u);
     EXPECT_EQ(view_graph.image_names.at(1), swap_names ? "b.jpg" : "a.jpg");
     EXPECT_LT(AngularDistanceDeg(view_graph.pairs[0].R, pair.R), 0.1);
-    EXPECT_GT(AngularDistanceDeg(view_graph.pairs[0].R, pair.R.transpose()), 10);
+    EXPECT_GT(AngularDistanceDeg(view_graph.pairs[0].R, pair.R.transpose()),
+              10);
   }
 }
 
@@ -354,16 +384,20 @@ TEST(Database, StoredPoseIsReadAndInvertedForSwappedRequests) {
   ASSERT_TRUE(database.ReadTwoViewGeometry(1, 2, &forward));
   ASSERT_TRUE(database.ReadTwoViewGeometry(2, 1, &backward));
   ASSERT_TRUE(forward.has_pose && backward.has_pose);
-  EXPECT_LT(AngularDistanceDeg(QuaternionToRotation(forward.qvec), pair.R), 1e-9);
-  EXPECT_LT(AngularDistanceDeg(QuaternionToRotation(backward.qvec), pair.R.transpose()), 1e-9);
+  EXPECT_LT(AngularDistanceDeg(QuaternionToRotation(forward.qvec), pair.R),
+            1e-9);
+  EXPECT_LT(AngularDistanceDeg(QuaternionToRotation(backward.qvec),
+                               pair.R.transpose()),
+            1e-9);
   EXPECT_LT((backward.tvec + pair.R.transpose() * pair.t).norm(), 1e-12);
-  const RelativePose pose = EstimateRelativePose(forward, pair.camera1, pair.camera2,
-                                                 pair.keypoints1, pair.keypoints2,
-                                                 RelativePoseOptions());
+  const RelativePose pose =
+      EstimateRelativePose(forward, pair.camera1, pair.camera2, pair.keypoints1,
+                           pair.keypoints2, RelativePoseOptions());
   EXPECT_EQ(pose.source, RelativePoseSource::kStored);
 }
 
-// Each bad database: InputError naming the file and the problem, file unchanged.
+// Each bad database: InputError naming the file and the problem, file
+// unchanged.
 void ExpectBadDatabase(const std::string& path, const std::string& problem) {
   SCOPED_TRACE(problem);
   const bool existed = std::filesystem::exists(path);
@@ -390,7 +424,8 @@ TEST(Database, BadInputGivesOneClearError) {
   TempDir dir;
   ExpectBadDatabase(dir.File("missing.db"), "No such file");
   {
-    std::ofstream(dir.File("text.db")) << "this is not a database, just some text\n";
+    std::ofstream(dir.File("text.db"))
+        << "this is not a database, just some text\n";
     ExpectBadDatabase(dir.File("text.db"), "not an SQLite database");
   }
   auto make = [&](const std::string& name, const std::string& sql) {
@@ -403,21 +438,32 @@ TEST(Database, BadInputGivesOneClearError) {
   };
   ExpectBadDatabase(make("no_table.db", "DROP TABLE two_view_geometries;"),
                     "table 'two_view_geometries' is missing");
-  ExpectBadDatabase(make("bad_keypoints.db", "UPDATE keypoints SET rows = rows + 1 WHERE image_id = 2;"),
-                    "keypoints of image 2: data blob has");
-  ExpectBadDatabase(make("bad_matches.db", "UPDATE two_view_geometries SET data = substr(data, 1, 40);"),
-                    "two_view_geometries of pair (1, 2): data blob has");
-  ExpectBadDatabase(make("bad_F.db", "UPDATE two_view_geometries SET F = zeroblob(64);"),
-                    "F blob has 64 bytes");
-  ExpectBadDatabase(make("bad_params.db", "UPDATE cameras SET params = zeroblob(24);"),
-                    "camera 1: params blob has 24 bytes, PINHOLE expects 4 doubles");
+  ExpectBadDatabase(
+      make("bad_keypoints.db",
+           "UPDATE keypoints SET rows = rows + 1 WHERE image_id = 2;"),
+      "keypoints of image 2: data blob has");
+  ExpectBadDatabase(
+      make("bad_matches.db",
+           "UPDATE two_view_geometries SET data = substr(data, 1, 40);"),
+      "two_view_geometries of pair (1, 2): data blob has");
+  ExpectBadDatabase(
+      make("bad_F.db", "UPDATE two_view_geometries SET F = zeroblob(64);"),
+      "F blob has 64 bytes");
+  ExpectBadDatabase(
+      make("bad_params.db", "UPDATE cameras SET params = zeroblob(24);"),
+      "camera 1: params blob has 24 bytes, PINHOLE expects 4 doubles");
   ExpectBadDatabase(make("bad_model.db", "UPDATE cameras SET model = 42;"),
                     "camera 1: unknown camera model id 42");
-  ExpectBadDatabase(make("bad_column.db", "ALTER TABLE images RENAME COLUMN camera_id TO cam_id;"),
-                    "table 'images' has no column 'camera_id'");
-  ExpectBadDatabase(make("bad_index.db", "UPDATE keypoints SET rows = 3, data = substr(data, 1, 48) WHERE image_id = 1;"),
+  ExpectBadDatabase(
+      make("bad_column.db",
+           "ALTER TABLE images RENAME COLUMN camera_id TO cam_id;"),
+      "table 'images' has no column 'camera_id'");
+  ExpectBadDatabase(make("bad_index.db",
+                         "UPDATE keypoints SET rows = 3, data = substr(data, "
+                         "1, 48) WHERE image_id = 1;"),
                     "out of range");
-  ExpectBadDatabase(make("bad_camera_ref.db", "UPDATE images SET camera_id = 9 WHERE image_id = 2;"),
+  ExpectBadDatabase(make("bad_camera_ref.db",
+                         "UPDATE images SET camera_id = 9 WHERE image_id = 2;"),
                     "refers to camera 9");
   // A directory is not a database either.
   ExpectBadDatabase(dir.File(""), "not a regular file");

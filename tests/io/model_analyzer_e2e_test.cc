@@ -81,8 +81,8 @@ void ExpectAnalyzerAgrees(const Reconstruction& model,
                           const std::string& type) {
   TempDir temp;
   WriteReconstruction(model, temp.path(), type);
-  const CommandResult result = RunShell(std::string(kColmap) +
-                                   " model_analyzer --path " + temp.path());
+  const CommandResult result =
+      RunShell(std::string(kColmap) + " model_analyzer --path " + temp.path());
   ASSERT_EQ(result.exit_code, 0) << result.output;
   const std::map<std::string, double> values =
       ParseAnalyzerOutput(result.output);
@@ -142,8 +142,7 @@ class ColmapEndToEnd : public ::testing::Test {
 
 TEST_F(ColmapEndToEnd, ModelAnalyzerReadsOurBinaryAndTextModels) {
   const Reconstruction strecha = ReadReconstruction(
-      DataDir() +
-      "/strecha/fountain-P11/colmap38_incremental");
+      DataDir() + "/strecha/fountain-P11/colmap38_incremental");
   ExpectAnalyzerAgrees(strecha, "BIN");
   ExpectAnalyzerAgrees(strecha, "TXT");
   // Every camera model; COLMAP's text reader splits names at spaces.
@@ -168,8 +167,8 @@ TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
     fs::create_directories(theirs_txt);
     fs::create_directories(theirs_bin);
     CommandResult result =
-        RunShell(std::string(kColmap) + " model_converter --input_path " + ours +
-            " --output_path " + theirs_txt + " --output_type TXT");
+        RunShell(std::string(kColmap) + " model_converter --input_path " +
+                 ours + " --output_path " + theirs_txt + " --output_type TXT");
     ASSERT_EQ(result.exit_code, 0) << result.output;
     ExpectIdentical(model, ReadReconstruction(theirs_txt));
 
@@ -192,8 +191,8 @@ TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
     fs::create_directories(temp.File("ours_txt"));
     WriteReconstruction(model, temp.File("ours_txt"), "TXT");
     result = RunShell(std::string(kColmap) + " model_converter --input_path " +
-                 temp.File("ours_txt") + " --output_path " + theirs_bin +
-                 " --output_type BIN");
+                      temp.File("ours_txt") + " --output_path " + theirs_bin +
+                      " --output_type BIN");
     ASSERT_EQ(result.exit_code, 0) << result.output;
     ExpectIdentical(model, ReadReconstruction(theirs_bin));
   }
@@ -203,17 +202,17 @@ TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
 // images files byte for byte; bad input fails with one line naming the file.
 TEST(ModelConverterCommand, ConvertsAndReportsBadInput) {
   COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
-  const std::string source = DataDir() +
-                             "/strecha/Herz-Jesus-P8/colmap38_incremental";
+  const std::string source =
+      DataDir() + "/strecha/Herz-Jesus-P8/colmap38_incremental";
   const std::string binary = COLMAP_IRAV4_BINARY;
   TempDir temp;
   CommandResult result =
       RunShell(binary + " model_converter --input_path " + source +
-          " --output_path " + temp.File("txt") + " --output_type TXT");
+               " --output_path " + temp.File("txt") + " --output_type TXT");
   ASSERT_EQ(result.exit_code, 0) << result.output;
   EXPECT_TRUE(ExistsTextModel(temp.File("txt")));
-  result = RunShell(binary + " model_converter --input_path " + temp.File("txt") +
-               " --output_path " + temp.File("bin"));
+  result = RunShell(binary + " model_converter --input_path " +
+                    temp.File("txt") + " --output_path " + temp.File("bin"));
   ASSERT_EQ(result.exit_code, 0) << result.output;
   for (const std::string name : {"cameras.bin", "images.bin"}) {
     EXPECT_TRUE(ReadBytes(source + "/" + name) ==
@@ -223,14 +222,15 @@ TEST(ModelConverterCommand, ConvertsAndReportsBadInput) {
   ExpectIdentical(ReadReconstruction(source),
                   ReadReconstruction(temp.File("bin")));
 
-  result = RunShell(binary + " model_converter --input_path " + temp.File("none") +
-               " --output_path " + temp.File("out"));
+  result = RunShell(binary + " model_converter --input_path " +
+                    temp.File("none") + " --output_path " + temp.File("out"));
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.output.find("ERROR: " + temp.File("none")),
             std::string::npos)
       << result.output;
   EXPECT_FALSE(fs::exists(temp.File("out")));
-  result = RunShell(binary + " model_converter --input_path " + source +
+  result =
+      RunShell(binary + " model_converter --input_path " + source +
                " --output_path " + temp.File("out") + " --output_type PLY");
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.output.find("--output_type"), std::string::npos)

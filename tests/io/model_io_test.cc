@@ -144,10 +144,9 @@ TEST(ModelIO, BinaryWriteIsByteIdenticalToCOLMAP) {
       EXPECT_EQ(our_records.count, their_records.count);
       EXPECT_EQ(our_records.records.size(), our_records.count);
       EXPECT_TRUE(our_records.records == their_records.records);
-      EXPECT_TRUE(std::is_sorted(our_records.ids.begin(),
-                                 our_records.ids.end()));
-      if (std::is_sorted(their_records.ids.begin(),
-                         their_records.ids.end())) {
+      EXPECT_TRUE(
+          std::is_sorted(our_records.ids.begin(), our_records.ids.end()));
+      if (std::is_sorted(their_records.ids.begin(), their_records.ids.end())) {
         EXPECT_TRUE(ours == theirs);
       }
     }
@@ -172,7 +171,8 @@ double HeaderNumber(const std::string& path, const std::string& prefix) {
 }
 
 TEST(ModelIO, ReadsCOLMAP37TextModel) {
-  COLMAP_IRAV4_REQUIRE_DATA("colmap_samples/maupertuis_colmap37/reference_model");
+  COLMAP_IRAV4_REQUIRE_DATA(
+      "colmap_samples/maupertuis_colmap37/reference_model");
   const std::string dir =
       kDataDir + "/colmap_samples/maupertuis_colmap37/reference_model";
   ASSERT_FALSE(ExistsBinaryModel(dir));
@@ -183,13 +183,11 @@ TEST(ModelIO, ReadsCOLMAP37TextModel) {
             HeaderNumber(dir + "/images.txt", "Number of images: "));
   EXPECT_EQ(model.points3D.size(),
             HeaderNumber(dir + "/points3D.txt", "Number of points: "));
-  EXPECT_NEAR(MeanObservationsPerImage(model),
-              HeaderNumber(dir + "/images.txt",
-                           "mean observations per image: "),
-              1e-4);
+  EXPECT_NEAR(
+      MeanObservationsPerImage(model),
+      HeaderNumber(dir + "/images.txt", "mean observations per image: "), 1e-4);
   EXPECT_NEAR(MeanTrackLength(model),
-              HeaderNumber(dir + "/points3D.txt", "mean track length: "),
-              1e-4);
+              HeaderNumber(dir + "/points3D.txt", "mean track length: "), 1e-4);
   // The README: one SIMPLE_PINHOLE camera, four images.
   ASSERT_EQ(model.cameras.size(), 1u);
   EXPECT_EQ(model.cameras.begin()->second.model_id, kSimplePinhole);
@@ -306,8 +304,8 @@ TEST(ModelIO, TruncatedAndGarbageBinaryFiles) {
   const std::string source = StrechaModelDirs()[1];
   for (const std::string name : {"cameras.bin", "images.bin", "points3D.bin"}) {
     const std::string original = ReadBytes(source + "/" + name);
-    std::vector<size_t> cuts = {0, 3, 8, 12, 40, original.size() / 2,
-                                original.size() - 1};
+    std::vector<size_t> cuts = {
+        0, 3, 8, 12, 40, original.size() / 2, original.size() - 1};
     for (const size_t cut : cuts) {
       if (cut >= original.size()) continue;
       SCOPED_TRACE(name + " cut at " + std::to_string(cut));
@@ -399,8 +397,7 @@ TEST(ModelIO, BadTextContents) {
        "missing POINTS2D line"},
       {"images.txt", images + "999 1 0 0 0 0 0 0 10 x.jpg\n1 2\n",
        "(X, Y, POINT3D_ID) triples"},
-      {"images.txt", images + "999 1 0 0 0 0 0 0\n\n",
-       "expected IMAGE_ID"},
+      {"images.txt", images + "999 1 0 0 0 0 0 0\n\n", "expected IMAGE_ID"},
       {"images.txt", images + "-5 1 0 0 0 0 0 0 10 x.jpg\n\n",
        "invalid image id '-5'"},
       {"points3D.txt", points + "5 1 2 3 0 0 0 0.5 3 0 7\n", "expected"},
@@ -414,8 +411,8 @@ TEST(ModelIO, BadTextContents) {
     SCOPED_TRACE(c.problem);
     WriteReconstruction(model, temp.path(), "TXT");
     WriteBytes(temp.File(c.file), c.contents);
-    ExpectInputError([&] { ReadReconstruction(temp.path()); }, temp.File(c.file),
-                     c.problem);
+    ExpectInputError([&] { ReadReconstruction(temp.path()); },
+                     temp.File(c.file), c.problem);
   }
   // Every line number is right: a bad camera line after the header and
   // the 11 cameras is line 15.
@@ -436,7 +433,8 @@ TEST(ModelIO, FailedWriteLeavesNoPartialModel) {
   const std::string dir = temp.File("model");
   Reconstruction old_model = model;
   for (auto& [image_id, image] : old_model.images) {
-    for (Point2D& point2D : image.points2D) point2D.point3D_id = kInvalidPoint3DId;
+    for (Point2D& point2D : image.points2D)
+      point2D.point3D_id = kInvalidPoint3DId;
   }
   old_model.points3D.clear();
   WriteReconstruction(old_model, dir, "BIN");
@@ -447,9 +445,9 @@ TEST(ModelIO, FailedWriteLeavesNoPartialModel) {
                    dir + "/points3D.bin", "cannot write");
   EXPECT_TRUE(fs::exists(blocker + "/inside"));
   ExpectIdentical(old_model, ReadReconstruction(dir));
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir),
-                          fs::directory_iterator()),
-            4);  // the three files and the blocker
+  EXPECT_EQ(
+      std::distance(fs::directory_iterator(dir), fs::directory_iterator()),
+      4);  // the three files and the blocker
   // A directory where a file must go.
   fs::remove_all(blocker);
   fs::remove(dir + "/images.bin");
@@ -457,9 +455,8 @@ TEST(ModelIO, FailedWriteLeavesNoPartialModel) {
   ExpectInputError([&] { WriteReconstruction(model, dir, "BIN"); },
                    dir + "/images.bin", "is a directory");
   EXPECT_EQ(ReadBytes(dir + "/cameras.bin"), CamerasBinaryBytes(old_model));
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir),
-                          fs::directory_iterator()),
-            3);
+  EXPECT_EQ(
+      std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 3);
 }
 
 }  // namespace

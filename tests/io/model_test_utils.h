@@ -26,10 +26,11 @@ class TempDir {
   TempDir() {
     const ::testing::TestInfo* info =
         ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = (fs::temp_directory_path() /
-             ("colmap_irav4_model_io_" + std::string(info->test_suite_name()) + "_" + std::string(info->name()) + "_" +
-              std::to_string(::getpid())))
-                .string();
+    path_ =
+        (fs::temp_directory_path() /
+         ("colmap_irav4_model_io_" + std::string(info->test_suite_name()) +
+          "_" + std::string(info->name()) + "_" + std::to_string(::getpid())))
+            .string();
     fs::remove_all(path_);
     fs::create_directories(path_);
   }

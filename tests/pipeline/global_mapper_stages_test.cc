@@ -68,8 +68,7 @@ StageScene MakeStageScene() {
     ImagePairGeometry pair;
     pair.image_id1 = matches.image_id1;
     pair.image_id2 = matches.image_id2;
-    pair.R = RandomRotationWithAngle(DegToRad(0.3), &rng) * R2 *
-             R1.transpose();
+    pair.R = RandomRotationWithAngle(DegToRad(0.3), &rng) * R2 * R1.transpose();
     pair.t = (pose2.translation - R2 * R1.transpose() * pose1.translation)
                  .normalized();
     pair.num_inliers = static_cast<int>(matches.matches.size());
@@ -140,8 +139,8 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   EXPECT_LE(mapper.reconstruction().points3D.size(), mapper.tracks().size());
 
   ASSERT_TRUE(mapper.Positioning());
-  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(),
-                                         s.scene.truth, 10.0),
+  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(), s.scene.truth,
+                                         10.0),
             0.02);
 
   ASSERT_TRUE(mapper.IterativeBundleAdjustment());
@@ -158,8 +157,8 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   // Retriangulation completed the tracks positioning did not use.
   EXPECT_GT(mapper.reconstruction().points3D.size(),
             0.9 * mapper.tracks().size());
-  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(),
-                                         s.scene.truth, 10.0),
+  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(), s.scene.truth,
+                                         10.0),
             0.002);
 
   ASSERT_TRUE(mapper.Finalize());
@@ -202,10 +201,10 @@ TEST(GlobalMapperStages, RunIsTheStagesInOrder) {
     const Image& other = by_stage.reconstruction().images.at(image_id);
     // Equal up to floating-point noise (Eigen's vectorised sums may differ in
     // the last bits between two runs).
-    EXPECT_LT((image.cam_from_world.translation -
-               other.cam_from_world.translation)
-                  .norm(),
-              1e-9);
+    EXPECT_LT(
+        (image.cam_from_world.translation - other.cam_from_world.translation)
+            .norm(),
+        1e-9);
   }
 }
 
@@ -219,10 +218,10 @@ TEST(GlobalMapperStages, StagesSkippedByOptionsAndFailureReason) {
   ASSERT_TRUE(mapper.Run());
   std::vector<std::string> names;
   for (const StageReport& stage : mapper.stages()) names.push_back(stage.name);
-  EXPECT_EQ(names, (std::vector<std::string>{
-                       "rotation averaging (irav4)", "rotation filter",
-                       "tracks", "global_positioning", "retriangulation",
-                       "final filtering"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{
+                "rotation averaging (irav4)", "rotation filter", "tracks",
+                "global_positioning", "retriangulation", "final filtering"}));
 
   // More images needed than the component has: the rotation filter stops.
   options = TestOptions();

@@ -76,8 +76,10 @@ TEST(PairComponents, LargestFirstThenSmallestImageId) {
 TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
   test::TempDir temp;
   // Two 8x8 images of one colour each (BGR on disk).
-  cv::imwrite(temp.File("a.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 200)));
-  cv::imwrite(temp.File("b.png"), cv::Mat(8, 8, CV_8UC3, cv::Scalar(100, 0, 0)));
+  cv::imwrite(temp.File("a.png"),
+              cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 200)));
+  cv::imwrite(temp.File("b.png"),
+              cv::Mat(8, 8, CV_8UC3, cv::Scalar(100, 0, 0)));
   Reconstruction model;
   model.cameras[1].camera_id = 1;
   const std::vector<std::string> names = {"a.png", "b.png", "missing.png"};
@@ -91,9 +93,11 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
     image.points2D[1].xy = Eigen::Vector2d(2.0, 2.0);
   }
   // Seen in a and b: mean of red 200 and blue 100.
-  const point3D_t both = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  const point3D_t both =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
   // Seen only in a and the missing image.
-  const point3D_t a_only = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {3, 1}}, &model);
+  const point3D_t a_only =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {3, 1}}, &model);
   // Seen only in the missing image (twice): grey.
   const point3D_t none = AddPoint3D(Eigen::Vector3d::Zero(), {{3, 0}}, &model);
   for (const int downscale : {1, 2}) {
@@ -125,8 +129,10 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
     view.points2D[0].xy = Eigen::Vector2d(5.5, 2.5);  // centre of column 5
     view.points2D[1].xy = Eigen::Vector2d(5.0, 2.5);  // between 4 and 5
   }
-  const point3D_t centre = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
-  const point3D_t between = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}}, &model);
+  const point3D_t centre =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  const point3D_t between =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}}, &model);
   ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model, 1), 0);
   EXPECT_EQ(static_cast<int>(model.points3D.at(centre).color[0]), 50);
   EXPECT_EQ(static_cast<int>(model.points3D.at(between).color[0]), 45);
@@ -188,7 +194,8 @@ TEST(ReprojectionError, PerPointIsTheMeanOfTheTrackMeans) {
     model.images[id].camera_id = 1;
     model.images[id].points2D.resize(2);
   }
-  const point3D_t a = AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  const point3D_t a =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
   const point3D_t b =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}, {3, 1}}, &model);
   model.points3D.at(a).error = 1.0;

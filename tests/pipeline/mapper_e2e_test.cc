@@ -11,11 +11,11 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/eval/model_alignment.h"
-#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
-#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
@@ -34,8 +34,8 @@ struct RunResult {
 // Runs the program with `arguments`, stdout and stderr captured.
 RunResult RunProgram(const std::string& arguments, const TempDir& temp) {
   const std::string log = temp.File("run.log");
-  const std::string command =
-      std::string(COLMAP_IRAV4_BINARY) + " " + arguments + " > " + log + " 2>&1";
+  const std::string command = std::string(COLMAP_IRAV4_BINARY) + " " +
+                              arguments + " > " + log + " 2>&1";
   RunResult result;
   const int status = std::system(command.c_str());
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -53,8 +53,7 @@ std::string ReadText(const std::string& path) {
 
 void CheckStrechaScene(const std::string& scene, int num_images,
                        bool with_images, const std::string& options = "") {
-  const std::string dir =
-      DataDir() + "/strecha/" + scene;
+  const std::string dir = DataDir() + "/strecha/" + scene;
   const std::string database = dir + "/database.db";
   ASSERT_TRUE(fs::exists(database)) << database;
   const uint64_t hash_before = HashFile(database);
@@ -95,10 +94,12 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   EXPECT_LT(comparison.rotation_error_median_deg, 0.1);
   EXPECT_LT(comparison.center_error_median, 0.01);  // metres
   COLMAP_IRAV4_FIGURES << scene << " " << options << ": rotation error median "
-            << comparison.rotation_error_median_deg << " deg, centre error "
-            << "median " << comparison.center_error_median * 1000
-            << " mm, mean reprojection error " << mean_error << " px, "
-            << model.points3D.size() << " points" << std::endl;
+                       << comparison.rotation_error_median_deg
+                       << " deg, centre error "
+                       << "median " << comparison.center_error_median * 1000
+                       << " mm, mean reprojection error " << mean_error
+                       << " px, " << model.points3D.size() << " points"
+                       << std::endl;
 
   // Colours: from the images when given, grey otherwise.
   size_t num_grey = 0;
@@ -113,13 +114,13 @@ void CheckStrechaScene(const std::string& scene, int num_images,
 
   // The summary has the same figures as the model.
   const std::string summary = ReadText(sparse + "/summary.json");
-  EXPECT_NE(summary.find("\"num_registered_images\": " +
-                         std::to_string(num_images)),
-            std::string::npos)
+  EXPECT_NE(
+      summary.find("\"num_registered_images\": " + std::to_string(num_images)),
+      std::string::npos)
       << summary;
-  EXPECT_NE(summary.find("\"num_points\": " +
-                         std::to_string(model.points3D.size())),
-            std::string::npos);
+  EXPECT_NE(
+      summary.find("\"num_points\": " + std::to_string(model.points3D.size())),
+      std::string::npos);
   // No false alarm of the fold check: one model, checked and clean.
   EXPECT_NE(summary.find("\"folded\": false"), std::string::npos) << summary;
   EXPECT_NE(summary.find("\"fold_outcome\": \"clean\""), std::string::npos)
@@ -161,9 +162,9 @@ TEST(MapperE2E, HerzJesusP8TranslationAveragingAndL1Irls) {
 // A copy of the bundled example database (ids 1..11) in `temp`.
 std::string CopyExampleDatabase(const TempDir& temp) {
   const std::string copy = temp.File("database.db");
-  fs::copy_file(std::string(COLMAP_IRAV4_SOURCE_DIR) +
-                    "/tests/data/fountain-P11.db",
-                copy);
+  fs::copy_file(
+      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
+      copy);
   fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
   return copy;
 }
@@ -179,10 +180,10 @@ TEST(MapperE2E, TwoComponentsGiveTwoModels) {
         "((pair_id / 2147483647) <= 6) != ((pair_id % 2147483647) <= 6);");
   }
   const std::string sparse = temp.File("sparse");
-  const RunResult run = RunProgram("mapper --database_path " + database +
-                                       " --output_path " + sparse +
-                                       " --Mapper.num_threads 2",
-                                   temp);
+  const RunResult run =
+      RunProgram("mapper --database_path " + database + " --output_path " +
+                     sparse + " --Mapper.num_threads 2",
+                 temp);
   ASSERT_EQ(run.exit_code, 0) << run.output;
   ASSERT_TRUE(fs::exists(sparse + "/0"));
   ASSERT_TRUE(fs::exists(sparse + "/1"));
@@ -208,9 +209,8 @@ TEST(MapperE2E, FewerThanThreeConnectedImagesIsAClearError) {
                 std::to_string(2147483647ll * 1 + 2) + ";");
   }
   const std::string sparse = temp.File("sparse");
-  const RunResult run = RunProgram("mapper --database_path " + database +
-                                       " --output_path " + sparse,
-                                   temp);
+  const RunResult run = RunProgram(
+      "mapper --database_path " + database + " --output_path " + sparse, temp);
   EXPECT_NE(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("ERROR: " + database), std::string::npos)
       << run.output;

@@ -44,8 +44,8 @@ RunResult RunProgram(const std::string& arguments, const TempDir& temp) {
                               arguments + " > " + log + " 2>&1";
   RunResult result;
   const int status = std::system(command.c_str());
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status)
-                                       : 128 + WTERMSIG(status);
+  result.exit_code =
+      WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   std::ifstream file(log);
   result.output.assign(std::istreambuf_iterator<char>(file),
                        std::istreambuf_iterator<char>());
@@ -60,9 +60,9 @@ std::string ReadText(const std::string& path) {
 
 std::string CopyExampleDatabase(const TempDir& temp) {
   const std::string copy = temp.File("database.db");
-  fs::copy_file(std::string(COLMAP_IRAV4_SOURCE_DIR) +
-                    "/tests/data/fountain-P11.db",
-                copy);
+  fs::copy_file(
+      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
+      copy);
   fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
   return copy;
 }
@@ -104,9 +104,9 @@ std::string LineWith(const std::string& output, const std::string& needle) {
 
 void PrintCase(const std::string& name, const std::string& says, int exit_code,
                bool hash_unchanged, const std::string& output_state) {
-  std::cout << "CASE | " << name << " | " << says << " | " << exit_code
-            << " | " << (hash_unchanged ? "yes" : "NO") << " | "
-            << output_state << std::endl;
+  std::cout << "CASE | " << name << " | " << says << " | " << exit_code << " | "
+            << (hash_unchanged ? "yes" : "NO") << " | " << output_state
+            << std::endl;
 }
 
 // A small old model at OUT/0 (one image named "old_marker.jpg") so that
@@ -136,15 +136,13 @@ struct Case {
   Case() : database(CopyExampleDatabase(temp)), sparse(temp.File("sparse")) {}
   void Freeze() { hash = HashFile(database); }
   RunResult Map(const std::string& extra = "") {
-    return RunProgram("mapper --database_path " + database +
-                          " --output_path " + sparse +
-                          " --Mapper.num_threads 2 " + extra,
+    return RunProgram("mapper --database_path " + database + " --output_path " +
+                          sparse + " --Mapper.num_threads 2 " + extra,
                       temp);
   }
   bool Unchanged() const {
     return HashFile(database) == hash && !fs::exists(database + "-wal") &&
-           !fs::exists(database + "-shm") &&
-           !fs::exists(database + "-journal");
+           !fs::exists(database + "-shm") && !fs::exists(database + "-journal");
   }
 };
 
@@ -233,7 +231,8 @@ TEST(Reliability, ZeroUsablePairsSaysWhatWasDroppedAndWhy) {
             run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
   Case d;
   d.Freeze();
-  run = d.Map("--ViewGraph.drop_configs CALIBRATED,UNCALIBRATED,PLANAR_OR_PANORAMIC");
+  run = d.Map(
+      "--ViewGraph.drop_configs CALIBRATED,UNCALIBRATED,PLANAR_OR_PANORAMIC");
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.output.find("config CALIBRATED"), std::string::npos)
       << run.output;
@@ -426,8 +425,8 @@ TEST(Reliability, ReplacingAModelKeepsUserFilesAndWarnsAboutStaleOnes) {
         << entry.path();
   }
   PrintCase("OUT/0 old model + user file, stale OUT/3, dead run's temp dir",
-            LineWith(run.output, "/3: left over"), run.exit_code,
-            c.Unchanged(), ModelState(c.sparse + "/0", 1, "old_marker.jpg"));
+            LineWith(run.output, "/3: left over"), run.exit_code, c.Unchanged(),
+            ModelState(c.sparse + "/0", 1, "old_marker.jpg"));
 }
 
 TEST(Reliability, SigtermCleansTheTemporaryDirectoryAndKeepsTheOldModel) {
@@ -461,17 +460,16 @@ TEST(Reliability, SigtermCleansTheTemporaryDirectoryAndKeepsTheOldModel) {
     EXPECT_FALSE(fs::exists(temporary));
     // The run may have finished before the signal: then the new model is
     // complete; otherwise the old one is.
-    const std::string state =
-        ModelState(c.sparse + "/0", 1, "old_marker.jpg");
+    const std::string state = ModelState(c.sparse + "/0", 1, "old_marker.jpg");
     EXPECT_TRUE(state == "complete old" || state == "complete new") << state;
-    PrintCase(std::string(signal_number == SIGTERM ? "SIGTERM" : "SIGINT") +
-                  " during the run",
-              WIFSIGNALED(status) ? "(killed by the signal; temporary "
-                                    "directory removed)"
-                                  : "(finished before the signal)",
-              WIFSIGNALED(status) ? 128 + WTERMSIG(status)
-                                  : WEXITSTATUS(status),
-              c.Unchanged(), state);
+    PrintCase(
+        std::string(signal_number == SIGTERM ? "SIGTERM" : "SIGINT") +
+            " during the run",
+        WIFSIGNALED(status) ? "(killed by the signal; temporary "
+                              "directory removed)"
+                            : "(finished before the signal)",
+        WIFSIGNALED(status) ? 128 + WTERMSIG(status) : WEXITSTATUS(status),
+        c.Unchanged(), state);
   }
 }
 
@@ -484,11 +482,11 @@ TEST(Reliability, RelposeFileCases) {
     int exit_code;
   };
   const std::vector<Variant> variants = {
-      {"self-pair line", "a b" + q + " 20\nb c" + q + " 20\na c" + q +
-                             " 20\nb b" + q + " 20\n",
+      {"self-pair line",
+       "a b" + q + " 20\nb c" + q + " 20\na c" + q + " 20\nb b" + q + " 20\n",
        "paired with itself, skipped", 0},
-      {"conflicting duplicate line", "a b" + q + " 20\nb c" + q + " 20\na c" +
-                                         q + " 20\na b" + q2 + " 20\n",
+      {"conflicting duplicate line",
+       "a b" + q + " 20\nb c" + q + " 20\na c" + q + " 20\na b" + q2 + " 20\n",
        "line 4: pair 'a' 'b' repeated with a rotation", 1},
       {"negative inlier count", "a b" + q + " -5\n",
        "line 1: inlier count -5 is negative", 1},
@@ -496,17 +494,17 @@ TEST(Reliability, RelposeFileCases) {
   for (const Variant& variant : variants) {
     const std::string path = temp.File("relpose.txt");
     std::ofstream(path) << variant.text;
-    const RunResult run = RunProgram(
-        "rotation_averager --relpose_path " + path + " --output_path " +
-            temp.File("rotations.txt"),
-        temp);
+    const RunResult run =
+        RunProgram("rotation_averager --relpose_path " + path +
+                       " --output_path " + temp.File("rotations.txt"),
+                   temp);
     EXPECT_EQ(run.exit_code, variant.exit_code) << run.output;
     EXPECT_NE(run.output.find(variant.expected), std::string::npos)
         << run.output;
-    PrintCase("relpose: " + variant.name, LineWith(run.output, variant.expected),
-              run.exit_code, true,
-              fs::exists(temp.File("rotations.txt")) ? "complete new"
-                                                     : "absent");
+    PrintCase(
+        "relpose: " + variant.name, LineWith(run.output, variant.expected),
+        run.exit_code, true,
+        fs::exists(temp.File("rotations.txt")) ? "complete new" : "absent");
     fs::remove(temp.File("rotations.txt"));
   }
 }
@@ -562,10 +560,10 @@ TEST(Reliability, ModelComparerCases) {
           << " " << name << "\n";
     }
   }
-  RunResult run = RunProgram("model_comparer --input_path1 " +
-                                 temp.File("scaled") + " --input_path2 " +
-                                 temp.File("reference"),
-                             temp);
+  RunResult run =
+      RunProgram("model_comparer --input_path1 " + temp.File("scaled") +
+                     " --input_path2 " + temp.File("reference"),
+                 temp);
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("nearly collinear"), std::string::npos)
       << run.output;

@@ -42,7 +42,9 @@ TEST(GlobalPositioning, RecoversCentersOfExactScene) {
   ASSERT_TRUE(RunGlobalPositioning(options, &reconstruction, &summary));
   EXPECT_EQ(summary.num_images, 15);
   EXPECT_EQ(reconstruction.images.size(), 15u);
-  EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth, scene_options.arc_radius), 1e-4);
+  EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth,
+                                   scene_options.arc_radius),
+            1e-4);
   // Rotations are untouched.
   for (const auto& [image_id, image] : reconstruction.images) {
     EXPECT_LT(image.cam_from_world.rotation.angularDistance(
@@ -66,14 +68,17 @@ TEST(GlobalPositioning, RobustToNoiseAndWrongMatches) {
   int num_added = 0;
   const size_t num_points = reconstruction.points3D.size();
   for (auto& [point3D_id, point] : reconstruction.points3D) {
-    if (num_added >= static_cast<int>(0.1 * NumObservations(reconstruction))) break;
+    if (num_added >= static_cast<int>(0.1 * NumObservations(reconstruction)))
+      break;
     std::uniform_int_distribution<image_t> image_dist(1, 15);
     const image_t image_id = image_dist(rng);
     bool present = false;
-    for (const auto& element : point.track) present |= element.image_id == image_id;
+    for (const auto& element : point.track)
+      present |= element.image_id == image_id;
     if (present) continue;
     Image& image = reconstruction.images.at(image_id);
-    std::uniform_int_distribution<point2D_t> idx_dist(0, image.points2D.size() - 1);
+    std::uniform_int_distribution<point2D_t> idx_dist(
+        0, image.points2D.size() - 1);
     const point2D_t idx = idx_dist(rng);
     if (image.points2D[idx].point3D_id != kInvalidPoint3DId) continue;
     image.points2D[idx].point3D_id = point3D_id;
@@ -86,7 +91,9 @@ TEST(GlobalPositioning, RobustToNoiseAndWrongMatches) {
   GlobalPositionerSummary summary;
   ASSERT_TRUE(RunGlobalPositioning(options, &reconstruction, &summary));
   EXPECT_EQ(reconstruction.images.size(), 15u);
-  EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth, scene_options.arc_radius), 0.005);
+  EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth,
+                                   scene_options.arc_radius),
+            0.005);
   EXPECT_GT(summary.num_observations_filtered, num_added / 2);
 }
 
@@ -97,7 +104,8 @@ TEST(GlobalPositioning, DropsShortTracksAndUnobservedImages) {
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   Reconstruction reconstruction = PrepareFromTracks(scene);
   // Image 5 keeps only 2-view observations: unlink all others.
-  for (point2D_t idx = 0; idx < reconstruction.images.at(5).points2D.size(); ++idx) {
+  for (point2D_t idx = 0; idx < reconstruction.images.at(5).points2D.size();
+       ++idx) {
     DeleteObservation(5, idx, &reconstruction);
   }
   Image extra;
@@ -105,7 +113,8 @@ TEST(GlobalPositioning, DropsShortTracksAndUnobservedImages) {
   extra.camera_id = 1;
   reconstruction.images[6] = extra;
   GlobalPositionerSummary summary;
-  ASSERT_TRUE(RunGlobalPositioning(GlobalPositionerOptions(), &reconstruction, &summary));
+  ASSERT_TRUE(RunGlobalPositioning(GlobalPositionerOptions(), &reconstruction,
+                                   &summary));
   EXPECT_EQ(summary.num_images_dropped, 2);
   EXPECT_EQ(reconstruction.images.size(), 4u);
 }

@@ -11,7 +11,8 @@ namespace colmap_irav4 {
 namespace {
 
 // Images 1..n, each with the given keypoint positions.
-std::map<image_t, Image> MakeImages(const std::vector<std::vector<Eigen::Vector2d>>& keypoints) {
+std::map<image_t, Image> MakeImages(
+    const std::vector<std::vector<Eigen::Vector2d>>& keypoints) {
   std::map<image_t, Image> images;
   for (size_t i = 0; i < keypoints.size(); ++i) {
     Image& image = images[i + 1];
@@ -26,9 +27,11 @@ std::map<image_t, Image> MakeImages(const std::vector<std::vector<Eigen::Vector2
 }
 
 TEST(TrackBuilder, ChainsMatchesTransitively) {
-  const auto images = MakeImages({{{0, 0}, {10, 10}}, {{1, 1}, {20, 20}}, {{2, 2}}});
+  const auto images =
+      MakeImages({{{0, 0}, {10, 10}}, {{1, 1}, {20, 20}}, {{2, 2}}});
   // 1:0 - 2:0 - 3:0 is one track; 1:1 - 2:1 another.
-  std::vector<ImagePairMatches> pairs = {{1, 2, {{0, 0}, {1, 1}}}, {2, 3, {{0, 0}}}};
+  std::vector<ImagePairMatches> pairs = {{1, 2, {{0, 0}, {1, 1}}},
+                                         {2, 3, {{0, 0}}}};
   TrackBuilderStats stats;
   const auto tracks = BuildTracks(TrackBuilderOptions(), pairs, images, &stats);
   ASSERT_EQ(tracks.size(), 2u);
@@ -47,14 +50,16 @@ TEST(TrackBuilder, DropsTracksSeeingOneImageAtDistantPixels) {
   const auto images = MakeImages({{{0, 0}, {100, 0}}, {{5, 5}}, {{7, 7}}});
   std::vector<ImagePairMatches> pairs = {{1, 2, {{0, 0}}}, {2, 1, {{0, 1}}}};
   TrackBuilderStats stats;
-  EXPECT_TRUE(BuildTracks(TrackBuilderOptions(), pairs, images, &stats).empty());
+  EXPECT_TRUE(
+      BuildTracks(TrackBuilderOptions(), pairs, images, &stats).empty());
   EXPECT_EQ(stats.num_inconsistent, 1u);
 }
 
 TEST(TrackBuilder, MergesNearDuplicateObservations) {
   // 1:0 and 1:1 are 1 px apart: the same feature detected twice.
   const auto images = MakeImages({{{0, 0}, {1, 0}}, {{5, 5}}, {{7, 7}}});
-  std::vector<ImagePairMatches> pairs = {{1, 2, {{0, 0}}}, {2, 1, {{0, 1}}}, {2, 3, {{0, 0}}}};
+  std::vector<ImagePairMatches> pairs = {
+      {1, 2, {{0, 0}}}, {2, 1, {{0, 1}}}, {2, 3, {{0, 0}}}};
   TrackBuilderStats stats;
   const auto tracks = BuildTracks(TrackBuilderOptions(), pairs, images, &stats);
   ASSERT_EQ(tracks.size(), 1u);
@@ -65,7 +70,8 @@ TEST(TrackBuilder, MergesNearDuplicateObservations) {
 }
 
 TEST(TrackBuilder, LengthLimits) {
-  const auto images = MakeImages({{{0, 0}, {50, 50}}, {{1, 1}, {60, 60}}, {{2, 2}}, {{3, 3}}});
+  const auto images =
+      MakeImages({{{0, 0}, {50, 50}}, {{1, 1}, {60, 60}}, {{2, 2}}, {{3, 3}}});
   std::vector<ImagePairMatches> pairs = {
       {1, 2, {{0, 0}, {1, 1}}}, {2, 3, {{0, 0}}}, {3, 4, {{0, 0}}}};
   TrackBuilderOptions options;
@@ -91,16 +97,20 @@ TEST(TrackBuilder, RecoversSyntheticTracksDeterministically) {
   ASSERT_EQ(tracks.size(), scene.truth.points3D.size());
   // Every track is exactly one true point's track.
   for (const Track& track : tracks) {
-    const point3D_t point3D_id =
-        scene.truth.images.at(track[0].image_id).points2D[track[0].point2D_idx].point3D_id;
+    const point3D_t point3D_id = scene.truth.images.at(track[0].image_id)
+                                     .points2D[track[0].point2D_idx]
+                                     .point3D_id;
     EXPECT_EQ(track.size(), scene.truth.points3D.at(point3D_id).track.size());
     for (const TrackElement& element : track) {
-      EXPECT_EQ(scene.truth.images.at(element.image_id).points2D[element.point2D_idx].point3D_id,
+      EXPECT_EQ(scene.truth.images.at(element.image_id)
+                    .points2D[element.point2D_idx]
+                    .point3D_id,
                 point3D_id);
     }
   }
   // Same tracks whatever the order of the pairs.
-  std::vector<ImagePairMatches> reversed(scene.matches.rbegin(), scene.matches.rend());
+  std::vector<ImagePairMatches> reversed(scene.matches.rbegin(),
+                                         scene.matches.rend());
   const auto tracks2 = BuildTracks(options, reversed, scene.truth.images);
   ASSERT_EQ(tracks2.size(), tracks.size());
   for (size_t t = 0; t < tracks.size(); ++t) {
@@ -119,7 +129,8 @@ TEST(TrackBuilder, WrongMatchesBreakOnlySomeTracks) {
   scene_options.outlier_match_ratio = 0.02;
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   TrackBuilderStats stats;
-  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, scene.truth.images, &stats);
+  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches,
+                                  scene.truth.images, &stats);
   EXPECT_GT(stats.num_inconsistent, 0u);
   EXPECT_GT(tracks.size(), scene.truth.points3D.size() / 4);
   // Kept tracks see each image at most once.
@@ -136,12 +147,15 @@ TEST(TrackBuilder, AddTracksLinksObservations) {
   scene_options.num_points = 50;
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   Reconstruction reconstruction = StripPoints(scene.truth);
-  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
   const auto ids = AddTracksToReconstruction(tracks, &reconstruction);
   ASSERT_EQ(ids.size(), tracks.size());
   for (size_t t = 0; t < tracks.size(); ++t) {
     for (const TrackElement& element : tracks[t]) {
-      EXPECT_EQ(reconstruction.images.at(element.image_id).points2D[element.point2D_idx].point3D_id,
+      EXPECT_EQ(reconstruction.images.at(element.image_id)
+                    .points2D[element.point2D_idx]
+                    .point3D_id,
                 ids[t]);
     }
   }

@@ -17,8 +17,9 @@ using test::MaxRelativeCenterError;
 
 // All pairs: t_ij of cam_j_from_cam_i, perturbed by noise_deg, a fraction
 // replaced by random directions.
-std::vector<ImagePairGeometry> MakePairs(const Reconstruction& truth, double noise_deg,
-                                         double outlier_ratio, uint64_t seed, int* num_outliers) {
+std::vector<ImagePairGeometry> MakePairs(const Reconstruction& truth,
+                                         double noise_deg, double outlier_ratio,
+                                         uint64_t seed, int* num_outliers) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0, 1);
   std::vector<ImagePairGeometry> pairs;
@@ -30,7 +31,8 @@ std::vector<ImagePairGeometry> MakePairs(const Reconstruction& truth, double noi
       pair.image_id1 = id1;
       pair.image_id2 = id2;
       pair.t = (image2.cam_from_world.rotation *
-                (image1.ProjectionCenter() - image2.ProjectionCenter())).normalized();
+                (image1.ProjectionCenter() - image2.ProjectionCenter()))
+                   .normalized();
       pair.t = RandomRotationWithAngle(DegToRad(noise_deg), &rng) * pair.t;
       if (unit(rng) < outlier_ratio) {
         pair.t = RandomRotation(&rng) * Eigen::Vector3d::UnitX();
@@ -48,11 +50,13 @@ TEST(TranslationAveraging, ExactDirectionsGiveExactCenters) {
   scene_options.num_points = 10;
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   Reconstruction reconstruction = StripPoints(scene.truth);
-  for (auto& [id, image] : reconstruction.images) image.cam_from_world.translation.setZero();
+  for (auto& [id, image] : reconstruction.images)
+    image.cam_from_world.translation.setZero();
   int num_outliers;
   const auto pairs = MakePairs(scene.truth, 0.0, 0.0, 1, &num_outliers);
   TranslationAveragingSummary summary;
-  ASSERT_TRUE(RunTranslationAveraging(TranslationAveragingOptions(), pairs, &reconstruction, &summary));
+  ASSERT_TRUE(RunTranslationAveraging(TranslationAveragingOptions(), pairs,
+                                      &reconstruction, &summary));
   EXPECT_EQ(summary.num_images, 15);
   EXPECT_EQ(summary.num_outlier_pairs, 0);
   EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth, 10.0), 1e-5);
@@ -60,7 +64,8 @@ TEST(TranslationAveraging, ExactDirectionsGiveExactCenters) {
   TranslationAveragingOptions options;
   options.linear_initialization = false;
   options.loss_function = "huber";
-  ASSERT_TRUE(RunTranslationAveraging(options, pairs, &reconstruction, &summary));
+  ASSERT_TRUE(
+      RunTranslationAveraging(options, pairs, &reconstruction, &summary));
   EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth, 10.0), 1e-5);
 }
 
@@ -73,9 +78,10 @@ TEST(TranslationAveraging, RobustToNoiseAndOutlierPairs) {
   int num_outliers;
   const auto pairs = MakePairs(scene.truth, 1.0, 0.1, 2, &num_outliers);
   ASSERT_GT(num_outliers, 10);
-  
+
   TranslationAveragingSummary summary;
-  ASSERT_TRUE(RunTranslationAveraging(TranslationAveragingOptions(), pairs, &reconstruction, &summary));
+  ASSERT_TRUE(RunTranslationAveraging(TranslationAveragingOptions(), pairs,
+                                      &reconstruction, &summary));
   EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth, 10.0), 0.02);
   EXPECT_GE(summary.num_outlier_pairs, num_outliers * 7 / 10);
   EXPECT_LE(summary.num_outlier_pairs, num_outliers + 5);
@@ -93,7 +99,8 @@ TEST(TranslationAveraging, DropsImagesWithoutPairs) {
     if (pair.image_id1 != 6 && pair.image_id2 != 6) pairs.push_back(pair);
   }
   TranslationAveragingSummary summary;
-  ASSERT_TRUE(RunTranslationAveraging(TranslationAveragingOptions(), pairs, &reconstruction, &summary));
+  ASSERT_TRUE(RunTranslationAveraging(TranslationAveragingOptions(), pairs,
+                                      &reconstruction, &summary));
   EXPECT_EQ(summary.num_images_dropped, 1);
   EXPECT_FALSE(reconstruction.images.count(6));
   TranslationAveragingOptions options;

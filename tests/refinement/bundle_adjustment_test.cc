@@ -16,23 +16,28 @@ namespace {
 
 // Poses rotated by ~angle_deg, centres moved by ~center_noise, points moved
 // by ~point_noise, focal lengths scaled by focal_factor.
-void Perturb(double angle_deg, double center_noise, double point_noise, double focal_factor,
-             uint64_t seed, Reconstruction* reconstruction) {
+void Perturb(double angle_deg, double center_noise, double point_noise,
+             double focal_factor, uint64_t seed,
+             Reconstruction* reconstruction) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   for (auto& [image_id, image] : reconstruction->images) {
     const Eigen::Vector3d center =
-        image.ProjectionCenter() + center_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+        image.ProjectionCenter() +
+        center_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
     image.cam_from_world.rotation =
         Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(angle_deg), &rng)) *
         image.cam_from_world.rotation;
-    image.cam_from_world.translation = -(image.cam_from_world.rotation * center);
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
   }
   for (auto& [point3D_id, point] : reconstruction->points3D) {
-    point.xyz += point_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    point.xyz +=
+        point_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
   }
   for (auto& [camera_id, camera] : reconstruction->cameras) {
-    for (int idx : CameraModelFocalLengthIdxs(camera.model_id)) camera.params[idx] *= focal_factor;
+    for (int idx : CameraModelFocalLengthIdxs(camera.model_id))
+      camera.params[idx] *= focal_factor;
   }
 }
 
@@ -52,12 +57,15 @@ Errors Compare(const Reconstruction& estimate, const Reconstruction& truth) {
   Errors errors;
   size_t i = 0;
   for (const auto& [image_id, image] : estimate.images) {
-    errors.max_center_error = std::max(errors.max_center_error, (sim * src[i] - dst[i]).norm());
+    errors.max_center_error =
+        std::max(errors.max_center_error, (sim * src[i] - dst[i]).norm());
     ++i;
-    const Eigen::Matrix3d R = image.cam_from_world.rotation.toRotationMatrix() * sim.R.transpose();
+    const Eigen::Matrix3d R =
+        image.cam_from_world.rotation.toRotationMatrix() * sim.R.transpose();
     errors.max_rotation_error_deg = std::max(
         errors.max_rotation_error_deg,
-        AngularDistanceDeg(R, truth.images.at(image_id).cam_from_world.rotation.toRotationMatrix()));
+        AngularDistanceDeg(R, truth.images.at(image_id)
+                                  .cam_from_world.rotation.toRotationMatrix()));
   }
   return errors;
 }
@@ -118,7 +126,8 @@ TEST(BundleAdjustment, RefinesDistortionOfPerImageCameras) {
   Reconstruction reconstruction = scene.truth;
   ASSERT_EQ(reconstruction.cameras.size(), 12u);
   Perturb(0.3, 0.05, 0.02, 1.0, 6, &reconstruction);
-  for (auto& [camera_id, camera] : reconstruction.cameras) camera.params[3] = 0.0;
+  for (auto& [camera_id, camera] : reconstruction.cameras)
+    camera.params[3] = 0.0;
   BundleAdjustmentOptions options;
   options.refine_focal_length = false;
   BundleAdjustmentSummary summary;
@@ -142,7 +151,8 @@ TEST(BundleAdjustment, RoundsRemoveWrongObservations) {
     for (Point2D& point2D : image.points2D) {
       if (uniform(rng) < 0.05) {
         const double angle = 2 * kPi * uniform(rng);
-        point2D.xy += (30 + 30 * uniform(rng)) * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+        point2D.xy += (30 + 30 * uniform(rng)) *
+                      Eigen::Vector2d(std::cos(angle), std::sin(angle));
         ++num_moved;
       }
     }
@@ -168,11 +178,14 @@ TEST(BundleAdjustment, FixedPosesMoveOnlyPoints) {
   ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction));
   for (const auto& [image_id, image] : reconstruction.images) {
     const Image& start_image = start.images.at(image_id);
-    EXPECT_EQ(image.cam_from_world.translation, start_image.cam_from_world.translation);
+    EXPECT_EQ(image.cam_from_world.translation,
+              start_image.cam_from_world.translation);
   }
   double max_point_error = 0;
   for (const auto& [point3D_id, point] : reconstruction.points3D) {
-    max_point_error = std::max(max_point_error, (point.xyz - scene.truth.points3D.at(point3D_id).xyz).norm());
+    max_point_error =
+        std::max(max_point_error,
+                 (point.xyz - scene.truth.points3D.at(point3D_id).xyz).norm());
   }
   EXPECT_LT(max_point_error, 0.05);
 }

@@ -29,13 +29,15 @@ void ExpectConsistent(const Reconstruction& reconstruction) {
       const auto& track = reconstruction.points3D.at(point3D_id).track;
       EXPECT_EQ(std::count_if(track.begin(), track.end(),
                               [&](const TrackElement& e) {
-                                return e.image_id == image_id && e.point2D_idx == idx;
+                                return e.image_id == image_id &&
+                                       e.point2D_idx == idx;
                               }),
                 1);
     }
   }
   EXPECT_EQ(num_linked, NumObservations(reconstruction));
-  for (const auto& [point3D_id, point] : reconstruction.points3D) EXPECT_GE(point.track.size(), 2u);
+  for (const auto& [point3D_id, point] : reconstruction.points3D)
+    EXPECT_GE(point.track.size(), 2u);
 }
 
 TEST(Filtering, RemovesExactlyTheObservationsOverTheThreshold) {
@@ -49,10 +51,12 @@ TEST(Filtering, RemovesExactlyTheObservationsOverTheThreshold) {
     point2D.xy.x() += 10.0;
     ++num_moved;
   }
-  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction), 20u);
+  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction),
+            20u);
   EXPECT_EQ(NumObservations(reconstruction), num_before - 20);
   ExpectConsistent(reconstruction);
-  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction), 0u);
+  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction),
+            0u);
 }
 
 TEST(Filtering, RemovesPointsBehindTheCamera) {
@@ -61,9 +65,11 @@ TEST(Filtering, RemovesPointsBehindTheCamera) {
   Point3D& point = reconstruction.points3D.begin()->second;
   const size_t track_length = point.track.size();
   // Mirror the point through the first camera's centre: behind that camera.
-  const Eigen::Vector3d center = reconstruction.images.at(point.track[0].image_id).ProjectionCenter();
+  const Eigen::Vector3d center =
+      reconstruction.images.at(point.track[0].image_id).ProjectionCenter();
   point.xyz = 2 * center - point.xyz;
-  EXPECT_GE(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction), track_length - 1);
+  EXPECT_GE(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction),
+            track_length - 1);
   ExpectConsistent(reconstruction);
 }
 
@@ -76,7 +82,9 @@ TEST(Filtering, TriangulationAngle) {
   // A point 1000 radii away is seen under ~0.09 deg at most.
   const point3D_t far_id = reconstruction.points3D.begin()->first;
   reconstruction.points3D.at(far_id).xyz = Eigen::Vector3d(0, 0, 10000.0);
-  EXPECT_LT(RadToDeg(MaxTriangulationAngle(reconstruction, reconstruction.points3D.at(far_id))), 0.2);
+  EXPECT_LT(RadToDeg(MaxTriangulationAngle(reconstruction,
+                                           reconstruction.points3D.at(far_id))),
+            0.2);
   EXPECT_EQ(FilterPointsWithSmallTriangulationAngle(1.5, &reconstruction), 1u);
   EXPECT_FALSE(reconstruction.points3D.count(far_id));
   ExpectConsistent(reconstruction);
@@ -100,9 +108,12 @@ TEST(Filtering, NormalizationCentresAndScalesWithoutChangingProjections) {
   double spread = 0;
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<double> values;
-    for (const auto& [image_id, image] : reconstruction.images) values.push_back(image.ProjectionCenter()[axis]);
+    for (const auto& [image_id, image] : reconstruction.images)
+      values.push_back(image.ProjectionCenter()[axis]);
     std::sort(values.begin(), values.end());
-    const auto at = [&](double f) { return values[static_cast<size_t>(std::round(f * (values.size() - 1)))]; };
+    const auto at = [&](double f) {
+      return values[static_cast<size_t>(std::round(f * (values.size() - 1)))];
+    };
     EXPECT_NEAR(at(0.5), 0.0, 1e-9);
     spread = std::max(spread, at(0.9) - at(0.1));
   }
@@ -114,7 +125,8 @@ TEST(Filtering, NormalizationCentresAndScalesWithoutChangingProjections) {
 TEST(Filtering, RunFilteringDropsImagesWithFewObservations) {
   SyntheticScene scene = Scene();
   Reconstruction& reconstruction = scene.truth;
-  for (point2D_t idx = 10; idx < reconstruction.images.at(2).points2D.size(); ++idx) {
+  for (point2D_t idx = 10; idx < reconstruction.images.at(2).points2D.size();
+       ++idx) {
     DeleteObservation(2, idx, &reconstruction);
   }
   FilterOptions options;

@@ -33,7 +33,8 @@ Eigen::Matrix3d Mirror() {
 }
 
 // Visible points of each image: in front, inside the image.
-std::vector<point3D_t> Visible(const Reconstruction& model, const Image& image) {
+std::vector<point3D_t> Visible(const Reconstruction& model,
+                               const Image& image) {
   const Camera& camera = model.cameras.at(image.camera_id);
   std::vector<point3D_t> visible;
   for (const auto& [id, point] : model.points3D) {
@@ -203,10 +204,10 @@ TEST(FoldDetection, FoldedModelIsDetectedAndItsFalsePairsSuspected) {
   // Most false pairs the fold made consistent are suspected.
   int num_consistent_false = 0;
   for (const auto& [a, b] : scene.false_pairs) {
-    const Eigen::Matrix3d Ra = scene.folded.images.at(a)
-                                   .cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Matrix3d Rb = scene.folded.images.at(b)
-                                   .cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d Ra =
+        scene.folded.images.at(a).cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d Rb =
+        scene.folded.images.at(b).cam_from_world.rotation.toRotationMatrix();
     for (const PairEvidence& pair : scene.evidence.pairs) {
       if (pair.image_id1 == a && pair.image_id2 == b &&
           (pair.R - Rb * Ra.transpose()).norm() < 1e-6) {
@@ -243,8 +244,8 @@ TEST(FoldDetection, NoCutOnACorrectModel) {
   const Courtyard scene = MakeCourtyard(40, 0.3, 4);
   const FoldDetectionOptions options;
   const FoldReport report = DetectFold(options, scene.truth, scene.evidence);
-  const auto [side1, side2] = FoldCut(options, scene.truth, scene.evidence,
-                                      report);
+  const auto [side1, side2] =
+      FoldCut(options, scene.truth, scene.evidence, report);
   EXPECT_TRUE(side2.empty());
   EXPECT_EQ(side1.size(), scene.truth.images.size());
 }
@@ -262,7 +263,8 @@ TEST(FoldDetection, UntriedPairsAreNotMissing) {
       DetectFold(FoldDetectionOptions(), scene.folded, evidence);
   EXPECT_EQ(report.num_missing_pairs, 0);
   evidence.absent_pairs_were_tried = true;
-  EXPECT_TRUE(DetectFold(FoldDetectionOptions(), scene.folded, evidence).folded);
+  EXPECT_TRUE(
+      DetectFold(FoldDetectionOptions(), scene.folded, evidence).folded);
 }
 
 TEST(FoldDetection, CheckNamesTheOption) {
@@ -281,12 +283,11 @@ TEST(FoldDetection, CheckNamesTheOption) {
   EXPECT_THROW(options.Check(), InputError);
 }
 
-
 // Stand-in stages that "map" a component by copying a given model (the truth
 // or the folded one, as `choose` says from the pairs) onto a GlobalMapper.
 ComponentStages StandInStages(
-    const std::function<const Reconstruction&(
-        const std::vector<ImagePairGeometry>&)>& choose,
+    const std::function<
+        const Reconstruction&(const std::vector<ImagePairGeometry>&)>& choose,
     int* num_runs) {
   static const DatabaseContents database;
   static const std::map<camera_t, Camera> cameras;
@@ -296,9 +297,8 @@ ComponentStages StandInStages(
                         const std::vector<ImagePairGeometry>& pairs,
                         const std::string& prefix, std::string* failure) {
     ++*num_runs;
-    auto mapper = std::make_unique<GlobalMapper>(GlobalMapperOptions(),
-                                                 database, cameras, images,
-                                                 pairs, prefix);
+    auto mapper = std::make_unique<GlobalMapper>(
+        GlobalMapperOptions(), database, cameras, images, pairs, prefix);
     mapper->reconstruction() = choose(pairs);
     const std::set<image_t> keep(images.begin(), images.end());
     auto& model_images = mapper->reconstruction().images;
@@ -352,8 +352,7 @@ TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
   for (const FoldCheckedModel& model : models) {
     EXPECT_TRUE(model.checked);
     EXPECT_FALSE(model.fold.folded) << model.outcome;
-    EXPECT_EQ(model.outcome.find("folded"), std::string::npos)
-        << model.outcome;
+    EXPECT_EQ(model.outcome.find("folded"), std::string::npos) << model.outcome;
   }
   EXPECT_GE(num_runs, 2);
   EXPECT_FALSE(notes.empty());

@@ -11,10 +11,10 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
@@ -31,7 +31,8 @@ namespace {
 void RunScene(const std::string& scene) {
   const std::string dir = DataDir() + "/strecha/" + scene;
   const DatabaseContents database = ReadDatabase(dir + "/database.db");
-  const std::map<std::string, StrechaCamera> gt = ReadStrechaGroundTruth(dir + "/gt_cameras");
+  const std::map<std::string, StrechaCamera> gt =
+      ReadStrechaGroundTruth(dir + "/gt_cameras");
 
   Reconstruction reconstruction;
   reconstruction.cameras = database.cameras;
@@ -63,7 +64,8 @@ void RunScene(const std::string& scene) {
   }
 
   Timer timer;
-  const std::vector<Track> tracks = BuildTracks(TrackBuilderOptions(), pairs, reconstruction.images);
+  const std::vector<Track> tracks =
+      BuildTracks(TrackBuilderOptions(), pairs, reconstruction.images);
   AddTracksToReconstruction(tracks, &reconstruction);
   const double tracks_seconds = timer.ElapsedSeconds();
   GlobalPositionerSummary positioning;
@@ -84,29 +86,40 @@ void RunScene(const std::string& scene) {
   std::map<std::string, Rigid3d> reference;
   for (const auto& [name, camera] : gt) reference[name] = camera.cam_from_world;
   PoseComparison comparison;
-  ASSERT_TRUE(ComparePoses(PosesByName(reconstruction), reference, SimilarityRansacOptions(),
-                           &comparison));
-  COLMAP_IRAV4_FIGURES << scene << ": " << tracks.size() << " tracks (" << tracks_seconds
-            << " s), positioning " << positioning.num_points << " points " << positioning.seconds
-            << " s, BA " << ba1.initial_mean_reproj_error << " -> "
-            << ba1.final_mean_reproj_error << " px " << ba1.seconds << " s, retriangulation "
-            << retriangulation.num_points_added << " points " << retriangulation_seconds
-            << " s, BA " << ba2.seconds << " s; " << reconstruction.images.size() << " images, "
-            << reconstruction.points3D.size() << " points, mean track "
-            << MeanTrackLength(reconstruction) << ", reprojection " << mean_reproj_error
-            << " px; rotation error median/max " << comparison.rotation_error_median_deg << " / "
-            << comparison.rotation_error_max_deg << " deg, centre error median/max "
-            << 1000 * comparison.center_error_median << " / " << 1000 * comparison.center_error_max
-            << " mm; total " << seconds << " s\n";
+  ASSERT_TRUE(ComparePoses(PosesByName(reconstruction), reference,
+                           SimilarityRansacOptions(), &comparison));
+  COLMAP_IRAV4_FIGURES << scene << ": " << tracks.size() << " tracks ("
+                       << tracks_seconds << " s), positioning "
+                       << positioning.num_points << " points "
+                       << positioning.seconds << " s, BA "
+                       << ba1.initial_mean_reproj_error << " -> "
+                       << ba1.final_mean_reproj_error << " px " << ba1.seconds
+                       << " s, retriangulation "
+                       << retriangulation.num_points_added << " points "
+                       << retriangulation_seconds << " s, BA " << ba2.seconds
+                       << " s; " << reconstruction.images.size() << " images, "
+                       << reconstruction.points3D.size()
+                       << " points, mean track "
+                       << MeanTrackLength(reconstruction) << ", reprojection "
+                       << mean_reproj_error << " px; rotation error median/max "
+                       << comparison.rotation_error_median_deg << " / "
+                       << comparison.rotation_error_max_deg
+                       << " deg, centre error median/max "
+                       << 1000 * comparison.center_error_median << " / "
+                       << 1000 * comparison.center_error_max << " mm; total "
+                       << seconds << " s\n";
   // COLMAP 3.8's incremental model of the same database, measured the same way.
   PoseComparison colmap_comparison;
-  ASSERT_TRUE(ComparePoses(PosesByName(ReadReconstruction(dir + "/colmap38_incremental")),
-                           reference, SimilarityRansacOptions(), &colmap_comparison));
-  COLMAP_IRAV4_FIGURES << scene << " COLMAP 3.8 incremental: rotation error median/max "
-            << colmap_comparison.rotation_error_median_deg << " / "
-            << colmap_comparison.rotation_error_max_deg << " deg, centre error median/max "
-            << 1000 * colmap_comparison.center_error_median << " / "
-            << 1000 * colmap_comparison.center_error_max << " mm\n";
+  ASSERT_TRUE(ComparePoses(
+      PosesByName(ReadReconstruction(dir + "/colmap38_incremental")), reference,
+      SimilarityRansacOptions(), &colmap_comparison));
+  COLMAP_IRAV4_FIGURES << scene
+                       << " COLMAP 3.8 incremental: rotation error median/max "
+                       << colmap_comparison.rotation_error_median_deg << " / "
+                       << colmap_comparison.rotation_error_max_deg
+                       << " deg, centre error median/max "
+                       << 1000 * colmap_comparison.center_error_median << " / "
+                       << 1000 * colmap_comparison.center_error_max << " mm\n";
   EXPECT_EQ(reconstruction.images.size(), database.images.size());
   EXPECT_EQ(comparison.num_common, static_cast<int>(database.images.size()));
   // The bounds for the whole mapper: centres under 1 cm, reprojection
@@ -116,7 +129,8 @@ void RunScene(const std::string& scene) {
   EXPECT_LT(comparison.rotation_error_median_deg,
             std::max(0.1, 1.1 * colmap_comparison.rotation_error_median_deg));
   EXPECT_LT(comparison.center_error_median, 0.01);
-  EXPECT_LT(comparison.center_error_median, 1.2 * colmap_comparison.center_error_median);
+  EXPECT_LT(comparison.center_error_median,
+            1.2 * colmap_comparison.center_error_median);
   EXPECT_LT(mean_reproj_error, 1.0);
 }
 

@@ -25,16 +25,19 @@ namespace {
 
 // Gauge-free rotation accuracy: largest error of the relative rotations of
 // all pairs, degrees.
-double MaxRelativeRotationErrorDeg(const Reconstruction& model, const Reconstruction& truth) {
+double MaxRelativeRotationErrorDeg(const Reconstruction& model,
+                                   const Reconstruction& truth) {
   double max_error = 0;
   for (const auto& [id1, image1] : model.images) {
     for (const auto& [id2, image2] : model.images) {
       if (id2 <= id1) continue;
-      const Eigen::Matrix3d R12 =
-          (image2.cam_from_world.rotation * image1.cam_from_world.rotation.inverse()).toRotationMatrix();
-      const Eigen::Matrix3d T12 = (truth.images.at(id2).cam_from_world.rotation *
-                                   truth.images.at(id1).cam_from_world.rotation.inverse())
+      const Eigen::Matrix3d R12 = (image2.cam_from_world.rotation *
+                                   image1.cam_from_world.rotation.inverse())
                                       .toRotationMatrix();
+      const Eigen::Matrix3d T12 =
+          (truth.images.at(id2).cam_from_world.rotation *
+           truth.images.at(id1).cam_from_world.rotation.inverse())
+              .toRotationMatrix();
       max_error = std::max(max_error, AngularDistanceDeg(R12, T12));
     }
   }
@@ -67,11 +70,13 @@ TEST(SyntheticPipeline, RecoversTheSceneFromNoisyRotationsAndMatches) {
   camera.params[0] *= 1.02;
   camera.params[3] = 0.0;
 
-  const double input_rotation_error_deg = MaxRelativeRotationErrorDeg(reconstruction, truth);
+  const double input_rotation_error_deg =
+      MaxRelativeRotationErrorDeg(reconstruction, truth);
   Timer timer;
   TrackBuilderStats track_stats;
   const std::vector<Track> tracks =
-      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images, &track_stats);
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images,
+                  &track_stats);
   AddTracksToReconstruction(tracks, &reconstruction);
 
   GlobalPositionerSummary positioning;
@@ -85,7 +90,8 @@ TEST(SyntheticPipeline, RecoversTheSceneFromNoisyRotationsAndMatches) {
       TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
   BundleAdjustmentSummary ba2;
   ASSERT_TRUE(RunBundleAdjustment(ba_options, &reconstruction, &ba2));
-  const FilterSummary filtering = RunFiltering(FilterOptions(), &reconstruction);
+  const FilterSummary filtering =
+      RunFiltering(FilterOptions(), &reconstruction);
   NormalizeReconstruction(NormalizationOptions(), &reconstruction);
   const double mean_reproj_error = UpdateReprojectionErrors(&reconstruction);
   const double seconds = timer.ElapsedSeconds();
@@ -93,26 +99,34 @@ TEST(SyntheticPipeline, RecoversTheSceneFromNoisyRotationsAndMatches) {
   PoseComparison comparison;
   ASSERT_TRUE(ComparePoses(PosesByName(reconstruction), PosesByName(truth),
                            SimilarityRansacOptions(), &comparison));
-  COLMAP_IRAV4_FIGURES << "tracks " << tracks.size() << " (of " << truth.points3D.size()
-            << " true points; inconsistent " << track_stats.num_inconsistent << ")\n"
-            << "positioning: " << positioning.num_images << " images, " << positioning.num_points
-            << " points, " << positioning.num_observations_filtered << " observations filtered, "
-            << positioning.seconds << " s\n"
-            << "BA 1: " << ba1.initial_mean_reproj_error << " -> " << ba1.final_mean_reproj_error
-            << " px, " << ba1.num_observations_filtered << " filtered, " << ba1.seconds << " s\n"
-            << "retriangulation: " << retriangulation.num_points_added << " points\n"
-            << "BA 2: " << ba2.final_mean_reproj_error << " px, " << ba2.seconds << " s\n"
-            << "filtering: " << filtering.num_observations_filtered << " observations, "
-            << filtering.num_points_filtered << " points\n"
-            << "final: " << reconstruction.images.size() << " images, "
-            << reconstruction.points3D.size() << " points, mean track "
-            << MeanTrackLength(reconstruction) << ", reprojection " << mean_reproj_error
-            << " px, rotation error median/max " << comparison.rotation_error_median_deg << " / "
-            << comparison.rotation_error_max_deg << " deg, centre error median/max "
-            << comparison.center_error_median << " / " << comparison.center_error_max
-            << " (radius 10), relative rotation error max " << input_rotation_error_deg << " -> "
-            << MaxRelativeRotationErrorDeg(reconstruction, truth) << " deg, focal " << reconstruction.cameras.at(1).params[0] << ", k "
-            << reconstruction.cameras.at(1).params[3] << ", total " << seconds << " s\n";
+  COLMAP_IRAV4_FIGURES
+      << "tracks " << tracks.size() << " (of " << truth.points3D.size()
+      << " true points; inconsistent " << track_stats.num_inconsistent << ")\n"
+      << "positioning: " << positioning.num_images << " images, "
+      << positioning.num_points << " points, "
+      << positioning.num_observations_filtered << " observations filtered, "
+      << positioning.seconds << " s\n"
+      << "BA 1: " << ba1.initial_mean_reproj_error << " -> "
+      << ba1.final_mean_reproj_error << " px, " << ba1.num_observations_filtered
+      << " filtered, " << ba1.seconds << " s\n"
+      << "retriangulation: " << retriangulation.num_points_added << " points\n"
+      << "BA 2: " << ba2.final_mean_reproj_error << " px, " << ba2.seconds
+      << " s\n"
+      << "filtering: " << filtering.num_observations_filtered
+      << " observations, " << filtering.num_points_filtered << " points\n"
+      << "final: " << reconstruction.images.size() << " images, "
+      << reconstruction.points3D.size() << " points, mean track "
+      << MeanTrackLength(reconstruction) << ", reprojection "
+      << mean_reproj_error << " px, rotation error median/max "
+      << comparison.rotation_error_median_deg << " / "
+      << comparison.rotation_error_max_deg << " deg, centre error median/max "
+      << comparison.center_error_median << " / " << comparison.center_error_max
+      << " (radius 10), relative rotation error max "
+      << input_rotation_error_deg << " -> "
+      << MaxRelativeRotationErrorDeg(reconstruction, truth) << " deg, focal "
+      << reconstruction.cameras.at(1).params[0] << ", k "
+      << reconstruction.cameras.at(1).params[3] << ", total " << seconds
+      << " s\n";
 
   EXPECT_EQ(reconstruction.images.size(), truth.images.size());
   EXPECT_EQ(comparison.num_inliers, comparison.num_common);
@@ -130,8 +144,8 @@ TEST(SyntheticPipeline, RecoversTheSceneFromNoisyRotationsAndMatches) {
   // Rayleigh mean of 2 px per-axis noise is 2.5 px; the 4 px filter trims it.
   EXPECT_LT(mean_reproj_error, 2.5);
   EXPECT_GT(mean_reproj_error, 1.5);
-  EXPECT_GT(filtering.num_observations_filtered + ba1.num_observations_filtered +
-                ba2.num_observations_filtered,
+  EXPECT_GT(filtering.num_observations_filtered +
+                ba1.num_observations_filtered + ba2.num_observations_filtered,
             0u);
   EXPECT_NEAR(reconstruction.cameras.at(1).params[0], 1200.0, 3.0);
   EXPECT_NEAR(reconstruction.cameras.at(1).params[3], -0.03, 0.003);

@@ -37,8 +37,9 @@ TEST(Triangulation, MidpointAndDLTAreExactOnExactRays) {
     EXPECT_LT((dlt - X).norm(), 1e-9);
   }
   Eigen::Vector3d xyz;
-  EXPECT_FALSE(TriangulateMidpoint({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()},
-                                   {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitX()}, &xyz));
+  EXPECT_FALSE(TriangulateMidpoint(
+      {Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()},
+      {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitX()}, &xyz));
 }
 
 SyntheticScene Scene(double noise_px) {
@@ -55,16 +56,20 @@ SyntheticScene Scene(double noise_px) {
 TEST(Triangulation, TriangulatesEveryTrackOfKnownPoses) {
   const SyntheticScene scene = Scene(0.5);
   Reconstruction reconstruction = StripPoints(scene.truth);
-  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
-  const TriangulationSummary summary = TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  const TriangulationSummary summary =
+      TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
   EXPECT_EQ(summary.num_points_added, tracks.size());
   EXPECT_EQ(NumObservations(reconstruction), NumObservations(scene.truth));
   EXPECT_LT(UpdateReprojectionErrors(&reconstruction), 1.0);
   double max_error = 0;
   for (const auto& [point3D_id, point] : reconstruction.points3D) {
     const TrackElement& e = point.track[0];
-    const point3D_t true_id = scene.truth.images.at(e.image_id).points2D[e.point2D_idx].point3D_id;
-    max_error = std::max(max_error, (point.xyz - scene.truth.points3D.at(true_id).xyz).norm());
+    const point3D_t true_id =
+        scene.truth.images.at(e.image_id).points2D[e.point2D_idx].point3D_id;
+    max_error = std::max(
+        max_error, (point.xyz - scene.truth.points3D.at(true_id).xyz).norm());
   }
   EXPECT_LT(max_error, 0.1);  // cameras 10 away, 0.5 px noise
 }
@@ -72,19 +77,24 @@ TEST(Triangulation, TriangulatesEveryTrackOfKnownPoses) {
 TEST(Triangulation, RejectsWrongObservationsAndSplitsMergedTracks) {
   const SyntheticScene scene = Scene(0.0);
   Reconstruction reconstruction = StripPoints(scene.truth);
-  std::vector<Track> tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  std::vector<Track> tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
   // Merge pairs of tracks: images 1-4 of one with images 5-8 of the next.
   std::vector<Track> merged;
   for (size_t t = 0; t + 1 < tracks.size(); t += 2) {
     Track track;
-    for (const auto& e : tracks[t]) if (e.image_id <= 4) track.push_back(e);
+    for (const auto& e : tracks[t])
+      if (e.image_id <= 4) track.push_back(e);
     const size_t num_first = track.size();
-    for (const auto& e : tracks[t + 1]) if (e.image_id > 4) track.push_back(e);
-    if (num_first >= 2 && track.size() - num_first >= 2) merged.push_back(track);
+    for (const auto& e : tracks[t + 1])
+      if (e.image_id > 4) track.push_back(e);
+    if (num_first >= 2 && track.size() - num_first >= 2)
+      merged.push_back(track);
   }
   const size_t num_merged = merged.size();
   ASSERT_GT(num_merged, 5u);
-  const TriangulationSummary summary = TriangulateTracks(TriangulationOptions(), merged, &reconstruction);
+  const TriangulationSummary summary =
+      TriangulateTracks(TriangulationOptions(), merged, &reconstruction);
   EXPECT_EQ(summary.num_points_added, 2 * num_merged);
   EXPECT_LT(UpdateReprojectionErrors(&reconstruction), 1e-6);
   // One wrong observation per track: excluded.
@@ -97,14 +107,17 @@ TEST(Triangulation, RejectsWrongObservationsAndSplitsMergedTracks) {
     const Image& image = reconstruction2.images.at(track[1].image_id);
     std::uniform_int_distribution<point2D_t> dist(0, image.points2D.size() - 1);
     const point2D_t idx = dist(rng);
-    if ((image.points2D[idx].xy - image.points2D[track[1].point2D_idx].xy).norm() < 20) continue;
+    if ((image.points2D[idx].xy - image.points2D[track[1].point2D_idx].xy)
+            .norm() < 20)
+      continue;
     track[1].point2D_idx = idx;
     ++num_corrupted;
   }
   ASSERT_GT(num_corrupted, 50u);
   TriangulateTracks(TriangulationOptions(), corrupted, &reconstruction2);
   EXPECT_LT(UpdateReprojectionErrors(&reconstruction2), 1e-6);
-  EXPECT_GE(NumObservations(reconstruction2), NumObservations(scene.truth) - 2 * num_corrupted);
+  EXPECT_GE(NumObservations(reconstruction2),
+            NumObservations(scene.truth) - 2 * num_corrupted);
 }
 
 TEST(Triangulation, RetriangulatesOnlyWhatIsMissing) {
@@ -112,14 +125,16 @@ TEST(Triangulation, RetriangulatesOnlyWhatIsMissing) {
   Reconstruction reconstruction = scene.truth;
   const size_t num_points = reconstruction.points3D.size();
   const size_t num_observations = NumObservations(reconstruction);
-  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
   // Delete every third point.
   std::vector<point3D_t> deleted;
   for (const auto& [point3D_id, point] : reconstruction.points3D) {
     if (point3D_id % 3 == 0) deleted.push_back(point3D_id);
   }
   for (point3D_t id : deleted) DeletePoint3D(id, &reconstruction);
-  const TriangulationSummary summary = TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
+  const TriangulationSummary summary =
+      TriangulateTracks(TriangulationOptions(), tracks, &reconstruction);
   EXPECT_EQ(summary.num_points_added, deleted.size());
   EXPECT_EQ(reconstruction.points3D.size(), num_points);
   EXPECT_EQ(NumObservations(reconstruction), num_observations);
@@ -133,12 +148,17 @@ TEST(Triangulation, RespectsMinimumAngle) {
   options.height_jitter = 0.0;
   const SyntheticScene scene = GenerateSyntheticScene(options);
   Reconstruction reconstruction = StripPoints(scene.truth);
-  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
   ASSERT_GT(tracks.size(), 50u);
   TriangulationOptions triangulation_options;
-  EXPECT_EQ(TriangulateTracks(triangulation_options, tracks, &reconstruction).num_points_added, 0u);
+  EXPECT_EQ(TriangulateTracks(triangulation_options, tracks, &reconstruction)
+                .num_points_added,
+            0u);
   triangulation_options.min_tri_angle = 0.1;
-  EXPECT_GT(TriangulateTracks(triangulation_options, tracks, &reconstruction).num_points_added, 50u);
+  EXPECT_GT(TriangulateTracks(triangulation_options, tracks, &reconstruction)
+                .num_points_added,
+            50u);
 }
 
 }  // namespace

@@ -44,8 +44,8 @@ Scene MakeScene(int n, double p, double noise_deg, double outliers,
 // Rotations of `truth` expressed in another frame: R_v^F = R_v F, with
 // small noise.
 std::vector<Eigen::Matrix3d> InFrame(const std::vector<Eigen::Matrix3d>& truth,
-                                     const Eigen::Matrix3d& F,
-                                     double noise_deg, std::mt19937_64* rng) {
+                                     const Eigen::Matrix3d& F, double noise_deg,
+                                     std::mt19937_64* rng) {
   std::vector<Eigen::Matrix3d> out;
   for (const auto& R : truth) {
     out.push_back(RandomRotationWithAngle(DegToRad(noise_deg), rng) * R * F);
@@ -70,16 +70,16 @@ TEST(ClusterAlignment, ExactWithoutNoiseFromVerticesAndFromEdges) {
   ClusterAlignmentOptions options;
   // Overlapping: vertex guidance.
   ClusterAlignment a =
-      AlignClusterToReference(scene.graph, cluster, Range(40, 0, 25),
-                              reference, Range(40, 20, 40), options);
+      AlignClusterToReference(scene.graph, cluster, Range(40, 0, 25), reference,
+                              Range(40, 20, 40), options);
   ASSERT_TRUE(a.success);
   EXPECT_TRUE(a.used_vertex_guidance);
   EXPECT_EQ(a.num_common_vertices, 5);
   EXPECT_LT(AngularDistanceDeg(a.A, A_true), 1e-6);
   // Disjoint: edge voting only; the edge formula must hold exactly.
   ClusterAlignment b =
-      AlignClusterToReference(scene.graph, cluster, Range(40, 0, 20),
-                              reference, Range(40, 20, 40), options);
+      AlignClusterToReference(scene.graph, cluster, Range(40, 0, 20), reference,
+                              Range(40, 20, 40), options);
   ASSERT_TRUE(b.success);
   EXPECT_FALSE(b.used_vertex_guidance);
   EXPECT_GT(b.num_edges, 0);

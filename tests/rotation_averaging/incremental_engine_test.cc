@@ -162,7 +162,9 @@ TEST(IncrementalEngine, SeedIsTheMostConsistentTriangle) {
   std::mt19937_64 rng(2);
   std::vector<Eigen::Matrix3d> R(5);
   for (auto& r : R) r = RandomRotation(&rng);
-  const auto rel = [&](int i, int j) { return Eigen::Matrix3d(R[j] * R[i].transpose()); };
+  const auto rel = [&](int i, int j) {
+    return Eigen::Matrix3d(R[j] * R[i].transpose());
+  };
   const auto tilt = [&](double deg) {
     return Eigen::Matrix3d(
         Eigen::AngleAxisd(DegToRad(deg), Eigen::Vector3d::UnitX()));
@@ -183,8 +185,8 @@ TEST(IncrementalEngine, SeedIsTheMostConsistentTriangle) {
   std::sort(seed.begin(), seed.end());
   EXPECT_EQ(seed, (std::vector<int>{0, 1, 3}));
   // Exact triangle: relative rotations reproduced.
-  EXPECT_LT(AngularDistanceDeg(engine.Rotation(3) * engine.Rotation(1).transpose(),
-                               rel(1, 3)),
+  EXPECT_LT(AngularDistanceDeg(
+                engine.Rotation(3) * engine.Rotation(1).transpose(), rel(1, 3)),
             1e-6);
 
   IncrementalEngine forced(graph, IncrementalOptions());

@@ -4,9 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "tests/test_utils/data.h"
@@ -112,8 +112,8 @@ TEST(Ira, SyntheticProtocolOnTheMadridGraph) {
   // The paper's protocol on the real Madrid_Metropolis structure (394
   // cameras, 23,784 edges), sigma 5 deg, 30% outliers. Measured median
   // 0.39 deg (tools/ira_bench); breadth-first chaining is far worse.
-  const OneDsfmScene scene = ReadOneDsfmScene(
-      DataDir() + "/1dsfm/Madrid_Metropolis");
+  const OneDsfmScene scene =
+      ReadOneDsfmScene(DataDir() + "/1dsfm/Madrid_Metropolis");
   ASSERT_EQ(scene.graph.NumVertices(), 394);
   SyntheticOptions options;
   options.noise_sigma_deg = 5.0;
@@ -135,8 +135,8 @@ TEST(Ira, RealMadridMeasurementsAreExplained) {
   // No ground truth ships with the scene; the real measurements must still
   // be explained: many more edges within theta of the estimate than
   // spanning-tree chaining manages (a random estimate explains almost none).
-  const OneDsfmScene scene = ReadOneDsfmScene(
-      DataDir() + "/1dsfm/Madrid_Metropolis");
+  const OneDsfmScene scene =
+      ReadOneDsfmScene(DataDir() + "/1dsfm/Madrid_Metropolis");
   const auto explained_ratio = [&](const RotationAveragingResult& result) {
     int explained = 0;
     for (const RelativeRotation& e : scene.graph.Edges()) {

@@ -74,8 +74,7 @@ TEST(Irav4, AccurateWithClustersAndOutliers) {
   const Irav4Report& report = irav4.LastReport();
   EXPECT_EQ(result.NumEstimated(), 120);
   EXPECT_GE(report.num_clusters, 2);
-  EXPECT_EQ(static_cast<int>(report.cluster_sizes.size()),
-            report.num_clusters);
+  EXPECT_EQ(static_cast<int>(report.cluster_sizes.size()), report.num_clusters);
   int total = 0;
   for (int size : report.cluster_sizes) total += size;
   EXPECT_EQ(total, 120);  // every vertex in exactly one cluster
@@ -83,8 +82,7 @@ TEST(Irav4, AccurateWithClustersAndOutliers) {
   EXPECT_TRUE(
       IsConnectedDominatingSet(problem.graph, report.reference.vertices));
   EXPECT_EQ(report.n_ref, static_cast<int>(report.reference.vertices.size()));
-  const RotationErrors errors =
-      EvaluateRotations(result, problem.ground_truth);
+  const RotationErrors errors = EvaluateRotations(result, problem.ground_truth);
   EXPECT_EQ(errors.num_compared, 120);
   EXPECT_LT(errors.median_deg, 0.6);
   EXPECT_LT(errors.max_deg, 3.0);
@@ -107,8 +105,7 @@ TEST(Irav4, ReferenceMethodsAreEstimatedConnectedDominatingSets) {
         << method;
     const RotationErrors errors = EvaluateRotations(
         reference.rotations, reference.selected, problem.ground_truth);
-    EXPECT_EQ(errors.num_compared,
-              static_cast<int>(reference.vertices.size()));
+    EXPECT_EQ(errors.num_compared, static_cast<int>(reference.vertices.size()));
     EXPECT_LT(errors.median_deg, 1.0) << method;
     Irav4 irav4(options);
     const RotationErrors full =
@@ -152,10 +149,10 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
   const RotationAveragingResult a = Irav4(refined).Estimate(problem.graph);
   const RotationErrors refined_errors =
       EvaluateRotations(a, problem.ground_truth);
-  COLMAP_IRAV4_FIGURES << "median paper " << paper_errors.median_deg << " refined "
-            << refined_errors.median_deg << "; mean paper "
-            << paper_errors.mean_deg << " refined " << refined_errors.mean_deg
-            << std::endl;
+  COLMAP_IRAV4_FIGURES << "median paper " << paper_errors.median_deg
+                       << " refined " << refined_errors.median_deg
+                       << "; mean paper " << paper_errors.mean_deg
+                       << " refined " << refined_errors.mean_deg << std::endl;
   EXPECT_EQ(refined_errors.num_compared, 120);
   // Measured: median 1.217 -> 0.893 deg, mean 2.291 -> 0.960 deg.
   EXPECT_LT(refined_errors.median_deg, 0.85 * paper_errors.median_deg);
@@ -165,8 +162,8 @@ TEST(Irav4, RefinementImprovesMedianDeterministically) {
   irls_only.final_refinement = "irls";
   const RotationErrors irls_errors = EvaluateRotations(
       Irav4(irls_only).Estimate(problem.graph), problem.ground_truth);
-  COLMAP_IRAV4_FIGURES << "irls only: median " << irls_errors.median_deg << " mean "
-            << irls_errors.mean_deg << std::endl;
+  COLMAP_IRAV4_FIGURES << "irls only: median " << irls_errors.median_deg
+                       << " mean " << irls_errors.mean_deg << std::endl;
   EXPECT_LT(irls_errors.median_deg, 0.85 * paper_errors.median_deg);
   const RotationAveragingResult b = Irav4(refined).Estimate(problem.graph);
   for (size_t v = 0; v < a.rotations.size(); ++v) {
@@ -210,8 +207,7 @@ TEST(Irav4, ReseedingRestoresAWronglyPlacedVertex) {
             10.0);
   for (int v = 0; v < 40; ++v) {
     if (v == wrong) continue;
-    EXPECT_TRUE(
-        (rotations[v].array() == problem.ground_truth[v].array()).all())
+    EXPECT_TRUE((rotations[v].array() == problem.ground_truth[v].array()).all())
         << v;
   }
 }
@@ -246,11 +242,11 @@ TEST(Irav4, TaskSpecificReferenceOnlyGrowsWhileItDominates) {
   synthetic.noise_sigma_deg = 2.0;
   synthetic.outlier_ratio = 0.2;
   synthetic.seed = 4;
-  const SyntheticProblem problem = MakeSyntheticProblem(
-      300, RandomConnectedGraph(300, 6000, 4), synthetic);
+  const SyntheticProblem problem =
+      MakeSyntheticProblem(300, RandomConnectedGraph(300, 6000, 4), synthetic);
   Irav4Options options;
-  const AlignmentReference reference = BuildAlignmentReference(
-      problem.graph, options, ReferenceMethod::kIrav4);
+  const AlignmentReference reference =
+      BuildAlignmentReference(problem.graph, options, ReferenceMethod::kIrav4);
   EXPECT_TRUE(reference.is_cds);
   EXPECT_TRUE(IsConnectedDominatingSet(problem.graph, reference.vertices));
   const int greedy = static_cast<int>(GreedyCds(problem.graph).size());
@@ -301,13 +297,11 @@ TEST(Irav4, GaussNewtonEngineMatchesCeres) {
       CommunityProblem(3, 30, 0.4, 0.05, 2.0, 0.2, 8);
   Irav4Options options;
   options.final_refinement = "none";
-  const RotationErrors fast =
-      EvaluateRotations(Irav4(options).Estimate(problem.graph),
-                        problem.ground_truth);
+  const RotationErrors fast = EvaluateRotations(
+      Irav4(options).Estimate(problem.graph), problem.ground_truth);
   options.engine.use_ceres = true;
-  const RotationErrors ceres =
-      EvaluateRotations(Irav4(options).Estimate(problem.graph),
-                        problem.ground_truth);
+  const RotationErrors ceres = EvaluateRotations(
+      Irav4(options).Estimate(problem.graph), problem.ground_truth);
   EXPECT_EQ(fast.num_compared, 90);
   EXPECT_EQ(ceres.num_compared, 90);
   EXPECT_NEAR(fast.median_deg, ceres.median_deg, 0.1 * ceres.median_deg);
@@ -328,14 +322,13 @@ TEST(Irav4, PlaceRemainingVerticesLosesNoCamera) {
   synthetic.noise_sigma_deg = 0.0;
   synthetic.outlier_ratio = 0.1;
   synthetic.seed = 12;
-  const SyntheticProblem problem = MakeSyntheticProblem(
-      60, RandomConnectedGraph(60, 600, 12), synthetic);
+  const SyntheticProblem problem =
+      MakeSyntheticProblem(60, RandomConnectedGraph(60, 600, 12), synthetic);
   std::vector<bool> estimated(60, false);
   std::vector<Eigen::Matrix3d> rotations(60, Eigen::Matrix3d::Identity());
   estimated[7] = true;
   rotations[7] = problem.ground_truth[7];
-  EXPECT_EQ(PlaceRemainingVertices(problem.graph, 3.0, &estimated,
-                                   &rotations),
+  EXPECT_EQ(PlaceRemainingVertices(problem.graph, 3.0, &estimated, &rotations),
             59);
   for (bool e : estimated) EXPECT_TRUE(e);
   // Noise-free inliers: the ground truth itself (no alignment needed, the

@@ -6,11 +6,11 @@
 
 #include <gtest/gtest.h>
 
+#include "colmap_irav4/eval/onedsfm.h"
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/eval/onedsfm.h"
-#include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
+#include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/test_utils/data.h"
 #include "tests/test_utils/record.h"
@@ -76,7 +76,8 @@ TEST(SpanningTree, EstimatesLargestComponentOnly) {
   graph.AddEdge(2, 3, Eigen::Matrix3d::Identity());
   graph.AddEdge(3, 4, Eigen::Matrix3d::Identity());
   const RotationAveragingResult result = SpanningTreeAverager().Estimate(graph);
-  EXPECT_EQ(result.estimated, std::vector<bool>({false, false, true, true, true}));
+  EXPECT_EQ(result.estimated,
+            std::vector<bool>({false, false, true, true, true}));
 }
 
 TEST(L1Irls, NoiseFreeExactRecovery) {
@@ -97,12 +98,11 @@ TEST(L1Irls, ExactRecoveryWithOutliersWithoutNoise) {
   // Exact inliers, 20% random outliers: the spanning tree chains through
   // outliers, the robust refinement must recover the truth exactly.
   const Scene scene = MakeScene(100, 900, 0.0, 0.2, 5);
-  const std::vector<double> tree_errors =
-      Errors(SpanningTreeAverager().Estimate(scene.graph).rotations,
-             scene.truth);
+  const std::vector<double> tree_errors = Errors(
+      SpanningTreeAverager().Estimate(scene.graph).rotations, scene.truth);
   EXPECT_GT(*std::max_element(tree_errors.begin(), tree_errors.end()), 10.0);
-  const std::vector<double> errors = Errors(
-      L1IrlsAverager().Estimate(scene.graph).rotations, scene.truth);
+  const std::vector<double> errors =
+      Errors(L1IrlsAverager().Estimate(scene.graph).rotations, scene.truth);
   // Not 0: Geman-McClure leaves the outliers a weight ~1e-5, a bias of
   // ~1e-3 deg at the fixed point.
   EXPECT_LT(*std::max_element(errors.begin(), errors.end()), 1e-2);
@@ -112,12 +112,12 @@ TEST(L1Irls, FarBetterThanSpanningTreeWithNoiseAndOutliers) {
   const Scene scene = MakeScene(150, 2500, 5.0, 0.3, 3);
   const double tree_median = Median(Errors(
       SpanningTreeAverager().Estimate(scene.graph).rotations, scene.truth));
-  const double l1_median = Median(Errors(
-      L1IrlsAverager().Estimate(scene.graph).rotations, scene.truth));
+  const double l1_median = Median(
+      Errors(L1IrlsAverager().Estimate(scene.graph).rotations, scene.truth));
   // 2500 edges on 150 vertices: averaging reduces the 5 deg edge noise well
   // below one edge's noise, while chaining accumulates noise and outliers.
   COLMAP_IRAV4_FIGURES << "median error: spanning tree " << tree_median
-            << " deg, L1-IRLS " << l1_median << " deg" << std::endl;
+                       << " deg, L1-IRLS " << l1_median << " deg" << std::endl;
   EXPECT_LT(l1_median, 2.0);
   EXPECT_LT(l1_median * 5, tree_median);
 }
@@ -130,17 +130,15 @@ TEST(L1Irls, MadridStructureWithNoiseAndOutliers) {
   options.outlier_ratio = 0.3;
   options.seed = 8;
   const SyntheticProblem problem = MakeSyntheticProblem(
-      ReadOneDsfmScene(DataDir() +
-                       "/1dsfm/Madrid_Metropolis")
-          .graph,
-      options);
+      ReadOneDsfmScene(DataDir() + "/1dsfm/Madrid_Metropolis").graph, options);
   const RotationErrors tree = EvaluateRotations(
       SpanningTreeAverager().Estimate(problem.graph), problem.ground_truth);
   const RotationErrors l1 = EvaluateRotations(
       L1IrlsAverager().Estimate(problem.graph), problem.ground_truth);
-  COLMAP_IRAV4_FIGURES << "Madrid, sigma 5, 30% outliers: median error spanning tree "
-            << tree.median_deg << " deg, L1-IRLS " << l1.median_deg << " deg"
-            << std::endl;
+  COLMAP_IRAV4_FIGURES
+      << "Madrid, sigma 5, 30% outliers: median error spanning tree "
+      << tree.median_deg << " deg, L1-IRLS " << l1.median_deg << " deg"
+      << std::endl;
   EXPECT_EQ(l1.num_compared, 394);
   EXPECT_LT(l1.median_deg, 1.0);
   EXPECT_LT(10 * l1.median_deg, tree.median_deg);

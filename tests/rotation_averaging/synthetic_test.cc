@@ -32,8 +32,10 @@ TEST(Synthetic, RandomGraphIsConnectedSimpleAndSized) {
 }
 
 TEST(Synthetic, SeedReproducesAndChanges) {
-  EXPECT_EQ(RandomConnectedGraph(100, 500, 7), RandomConnectedGraph(100, 500, 7));
-  EXPECT_NE(RandomConnectedGraph(100, 500, 7), RandomConnectedGraph(100, 500, 8));
+  EXPECT_EQ(RandomConnectedGraph(100, 500, 7),
+            RandomConnectedGraph(100, 500, 7));
+  EXPECT_NE(RandomConnectedGraph(100, 500, 7),
+            RandomConnectedGraph(100, 500, 8));
   const auto edges = RandomConnectedGraph(100, 500, 7);
   SyntheticOptions options;
   options.outlier_ratio = 0.2;
@@ -56,9 +58,10 @@ TEST(Synthetic, NoiseFreeEdgesAreExact) {
   options.noise_sigma_deg = 0.0;
   const SyntheticProblem problem = MakeSyntheticProblem(50, edges, options);
   for (const RelativeRotation& e : problem.graph.Edges()) {
-    EXPECT_LT(AngularDistanceDeg(e.R_ij, problem.ground_truth[e.j] *
-                                             problem.ground_truth[e.i].transpose()),
-              1e-6);
+    EXPECT_LT(
+        AngularDistanceDeg(e.R_ij, problem.ground_truth[e.j] *
+                                       problem.ground_truth[e.i].transpose()),
+        1e-6);
   }
 }
 
@@ -77,8 +80,8 @@ TEST(Synthetic, NoiseAndOutliersFollowTheProtocol) {
     for (int e = 0; e < problem.graph.NumEdges(); ++e) {
       const RelativeRotation& edge = problem.graph.Edge(e);
       const double err = AngularDistanceDeg(
-          edge.R_ij,
-          problem.ground_truth[edge.j] * problem.ground_truth[edge.i].transpose());
+          edge.R_ij, problem.ground_truth[edge.j] *
+                         problem.ground_truth[edge.i].transpose());
       if (problem.edge_is_outlier[e]) {
         ++num_outliers;
         if (err > 3 * sigma) ++num_far_outliers;
@@ -108,9 +111,9 @@ TEST(Synthetic, StructureGraphKeepsNamesAndWeights) {
   EXPECT_EQ(problem.graph.Name(2), "c");
   EXPECT_EQ(problem.graph.Edge(1).i, 2);
   EXPECT_EQ(problem.graph.Edge(1).weight, 20);
-  EXPECT_LT(AngularDistanceDeg(problem.graph.Edge(1).R_ij,
-                               problem.ground_truth[1] *
-                                   problem.ground_truth[2].transpose()),
+  EXPECT_LT(AngularDistanceDeg(
+                problem.graph.Edge(1).R_ij,
+                problem.ground_truth[1] * problem.ground_truth[2].transpose()),
             1e-6);
   options.outlier_ratio = 1.5;
   EXPECT_THROW(MakeSyntheticProblem(structure, options), InputError);
@@ -160,8 +163,9 @@ TEST(Synthetic, StructuredOutliersAreMirroredTwinPairs) {
   }
   EXPECT_EQ(num_structured,
             static_cast<int>(std::llround(0.5 * problem.num_twin_pairs)));
-  EXPECT_EQ(num_random, static_cast<int>(std::llround(
-                            0.1 * (problem.graph.NumEdges() - num_structured))));
+  EXPECT_EQ(num_random,
+            static_cast<int>(std::llround(
+                0.1 * (problem.graph.NumEdges() - num_structured))));
   options.structured_outlier_ratio = 2.0;
   EXPECT_THROW(options.Check(), InputError);
 }

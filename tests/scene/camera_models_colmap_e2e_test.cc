@@ -8,8 +8,8 @@
 
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -49,13 +49,11 @@ std::vector<Camera> TestCameras() {
       {400, 320, 240, -0.08, 0.01},
       {400, 410, 320, 240, -0.08, 0.01, 0.01, -0.012},
       {400, 410, 320, 240, 0.1, -0.05, 0.03, -0.01},
-      {400, 410, 320, 240, -0.08, 0.01, 0.01, -0.012, 0.005, 0.05, -0.02,
-       0.01},
+      {400, 410, 320, 240, -0.08, 0.01, 0.01, -0.012, 0.005, 0.05, -0.02, 0.01},
       {400, 410, 320, 240, 0.7},
       {400, 320, 240, 0.1},
       {400, 320, 240, 0.1, -0.05},
-      {400, 410, 320, 240, 0.1, -0.05, 0.01, -0.012, 0.03, -0.01, 0.02,
-       -0.015},
+      {400, 410, 320, 240, 0.1, -0.05, 0.01, -0.012, 0.03, -0.01, 0.02, -0.015},
   };
   std::vector<Camera> cameras;
   for (int model_id = 0; model_id < kNumCameraModels; ++model_id) {
@@ -78,9 +76,9 @@ TEST(CameraModelsColmap, ImageUndistorterAgreesWithOurProjection) {
   for (double x = -0.5; x <= 0.51; x += 0.25) {
     for (double y = -0.375; y <= 0.38; y += 0.25) rays.emplace_back(x, y);
   }
-  const fs::path root = fs::temp_directory_path() /
-                        ("colmap_irav4_undistorter_" +
-                         std::to_string(::getpid()));
+  const fs::path root =
+      fs::temp_directory_path() /
+      ("colmap_irav4_undistorter_" + std::to_string(::getpid()));
   for (const Camera& camera : TestCameras()) {
     SCOPED_TRACE(CameraModelIdToName(camera.model_id));
     fs::remove_all(root);
@@ -99,7 +97,8 @@ TEST(CameraModelsColmap, ImageUndistorterAgreesWithOurProjection) {
         const Eigen::Vector2d centre(col + 0.5, row + 0.5);
         double value = 0.0;
         for (const Eigen::Vector2d& p : projections) {
-          value += std::exp(-(centre - p).squaredNorm() / (2 * kSigma * kSigma));
+          value +=
+              std::exp(-(centre - p).squaredNorm() / (2 * kSigma * kSigma));
         }
         image.at<uint8_t>(row, col) =
             static_cast<uint8_t>(std::min(255.0, std::round(250.0 * value)));
@@ -128,7 +127,8 @@ TEST(CameraModelsColmap, ImageUndistorterAgreesWithOurProjection) {
         ReadReconstruction((root / "out" / "sparse").string());
     ASSERT_EQ(undistorted.cameras.size(), 1u);
     const Camera& pinhole = undistorted.cameras.begin()->second;
-    ASSERT_TRUE(pinhole.model_id == kPinhole || pinhole.model_id == kSimplePinhole);
+    ASSERT_TRUE(pinhole.model_id == kPinhole ||
+                pinhole.model_id == kSimplePinhole);
     const cv::Mat result = cv::imread(
         (root / "out" / "images" / "blobs.png").string(), cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(result.empty());
@@ -160,8 +160,9 @@ TEST(CameraModelsColmap, ImageUndistorterAgreesWithOurProjection) {
       max_error = std::max(max_error, (weighted / sum - expected).norm());
     }
     EXPECT_LT(max_error, 0.15);
-    ::colmap_irav4::test::RecordFiguresF("%-22s max blob offset %.3f px\n",
-                CameraModelIdToName(camera.model_id).c_str(), max_error);
+    ::colmap_irav4::test::RecordFiguresF(
+        "%-22s max blob offset %.3f px\n",
+        CameraModelIdToName(camera.model_id).c_str(), max_error);
   }
   fs::remove_all(root);
 }

@@ -1,12 +1,12 @@
 #include "colmap_irav4/scene/camera_models.h"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <random>
 
-#include <Eigen/Geometry>
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 namespace colmap_irav4 {
 namespace {
@@ -33,8 +33,8 @@ std::vector<Camera> RealisticCameras() {
       MakeCamera(2, {1000, 640, 480, -0.1}),
       MakeCamera(3, {1000, 640, 480, -0.15, 0.03}),
       MakeCamera(4, {1000, 1010, 640, 480, -0.2, 0.05, 1e-3, -5e-4}),
-      MakeCamera(5, {284.468, 285.51, 424.355, 393.742, 0.0008, 0.031, -0.03,
-                     0.005}),
+      MakeCamera(
+          5, {284.468, 285.51, 424.355, 393.742, 0.0008, 0.031, -0.03, 0.005}),
       MakeCamera(6, {1000, 1010, 640, 480, -0.2, 0.05, 1e-3, -5e-4, 0.01, 0.01,
                      -0.002, 0.001}),
       MakeCamera(7, {285, 286, 424, 394, 0.92}),
@@ -52,11 +52,16 @@ bool IsWideAngle(int model_id) {
 
 TEST(CameraModels, NamesIdsAndNumbersOfParameters) {
   const std::vector<std::pair<std::string, int>> expected = {
-      {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},
-      {"SIMPLE_RADIAL", 4},  {"RADIAL", 5},
-      {"OPENCV", 8},         {"OPENCV_FISHEYE", 8},
-      {"FULL_OPENCV", 12},   {"FOV", 5},
-      {"SIMPLE_RADIAL_FISHEYE", 4}, {"RADIAL_FISHEYE", 5},
+      {"SIMPLE_PINHOLE", 3},
+      {"PINHOLE", 4},
+      {"SIMPLE_RADIAL", 4},
+      {"RADIAL", 5},
+      {"OPENCV", 8},
+      {"OPENCV_FISHEYE", 8},
+      {"FULL_OPENCV", 12},
+      {"FOV", 5},
+      {"SIMPLE_RADIAL_FISHEYE", 4},
+      {"RADIAL_FISHEYE", 5},
       {"THIN_PRISM_FISHEYE", 12}};
   ASSERT_EQ(expected.size(), static_cast<size_t>(kNumCameraModels));
   for (int id = 0; id < kNumCameraModels; ++id) {
@@ -186,9 +191,8 @@ TEST(CameraModels, CameraToImageToCameraRoundTrip) {
     for (double angle = 0.0; angle <= max_angle; angle += 2.5) {
       for (double azimuth = 0.0; azimuth < 360.0; azimuth += 15.0) {
         const double r = std::tan(angle / 180.0 * kPi);
-        const Eigen::Vector2d camera_point(
-            r * std::cos(azimuth / 180.0 * kPi),
-            r * std::sin(azimuth / 180.0 * kPi));
+        const Eigen::Vector2d camera_point(r * std::cos(azimuth / 180.0 * kPi),
+                                           r * std::sin(azimuth / 180.0 * kPi));
         const Eigen::Vector2d image_point =
             CameraCameraToImage(camera, camera_point);
         const Eigen::Vector2d back = CameraImageToCamera(camera, image_point);
@@ -196,8 +200,8 @@ TEST(CameraModels, CameraToImageToCameraRoundTrip) {
         const Eigen::Vector3d ray1 = camera_point.homogeneous().normalized();
         const Eigen::Vector3d ray2 = back.homogeneous().normalized();
         max_angle_error =
-            std::max(max_angle_error, std::atan2(ray1.cross(ray2).norm(),
-                                                 ray1.dot(ray2)));
+            std::max(max_angle_error,
+                     std::atan2(ray1.cross(ray2).norm(), ray1.dot(ray2)));
       }
     }
     EXPECT_LT(max_angle_error, 1e-11) << CameraModelIdToName(camera.model_id);
@@ -240,10 +244,10 @@ Eigen::Vector2d ReferenceProjection(const Camera& camera, double u, double v) {
       const double radial =
           (1 + p[4] * r2 + p[5] * r2 * r2 + p[8] * std::pow(r2, 3)) /
           (1 + p[9] * r2 + p[10] * r2 * r2 + p[11] * std::pow(r2, 3));
-      const double du = u * radial - u + 2 * p[6] * u * v +
-                        p[7] * (r2 + 2 * u * u);
-      const double dv = v * radial - v + 2 * p[7] * u * v +
-                        p[6] * (r2 + 2 * v * v);
+      const double du =
+          u * radial - u + 2 * p[6] * u * v + p[7] * (r2 + 2 * u * u);
+      const double dv =
+          v * radial - v + 2 * p[7] * u * v + p[6] * (r2 + 2 * v * v);
       return {p[0] * (u + du) + p[2], p[1] * (v + dv) + p[3]};
     }
     case 7: {
@@ -301,10 +305,10 @@ TEST(CameraModels, PrincipalPointIsTheOpticalAxis) {
     const std::vector<int> pp = CameraModelPrincipalPointIdxs(camera.model_id);
     const Eigen::Vector2d principal_point(camera.params[pp[0]],
                                           camera.params[pp[1]]);
-    EXPECT_LT((CameraCameraToImage(camera, Eigen::Vector2d::Zero()) -
-               principal_point)
-                  .norm(),
-              1e-12);
+    EXPECT_LT(
+        (CameraCameraToImage(camera, Eigen::Vector2d::Zero()) - principal_point)
+            .norm(),
+        1e-12);
     EXPECT_LT(CameraImageToCamera(camera, principal_point).norm(), 1e-12);
   }
 }
@@ -325,8 +329,8 @@ TEST(CameraModels, TemplateAgreesAndDifferentiates) {
       const double v = k == 0 ? 0.0 : coordinate(rng);
       const double w = 1.0 + 2.0 * (k % 3);
       double x, y;
-      CameraModelImgFromCam(camera.model_id, camera.params.data(), u * w,
-                            v * w, w, &x, &y);
+      CameraModelImgFromCam(camera.model_id, camera.params.data(), u * w, v * w,
+                            w, &x, &y);
       const Eigen::Vector2d expected =
           CameraCameraToImage(camera, Eigen::Vector2d(u, v));
       EXPECT_NEAR(x, expected.x(), 1e-9);
@@ -379,8 +383,7 @@ TEST(CameraModels, TemplateDerivativesWithRespectToParameters) {
       minus[i] -= h;
       double xp, yp, xm, ym;
       CameraModelImgFromCam(camera.model_id, plus.data(), u, v, 1.0, &xp, &yp);
-      CameraModelImgFromCam(camera.model_id, minus.data(), u, v, 1.0, &xm,
-                            &ym);
+      CameraModelImgFromCam(camera.model_id, minus.data(), u, v, 1.0, &xm, &ym);
       const double scale = 1.0 + std::abs(xj.v[i]) + std::abs(yj.v[i]);
       EXPECT_NEAR(xj.v[i], (xp - xm) / (2 * h), 1e-5 * scale)
           << CameraModelIdToName(camera.model_id) << " param " << i;

@@ -30,10 +30,10 @@ inline bool HaveData(const std::string& relative) {
 
 // Skips the current test (from its body or a fixture's SetUp) when
 // DataDir()/relative is absent.
-#define COLMAP_IRAV4_REQUIRE_DATA(relative)                             \
-  do {                                                                  \
-    if (!::colmap_irav4::HaveData(relative)) {                          \
-      GTEST_SKIP() << "shared data absent: "                            \
-                   << ::colmap_irav4::DataDir() + "/" + (relative);     \
-    }                                                                   \
+#define COLMAP_IRAV4_REQUIRE_DATA(relative)                         \
+  do {                                                              \
+    if (!::colmap_irav4::HaveData(relative)) {                      \
+      GTEST_SKIP() << "shared data absent: "                        \
+                   << ::colmap_irav4::DataDir() + "/" + (relative); \
+    }                                                               \
   } while (false)

@@ -10,10 +10,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
-#include <map>
 
 #include <Eigen/Core>
 
@@ -120,8 +120,8 @@ class SqliteWriter {
           break;
       }
     }
-    EXPECT_EQ(sqlite3_step(stmt), SQLITE_DONE) << sql << ": "
-                                               << sqlite3_errmsg(db_);
+    EXPECT_EQ(sqlite3_step(stmt), SQLITE_DONE)
+        << sql << ": " << sqlite3_errmsg(db_);
     sqlite3_finalize(stmt);
   }
 

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <Eigen/Core>
 #include <Eigen/Dense>
-#include <gtest/gtest.h>
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/geometry/two_view_geometry.h"

@@ -111,8 +111,7 @@ TEST(AtomicOutput, DeadRunsTemporaryIsCleanedButNotForeignFiles) {
   const pid_t dead = fork();
   if (dead == 0) _exit(0);
   waitpid(dead, nullptr, 0);
-  const std::string stale =
-      out + "/" + kTemporaryMarker + std::to_string(dead);
+  const std::string stale = out + "/" + kTemporaryMarker + std::to_string(dead);
   WriteText(stale + "/0/cameras.bin", "x");
   WriteText(stale + "/summary.json", "x");
   const std::string alive =
@@ -132,9 +131,9 @@ TEST(AtomicOutput, SignalRemovesTheTemporaryDirectory) {
   if (child == 0) {
     OutputTransaction output(out);
     WriteText(output.StagingModelPath(0) + "/cameras.bin", "x");
-    WriteText(output.StagingModelPath(0) + "/images.bin" + kTemporaryMarker +
-                  "1",
-              "x");
+    WriteText(
+        output.StagingModelPath(0) + "/images.bin" + kTemporaryMarker + "1",
+        "x");
     raise(SIGTERM);
     _exit(3);  // not reached
   }

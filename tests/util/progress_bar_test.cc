@@ -19,8 +19,7 @@ TEST(ProgressBar, LogModePrintsOneLinePerTenPercent) {
   // 0%, 10%, ..., 100%: eleven lines, however many updates.
   EXPECT_EQ(CountLines(out.str()), 11);
   EXPECT_NE(out.str().find("positioning: 50% (500/1000)"), std::string::npos);
-  EXPECT_NE(out.str().find("positioning: 100% (1000/1000)"),
-            std::string::npos);
+  EXPECT_NE(out.str().find("positioning: 100% (1000/1000)"), std::string::npos);
 }
 
 TEST(ProgressBar, InteractiveModeRedrawsOneLine) {

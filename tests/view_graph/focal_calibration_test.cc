@@ -9,19 +9,19 @@
 #include <filesystem>
 #include <random>
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
 
 #include "colmap_irav4/eval/relative_pose_eval.h"
+#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/io/database.h"
-#include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
-#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
@@ -72,8 +72,8 @@ Eigen::Matrix3d EightPointF(const std::vector<Eigen::Vector2d>& x1,
   const Eigen::VectorXd f = svd.matrixV().col(8);
   Eigen::Matrix3d F;
   F << f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7), f(8);
-  Eigen::JacobiSVD<Eigen::Matrix3d> rank2(F, Eigen::ComputeFullU |
-                                                 Eigen::ComputeFullV);
+  Eigen::JacobiSVD<Eigen::Matrix3d> rank2(
+      F, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Vector3d s = rank2.singularValues();
   s(2) = 0;
   F = rank2.matrixU() * s.asDiagonal() * rank2.matrixV().transpose();
@@ -89,7 +89,8 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
   std::normal_distribution<double> noise(0.0, 0.5);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   std::vector<Eigen::Vector3d> points(300);
-  for (auto& p : points) p = Eigen::Vector3d(uniform(*rng), uniform(*rng), uniform(*rng)) * 2.0;
+  for (auto& p : points)
+    p = Eigen::Vector3d(uniform(*rng), uniform(*rng), uniform(*rng)) * 2.0;
   const int n = static_cast<int>(camera_of.size());
   std::vector<Eigen::Matrix3d> R(n);
   std::vector<Eigen::Vector3d> t(n);
@@ -101,7 +102,8 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
                                  -8 * std::cos(angle));
     // Aims spread over the scene: optical axes through one common point are
     // a degenerate configuration for focal self-calibration.
-    const Eigen::Vector3d target(2 * uniform(*rng), 2 * uniform(*rng), 2 * uniform(*rng));
+    const Eigen::Vector3d target(2 * uniform(*rng), 2 * uniform(*rng),
+                                 2 * uniform(*rng));
     const Eigen::Vector3d z = (target - centre).normalized();
     Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
     const Eigen::Vector3d y = z.cross(x);
@@ -116,14 +118,18 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
   std::vector<FocalCalibrationPair> pairs;
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
-      const Eigen::Matrix3d K1 = CameraCalibrationMatrix(true_cameras.at(camera_of[i]));
-      const Eigen::Matrix3d K2 = CameraCalibrationMatrix(true_cameras.at(camera_of[j]));
+      const Eigen::Matrix3d K1 =
+          CameraCalibrationMatrix(true_cameras.at(camera_of[i]));
+      const Eigen::Matrix3d K2 =
+          CameraCalibrationMatrix(true_cameras.at(camera_of[j]));
       std::vector<Eigen::Vector2d> x1, x2;
       for (const auto& p : points) {
         const Eigen::Vector3d a = K1 * (R[i] * p + t[i]);
         const Eigen::Vector3d b = K2 * (R[j] * p + t[j]);
-        x1.push_back(a.hnormalized() + Eigen::Vector2d(noise(*rng), noise(*rng)));
-        x2.push_back(b.hnormalized() + Eigen::Vector2d(noise(*rng), noise(*rng)));
+        x1.push_back(a.hnormalized() +
+                     Eigen::Vector2d(noise(*rng), noise(*rng)));
+        x2.push_back(b.hnormalized() +
+                     Eigen::Vector2d(noise(*rng), noise(*rng)));
       }
       FocalCalibrationPair pair;
       pair.camera_id1 = camera_of[i];
@@ -137,13 +143,16 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
 }
 
 TEST(FocalCalibration, CostIsZeroForTrueFocalOnly) {
-  const Eigen::Matrix3d K = CameraCalibrationMatrix(MakePinhole(1, 1500, false));
+  const Eigen::Matrix3d K =
+      CameraCalibrationMatrix(MakePinhole(1, 1500, false));
   const Eigen::Matrix3d R =
-      Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized())
+          .toRotationMatrix();
   const Eigen::Vector3d t(1, 0.2, 0.1);
   const Eigen::Matrix3d F = K.inverse().transpose() * Skew(t) * R * K.inverse();
   EXPECT_LT(EssentialSingularValueCost(F, K, K), 1e-9);
-  const Eigen::Matrix3d K_wrong = CameraCalibrationMatrix(MakePinhole(1, 1950, false));
+  const Eigen::Matrix3d K_wrong =
+      CameraCalibrationMatrix(MakePinhole(1, 1950, false));
   EXPECT_GT(EssentialSingularValueCost(F, K_wrong, K_wrong), 0.01);
 }
 
@@ -154,17 +163,20 @@ TEST(FocalCalibration, SharedCameraGuessOff30Percent) {
     std::vector<FocalCalibrationPair> pairs =
         SyntheticPairs(truth, {1, 1, 1, 1, 1, 1}, &rng);
     // One outlier pair (a wrong F) must not pull the estimate.
-    pairs[3].F = Skew(Eigen::Vector3d(0.3, -1, 0.5)) *
-                 Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
-    std::map<camera_t, Camera> cameras{{1, MakePinhole(1, 1500 * factor, false)}};
+    pairs[3].F =
+        Skew(Eigen::Vector3d(0.3, -1, 0.5)) *
+        Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    std::map<camera_t, Camera> cameras{
+        {1, MakePinhole(1, 1500 * factor, false)}};
     const std::vector<FocalCalibrationResult> results =
         CalibrateFocalLengths(pairs, FocalCalibrationOptions(), &cameras);
     ASSERT_EQ(results.size(), 1u);
     EXPECT_TRUE(results[0].calibrated) << results[0].reason;
     EXPECT_EQ(results[0].num_pairs, 15);
     EXPECT_NEAR(results[0].guess_focal, 1500 * factor, 1e-9);
-    ::colmap_irav4::test::RecordFiguresF("guess %.1f -> %.2f (true 1500)\n", 1500 * factor,
-                cameras.at(1).params[0]);
+    ::colmap_irav4::test::RecordFiguresF("guess %.1f -> %.2f (true 1500)\n",
+                                         1500 * factor,
+                                         cameras.at(1).params[0]);
     EXPECT_NEAR(cameras.at(1).params[0] / 1500, 1.0, 0.02);
     EXPECT_NEAR(cameras.at(1).params[1] / 1500, 1.0, 0.02);
     // Principal point untouched.
@@ -187,8 +199,10 @@ TEST(FocalCalibration, TwoCamerasCoordinateDescent) {
   for (const FocalCalibrationResult& result : results) {
     EXPECT_TRUE(result.calibrated) << result.reason;
   }
-  ::colmap_irav4::test::RecordFiguresF("camera 1: 1950 -> %.2f (true 1500); camera 2: 1700 -> %.2f (true 2200)\n",
-              cameras.at(1).params[0], cameras.at(2).params[0]);
+  ::colmap_irav4::test::RecordFiguresF(
+      "camera 1: 1950 -> %.2f (true 1500); camera 2: 1700 -> %.2f (true "
+      "2200)\n",
+      cameras.at(1).params[0], cameras.at(2).params[0]);
   EXPECT_NEAR(cameras.at(1).params[0] / 1500, 1.0, 0.02);
   EXPECT_NEAR(cameras.at(2).params[0] / 2200, 1.0, 0.02);
 }
@@ -211,7 +225,9 @@ TEST(FocalCalibration, PriorCameraUntouchedAndConstrainsTheOther) {
 
   std::map<camera_t, Camera> all_prior{{1, MakePinhole(1, 1900, true)},
                                        {2, MakePinhole(2, 1700, true)}};
-  EXPECT_TRUE(CalibrateFocalLengths(pairs, FocalCalibrationOptions(), &all_prior).empty());
+  EXPECT_TRUE(
+      CalibrateFocalLengths(pairs, FocalCalibrationOptions(), &all_prior)
+          .empty());
   EXPECT_EQ(all_prior.at(1).params[0], 1900);
   EXPECT_EQ(all_prior.at(2).params[0], 1700);
 }
@@ -219,7 +235,8 @@ TEST(FocalCalibration, PriorCameraUntouchedAndConstrainsTheOther) {
 TEST(FocalCalibration, GuardsKeepTheGuess) {
   std::mt19937 rng(3);
   const std::map<camera_t, Camera> truth{{1, MakePinhole(1, 1500, false)}};
-  const std::vector<FocalCalibrationPair> pairs = SyntheticPairs(truth, {1, 1, 1}, &rng);
+  const std::vector<FocalCalibrationPair> pairs =
+      SyntheticPairs(truth, {1, 1, 1}, &rng);
   // Three pairs, four needed.
   FocalCalibrationOptions options;
   options.min_num_pairs = 4;
@@ -233,11 +250,13 @@ TEST(FocalCalibration, GuardsKeepTheGuess) {
 
   // F of a pure translation along the optical axis, K = identity-like: every
   // focal gives a valid essential matrix (flat cost).
-  const Eigen::Matrix3d K = CameraCalibrationMatrix(MakePinhole(1, 1500, false));
+  const Eigen::Matrix3d K =
+      CameraCalibrationMatrix(MakePinhole(1, 1500, false));
   std::vector<FocalCalibrationPair> flat(3);
   for (FocalCalibrationPair& pair : flat) {
     pair.camera_id1 = pair.camera_id2 = 1;
-    pair.F = K.inverse().transpose() * Skew(Eigen::Vector3d(0, 0, 1)) * K.inverse();
+    pair.F =
+        K.inverse().transpose() * Skew(Eigen::Vector3d(0, 0, 1)) * K.inverse();
   }
   results = CalibrateFocalLengths(flat, FocalCalibrationOptions(), &cameras);
   ASSERT_EQ(results.size(), 1u);
@@ -265,8 +284,7 @@ TEST(FocalCalibration, OptionsCheck) {
 // leave it without EXIF focal: the view graph calibrates the focal back and
 // derives accurate relative rotations.
 void CheckPerturbedFountain(double factor) {
-  const std::string scene =
-      DataDir() + "/strecha/fountain-P11";
+  const std::string scene = DataDir() + "/strecha/fountain-P11";
   const std::string shared = scene + "/database.db";
   const uint64_t hash = test::HashFile(shared);
   test::TempDir dir;
@@ -282,32 +300,39 @@ void CheckPerturbedFountain(double factor) {
   params[1] *= factor;
   {
     test::SqliteWriter writer(path);
-    writer.Run("UPDATE cameras SET params = ?, prior_focal_length = 0 WHERE camera_id = ?",
-               {test::ToBlob(params), static_cast<int64_t>(camera.camera_id)});
+    writer.Run(
+        "UPDATE cameras SET params = ?, prior_focal_length = 0 WHERE camera_id "
+        "= ?",
+        {test::ToBlob(params), static_cast<int64_t>(camera.camera_id)});
     // Without a prior focal COLMAP's matcher estimates no E: the pairs are
     // UNCALIBRATED with F (and H) only.
-    writer.Run("UPDATE two_view_geometries SET config = 3, E = ? WHERE config = 2",
-               {test::ToBlob(std::vector<double>(9, 0.0))});
+    writer.Run(
+        "UPDATE two_view_geometries SET config = 3, E = ? WHERE config = 2",
+        {test::ToBlob(std::vector<double>(9, 0.0))});
   }
   const DatabaseContents database = ReadDatabase(path);
   ASSERT_FALSE(database.cameras.begin()->second.has_prior_focal_length);
-  ASSERT_NEAR(database.cameras.begin()->second.params[0], factor * camera.params[0], 1e-6);
+  ASSERT_NEAR(database.cameras.begin()->second.params[0],
+              factor * camera.params[0], 1e-6);
 
   std::map<std::string, Rigid3d> gt;
-  for (const auto& [name, gt_camera] : ReadStrechaGroundTruth(scene + "/gt_cameras")) {
+  for (const auto& [name, gt_camera] :
+       ReadStrechaGroundTruth(scene + "/gt_cameras")) {
     gt[name] = gt_camera.cam_from_world;
   }
   ViewGraphBuilderOptions options;
   ViewGraphSummary summary;
   const ViewGraph view_graph = BuildViewGraph(database, options, &summary);
   ASSERT_EQ(summary.focal_calibration.size(), 1u);
-  EXPECT_TRUE(summary.focal_calibration[0].calibrated) << summary.focal_calibration[0].reason;
+  EXPECT_TRUE(summary.focal_calibration[0].calibrated)
+      << summary.focal_calibration[0].reason;
   const Camera& calibrated = view_graph.cameras.at(camera.camera_id);
   const RelativePoseErrors e = EvaluateRelativePoses(view_graph, gt);
 
   options.focal_calibration.calibrate_focal = false;
   ViewGraphSummary summary_off;
-  const ViewGraph uncalibrated = BuildViewGraph(database, options, &summary_off);
+  const ViewGraph uncalibrated =
+      BuildViewGraph(database, options, &summary_off);
   const RelativePoseErrors e_off = EvaluateRelativePoses(uncalibrated, gt);
   ::colmap_irav4::test::RecordFiguresF(
       "fountain focal x%.3f (%.1f): calibrated fx %.1f fy %.1f (K.txt 2759.48 "
@@ -329,7 +354,8 @@ void CheckPerturbedFountain(double factor) {
 
   // The original database (with its prior) is left as it is.
   ViewGraphSummary summary_prior;
-  const ViewGraph with_prior = BuildViewGraph(original, ViewGraphBuilderOptions(), &summary_prior);
+  const ViewGraph with_prior =
+      BuildViewGraph(original, ViewGraphBuilderOptions(), &summary_prior);
   EXPECT_TRUE(summary_prior.focal_calibration.empty());
   EXPECT_EQ(with_prior.cameras.at(camera.camera_id).params, camera.params);
 }

@@ -5,11 +5,11 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/eval/relative_pose_eval.h"
-#include "colmap_irav4/io/database.h"
 #include "colmap_irav4/eval/strecha_gt.h"
+#include "colmap_irav4/io/database.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
-#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/record.h"
 
 namespace colmap_irav4 {
@@ -17,12 +17,14 @@ namespace {
 
 const std::string kStrecha = DataDir() + "/strecha/";
 
-RelativePoseErrors Evaluate(const std::string& scene, bool refine, int expected_pairs) {
+RelativePoseErrors Evaluate(const std::string& scene, bool refine,
+                            int expected_pairs) {
   const std::string database_path = kStrecha + scene + "/database.db";
   const uint64_t hash = test::HashFile(database_path);
   const DatabaseContents database = ReadDatabase(database_path);
   std::map<std::string, Rigid3d> gt;
-  for (const auto& [name, camera] : ReadStrechaGroundTruth(kStrecha + scene + "/gt_cameras")) {
+  for (const auto& [name, camera] :
+       ReadStrechaGroundTruth(kStrecha + scene + "/gt_cameras")) {
     gt[name] = camera.cam_from_world;
   }
   ViewGraphBuilderOptions options;
@@ -33,13 +35,15 @@ RelativePoseErrors Evaluate(const std::string& scene, bool refine, int expected_
   EXPECT_EQ(static_cast<int>(view_graph.pairs.size()), expected_pairs);
   const RelativePoseErrors e = EvaluateRelativePoses(view_graph, gt);
   EXPECT_EQ(e.num_pairs, expected_pairs);
-  ::colmap_irav4::test::RecordFiguresF("%-14s refine %-3s: %d pairs, rotation error median %.4f mean %.4f max %.4f deg, "
-              "%d > 5 deg; translation direction median %.4f mean %.4f max %.4f deg "
-              "(%zu pairs); transposed-R median %.2f deg\n",
-              scene.c_str(), refine ? "on" : "off", e.num_pairs, e.rotation_median_deg,
-              e.rotation_mean_deg, e.rotation_max_deg, e.num_rotation_over_5deg,
-              e.translation_median_deg, e.translation_mean_deg, e.translation_max_deg,
-              e.translation_errors_deg.size(), e.rotation_median_transposed_deg);
+  ::colmap_irav4::test::RecordFiguresF(
+      "%-14s refine %-3s: %d pairs, rotation error median %.4f mean %.4f max "
+      "%.4f deg, "
+      "%d > 5 deg; translation direction median %.4f mean %.4f max %.4f deg "
+      "(%zu pairs); transposed-R median %.2f deg\n",
+      scene.c_str(), refine ? "on" : "off", e.num_pairs, e.rotation_median_deg,
+      e.rotation_mean_deg, e.rotation_max_deg, e.num_rotation_over_5deg,
+      e.translation_median_deg, e.translation_mean_deg, e.translation_max_deg,
+      e.translation_errors_deg.size(), e.rotation_median_transposed_deg);
   return e;
 }
 

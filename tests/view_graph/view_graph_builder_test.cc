@@ -35,8 +35,8 @@ class SyntheticDatabase {
     const Eigen::Matrix3d R = rotations_[id2] * rotations_[id1].transpose();
     // t of cam2_from_cam1: R2 (C1 - C2).
     const Eigen::Vector3d t = rotations_[id2] * (centers_[id1] - centers_[id2]);
-    test::SyntheticPair pair =
-        test::MakeSyntheticPair(camera_, camera_, R, t, num_inliers, 0.3, false, &rng_);
+    test::SyntheticPair pair = test::MakeSyntheticPair(
+        camera_, camera_, R, t, num_inliers, 0.3, false, &rng_);
     TwoViewGeometry geometry = pair.geometry;
     geometry.image_id1 = id1;
     geometry.image_id2 = id2;
@@ -104,7 +104,8 @@ TEST(ViewGraphBuilder, FiltersAndKeepsLargestComponent) {
   }
   std::ostringstream text;
   summary.Print(text);
-  EXPECT_NE(text.str().find("config WATERMARK: 1"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("config WATERMARK: 1"), std::string::npos)
+      << text.str();
 
   // The inlier ratio filter applies where raw match counts exist.
   options.min_inlier_ratio = 0.25;

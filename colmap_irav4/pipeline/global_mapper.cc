@@ -426,6 +426,9 @@ void GlobalMapperOptions::Check() const {
     throw OptionError(&num_threads, "Mapper.num_threads",
                       "must be -1 (all cores) or > 0");
   }
+  if (seed < 0) {
+    throw OptionError(&seed, "Mapper.seed", "must be >= 0");
+  }
   if (progress < -1 || progress > 1) {
     throw OptionError(&progress, "Mapper.progress",
                       "must be -1 (auto), 0 or 1");
@@ -465,6 +468,10 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.rotation_averaging.irav4.engine.num_threads =
       ResolveNumThreads(num_threads);
   stages.rotation_averaging.log_progress = show_progress;
+  stages.rotation_averaging.irav4.seed = seed;
+  stages.global_positioning.random_seed = seed;
+  stages.translation_averaging.random_seed = seed;
+  stages.triangulation.random_seed = seed;
   for (SolverOptions* solver :
        {&stages.global_positioning.solver, &stages.translation_averaging.solver,
         &stages.bundle_adjustment.solver}) {

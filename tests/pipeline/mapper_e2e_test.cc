@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -167,6 +168,28 @@ std::string CopyExampleDatabase(const TempDir& temp) {
       copy);
   fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
   return copy;
+}
+
+TEST(MapperE2E, SameSeedSameModelFiles) {
+  // Two runs with the same --Mapper.seed write the same bytes (with one
+  // thread: with more, the order of Ceres' threaded sums varies the last
+  // bits).
+  TempDir temp;
+  const std::string database = CopyExampleDatabase(temp);
+  std::vector<std::string> sparse;
+  for (const char* name : {"run1", "run2"}) {
+    sparse.push_back(temp.File(name));
+    const RunResult run = RunProgram(
+        "mapper --database_path " + database + " --output_path " +
+            sparse.back() + " --Mapper.num_threads 1 --Mapper.seed 7",
+        temp);
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+  }
+  for (const char* file : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    EXPECT_EQ(HashFile(sparse[0] + "/0/" + file),
+              HashFile(sparse[1] + "/0/" + file))
+        << file;
+  }
 }
 
 TEST(MapperE2E, TwoComponentsGiveTwoModels) {

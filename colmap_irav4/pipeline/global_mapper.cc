@@ -112,7 +112,9 @@ void GlobalMapper::AddModelFigures(StageTimer* stage) {
   stage->Add("registered images",
              static_cast<double>(reconstruction_.images.size()));
   stage->Add("points", static_cast<double>(reconstruction_.points3D.size()));
-  stage->Add("mean reprojection error px", error);
+  stage->Add("mean reprojection error per observation px", error);
+  stage->Add("mean reprojection error per point px",
+             MeanPointReprojectionError(reconstruction_));
 }
 
 bool GlobalMapper::Run() {

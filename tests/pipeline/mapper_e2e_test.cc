@@ -98,9 +98,9 @@ void CheckStrechaScene(const std::string& scene, int num_images,
                        << comparison.rotation_error_median_deg
                        << " deg, centre error "
                        << "median " << comparison.center_error_median * 1000
-                       << " mm, mean reprojection error " << mean_error
-                       << " px, " << model.points3D.size() << " points"
-                       << std::endl;
+                       << " mm, mean reprojection error per observation "
+                       << mean_error << " px, " << model.points3D.size()
+                       << " points" << std::endl;
 
   // Colours: from the images when given, grey otherwise.
   size_t num_grey = 0;

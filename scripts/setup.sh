@@ -17,21 +17,7 @@ PACKAGES=(
   clang-format
 )
 
-missing=()
-for package in "${PACKAGES[@]}"; do
-  if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null |
-      grep -q "install ok installed"; then
-    missing+=("$package")
-  fi
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "Installing: ${missing[*]}"
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-  $SUDO apt-get update -q
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q \
-    --no-install-recommends "${missing[@]}"
-fi
+bash scripts/install_packages.sh "${PACKAGES[@]}"
 
 # COLMAP_IRAV4_WERROR=ON (as .ci/run sets it) turns warnings into errors.
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release \

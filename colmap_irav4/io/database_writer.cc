@@ -14,8 +14,26 @@
 namespace colmap_irav4 {
 namespace {
 
-// COLMAP 3.8's schema, as its Database::CreateTables writes it.
-const char* kColmap38Schema = R"sql(
+std::vector<uint32_t> MatchesBlob(const FeatureMatches& matches, bool swap) {
+  std::vector<uint32_t> blob;
+  blob.reserve(2 * matches.size());
+  for (const FeatureMatch& match : matches) {
+    blob.push_back(swap ? match.point2D_idx2 : match.point2D_idx1);
+    blob.push_back(swap ? match.point2D_idx1 : match.point2D_idx2);
+  }
+  return blob;
+}
+
+void BindBlob(sqlite3_stmt* statement, int index, const void* data,
+              size_t bytes) {
+  sqlite3_bind_blob(statement, index, data, static_cast<int>(bytes),
+                    SQLITE_TRANSIENT);
+}
+
+}  // namespace
+
+const char* Colmap38Schema() {
+  return R"sql(
 CREATE TABLE cameras (camera_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
   model INTEGER NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL,
   params BLOB, prior_focal_length INTEGER NOT NULL);
@@ -38,24 +56,7 @@ CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY NOT NULL,
   rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
   config INTEGER NOT NULL, F BLOB, E BLOB, H BLOB, qvec BLOB, tvec BLOB);
 )sql";
-
-std::vector<uint32_t> MatchesBlob(const FeatureMatches& matches, bool swap) {
-  std::vector<uint32_t> blob;
-  blob.reserve(2 * matches.size());
-  for (const FeatureMatch& match : matches) {
-    blob.push_back(swap ? match.point2D_idx2 : match.point2D_idx1);
-    blob.push_back(swap ? match.point2D_idx1 : match.point2D_idx2);
-  }
-  return blob;
 }
-
-void BindBlob(sqlite3_stmt* statement, int index, const void* data,
-              size_t bytes) {
-  sqlite3_bind_blob(statement, index, data, static_cast<int>(bytes),
-                    SQLITE_TRANSIENT);
-}
-
-}  // namespace
 
 DatabaseWriter::DatabaseWriter(const std::string& path) : path_(path) {
   if (std::filesystem::exists(path)) {
@@ -76,7 +77,7 @@ DatabaseWriter::DatabaseWriter(const std::string& path) : path_(path) {
   }
   // A new file renamed only when complete: no journal needed.
   Exec("PRAGMA journal_mode=OFF; PRAGMA synchronous=OFF;");
-  Exec(kColmap38Schema);
+  Exec(Colmap38Schema());
   Exec("BEGIN TRANSACTION;");
   camera_stmt_ = Prepare(
       "INSERT INTO cameras(camera_id, model, width, height, params, "

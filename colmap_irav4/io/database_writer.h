@@ -17,6 +17,9 @@ struct sqlite3_stmt;
 
 namespace colmap_irav4 {
 
+// COLMAP 3.8's schema, as its Database::CreateTables writes it (SQL).
+const char* Colmap38Schema();
+
 class DatabaseWriter {
  public:
   // Throws InputError if `path` exists or cannot be created.

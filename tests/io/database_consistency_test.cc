@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "tests/test_utils/database_test_utils.h"
@@ -26,20 +27,12 @@ namespace colmap_irav4 {
 namespace {
 
 namespace fs = std::filesystem;
+using test::CopyExampleDatabase;
 using test::HashFile;
 using test::SqliteWriter;
 using test::TempDir;
 
 constexpr int64_t kPairFactor = 2147483647;
-
-std::string CopyExampleDatabase(const TempDir& temp) {
-  const std::string copy = temp.File("database.db");
-  fs::copy_file(
-      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
-      copy);
-  fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
-  return copy;
-}
 
 std::set<std::string> DirectoryEntries(const std::string& dir) {
   std::set<std::string> names;
@@ -117,7 +110,7 @@ TEST(DatabaseConsistency, LiveRollbackWriterIsWaitedForThenAClearError) {
   {
     SqliteWriter writer(path);
     writer.Exec("PRAGMA journal_mode=DELETE;");
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     writer.Exec("INSERT INTO cameras VALUES (1, 0, 100, 100, x'" +
                 std::string("0000000000005940000000000000494000000000000049"
                             "40") +

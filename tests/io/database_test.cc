@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -224,7 +225,7 @@ TEST(Database, ImmutableOpenLeavesWalDatabaseAndDirectoryUntouched) {
   const std::string path = dir.File("wal.db");
   {
     SqliteWriter writer(path);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     writer.Exec("PRAGMA journal_mode=WAL;");
   }
   ASSERT_FALSE(std::filesystem::exists(path + "-wal"));
@@ -308,7 +309,7 @@ TEST(Database, ReadsSyntheticColmap38Database) {
   test::SyntheticPair pair;
   {
     SqliteWriter writer(path);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     pair = WriteSyntheticPair(&writer, false, false);
   }
   const DatabaseContents contents = ReadDatabase(path);
@@ -372,7 +373,7 @@ TEST(Database, StoredPoseIsReadAndInvertedForSwappedRequests) {
   test::SyntheticPair pair;
   {
     SqliteWriter writer(path);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     pair = WriteSyntheticPair(&writer, false, false);
     const Eigen::Vector4d q = RotationToQuaternion(pair.R);
     writer.Run("UPDATE two_view_geometries SET qvec = ?, tvec = ?",
@@ -431,7 +432,7 @@ TEST(Database, BadInputGivesOneClearError) {
   auto make = [&](const std::string& name, const std::string& sql) {
     const std::string path = dir.File(name);
     SqliteWriter writer(path);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     WriteSyntheticPair(&writer, false, false);
     if (!sql.empty()) writer.Exec(sql);
     return path;

@@ -153,6 +153,7 @@ TEST_F(ColmapEndToEnd, ModelAnalyzerReadsOurBinaryAndTextModels) {
 // COLMAP converts our binary model to text: we read its text back
 // identically, and its text files hold exactly our text writer's lines.
 TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   const std::vector<Reconstruction> models = {
       ReadReconstruction(DataDir() +
                          "/strecha/Herz-Jesus-P8/colmap38_incremental"),
@@ -201,7 +202,7 @@ TEST_F(ColmapEndToEnd, ModelConverterOutputMatchesOurReaderAndWriter) {
 // Our model_converter command: BIN -> TXT -> BIN gives COLMAP's cameras and
 // images files byte for byte; bad input fails with one line naming the file.
 TEST(ModelConverterCommand, ConvertsAndReportsBadInput) {
-  COLMAP_IRAV4_REQUIRE_DATA("strecha/fountain-P11");
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/Herz-Jesus-P8/colmap38_incremental");
   const std::string source =
       DataDir() + "/strecha/Herz-Jesus-P8/colmap38_incremental";
   const std::string binary = COLMAP_IRAV4_BINARY;

@@ -23,33 +23,17 @@ namespace colmap_irav4 {
 namespace {
 
 namespace fs = std::filesystem;
+using test::CopyExampleDatabase;
 using test::HashFile;
+using test::ReadText;
+using test::RunResult;
 using test::SqliteWriter;
 using test::TempDir;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;
-};
-
 // Runs the program with `arguments`, stdout and stderr captured.
 RunResult RunProgram(const std::string& arguments, const TempDir& temp) {
-  const std::string log = temp.File("run.log");
-  const std::string command = std::string(COLMAP_IRAV4_BINARY) + " " +
-                              arguments + " > " + log + " 2>&1";
-  RunResult result;
-  const int status = std::system(command.c_str());
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream file(log);
-  result.output.assign(std::istreambuf_iterator<char>(file),
-                       std::istreambuf_iterator<char>());
-  return result;
-}
-
-std::string ReadText(const std::string& path) {
-  std::ifstream file(path);
-  return std::string(std::istreambuf_iterator<char>(file),
-                     std::istreambuf_iterator<char>());
+  return test::RunShell(std::string(COLMAP_IRAV4_BINARY) + " " + arguments,
+                        temp);
 }
 
 void CheckStrechaScene(const std::string& scene, int num_images,
@@ -161,15 +145,6 @@ TEST(MapperE2E, HerzJesusP8TranslationAveragingAndL1Irls) {
 }
 
 // A copy of the bundled example database (ids 1..11) in `temp`.
-std::string CopyExampleDatabase(const TempDir& temp) {
-  const std::string copy = temp.File("database.db");
-  fs::copy_file(
-      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
-      copy);
-  fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
-  return copy;
-}
-
 TEST(MapperE2E, SameSeedSameModelFiles) {
   // Two runs with the same --Mapper.seed write the same bytes (with one
   // thread: with more, the order of Ceres' threaded sums varies the last

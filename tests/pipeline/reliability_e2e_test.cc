@@ -27,44 +27,18 @@ namespace colmap_irav4 {
 namespace {
 
 namespace fs = std::filesystem;
+using test::CopyExampleDatabase;
 using test::HashFile;
+using test::ReadText;
+using test::RunResult;
 using test::SqliteWriter;
 using test::TempDir;
 
 constexpr int64_t kPairFactor = 2147483647;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;
-};
-
 RunResult RunProgram(const std::string& arguments, const TempDir& temp) {
-  const std::string log = temp.File("run.log");
-  const std::string command = std::string(COLMAP_IRAV4_BINARY) + " " +
-                              arguments + " > " + log + " 2>&1";
-  RunResult result;
-  const int status = std::system(command.c_str());
-  result.exit_code =
-      WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  std::ifstream file(log);
-  result.output.assign(std::istreambuf_iterator<char>(file),
-                       std::istreambuf_iterator<char>());
-  return result;
-}
-
-std::string ReadText(const std::string& path) {
-  std::ifstream file(path);
-  return std::string(std::istreambuf_iterator<char>(file),
-                     std::istreambuf_iterator<char>());
-}
-
-std::string CopyExampleDatabase(const TempDir& temp) {
-  const std::string copy = temp.File("database.db");
-  fs::copy_file(
-      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
-      copy);
-  fs::permissions(copy, fs::perms::owner_read | fs::perms::owner_write);
-  return copy;
+  return test::RunShell(std::string(COLMAP_IRAV4_BINARY) + " " + arguments,
+                        temp);
 }
 
 // "complete new" / "complete old" / "absent" / "damaged" of OUT/0, given

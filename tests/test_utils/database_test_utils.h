@@ -5,7 +5,10 @@
 
 #include <sqlite3.h>
 
+#include <sys/wait.h>
+
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -45,6 +48,47 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Exit code (128 + signal when killed) and stdout + stderr of a shell
+// command line, e.g. the program: RunShell(COLMAP_IRAV4_BINARY + args, temp)
+// (the output goes through temp's run.log).
+struct RunResult {
+  int exit_code = -1;
+  std::string output;
+};
+
+inline RunResult RunShell(const std::string& command_line,
+                          const TempDir& temp) {
+  const std::string log = temp.File("run.log");
+  const std::string command = command_line + " > " + log + " 2>&1";
+  RunResult result;
+  const int status = std::system(command.c_str());
+  result.exit_code =
+      WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  std::ifstream file(log);
+  result.output.assign(std::istreambuf_iterator<char>(file),
+                       std::istreambuf_iterator<char>());
+  return result;
+}
+
+// The whole text of a file ("" if it cannot be read).
+inline std::string ReadText(const std::string& path) {
+  std::ifstream file(path);
+  return std::string(std::istreambuf_iterator<char>(file),
+                     std::istreambuf_iterator<char>());
+}
+
+// A writable copy of the bundled example database (tests/data/fountain-P11.db)
+// in `temp`.
+inline std::string CopyExampleDatabase(const TempDir& temp) {
+  const std::string copy = temp.File("database.db");
+  std::filesystem::copy_file(
+      std::string(COLMAP_IRAV4_SOURCE_DIR) + "/tests/data/fountain-P11.db",
+      copy);
+  std::filesystem::permissions(copy, std::filesystem::perms::owner_read |
+                                         std::filesystem::perms::owner_write);
+  return copy;
+}
 
 // FNV-1a 64-bit hash of a file's bytes (0 if it cannot be read).
 inline uint64_t HashFile(const std::string& path) {
@@ -134,33 +178,6 @@ std::vector<char> ToBlob(const std::vector<T>& values) {
   std::vector<char> blob(values.size() * sizeof(T));
   if (!blob.empty()) std::memcpy(blob.data(), values.data(), blob.size());
   return blob;
-}
-
-// COLMAP 3.8's schema (as its Database::CreateTables writes it).
-inline const char* Colmap38Schema() {
-  return R"sql(
-CREATE TABLE cameras (camera_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
-  model INTEGER NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL,
-  params BLOB, prior_focal_length INTEGER NOT NULL);
-CREATE TABLE images (image_id INTEGER PRIMARY KEY AUTOINCREMENT NOT NULL,
-  name TEXT NOT NULL UNIQUE, camera_id INTEGER NOT NULL,
-  prior_qw REAL, prior_qx REAL, prior_qy REAL, prior_qz REAL,
-  prior_tx REAL, prior_ty REAL, prior_tz REAL,
-  CONSTRAINT image_id_check CHECK(image_id >= 0 and image_id < 2147483647),
-  FOREIGN KEY(camera_id) REFERENCES cameras(camera_id));
-CREATE UNIQUE INDEX index_name ON images(name);
-CREATE TABLE keypoints (image_id INTEGER PRIMARY KEY NOT NULL,
-  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
-  FOREIGN KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);
-CREATE TABLE descriptors (image_id INTEGER PRIMARY KEY NOT NULL,
-  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
-  FOREIGN KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);
-CREATE TABLE matches (pair_id INTEGER PRIMARY KEY NOT NULL,
-  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB);
-CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY NOT NULL,
-  rows INTEGER NOT NULL, cols INTEGER NOT NULL, data BLOB,
-  config INTEGER NOT NULL, F BLOB, E BLOB, H BLOB, qvec BLOB, tvec BLOB);
-)sql";
 }
 
 // COLMAP 4.x's schema: rigs, frames and pose priors; no images.prior_*.

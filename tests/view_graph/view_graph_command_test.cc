@@ -11,6 +11,7 @@
 
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/io/database_writer.h"
 #include "tests/test_utils/data.h"
 #include "tests/test_utils/database_test_utils.h"
 #include "tests/test_utils/record.h"
@@ -161,14 +162,14 @@ TEST(ViewGraphCommand, BadDatabasesFailCleanly) {
   const std::string no_table = dir.File("no_table.db");
   {
     test::SqliteWriter writer(no_table);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     writer.Exec("DROP TABLE keypoints;");
   }
   ExpectCleanFailure(dir, no_table, "table 'keypoints' is missing");
   const std::string bad_model = dir.File("bad_model.db");
   {
     test::SqliteWriter writer(bad_model);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     writer.Exec(
         "INSERT INTO cameras VALUES (1, 99, 640, 480, zeroblob(24), 0);");
   }
@@ -176,7 +177,7 @@ TEST(ViewGraphCommand, BadDatabasesFailCleanly) {
   const std::string bad_blob = dir.File("bad_blob.db");
   {
     test::SqliteWriter writer(bad_blob);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     // SIMPLE_PINHOLE f = 500, c = (320, 240): a valid camera.
     writer.Exec(
         "INSERT INTO cameras VALUES (1, 0, 640, 480, "
@@ -191,7 +192,7 @@ TEST(ViewGraphCommand, BadDatabasesFailCleanly) {
   const std::string bad_camera = dir.File("bad_camera.db");
   {
     test::SqliteWriter writer(bad_camera);
-    writer.Exec(test::Colmap38Schema());
+    writer.Exec(Colmap38Schema());
     writer.Exec(
         "INSERT INTO cameras VALUES (1, 0, 640, 480, zeroblob(24), 0);");
     writer.Exec(

@@ -75,8 +75,7 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
   return summary;
 }
 
-ceres::LossFunction* CreateLossFunction(const std::string& name,
-                                        double scale) {
+ceres::LossFunction* CreateLossFunction(const std::string& name, double scale) {
   if (name == "huber") return new ceres::HuberLoss(scale);
   if (name == "cauchy") return new ceres::CauchyLoss(scale);
   return nullptr;

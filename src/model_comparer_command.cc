@@ -31,8 +31,9 @@ void PrintModel(const std::string& label, const std::string& path,
             << model->images.size() << " registered images, "
             << model->points3D.size() << " points, mean track length "
             << std::fixed << std::setprecision(2) << MeanTrackLength(*model)
-            << ", mean reprojection error " << std::setprecision(3) << error
-            << " px\n";
+            << ", mean reprojection error per observation "
+            << std::setprecision(3) << error << " px, per point "
+            << MeanPointReprojectionError(*model) << " px\n";
 }
 
 int RunModelComparer(int argc, char** argv) {

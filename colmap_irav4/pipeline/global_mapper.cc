@@ -112,7 +112,9 @@ void GlobalMapper::AddModelFigures(StageTimer* stage) {
   stage->Add("registered images",
              static_cast<double>(reconstruction_.images.size()));
   stage->Add("points", static_cast<double>(reconstruction_.points3D.size()));
-  stage->Add("mean reprojection error px", error);
+  stage->Add("mean reprojection error per observation px", error);
+  stage->Add("mean reprojection error per point px",
+             MeanPointReprojectionError(reconstruction_));
 }
 
 bool GlobalMapper::Run() {
@@ -426,6 +428,9 @@ void GlobalMapperOptions::Check() const {
     throw OptionError(&num_threads, "Mapper.num_threads",
                       "must be -1 (all cores) or > 0");
   }
+  if (seed < 0) {
+    throw OptionError(&seed, "Mapper.seed", "must be >= 0");
+  }
   if (progress < -1 || progress > 1) {
     throw OptionError(&progress, "Mapper.progress",
                       "must be -1 (auto), 0 or 1");
@@ -465,6 +470,10 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.rotation_averaging.irav4.engine.num_threads =
       ResolveNumThreads(num_threads);
   stages.rotation_averaging.log_progress = show_progress;
+  stages.rotation_averaging.irav4.seed = seed;
+  stages.global_positioning.random_seed = seed;
+  stages.translation_averaging.random_seed = seed;
+  stages.triangulation.random_seed = seed;
   for (SolverOptions* solver :
        {&stages.global_positioning.solver, &stages.translation_averaging.solver,
         &stages.bundle_adjustment.solver}) {

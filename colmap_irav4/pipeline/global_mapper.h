@@ -50,6 +50,11 @@ struct GlobalMapperOptions {
   std::string positioning_method = "global_positioning";
   // Ceres / worker threads of every stage; -1: all cores.
   int num_threads = -1;
+  // Seed of every stage's random choices (random initialisation of global
+  // positioning or translation averaging, RANSAC triangulation, IRAv4's
+  // random_cds reference): the same seed gives the same model (with the same
+  // number of threads).
+  int seed = 0;
   // Progress bars on the iterative stages (positioning, bundle adjustment):
   // 1 on, 0 off, -1 on a terminal or for long work (>= 100 images).
   int progress = -1;
@@ -97,9 +102,10 @@ struct GlobalMapperOptions {
   void Check() const;
 
   // A copy whose stage options carry the mapper-wide settings (num_threads:
-  // view graph, rotation averaging, Ceres solves, colours; progress bars and
-  // progress lines), for a run on `num_images` images (progress -1: on from
-  // 100 images or on a terminal).
+  // view graph, rotation averaging, Ceres solves, colours; seed: rotation
+  // averaging, positioning, triangulation; progress bars and progress lines),
+  // for a run on `num_images` images (progress -1: on from 100 images or on a
+  // terminal).
   GlobalMapperOptions ForStages(size_t num_images) const;
 };
 

@@ -49,11 +49,10 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"num_observations\": " << c.num_observations
         << ", \"mean_track_length\": " << JsonNumber(c.mean_track_length)
         << ",\n     \"mean_reprojection_error_per_observation\": "
-        << JsonNumber(c.mean_reprojection_error)
+        << JsonNumber(c.mean_reprojection_error_per_observation)
         << ", \"mean_reprojection_error_per_point\": "
         << JsonNumber(c.mean_reprojection_error_per_point)
-        << ",\n     \"mean_reprojection_error\": "
-        << JsonNumber(c.mean_reprojection_error) << ", \"fold_score\": "
+        << ",\n     \"fold_score\": "
         << JsonNumber(c.fold_score < 0 ? std::nan("") : c.fold_score)
         << ", \"folded\": " << (c.folded ? "true" : "false")
         << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
@@ -206,7 +205,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
       report.fold_missing_pairs = fold_check.fold.num_missing_pairs;
       report.fold_outcome = fold_check.outcome;
     }
-    report.mean_reprojection_error = UpdateReprojectionErrors(&reconstruction);
+    report.mean_reprojection_error_per_observation =
+        UpdateReprojectionErrors(&reconstruction);
     report.mean_reprojection_error_per_point =
         MeanPointReprojectionError(reconstruction);
     report.num_registered_images =
@@ -219,10 +219,11 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
               << " in the component), " << report.num_points << " points, "
               << report.num_observations << " observations, mean track length "
               << std::fixed << std::setprecision(2) << report.mean_track_length
-              << ", mean reprojection error " << std::setprecision(3)
-              << report.mean_reprojection_error << " px per observation, "
-              << report.mean_reprojection_error_per_point
-              << " px per point (COLMAP model_analyzer's figure)";
+              << ", mean reprojection error per observation "
+              << std::setprecision(3)
+              << report.mean_reprojection_error_per_observation
+              << " px, per point " << report.mean_reprojection_error_per_point
+              << " px (COLMAP model_analyzer's figure)";
     summary->components.push_back(report);
     reconstructions.push_back(std::move(reconstruction));
   }

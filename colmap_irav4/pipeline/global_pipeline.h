@@ -31,7 +31,7 @@ struct ComponentReport {
   // first: COLMAP model_analyzer's "Mean reprojection error"). The
   // per-observation mean is larger: long tracks, seen from more angles, tend
   // to have larger errors.
-  double mean_reprojection_error = 0;  // per observation
+  double mean_reprojection_error_per_observation = 0;
   double mean_reprojection_error_per_point = 0;
   // Fold check (refinement/fold_detection.h) of the model as written;
   // fold_score -1: not run.

@@ -95,8 +95,6 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "greedy CDS counts neighbours by inlier count");
   manager->Add("RotationAveraging.num_random_cds", &options->num_random_cds,
                "random CDSs united in the random_cds reference");
-  manager->Add("RotationAveraging.seed", &options->seed,
-               "seed of the random choices (random_cds)");
   manager->Add("RotationAveraging.num_final_rounds", &options->num_final_rounds,
                "rounds of inlier selection + global optimisation at the end");
   manager->Add("RotationAveraging.final_refinement", &options->final_refinement,
@@ -117,7 +115,8 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
 }
 
 void AddRotationAveragerOptions(OptionManager* options,
-                                RotationAveragerOptions* o) {
+                                RotationAveragerOptions* o,
+                                bool with_threads_and_seed) {
   const std::string p = "RotationAveraging.";
   // The incremental engine (IRA and the methods built on it).
   IncrementalOptions* engine = &o->irav4.engine;
@@ -140,10 +139,14 @@ void AddRotationAveragerOptions(OptionManager* options,
                &engine->max_direct_solver_vertices,
                "IRA (use_ceres): sparse Cholesky up to this many cameras, "
                "CG above");
-  options->Add(p + "num_threads", &engine->num_threads,
-               "IRA/IRAv4: threads (IRAv4: cluster seeds, clusters beside "
-               "the reference, same result for any count; Ceres with "
-               "use_ceres)");
+  if (with_threads_and_seed) {
+    options->Add(p + "num_threads", &engine->num_threads,
+                 "IRA/IRAv4: threads (IRAv4: cluster seeds, clusters beside "
+                 "the reference, same result for any count; Ceres with "
+                 "use_ceres)");
+    options->Add(p + "seed", &o->irav4.seed,
+                 "seed of the random choices (random_cds)");
+  }
   options->Add(p + "use_ceres", &engine->use_ceres,
                "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
                "sparse Laplacian (the previous, slower engine)");
@@ -319,6 +322,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "(refined) instead of failing");
   manager->Add("Mapper.num_threads", &o.num_threads,
                "threads of every stage (-1: all cores)");
+  manager->Add("Mapper.seed", &o.seed,
+               "seed of every random choice (random initialisation of "
+               "positioning, RANSAC triangulation, random CDSs): same seed, "
+               "same model");
   manager->Add("Mapper.progress", &o.progress,
                "progress bars: 1 on, 0 off, -1 on a terminal or >= 100 "
                "images");
@@ -349,7 +356,8 @@ void AddGlobalMapperOptions(OptionManager* manager,
   // --Mapper.num_threads.
   AddViewGraphOptions(manager, &o.view_graph, "Mapper.min_num_matches",
                       /*with_threads_and_components=*/false);
-  AddRotationAveragerOptions(manager, &o.rotation_averaging);
+  AddRotationAveragerOptions(manager, &o.rotation_averaging,
+                             /*with_threads_and_seed=*/false);
   AddRotationFilterOptions(manager, &o.rotation_filter);
   AddTrackOptions(manager, &o.tracks);
   AddGlobalPositioningOptions(manager, &o.global_positioning);

@@ -28,9 +28,12 @@ void AddViewGraphOptions(
     bool with_threads_and_components = true);
 // --RotationAveraging.*: IRAv4's own settings.
 void AddIrav4Options(OptionManager* manager, Irav4Options* options);
-// --RotationAveraging.*: every rotation averaging method's settings.
+// --RotationAveraging.*: every rotation averaging method's settings;
+// num_threads and seed only with with_threads_and_seed (the mapper sets both
+// from --Mapper.num_threads and --Mapper.seed).
 void AddRotationAveragerOptions(OptionManager* options,
-                                RotationAveragerOptions* averager_options);
+                                RotationAveragerOptions* averager_options,
+                                bool with_threads_and_seed = true);
 // --RotationFilter.*, --Tracks.*, --GlobalPositioning.*,
 // --TranslationAveraging.*, --Triangulation.*, --BundleAdjustment.*,
 // --Filter.*, --Normalization.*.

@@ -6,6 +6,10 @@
 // with it (the default) every camera must come out right in one model.
 // Counts of cameras turned by more than 30 deg against the exact ground truth.
 
+#include <sys/wait.h>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -26,7 +30,7 @@ struct SymmetricRun {
   std::vector<Reconstruction> models;
   GlobalMapperSummary summary;
   int num_registered = 0;
-  int num_turned = 0;  // over all models, each aligned on its own
+  int num_turned = 0;               // over all models, each aligned on its own
   double center_error_median = -1;  // largest model
 };
 
@@ -125,6 +129,50 @@ TEST(SymmetricScene, AnotherSeedIsResolvedToo) {
   EXPECT_LT(run.center_error_median, 0.01);
 }
 
+// Through the program: a model written still folded (resolution off) is
+// never silent: exit code 3, num_folded_models in summary.json, and the
+// last warning names it; the resolved run exits 0.
+TEST(SymmetricScene, FoldedModelIsNotWrittenSilently) {
+  SceneGeneratorOptions options;
+  options.num_images = 40;
+  options.point_density = 15;
+  options.noise_px = 0.5;
+  options.mirror_pair_rate = 0.2;
+  options.seed = 1;
+  test::TempDir temp;
+  const std::string database = temp.File("database.db");
+  WriteSceneDatabase(GenerateScene(options), database);
+  auto run = [&](const std::string& name, const std::string& flags,
+                 std::string* log, std::string* summary) {
+    const std::string output = temp.File(name);
+    const std::string log_path = temp.File(name + ".log");
+    const std::string command = std::string(COLMAP_IRAV4_BINARY) +
+                                " mapper --database_path " + database +
+                                " --output_path " + output +
+                                " --Mapper.num_threads 1 --Mapper.progress 0 " +
+                                flags + " > " + log_path + " 2>&1";
+    const int status = std::system(command.c_str());
+    std::ifstream log_file(log_path);
+    log->assign(std::istreambuf_iterator<char>(log_file),
+                std::istreambuf_iterator<char>());
+    std::ifstream summary_file(output + "/summary.json");
+    summary->assign(std::istreambuf_iterator<char>(summary_file),
+                    std::istreambuf_iterator<char>());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  std::string log;
+  std::string summary;
+  EXPECT_EQ(run("folded", "--Fold.resolve 0", &log, &summary), 3) << log;
+  EXPECT_NE(summary.find("\"num_folded_models\": 1"), std::string::npos)
+      << summary;
+  EXPECT_NE(log.find("Model 0 (40 images) is likely FOLDED"), std::string::npos)
+      << log;
+  EXPECT_EQ(run("resolved", "", &log, &summary), 0) << log;
+  EXPECT_NE(summary.find("\"num_folded_models\": 0"), std::string::npos)
+      << summary;
+  EXPECT_EQ(log.find("is likely FOLDED"), std::string::npos) << log;
+}
+
 // The fold check skips camera pairs too far apart to share a point before
 // projecting anything; the skip must not change the report, on a correct
 // model and on one whose second half sits at its mirrored twins' place.
@@ -148,7 +196,8 @@ TEST(SymmetricScene, DistantPairSkipIsExact) {
   evidence.absent_pairs_were_tried = true;
   Reconstruction turned = scene.truth;
   for (auto& [image_id, image] : turned.images) {
-    if (image_id > 60) image.cam_from_world = MirrorTwinPose(image.cam_from_world);
+    if (image_id > 60)
+      image.cam_from_world = MirrorTwinPose(image.cam_from_world);
   }
   for (const Reconstruction* model :
        std::vector<const Reconstruction*>{&scene.truth, &turned}) {

@@ -141,7 +141,9 @@ void AddRotationAveragerOptions(OptionManager* options,
                "IRA (use_ceres): sparse Cholesky up to this many cameras, "
                "CG above");
   options->Add(p + "num_threads", &engine->num_threads,
-               "IRA: Ceres threads (with use_ceres)");
+               "IRA/IRAv4: threads (IRAv4: cluster seeds, clusters beside "
+               "the reference, same result for any count; Ceres with "
+               "use_ceres)");
   options->Add(p + "use_ceres", &engine->use_ceres,
                "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
                "sparse Laplacian (the previous, slower engine)");

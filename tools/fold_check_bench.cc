@@ -40,9 +40,8 @@ int main(int argc, char** argv) {
       const double cpu =
           static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
       std::cout << "skip_distant_pairs " << skip << ": " << std::fixed
-                << std::setprecision(2) << timer.ElapsedSeconds()
-                << " s wall, " << cpu << " s cpu; " << report.Describe()
-                << "\n";
+                << std::setprecision(2) << timer.ElapsedSeconds() << " s wall, "
+                << cpu << " s cpu; " << report.Describe() << "\n";
     }
   } catch (const std::exception& error) {
     std::cerr << "ERROR: " << error.what() << "\n";

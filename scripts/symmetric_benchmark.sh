@@ -119,7 +119,10 @@ generate_and_map_ours() {
         "$build/colmap_irav4" mapper --database_path "$scene/database.db" \
         --output_path "$scene/$tag" --Mapper.num_threads "$threads" \
         --Mapper.progress 0 $ours_args > "$scene/$tag.log" 2>&1 ||
-        echo "ours failed (see $scene/$tag.log)" >&2
+        case $? in
+          3) echo "ours: a model is flagged folded (exit 3, $scene/$tag.log)" >&2 ;;
+          *) echo "ours failed (see $scene/$tag.log)" >&2 ;;
+        esac
     fi
   done
 }

@@ -35,6 +35,7 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
       << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
+      << ",\n  \"num_folded_models\": " << NumFoldedModels()
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
   out << ",\n  \"models\": [";
@@ -68,6 +69,14 @@ std::string GlobalMapperSummary::ToJson() const {
   }
   out << "]\n}\n";
   return out.str();
+}
+
+int GlobalMapperSummary::NumFoldedModels() const {
+  int count = 0;
+  for (const ComponentReport& component : components) {
+    count += component.folded;
+  }
+  return count;
 }
 
 std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
@@ -226,6 +235,21 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
               << " px (COLMAP model_analyzer's figure)";
     summary->components.push_back(report);
     reconstructions.push_back(std::move(reconstruction));
+  }
+  // A model the fold check still flags is written (the user may know
+  // better), but never silently: the last warning names it, summary.json
+  // counts it and the mapper command exits with kFoldedExitCode.
+  for (const ComponentReport& report : summary->components) {
+    if (!report.folded) continue;
+    LOG(WARNING) << "Model " << report.index << " ("
+                 << report.num_registered_images
+                 << " images) is likely FOLDED: fold score " << std::fixed
+                 << std::setprecision(3) << report.fold_score << " ("
+                 << report.fold_missing_pairs << " of "
+                 << report.fold_predicted_pairs
+                 << " predicted overlapping pairs have no matches), outcome \""
+                 << report.fold_outcome
+                 << "\"; some cameras may sit at their mirrored twin's place";
   }
   summary->total_seconds += total_timer.ElapsedSeconds();
   return reconstructions;

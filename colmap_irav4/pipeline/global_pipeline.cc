@@ -16,6 +16,7 @@
 
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/pipeline/fold_resolution.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
@@ -25,6 +26,65 @@
 namespace colmap_irav4 {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// The model as it is when it is one rigid piece, else its rigid parts of
+// min_model_size images or more, each as a model of its own (see
+// refinement/model_rigidity.h), with a warning: never one model whose parts
+// sit at an arbitrary relative offset or scale.
+std::vector<FoldCheckedModel> SplitIntoRigidParts(
+    int min_model_size, const std::string& prefix, FoldCheckedModel model,
+    std::vector<std::string>* notes) {
+  StageTimer stage("rigidity check");
+  const ModelRigidity rigidity = AnalyzeModelRigidity(
+      ModelRigidityOptions(), model.mapper->reconstruction(), min_model_size);
+  stage.Add("blocks", static_cast<double>(rigidity.blocks.size()));
+  stage.Add("large blocks", static_cast<double>(rigidity.num_large_blocks));
+  stage.Finish(prefix, &model.stages);
+  std::vector<FoldCheckedModel> parts;
+  if (rigidity.num_large_blocks <= 1) {
+    parts.push_back(std::move(model));
+    return parts;
+  }
+  std::string sizes;
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < min_model_size) break;
+    sizes += (sizes.empty() ? "" : ", ") + std::to_string(block.size());
+  }
+  const std::string message =
+      "the model of " +
+      std::to_string(model.mapper->reconstruction().images.size()) +
+      " images is not one rigid piece: its parts of " + sizes +
+      " images are joined through single images only (fewer than " +
+      std::to_string(ModelRigidityOptions().min_shared_points) +
+      " common points otherwise), so their relative position and scale are "
+      "not determined; writing the parts as separate models";
+  LOG(WARNING) << prefix << message;
+  notes->push_back(prefix + message);
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < min_model_size) break;
+    FoldCheckedModel part;
+    part.mapper = std::make_unique<GlobalMapper>(*model.mapper);
+    part.mapper->RestrictToImages(
+        std::set<image_t>(block.begin(), block.end()));
+    if (!part.mapper->RefineRestrictedModel()) {
+      LOG(WARNING) << prefix << "part of " << block.size()
+                   << " images dropped: " << part.mapper->failure();
+      continue;
+    }
+    part.checked = model.checked;
+    part.fold = model.fold;
+    part.outcome = model.outcome.empty() || model.outcome == "clean"
+                       ? "split (not rigid)"
+                       : model.outcome + ", split (not rigid)";
+    part.stages = model.stages;
+    parts.push_back(std::move(part));
+  }
+  return parts;
+}
+
+}  // namespace
 
 std::string GlobalMapperSummary::ToJson() const {
   std::ostringstream out;
@@ -171,8 +231,12 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
       continue;
     }
     for (FoldCheckedModel& model : checked) {
-      mappers.push_back(std::move(model.mapper));
-      fold_checks[mappers.back().get()] = std::move(model);
+      for (FoldCheckedModel& part :
+           SplitIntoRigidParts(options.min_model_size, prefix, std::move(model),
+                               &summary->notes)) {
+        mappers.push_back(std::move(part.mapper));
+        fold_checks[mappers.back().get()] = std::move(part);
+      }
     }
   }
   if (mappers.empty()) {

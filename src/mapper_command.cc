@@ -26,7 +26,9 @@ int RunMapper(int argc, char** argv) {
       "Global Structure-from-Motion: reads a COLMAP database (read-only) and\n"
       "writes one COLMAP sparse model per connected component of at least\n"
       "--Mapper.min_model_size images into OUTPUT/0, OUTPUT/1, ... (largest\n"
-      "first), and OUTPUT/summary.json with the figures of every stage.");
+      "first), and OUTPUT/summary.json with the figures of every stage.\n"
+      "Exit code 3: the models were written, but at least one is still\n"
+      "flagged folded (symmetric scene; see --Fold.* and summary.json).");
   manager.AddRequired("database_path", &database_path,
                       "COLMAP database (opened read-only)");
   manager.Add("image_path", &image_path,
@@ -42,7 +44,8 @@ int RunMapper(int argc, char** argv) {
   LimitBlasThreads(options.num_threads);
   const GlobalMapperSummary summary = RunGlobalMapperOnDatabase(
       options, database_path, image_path, output_path, output_type);
-  return summary.components.empty() ? 1 : 0;
+  if (summary.components.empty()) return 1;
+  return summary.NumFoldedModels() > 0 ? kFoldedExitCode : 0;
 }
 
 static CommandRegistrar registrar(

@@ -19,19 +19,16 @@ struct Attempt {
   std::string failure;
 };
 
-StageReport FoldStage(const std::string& name, const FoldReport& fold,
-                      double seconds) {
-  StageReport stage(name);
-  stage.seconds = seconds;
-  stage.Add("fold score", fold.fold_score);
-  stage.Add("predicted pairs", static_cast<double>(fold.num_predicted_pairs));
-  stage.Add("missing pairs", static_cast<double>(fold.num_missing_pairs));
-  stage.Add("contradicted strong pairs",
-            static_cast<double>(fold.num_strong_inconsistent_pairs));
-  stage.Add("contradictory tracks",
-            static_cast<double>(fold.num_contradictory_tracks));
-  stage.Add("suspect pairs", static_cast<double>(fold.suspect_pairs.size()));
-  return stage;
+// Adds the fold check's figures to its stage.
+void AddFoldFigures(const FoldReport& fold, StageTimer* stage) {
+  stage->Add("fold score", fold.fold_score);
+  stage->Add("predicted pairs", static_cast<double>(fold.num_predicted_pairs));
+  stage->Add("missing pairs", static_cast<double>(fold.num_missing_pairs));
+  stage->Add("contradicted strong pairs",
+             static_cast<double>(fold.num_strong_inconsistent_pairs));
+  stage->Add("contradictory tracks",
+             static_cast<double>(fold.num_contradictory_tracks));
+  stage->Add("suspect pairs", static_cast<double>(fold.suspect_pairs.size()));
 }
 
 std::vector<ImagePairGeometry> PairsWithin(
@@ -162,14 +159,12 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     std::string* failure) {
   auto check = [&](Attempt* attempt, const std::string& when,
                    const std::string& check_prefix) {
-    Timer timer;
+    StageTimer stage("fold check (" + when + ")");
     attempt->model.fold = DetectFold(
         options.detection, attempt->model.mapper->reconstruction(), evidence);
     attempt->model.checked = true;
-    const StageReport stage =
-        FoldStage("fold check (" + when + ")", attempt->model.fold,
-                  timer.ElapsedSeconds());
-    attempt->model.stages.push_back(stage);
+    AddFoldFigures(attempt->model.fold, &stage);
+    stage.Finish(check_prefix, &attempt->model.stages);
     attempt->model.outcome = attempt->model.fold.folded ? "folded" : "clean";
     LOG(INFO) << check_prefix << "fold check (" << when
               << "): " << attempt->model.fold.Describe();
@@ -233,71 +228,84 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
                << " images looks FOLDED (symmetric scene: some cameras may "
                   "sit at their mirrored twin's place), resolving: "
                << first.model.fold.Describe();
-  const Reconstruction& folded = first.model.mapper->reconstruction();
 
   // 1. Re-orientation across the weakest cut. The images on one side of it
   // sit at their twins' place: across the cut, the pairs the folded model
   // agrees with are those that folded it, and those it contradicts are the
-  // true ones. Keep only the latter across the cut and map again.
-  {
-    const auto [side1, side2] =
-        FoldCut(options.detection, folded, evidence, first.model.fold);
-    if (!side2.empty()) {
-      const std::set<image_t> in_side1(side1.begin(), side1.end());
-      const std::set<image_t> in_side2(side2.begin(), side2.end());
-      std::vector<ImagePairGeometry> reoriented;
-      for (const ImagePairGeometry& pair : pairs) {
-        const bool cross =
-            (in_side1.count(pair.image_id1) &&
-             in_side2.count(pair.image_id2)) ||
-            (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
-        if (!cross ||
-            ContradictedByModel(pair, folded,
-                                options.detection.max_rotation_error_deg)) {
-          reoriented.push_back(pair);
-        }
-      }
-      const size_t num_dropped = pairs.size() - reoriented.size();
-      LOG(INFO) << prefix << "fold resolution: cut into " << side1.size()
-                << " and " << side2.size() << " images; " << num_dropped
-                << " pairs across it agree with the fold and are removed, "
-                   "mapping again";
-      const std::vector<std::vector<image_t>> components =
-          PairComponents(reoriented);
-      if (num_dropped > 0 && !components.empty() &&
-          static_cast<int>(components[0].size()) >= min_model_size) {
-        Attempt attempt =
-            run(components[0],
-                PairsWithin(reoriented, std::set<image_t>(components[0].begin(),
-                                                          components[0].end())),
-                prefix);
-        if (attempt.ok && !attempt.model.fold.folded &&
-            refine(&attempt, prefix) && !attempt.model.fold.folded &&
-            attempt.model.mapper->reconstruction().images.size() * 4 >=
-                folded.images.size() * 3) {
-          LOG(INFO) << prefix
-                    << "fold resolved: " << attempt.model.fold.Describe();
-          notes->push_back(prefix + "fold resolved by removing " +
-                           std::to_string(num_dropped) +
-                           " pairs that agree with it across its cut");
-          finish(&attempt,
-                 "resolved (" + std::to_string(num_dropped) +
-                     " pairs across the fold removed)",
-                 &models);
-          return models;
-        }
-        if (attempt.ok) {
-          LOG(INFO) << prefix << "re-oriented model not accepted: "
-                    << attempt.model.fold.Describe();
-        }
-      }
-    }
-  }
-
-  // 2. Remove the suspect pairs and map again.
+  // true ones. Keep only the latter across the cut and map again. A cut
+  // placed from a model folded in several places re-orients only part of
+  // it: while the re-oriented model is better supported (lower fold score,
+  // no fewer images), cut it again (up to 1 + max_iterations rounds).
+  const size_t num_first_images =
+      first.model.mapper->reconstruction().images.size();
   std::vector<ImagePairGeometry> current = pairs;
   Attempt best = std::move(first);
   size_t num_removed = 0;
+  for (int round = 0; round <= options.max_iterations; ++round) {
+    const Reconstruction& model = best.model.mapper->reconstruction();
+    const auto [side1, side2] =
+        FoldCut(options.detection, model, evidence, best.model.fold);
+    if (side2.empty()) break;
+    const std::set<image_t> in_side1(side1.begin(), side1.end());
+    const std::set<image_t> in_side2(side2.begin(), side2.end());
+    std::vector<ImagePairGeometry> reoriented;
+    for (const ImagePairGeometry& pair : current) {
+      const bool cross =
+          (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
+          (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
+      if (!cross ||
+          ContradictedByModel(pair, model,
+                              options.detection.max_rotation_error_deg)) {
+        reoriented.push_back(pair);
+      }
+    }
+    const size_t num_dropped = current.size() - reoriented.size();
+    LOG(INFO) << prefix << "fold resolution (cut " << round + 1
+              << "): cut into " << side1.size() << " and " << side2.size()
+              << " images; " << num_dropped
+              << " pairs across it agree with the fold and are removed, "
+                 "mapping again";
+    const std::vector<std::vector<image_t>> components =
+        PairComponents(reoriented);
+    if (num_dropped == 0 || components.empty() ||
+        static_cast<int>(components[0].size()) < min_model_size) {
+      break;
+    }
+    const std::set<image_t> component(components[0].begin(),
+                                      components[0].end());
+    std::vector<ImagePairGeometry> component_pairs =
+        PairsWithin(reoriented, component);
+    Attempt attempt = run(components[0], component_pairs, prefix);
+    if (!attempt.ok) break;
+    if (!attempt.model.fold.folded && refine(&attempt, prefix) &&
+        !attempt.model.fold.folded &&
+        attempt.model.mapper->reconstruction().images.size() * 4 >=
+            num_first_images * 3) {
+      num_removed += num_dropped;
+      LOG(INFO) << prefix << "fold resolved: " << attempt.model.fold.Describe();
+      notes->push_back(prefix + "fold resolved by removing " +
+                       std::to_string(num_removed) +
+                       " pairs that agree with it across " +
+                       std::to_string(round + 1) + " cut(s)");
+      finish(&attempt,
+             "resolved (" + std::to_string(num_removed) +
+                 " pairs across the fold removed)",
+             &models);
+      return models;
+    }
+    LOG(INFO) << prefix << "re-oriented model not accepted: "
+              << attempt.model.fold.Describe();
+    if (!(attempt.model.fold.fold_score < best.model.fold.fold_score) ||
+        attempt.model.mapper->reconstruction().images.size() * 4 <
+            best.model.mapper->reconstruction().images.size() * 3) {
+      break;
+    }
+    best = std::move(attempt);
+    current = std::move(component_pairs);
+    num_removed += num_dropped;
+  }
+
+  // 2. Remove the suspect pairs and map again.
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     const std::set<std::pair<image_t, image_t>> suspects(
         best.model.fold.suspect_pairs.begin(),

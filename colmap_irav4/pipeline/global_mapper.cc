@@ -11,6 +11,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/pipeline/fold_resolution.h"
+#include "colmap_irav4/positioning/track_selection.h"
 #include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -54,35 +55,6 @@ void RemoveUnusedCameras(Reconstruction* reconstruction) {
     it = used.count(it->first) ? std::next(it)
                                : reconstruction->cameras.erase(it);
   }
-}
-
-// The longest tracks first, each kept while one of its images has fewer
-// than `per_image` observations from the tracks kept so far: every image
-// gets enough constraints, long (well-triangulated) tracks are preferred.
-std::vector<Track> SelectTracksForPositioning(const std::vector<Track>& tracks,
-                                              int per_image) {
-  if (per_image <= 0) return tracks;
-  std::vector<size_t> order(tracks.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return tracks[a].size() > tracks[b].size();
-  });
-  std::map<image_t, int> count;
-  std::vector<char> selected(tracks.size(), 0);
-  for (const size_t k : order) {
-    bool needed = false;
-    for (const TrackElement& element : tracks[k]) {
-      if (count[element.image_id] < per_image) needed = true;
-    }
-    if (!needed) continue;
-    selected[k] = 1;
-    for (const TrackElement& element : tracks[k]) ++count[element.image_id];
-  }
-  std::vector<Track> subset;
-  for (size_t k = 0; k < tracks.size(); ++k) {
-    if (selected[k]) subset.push_back(tracks[k]);
-  }
-  return subset;
 }
 
 }  // namespace
@@ -227,11 +199,21 @@ bool GlobalMapper::BuildTracks() {
   if (global_positioning) {
     // Global positioning needs only enough tracks to tie every camera down;
     // the others are triangulated from the refined poses afterwards.
-    const std::vector<Track> positioning_tracks =
-        !options_.skip_retriangulation
-            ? SelectTracksForPositioning(tracks_,
-                                         options_.positioning_tracks_per_image)
-            : tracks_;
+    PositioningTrackSelectionOptions selection;
+    selection.tracks_per_image = options_.skip_retriangulation
+                                     ? 0
+                                     : options_.positioning_tracks_per_image;
+    selection.tracks_per_pair = options_.positioning_tracks_per_pair;
+    std::vector<std::pair<image_t, image_t>> pair_ids;
+    pair_ids.reserve(pairs_.size());
+    for (const ImagePairGeometry& pair : pairs_) {
+      pair_ids.emplace_back(pair.image_id1, pair.image_id2);
+    }
+    std::vector<Track> positioning_tracks;
+    for (const size_t k :
+         SelectTracksForPositioning(selection, tracks_, pair_ids)) {
+      positioning_tracks.push_back(tracks_[k]);
+    }
     AddTracksToReconstruction(positioning_tracks, &reconstruction_);
     num_positioning_tracks = positioning_tracks.size();
   }
@@ -358,6 +340,46 @@ bool GlobalMapper::Finalize() {
   return true;
 }
 
+void GlobalMapper::RestrictToImages(const std::set<image_t>& images) {
+  std::vector<image_t> dropped;
+  for (const auto& [image_id, image] : reconstruction_.images) {
+    if (!images.count(image_id)) dropped.push_back(image_id);
+  }
+  for (const image_t image_id : dropped) {
+    DeleteImage(image_id, &reconstruction_);
+  }
+  RemoveUnusedCameras(&reconstruction_);
+  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
+                              [&](const ImagePairGeometry& pair) {
+                                return !images.count(pair.image_id1) ||
+                                       !images.count(pair.image_id2);
+                              }),
+               pairs_.end());
+}
+
+bool GlobalMapper::RefineRestrictedModel() {
+  if (options_.skip_bundle_adjustment) return true;
+  StageTimer stage("bundle adjustment (rigid part)");
+  BundleAdjustmentOptions round_options = options_.bundle_adjustment;
+  round_options.num_rounds = 1;
+  BundleAdjustmentSummary ba_summary;
+  if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
+    return Fail("bundle adjustment failed");
+  }
+  const FilterSummary filter_summary =
+      RunFiltering(options_.filtering, &reconstruction_);
+  if (!options_.skip_normalization) {
+    NormalizeReconstruction(options_.normalization, &reconstruction_);
+  }
+  stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
+  stage.Add("observations filtered",
+            static_cast<double>(ba_summary.num_observations_filtered +
+                                filter_summary.num_observations_filtered));
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
+
 int GlobalMapper::ColorPoints(const std::string& image_path) {
   StageTimer stage("colours");
   int num_missing = 0;
@@ -454,6 +476,10 @@ void GlobalMapperOptions::Check() const {
   if (positioning_tracks_per_image < 0) {
     throw OptionError(&positioning_tracks_per_image,
                       "Mapper.positioning_tracks_per_image", "must be >= 0");
+  }
+  if (positioning_tracks_per_pair < 0) {
+    throw OptionError(&positioning_tracks_per_pair,
+                      "Mapper.positioning_tracks_per_pair", "must be >= 0");
   }
   bundle_adjustment.Check();
   filtering.Check();

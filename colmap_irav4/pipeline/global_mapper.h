@@ -12,6 +12,7 @@
 // (pipeline/global_pipeline.h).
 
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -65,6 +66,11 @@ struct GlobalMapperOptions {
   // many observations (0: all tracks); the rest are triangulated after the
   // first bundle adjustment. Fewer unknowns, same poses, much faster.
   int positioning_tracks_per_image = 500;
+  // ... and every view-graph pair keeps at least this many of its tracks
+  // (0: no pair quota): a pair that alone ties two parts of the graph
+  // together must not lose its tracks to the per-image quota (see
+  // positioning/track_selection.h).
+  int positioning_tracks_per_pair = 10;
 
   // Skip flags of the optional stages. The view graph, rotation averaging,
   // tracks and positioning cannot be skipped: nothing downstream exists
@@ -153,6 +159,14 @@ class GlobalMapper {
   bool Retriangulation();
   // Final filtering, cameras no image uses removed, normalisation.
   bool Finalize();
+  // Keeps only `images` (those of the model among them), their observations
+  // and the points still seen twice: a model that is not one rigid piece is
+  // written as its parts.
+  void RestrictToImages(const std::set<image_t>& images);
+  // One bundle adjustment (and filtering, normalisation) of the model as it
+  // is: after RestrictToImages, the images that joined the part to the rest
+  // are no longer held by the observations they lost.
+  bool RefineRestrictedModel();
   // Point colours from the images under image_path (empty: grey). Returns
   // the number of images that could not be read.
   int ColorPoints(const std::string& image_path);

@@ -16,6 +16,7 @@
 
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/pipeline/fold_resolution.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
@@ -26,6 +27,65 @@ namespace colmap_irav4 {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// The model as it is when it is one rigid piece, else its rigid parts of
+// min_model_size images or more, each as a model of its own (see
+// refinement/model_rigidity.h), with a warning: never one model whose parts
+// sit at an arbitrary relative offset or scale.
+std::vector<FoldCheckedModel> SplitIntoRigidParts(
+    int min_model_size, const std::string& prefix, FoldCheckedModel model,
+    std::vector<std::string>* notes) {
+  StageTimer stage("rigidity check");
+  const ModelRigidity rigidity = AnalyzeModelRigidity(
+      ModelRigidityOptions(), model.mapper->reconstruction(), min_model_size);
+  stage.Add("blocks", static_cast<double>(rigidity.blocks.size()));
+  stage.Add("large blocks", static_cast<double>(rigidity.num_large_blocks));
+  stage.Finish(prefix, &model.stages);
+  std::vector<FoldCheckedModel> parts;
+  if (rigidity.num_large_blocks <= 1) {
+    parts.push_back(std::move(model));
+    return parts;
+  }
+  std::string sizes;
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < min_model_size) break;
+    sizes += (sizes.empty() ? "" : ", ") + std::to_string(block.size());
+  }
+  const std::string message =
+      "the model of " +
+      std::to_string(model.mapper->reconstruction().images.size()) +
+      " images is not one rigid piece: its parts of " + sizes +
+      " images are joined through single images only (fewer than " +
+      std::to_string(ModelRigidityOptions().min_shared_points) +
+      " common points otherwise), so their relative position and scale are "
+      "not determined; writing the parts as separate models";
+  LOG(WARNING) << prefix << message;
+  notes->push_back(prefix + message);
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < min_model_size) break;
+    FoldCheckedModel part;
+    part.mapper = std::make_unique<GlobalMapper>(*model.mapper);
+    part.mapper->RestrictToImages(
+        std::set<image_t>(block.begin(), block.end()));
+    if (!part.mapper->RefineRestrictedModel()) {
+      LOG(WARNING) << prefix << "part of " << block.size()
+                   << " images dropped: " << part.mapper->failure();
+      continue;
+    }
+    part.checked = model.checked;
+    part.fold = model.fold;
+    part.outcome = model.outcome.empty() || model.outcome == "clean"
+                       ? "split (not rigid)"
+                       : model.outcome + ", split (not rigid)";
+    part.stages = model.stages;
+    parts.push_back(std::move(part));
+  }
+  return parts;
+}
+
+}  // namespace
+
 std::string GlobalMapperSummary::ToJson() const {
   std::ostringstream out;
   out << "{\n  \"database_path\": " << JsonString(database_path)
@@ -35,6 +95,7 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
       << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
+      << ",\n  \"num_folded_models\": " << NumFoldedModels()
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
   out << ",\n  \"models\": [";
@@ -68,6 +129,14 @@ std::string GlobalMapperSummary::ToJson() const {
   }
   out << "]\n}\n";
   return out.str();
+}
+
+int GlobalMapperSummary::NumFoldedModels() const {
+  int count = 0;
+  for (const ComponentReport& component : components) {
+    count += component.folded;
+  }
+  return count;
 }
 
 std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
@@ -162,8 +231,12 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
       continue;
     }
     for (FoldCheckedModel& model : checked) {
-      mappers.push_back(std::move(model.mapper));
-      fold_checks[mappers.back().get()] = std::move(model);
+      for (FoldCheckedModel& part :
+           SplitIntoRigidParts(options.min_model_size, prefix, std::move(model),
+                               &summary->notes)) {
+        mappers.push_back(std::move(part.mapper));
+        fold_checks[mappers.back().get()] = std::move(part);
+      }
     }
   }
   if (mappers.empty()) {
@@ -226,6 +299,21 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
               << " px (COLMAP model_analyzer's figure)";
     summary->components.push_back(report);
     reconstructions.push_back(std::move(reconstruction));
+  }
+  // A model the fold check still flags is written (the user may know
+  // better), but never silently: the last warning names it, summary.json
+  // counts it and the mapper command exits with kFoldedExitCode.
+  for (const ComponentReport& report : summary->components) {
+    if (!report.folded) continue;
+    LOG(WARNING) << "Model " << report.index << " ("
+                 << report.num_registered_images
+                 << " images) is likely FOLDED: fold score " << std::fixed
+                 << std::setprecision(3) << report.fold_score << " ("
+                 << report.fold_missing_pairs << " of "
+                 << report.fold_predicted_pairs
+                 << " predicted overlapping pairs have no matches), outcome \""
+                 << report.fold_outcome
+                 << "\"; some cameras may sit at their mirrored twin's place";
   }
   summary->total_seconds += total_timer.ElapsedSeconds();
   return reconstructions;

@@ -58,8 +58,14 @@ struct GlobalMapperSummary {
   double peak_memory_mib = 0;
   std::vector<std::string> notes;  // warnings, skipped stages
 
+  // Models written although the fold check still flags them (folded).
+  int NumFoldedModels() const;
   std::string ToJson() const;
 };
+
+// Exit code of the mapper command when it wrote its models but at least one
+// of them is still flagged folded (summary.json: num_folded_models > 0).
+constexpr int kFoldedExitCode = 3;
 
 // Maps every component with >= min_model_size images into its own model,
 // largest first. `image_path` (may be empty) is where point colours are read

@@ -335,6 +335,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                &o.positioning_tracks_per_image,
                "global positioning uses the longest tracks until each image "
                "has this many observations (0: all tracks)");
+  manager->Add("Mapper.positioning_tracks_per_pair",
+               &o.positioning_tracks_per_pair,
+               "... and every view-graph pair keeps this many of its tracks "
+               "(0: no pair quota)");
   manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
                "skip the rotation-consistency filter");
   manager->Add("Mapper.skip_bundle_adjustment", &o.skip_bundle_adjustment,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -27,7 +28,23 @@ struct View {
   Eigen::Vector3d center;
   Eigen::Vector3d axis;  // viewing direction in world coordinates
   std::vector<Eigen::Vector3d> points;  // sampled model points it observes
+  double radius = 0;  // largest distance from the centre to those points
 };
+
+// Farthest that the centre of a camera expecting a point can be from the
+// centre of the camera observing it, as a multiple of the observer's distance
+// to the point: the two rays are at most the view angle apart and their
+// lengths differ by at most the scale ratio, so the distance between the
+// centres is at most max over t in [1/s, s] of sqrt(t^2 + 1 - 2 t cos a),
+// reached at an end of the interval (the function is convex in t).
+double MaxCenterDistanceFactor(double cos_max_angle, double max_scale_ratio) {
+  double factor = 0;
+  for (const double t : {max_scale_ratio, 1.0 / max_scale_ratio}) {
+    factor = std::max(
+        factor, std::sqrt(std::max(0.0, t * t + 1 - 2 * t * cos_max_angle)));
+  }
+  return factor;
+}
 
 // Whether `view` is expected to match the point X that `from` observes:
 // in front, inside the image, from a similar direction and distance.
@@ -145,6 +162,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
       // Evenly spaced over the sorted ids: deterministic.
       view.points.push_back(
           reconstruction.points3D.at(ids[k * ids.size() / n]).xyz);
+      view.radius =
+          std::max(view.radius, (view.points.back() - view.center).norm());
     }
     index[image_id] = static_cast<int>(views.size());
     views.push_back(std::move(view));
@@ -169,12 +188,27 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   // Predicted overlap: expected[i][j] = points of i that j should match.
   const double cos_max_angle = std::cos(options.max_view_angle_deg * kDegToRad);
   // Two cameras whose optical axes are further apart than the view angle
-  // plus both half fields of view cannot share a point: skip them cheaply.
+  // plus both half fields of view cannot share a point, nor can two cameras
+  // further apart than the view angle and scale ratio allow for the points
+  // one of them sees (MaxCenterDistanceFactor): skip them cheaply, so that
+  // the cost is images^2 distance tests plus the points of the pairs that
+  // are near each other (exact: only pairs that expect no point are skipped).
   // Sparse: expected[i] holds (j, points of i that j should match) > 0.
+  const double distance_factor =
+      MaxCenterDistanceFactor(cos_max_angle, options.max_scale_ratio);
   std::vector<std::vector<std::pair<int, int>>> expected(num_views);
   for (int i = 0; i < num_views; ++i) {
+    if (views[i].points.empty()) continue;
+    const double max_distance_squared =
+        options.skip_distant_pairs
+            ? std::pow(distance_factor * views[i].radius * (1 + 1e-9), 2)
+            : std::numeric_limits<double>::infinity();
     for (int j = 0; j < num_views; ++j) {
-      if (i == j || views[i].points.empty()) continue;
+      if (i == j) continue;
+      if ((views[i].center - views[j].center).squaredNorm() >
+          max_distance_squared) {
+        continue;
+      }
       if (views[i].axis.dot(views[j].axis) < -0.5) continue;
       int count = 0;
       for (const Eigen::Vector3d& X : views[i].points) {

@@ -61,6 +61,10 @@ struct FoldDetectionOptions {
   // images predicted to overlap both match exactly one of them, and more of
   // them do than match both.
   int min_suspect_conflicts = 2;
+  // Skip the camera pairs too far apart to share a point under the view
+  // angle and scale ratio before projecting any point (exact: the report is
+  // the same; false only to measure what it saves).
+  bool skip_distant_pairs = true;
 
   // Throws InputError naming the option (--Fold.*).
   void Check() const;

@@ -1,0 +1,34 @@
+#pragma once
+
+#include <vector>
+
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+// Whether a model is one rigid piece. Two images are tied when they observe
+// at least `min_shared_points` common points of the model. A part of the
+// model joined to the rest through one image only (an articulation image of
+// the tie graph), or not at all, has a free relative scale about that
+// image's centre (and, when not joined at all, a free offset and rotation
+// too): bearings from a single camera do not fix how far away the other
+// part is. Such a model may be placed arbitrarily wrong while its
+// reprojection errors look perfect, so it must not be written as one model.
+struct ModelRigidityOptions {
+  int min_shared_points = 15;
+};
+
+struct ModelRigidity {
+  // The 2-connected blocks of the tie graph (articulation images in several
+  // blocks), each sorted by image id, largest first (ties: smallest id
+  // first); images tied to no other image are left out.
+  std::vector<std::vector<image_t>> blocks;
+  // Number of blocks of at least min_model_size images.
+  int num_large_blocks = 0;
+};
+
+ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
+                                   const Reconstruction& reconstruction,
+                                   int min_model_size);
+
+}  // namespace colmap_irav4

@@ -1,0 +1,221 @@
+// The mapper on symmetric scenes from the project's generator
+// (eval/scene_generator.h): a courtyard whose opposite walls look alike,
+// with a fraction of mirror-twin false pairs (pairs whose matches agree with
+// one camera's twin, 180 deg about the vertical axis). Without resolution
+// the model folds (cameras turned 180 deg) and the fold check must say so;
+// with it (the default) every camera must come out right in one model.
+// Counts of cameras turned by more than 30 deg against the exact ground truth.
+
+#include <sys/wait.h>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/eval/scene_generator.h"
+#include "colmap_irav4/io/database.h"
+#include "colmap_irav4/pipeline/global_pipeline.h"
+#include "colmap_irav4/refinement/fold_detection.h"
+#include "tests/test_utils/database_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+struct SymmetricRun {
+  int num_images = 0;
+  std::vector<Reconstruction> models;
+  GlobalMapperSummary summary;
+  int num_registered = 0;
+  int num_turned = 0;               // over all models, each aligned on its own
+  double center_error_median = -1;  // largest model
+};
+
+// A 40-image courtyard (fast: a few seconds), mapped in-process.
+SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
+                          bool resolve) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kCourtyard;
+  options.num_images = 40;
+  options.point_density = 15;
+  options.noise_px = 0.5;
+  options.mirror_pair_rate = mirror_pair_rate;
+  options.seed = seed;
+  const GeneratedScene scene = GenerateScene(options);
+  if (mirror_pair_rate > 0) {
+    EXPECT_GE(scene.num_mirror_pairs,
+              static_cast<int>(0.9 * mirror_pair_rate * scene.pairs.size()));
+  }
+  test::TempDir temp;
+  const std::string path = temp.File("database.db");
+  WriteSceneDatabase(scene, path);
+  const DatabaseContents database = ReadDatabase(path);
+
+  GlobalMapperOptions mapper_options;
+  mapper_options.fold.resolve = resolve;
+  SymmetricRun run;
+  run.num_images = static_cast<int>(scene.truth.images.size());
+  run.models = RunGlobalMapper(mapper_options, database, "", &run.summary);
+  const std::map<std::string, Rigid3d> truth = PosesByName(scene.truth);
+  for (size_t k = 0; k < run.models.size(); ++k) {
+    const Reconstruction& model = run.models[k];
+    run.num_registered += static_cast<int>(model.images.size());
+    PoseComparison comparison;
+    if (!ComparePoses(PosesByName(model), truth, SimilarityRansacOptions(),
+                      &comparison)) {
+      run.num_turned += static_cast<int>(model.images.size());
+      continue;
+    }
+    for (const double error : comparison.rotation_errors_deg) {
+      run.num_turned += error > 30.0;
+    }
+    if (k == 0) run.center_error_median = comparison.center_error_median;
+  }
+  return run;
+}
+
+TEST(SymmetricScene, NoMirrorPairsGiveOneCleanModel) {
+  const SymmetricRun run = MapCourtyard(0.0, 1, true);
+  ASSERT_EQ(run.models.size(), 1u);
+  EXPECT_EQ(run.num_registered, run.num_images);
+  EXPECT_EQ(run.num_turned, 0);
+  EXPECT_LT(run.center_error_median, 0.01);
+  ASSERT_EQ(run.summary.components.size(), 1u);
+  EXPECT_FALSE(run.summary.components[0].folded);
+  EXPECT_EQ(run.summary.components[0].fold_outcome, "clean");
+  EXPECT_EQ(run.summary.components[0].fold_score, 0.0);
+}
+
+// 20% mirror pairs: unresolved, the model is folded (about half the cameras
+// turned); the fold check must flag it in the summary, never silently.
+TEST(SymmetricScene, FoldIsDetectedWithoutResolution) {
+  const SymmetricRun run = MapCourtyard(0.2, 1, false);
+  ASSERT_EQ(run.models.size(), 1u);
+  EXPECT_GE(run.num_turned, 10);
+  ASSERT_EQ(run.summary.components.size(), 1u);
+  EXPECT_TRUE(run.summary.components[0].folded);
+  EXPECT_GT(run.summary.components[0].fold_score, 0.1);
+  EXPECT_EQ(run.summary.components[0].fold_outcome, "folded (not resolved)");
+}
+
+// The same scene resolved: one model, every camera right. Its first cut
+// re-orients only part of the fold; the second cut finishes it (before the
+// repeated cut this scene was split into two models).
+TEST(SymmetricScene, FoldIsResolvedIntoOneCorrectModel) {
+  const SymmetricRun run = MapCourtyard(0.2, 1, true);
+  ASSERT_EQ(run.models.size(), 1u);
+  EXPECT_EQ(run.num_registered, run.num_images);
+  EXPECT_EQ(run.num_turned, 0);
+  EXPECT_LT(run.center_error_median, 0.01);
+  ASSERT_EQ(run.summary.components.size(), 1u);
+  EXPECT_FALSE(run.summary.components[0].folded);
+  EXPECT_EQ(run.summary.components[0].fold_outcome.rfind("resolved", 0), 0u)
+      << run.summary.components[0].fold_outcome;
+}
+
+// Another seed and rate: folded without resolution, right with it.
+TEST(SymmetricScene, AnotherSeedIsResolvedToo) {
+  const SymmetricRun folded = MapCourtyard(0.1, 2, false);
+  EXPECT_GE(folded.num_turned, 10);
+  ASSERT_FALSE(folded.summary.components.empty());
+  EXPECT_TRUE(folded.summary.components[0].folded);
+  const SymmetricRun run = MapCourtyard(0.1, 2, true);
+  ASSERT_EQ(run.models.size(), 1u);
+  EXPECT_EQ(run.num_registered, run.num_images);
+  EXPECT_EQ(run.num_turned, 0);
+  EXPECT_LT(run.center_error_median, 0.01);
+}
+
+// Through the program: a model written still folded (resolution off) is
+// never silent: exit code 3, num_folded_models in summary.json, and the
+// last warning names it; the resolved run exits 0.
+TEST(SymmetricScene, FoldedModelIsNotWrittenSilently) {
+  SceneGeneratorOptions options;
+  options.num_images = 40;
+  options.point_density = 15;
+  options.noise_px = 0.5;
+  options.mirror_pair_rate = 0.2;
+  options.seed = 1;
+  test::TempDir temp;
+  const std::string database = temp.File("database.db");
+  WriteSceneDatabase(GenerateScene(options), database);
+  auto run = [&](const std::string& name, const std::string& flags,
+                 std::string* log, std::string* summary) {
+    const std::string output = temp.File(name);
+    const std::string log_path = temp.File(name + ".log");
+    const std::string command = std::string(COLMAP_IRAV4_BINARY) +
+                                " mapper --database_path " + database +
+                                " --output_path " + output +
+                                " --Mapper.num_threads 1 --Mapper.progress 0 " +
+                                flags + " > " + log_path + " 2>&1";
+    const int status = std::system(command.c_str());
+    std::ifstream log_file(log_path);
+    log->assign(std::istreambuf_iterator<char>(log_file),
+                std::istreambuf_iterator<char>());
+    std::ifstream summary_file(output + "/summary.json");
+    summary->assign(std::istreambuf_iterator<char>(summary_file),
+                    std::istreambuf_iterator<char>());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  std::string log;
+  std::string summary;
+  EXPECT_EQ(run("folded", "--Fold.resolve 0", &log, &summary), 3) << log;
+  EXPECT_NE(summary.find("\"num_folded_models\": 1"), std::string::npos)
+      << summary;
+  EXPECT_NE(log.find("Model 0 (40 images) is likely FOLDED"), std::string::npos)
+      << log;
+  EXPECT_EQ(run("resolved", "", &log, &summary), 0) << log;
+  EXPECT_NE(summary.find("\"num_folded_models\": 0"), std::string::npos)
+      << summary;
+  EXPECT_EQ(log.find("is likely FOLDED"), std::string::npos) << log;
+}
+
+// The fold check skips camera pairs too far apart to share a point before
+// projecting anything; the skip must not change the report, on a correct
+// model and on one whose second half sits at its mirrored twins' place.
+TEST(SymmetricScene, DistantPairSkipIsExact) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kStreet;
+  options.num_images = 120;
+  options.point_density = 10;
+  options.mirror_pair_rate = 0.1;
+  const GeneratedScene scene = GenerateScene(options);
+  FoldEvidence evidence;
+  for (const GeneratedPair& pair : scene.pairs) {
+    PairEvidence entry;
+    entry.image_id1 = pair.image_id1;
+    entry.image_id2 = pair.image_id2;
+    entry.num_inliers = pair.num_candidates;
+    entry.has_rotation = true;
+    entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
+    evidence.pairs.push_back(entry);
+  }
+  evidence.absent_pairs_were_tried = true;
+  Reconstruction turned = scene.truth;
+  for (auto& [image_id, image] : turned.images) {
+    if (image_id > 60)
+      image.cam_from_world = MirrorTwinPose(image.cam_from_world);
+  }
+  for (const Reconstruction* model :
+       std::vector<const Reconstruction*>{&scene.truth, &turned}) {
+    FoldDetectionOptions skip;
+    FoldDetectionOptions all;
+    all.skip_distant_pairs = false;
+    const FoldReport a = DetectFold(skip, *model, evidence);
+    const FoldReport b = DetectFold(all, *model, evidence);
+    EXPECT_GT(a.num_predicted_pairs, 100);
+    EXPECT_EQ(a.num_predicted_pairs, b.num_predicted_pairs);
+    EXPECT_EQ(a.missing_pairs, b.missing_pairs);
+    EXPECT_EQ(a.suspect_pairs, b.suspect_pairs);
+    EXPECT_EQ(a.image_predicted_pairs, b.image_predicted_pairs);
+    EXPECT_EQ(a.num_inconsistent_pairs, b.num_inconsistent_pairs);
+    EXPECT_EQ(a.fold_score, b.fold_score);
+    EXPECT_EQ(a.folded, b.folded);
+  }
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -64,9 +64,8 @@ std::vector<size_t> SelectTracksForPositioning(
                  it->second < options.tracks_per_image;
         });
     if (!needed && !pair_count.empty()) {
-      needed = for_pairs(track, [&](int* count) {
-        return *count < options.tracks_per_pair;
-      });
+      needed = for_pairs(
+          track, [&](int* count) { return *count < options.tracks_per_pair; });
     }
     if (!needed) continue;
     selected.push_back(k);

@@ -38,9 +38,8 @@ struct TwoChains {
   // Selected tracks spanning both chains.
   int NumJunctionTracks(const std::vector<size_t>& selected) const {
     return static_cast<int>(
-        std::count_if(selected.begin(), selected.end(), [&](size_t k) {
-          return tracks[k].size() == 2;
-        }));
+        std::count_if(selected.begin(), selected.end(),
+                      [&](size_t k) { return tracks[k].size() == 2; }));
   }
 };
 
@@ -83,9 +82,9 @@ TEST(TrackSelection, ZeroPerImageQuotaSelectsEveryTrack) {
   const TwoChains scene;
   PositioningTrackSelectionOptions options;
   options.tracks_per_image = 0;
-  EXPECT_EQ(SelectTracksForPositioning(options, scene.tracks, scene.pairs)
-                .size(),
-            scene.tracks.size());
+  EXPECT_EQ(
+      SelectTracksForPositioning(options, scene.tracks, scene.pairs).size(),
+      scene.tracks.size());
 }
 
 TEST(TrackSelection, RejectsNegativeQuotas) {

@@ -195,10 +195,10 @@ bool GlobalMapper::BuildTracks() {
                                       reconstruction_.images, &track_stats);
   const bool global_positioning =
       options_.positioning_method == "global_positioning";
-  size_t num_positioning_tracks = 0;
+  // Global positioning needs only enough tracks to tie every camera down;
+  // the others are triangulated from the refined poses afterwards.
+  std::vector<size_t> selected;
   if (global_positioning) {
-    // Global positioning needs only enough tracks to tie every camera down;
-    // the others are triangulated from the refined poses afterwards.
     PositioningTrackSelectionOptions selection;
     selection.tracks_per_image = options_.skip_retriangulation
                                      ? 0
@@ -209,11 +209,45 @@ bool GlobalMapper::BuildTracks() {
     for (const ImagePairGeometry& pair : pairs_) {
       pair_ids.emplace_back(pair.image_id1, pair.image_id2);
     }
-    std::vector<Track> positioning_tracks;
-    for (const size_t k :
-         SelectTracksForPositioning(selection, tracks_, pair_ids)) {
-      positioning_tracks.push_back(tracks_[k]);
+    selected = SelectTracksForPositioning(selection, tracks_, pair_ids);
+  }
+  // The cap: positioning's tracks first (they keep every pair tied), then
+  // the longest; the others are dropped.
+  size_t num_capped = 0;
+  const size_t cap = static_cast<size_t>(options_.max_num_tracks);
+  if (options_.max_num_tracks > 0 && tracks_.size() > cap) {
+    std::vector<char> priority(tracks_.size(), 0);
+    for (const size_t k : selected) priority[k] = 1;
+    std::vector<size_t> order(tracks_.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return priority[a] != priority[b] ? priority[a] > priority[b]
+                                        : tracks_[a].size() > tracks_[b].size();
+    });
+    std::vector<char> keep(tracks_.size(), 0);
+    for (size_t k = 0; k < cap; ++k) keep[order[k]] = 1;
+    std::vector<Track> kept;
+    std::vector<size_t> kept_selected;
+    kept.reserve(cap);
+    for (size_t k = 0; k < tracks_.size(); ++k) {
+      if (!keep[k]) continue;
+      if (priority[k]) kept_selected.push_back(kept.size());
+      kept.push_back(std::move(tracks_[k]));
     }
+    num_capped = tracks_.size() - kept.size();
+    LOG(WARNING) << log_prefix_ << tracks_.size()
+                 << " tracks exceed --Mapper.max_num_tracks " << cap << ": the "
+                 << num_capped
+                 << " shortest are dropped (fewer points, less memory; raise "
+                    "the cap or set it to 0 for all)";
+    tracks_ = std::move(kept);
+    selected = std::move(kept_selected);
+  }
+  size_t num_positioning_tracks = 0;
+  if (global_positioning) {
+    std::vector<Track> positioning_tracks;
+    positioning_tracks.reserve(selected.size());
+    for (const size_t k : selected) positioning_tracks.push_back(tracks_[k]);
     AddTracksToReconstruction(positioning_tracks, &reconstruction_);
     num_positioning_tracks = positioning_tracks.size();
   }
@@ -224,6 +258,7 @@ bool GlobalMapper::BuildTracks() {
             static_cast<double>(track_stats.num_inconsistent));
   stage.Add("dropped short", static_cast<double>(track_stats.num_too_short));
   stage.Add("dropped long", static_cast<double>(track_stats.num_too_long));
+  stage.Add("dropped (max_num_tracks)", static_cast<double>(num_capped));
   stage.Finish(log_prefix_, &stages_);
   return true;
 }
@@ -357,29 +392,6 @@ void GlobalMapper::RestrictToImages(const std::set<image_t>& images) {
                pairs_.end());
 }
 
-bool GlobalMapper::RefineRestrictedModel() {
-  if (options_.skip_bundle_adjustment) return true;
-  StageTimer stage("bundle adjustment (rigid part)");
-  BundleAdjustmentOptions round_options = options_.bundle_adjustment;
-  round_options.num_rounds = 1;
-  BundleAdjustmentSummary ba_summary;
-  if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
-    return Fail("bundle adjustment failed");
-  }
-  const FilterSummary filter_summary =
-      RunFiltering(options_.filtering, &reconstruction_);
-  if (!options_.skip_normalization) {
-    NormalizeReconstruction(options_.normalization, &reconstruction_);
-  }
-  stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
-  stage.Add("observations filtered",
-            static_cast<double>(ba_summary.num_observations_filtered +
-                                filter_summary.num_observations_filtered));
-  AddModelFigures(&stage);
-  stage.Finish(log_prefix_, &stages_);
-  return true;
-}
-
 int GlobalMapper::ColorPoints(const std::string& image_path) {
   StageTimer stage("colours");
   int num_missing = 0;
@@ -476,6 +488,9 @@ void GlobalMapperOptions::Check() const {
   if (positioning_tracks_per_image < 0) {
     throw OptionError(&positioning_tracks_per_image,
                       "Mapper.positioning_tracks_per_image", "must be >= 0");
+  }
+  if (max_num_tracks < 0) {
+    throw OptionError(&max_num_tracks, "Mapper.max_num_tracks", "must be >= 0");
   }
   if (positioning_tracks_per_pair < 0) {
     throw OptionError(&positioning_tracks_per_pair,

@@ -71,6 +71,10 @@ struct GlobalMapperOptions {
   // together must not lose its tracks to the per-image quota (see
   // positioning/track_selection.h).
   int positioning_tracks_per_pair = 10;
+  // Memory bound: at most this many tracks (points) enter the model, those
+  // positioning uses first, then the longest; a warning says how many were
+  // dropped (0: no cap).
+  int max_num_tracks = 0;
 
   // Skip flags of the optional stages. The view graph, rotation averaging,
   // tracks and positioning cannot be skipped: nothing downstream exists
@@ -163,10 +167,6 @@ class GlobalMapper {
   // and the points still seen twice: a model that is not one rigid piece is
   // written as its parts.
   void RestrictToImages(const std::set<image_t>& images);
-  // One bundle adjustment (and filtering, normalisation) of the model as it
-  // is: after RestrictToImages, the images that joined the part to the rest
-  // are no longer held by the observations they lost.
-  bool RefineRestrictedModel();
   // Point colours from the images under image_path (empty: grey). Returns
   // the number of images that could not be read.
   int ColorPoints(const std::string& image_path);

@@ -68,11 +68,6 @@ std::vector<FoldCheckedModel> SplitIntoRigidParts(
     part.mapper = std::make_unique<GlobalMapper>(*model.mapper);
     part.mapper->RestrictToImages(
         std::set<image_t>(block.begin(), block.end()));
-    if (!part.mapper->RefineRestrictedModel()) {
-      LOG(WARNING) << prefix << "part of " << block.size()
-                   << " images dropped: " << part.mapper->failure();
-      continue;
-    }
     part.checked = model.checked;
     part.fold = model.fold;
     part.outcome = model.outcome.empty() || model.outcome == "clean"

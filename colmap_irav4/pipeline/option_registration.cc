@@ -335,6 +335,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                &o.positioning_tracks_per_image,
                "global positioning uses the longest tracks until each image "
                "has this many observations (0: all tracks)");
+  manager->Add("Mapper.max_num_tracks", &o.max_num_tracks,
+               "at most this many tracks (points): positioning's first, then "
+               "the longest; a warning says how many were dropped (0: no "
+               "cap)");
   manager->Add("Mapper.positioning_tracks_per_pair",
                &o.positioning_tracks_per_pair,
                "... and every view-graph pair keeps this many of its tracks "

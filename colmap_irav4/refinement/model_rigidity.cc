@@ -21,6 +21,7 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
   // Tie graph: common points per image pair, counted per first image with
   // dense counters.
   std::vector<std::vector<int>> adjacency(n);
+  std::map<std::pair<int, int>, int> weight;  // (i < j) -> common points
   std::vector<int> count(n, 0);
   std::vector<int> touched;
   for (int i = 0; i < n; ++i) {
@@ -39,6 +40,7 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
       if (count[j] >= options.min_shared_points) {
         adjacency[i].push_back(j);
         adjacency[j].push_back(i);
+        weight[{i, j}] = count[j];
       }
       count[j] = 0;
     }
@@ -49,6 +51,7 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
   ModelRigidity result;
   std::vector<int> discovery(n, -1), low(n, 0);
   std::vector<std::pair<int, int>> edge_stack;
+  std::vector<std::vector<int>> index_blocks;
   int time = 0;
   struct Frame {
     int vertex;
@@ -66,9 +69,7 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
     }
     std::sort(block.begin(), block.end());
     block.erase(std::unique(block.begin(), block.end()), block.end());
-    std::vector<image_t> images;
-    for (const int k : block) images.push_back(ids[k]);
-    result.blocks.push_back(std::move(images));
+    index_blocks.push_back(std::move(block));
   };
   for (int root = 0; root < n; ++root) {
     if (discovery[root] >= 0) continue;
@@ -95,6 +96,42 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
       low[parent] = std::min(low[parent], low[u]);
       if (low[u] >= discovery[parent]) pop_block(parent, u);
     }
+  }
+  // An articulation image stays only in the block it shares the most
+  // points with (the first of equal ones): there its pose is held by most of
+  // its observations, in the other blocks by a few.
+  std::vector<std::vector<int>> blocks_of(n);
+  for (size_t b = 0; b < index_blocks.size(); ++b) {
+    for (const int k : index_blocks[b]) blocks_of[k].push_back(b);
+  }
+  std::vector<std::vector<char>> keep(index_blocks.size());
+  for (size_t b = 0; b < index_blocks.size(); ++b) {
+    keep[b].assign(index_blocks[b].size(), 1);
+  }
+  for (int k = 0; k < n; ++k) {
+    if (blocks_of[k].size() < 2) continue;
+    std::vector<int> shared(blocks_of[k].size(), 0);
+    for (size_t m = 0; m < blocks_of[k].size(); ++m) {
+      for (const int other : index_blocks[blocks_of[k][m]]) {
+        const auto it = weight.find({std::min(k, other), std::max(k, other)});
+        if (it != weight.end()) shared[m] += it->second;
+      }
+    }
+    const size_t best =
+        std::max_element(shared.begin(), shared.end()) - shared.begin();
+    for (size_t m = 0; m < blocks_of[k].size(); ++m) {
+      if (m == best) continue;
+      const std::vector<int>& block = index_blocks[blocks_of[k][m]];
+      keep[blocks_of[k][m]]
+          [std::find(block.begin(), block.end(), k) - block.begin()] = 0;
+    }
+  }
+  for (size_t b = 0; b < index_blocks.size(); ++b) {
+    std::vector<image_t> images;
+    for (size_t m = 0; m < index_blocks[b].size(); ++m) {
+      if (keep[b][m]) images.push_back(ids[index_blocks[b][m]]);
+    }
+    if (!images.empty()) result.blocks.push_back(std::move(images));
   }
   // Largest first; ties by smallest image id (blocks are sorted by id).
   std::sort(result.blocks.begin(), result.blocks.end(),

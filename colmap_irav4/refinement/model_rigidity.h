@@ -19,9 +19,10 @@ struct ModelRigidityOptions {
 };
 
 struct ModelRigidity {
-  // The 2-connected blocks of the tie graph (articulation images in several
-  // blocks), each sorted by image id, largest first (ties: smallest id
-  // first); images tied to no other image are left out.
+  // The 2-connected blocks of the tie graph, each sorted by image id,
+  // largest first (ties: smallest id first); an articulation image only in
+  // the block it shares the most points with (so the blocks are disjoint);
+  // images tied to no other image are left out.
   std::vector<std::vector<image_t>> blocks;
   // Number of blocks of at least min_model_size images.
   int num_large_blocks = 0;

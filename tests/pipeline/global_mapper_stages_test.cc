@@ -175,6 +175,43 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   EXPECT_EQ(mapper.stages().back().name, "colours (grey: no --image_path)");
 }
 
+TEST(GlobalMapperStages, MaxNumTracksCapsTheTracksAndSaysSo) {
+  const StageScene s = MakeStageScene();
+  GlobalMapper uncapped(TestOptions(), s.database, s.database.cameras, s.images,
+                        s.pairs);
+  ASSERT_TRUE(uncapped.RotationAveraging() && uncapped.RotationFilter() &&
+              uncapped.BuildTracks());
+  const size_t num_tracks = uncapped.tracks().size();
+  ASSERT_GT(num_tracks, 400u);
+
+  GlobalMapperOptions options = TestOptions();
+  options.max_num_tracks = 300;
+  GlobalMapper mapper(options, s.database, s.database.cameras, s.images,
+                      s.pairs);
+  ASSERT_TRUE(mapper.RotationAveraging() && mapper.RotationFilter() &&
+              mapper.BuildTracks());
+  EXPECT_EQ(mapper.tracks().size(), 300u);
+  const StageReport& stage = mapper.stages().back();
+  ASSERT_EQ(stage.name, "tracks");
+  EXPECT_EQ(stage.figures.back().first, "dropped (max_num_tracks)");
+  EXPECT_EQ(stage.figures.back().second, num_tracks - 300.0);
+  // The longest tracks are the ones kept.
+  size_t shortest_kept = mapper.tracks().front().size();
+  for (const Track& track : mapper.tracks()) {
+    shortest_kept = std::min(shortest_kept, track.size());
+  }
+  size_t num_longer = 0;
+  for (const Track& track : uncapped.tracks()) {
+    num_longer += track.size() > shortest_kept ? 1 : 0;
+  }
+  EXPECT_LE(num_longer, 300u);
+  // The capped model is still mapped completely.
+  ASSERT_TRUE(mapper.Positioning() && mapper.IterativeBundleAdjustment() &&
+              mapper.Finalize());
+  EXPECT_EQ(mapper.reconstruction().images.size(), s.images.size());
+  EXPECT_LE(mapper.reconstruction().points3D.size(), 300u);
+}
+
 TEST(GlobalMapperStages, RunIsTheStagesInOrder) {
   const StageScene s = MakeStageScene();
   GlobalMapper by_stage(TestOptions(), s.database, s.database.cameras, s.images,

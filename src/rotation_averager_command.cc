@@ -181,8 +181,8 @@ int RunRotationAverager(int argc, char** argv) {
   if (!options.Parse(argc, argv)) return 0;
   // The user's thread count bounds every stage: the view graph's workers, the
   // Ceres solves and any BLAS / OpenMP runtime loaded with them.
-  builder_options.num_threads = averager_options.ira.engine.num_threads;
-  LimitBlasThreads(averager_options.ira.engine.num_threads);
+  builder_options.num_threads = averager_options.irav4.engine.num_threads;
+  LimitBlasThreads(averager_options.irav4.engine.num_threads);
   const int num_inputs =
       !relpose_path.empty() + !database_path.empty() + !eg_path.empty();
   if (num_inputs != 1) {

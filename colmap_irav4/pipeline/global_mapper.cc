@@ -491,19 +491,19 @@ void GlobalMapperOptions::Check() const {
 
 GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   GlobalMapperOptions stages = *this;
-  stages.view_graph.num_threads = num_threads;
-  stages.global_positioning.num_threads = num_threads;
-  stages.bundle_adjustment.num_threads = num_threads;
-  stages.translation_averaging.num_threads = num_threads;
-  stages.rotation_averaging.ira.engine.num_threads =
-      ResolveNumThreads(num_threads);
   const bool show_progress =
       progress == 1 ||
       (progress == -1 && (isatty(fileno(stderr)) || num_images >= 100));
-  stages.global_positioning.show_progress_bar = show_progress;
-  stages.bundle_adjustment.show_progress_bar = show_progress;
-  stages.translation_averaging.show_progress_bar = show_progress;
+  stages.view_graph.num_threads = num_threads;
+  stages.rotation_averaging.irav4.engine.num_threads =
+      ResolveNumThreads(num_threads);
   stages.rotation_averaging.log_progress = show_progress;
+  for (SolverOptions* solver :
+       {&stages.global_positioning.solver, &stages.translation_averaging.solver,
+        &stages.bundle_adjustment.solver}) {
+    solver->ceres.num_threads = num_threads;
+    solver->show_progress_bar = show_progress;
+  }
   return stages;
 }
 

@@ -120,7 +120,7 @@ void AddRotationAveragerOptions(OptionManager* options,
                                 RotationAveragerOptions* o) {
   const std::string p = "RotationAveraging.";
   // The incremental engine (IRA and the methods built on it).
-  IncrementalOptions* engine = &o->ira.engine;
+  IncrementalOptions* engine = &o->irav4.engine;
   options->Add(p + "theta_deg", &engine->theta_deg,
                "IRA: outlier threshold theta (deg)");
   options->Add(p + "global_growth_ratio", &engine->global_growth_ratio,
@@ -141,7 +141,9 @@ void AddRotationAveragerOptions(OptionManager* options,
                "IRA (use_ceres): sparse Cholesky up to this many cameras, "
                "CG above");
   options->Add(p + "num_threads", &engine->num_threads,
-               "IRA: Ceres threads (with use_ceres)");
+               "IRA/IRAv4: threads (IRAv4: cluster seeds, clusters beside "
+               "the reference, same result for any count; Ceres with "
+               "use_ceres)");
   options->Add(p + "use_ceres", &engine->use_ceres,
                "IRA: Ceres for Eq. 3/10/12 instead of Gauss-Newton on the "
                "sparse Laplacian (the previous, slower engine)");
@@ -150,7 +152,7 @@ void AddRotationAveragerOptions(OptionManager* options,
                "IRA: Gauss-Newton steps of an intermediate global "
                "optimisation (the final ones converge)");
   AddIrav4Options(options, &o->irav4);
-  L1IrlsOptions* l1 = &o->l1_irls;
+  L1IrlsOptions* l1 = &o->irav4.refinement;
   options->Add(p + "l1_max_iterations", &l1->l1_max_iterations,
                "L1-IRLS: relinearised L1 steps");
   options->Add(p + "l1_step_tolerance_deg", &l1->l1_step_tolerance_deg,
@@ -200,12 +202,7 @@ void AddGlobalPositioningOptions(OptionManager* manager,
   manager->Add("GlobalPositioning.max_angular_error_deg",
                &gp.max_angular_error_deg,
                "observations disagreeing more are unlinked (deg)");
-  manager->Add("GlobalPositioning.max_num_iterations", &gp.max_num_iterations,
-               "Ceres iterations");
-  manager->Add("GlobalPositioning.function_tolerance", &gp.function_tolerance,
-               "Ceres function tolerance");
-  manager->Add("GlobalPositioning.print_progress", &gp.print_progress,
-               "print Ceres' iterations");
+  AddSolverOptions(manager, "GlobalPositioning.", &gp.solver);
 }
 
 void AddTranslationAveragingOptions(OptionManager* manager,
@@ -216,6 +213,28 @@ void AddTranslationAveragingOptions(OptionManager* manager,
                "huber, cauchy or trivial");
   manager->Add("TranslationAveraging.loss_scale", &ta.loss_scale,
                "robust loss scale");
+  AddSolverOptions(manager, "TranslationAveraging.", &ta.solver);
+}
+
+void AddSolverOptions(OptionManager* manager, const std::string& prefix,
+                      SolverOptions* options) {
+  ceres::Solver::Options& ceres = options->ceres;
+  manager->Add(prefix + "max_num_iterations", &ceres.max_num_iterations,
+               "Ceres iterations per solve");
+  manager->Add(prefix + "function_tolerance", &ceres.function_tolerance,
+               "Ceres: stop when the cost changes by less than this fraction");
+  manager->Add(prefix + "gradient_tolerance", &ceres.gradient_tolerance,
+               "Ceres: stop when the gradient's max-norm falls below this "
+               "(relative)");
+  manager->Add(prefix + "parameter_tolerance", &ceres.parameter_tolerance,
+               "Ceres: stop when a step changes the parameters by less than "
+               "this fraction");
+  manager->Add(prefix + "initial_trust_region_radius",
+               &ceres.initial_trust_region_radius,
+               "Levenberg-Marquardt's initial trust region radius (large: "
+               "solves reach the optimum's flat directions)");
+  manager->Add(prefix + "print_progress", &ceres.minimizer_progress_to_stdout,
+               "print Ceres' iterations and full report");
 }
 
 void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
@@ -236,18 +255,9 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "solve + filter rounds per bundle adjustment");
   manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
                "observations over this error are removed between rounds (px)");
-  manager->Add("BundleAdjustment.max_num_iterations", &ba.max_num_iterations,
-               "Ceres iterations per round");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
                "auto, sparse_schur, dense_schur or iterative_schur");
-  manager->Add("BundleAdjustment.function_tolerance", &ba.function_tolerance,
-               "Ceres function tolerance");
-  manager->Add("BundleAdjustment.print_progress", &ba.print_progress,
-               "print Ceres' iterations");
-  manager->Add("BundleAdjustment.initial_trust_region_radius",
-               &ba.initial_trust_region_radius,
-               "Levenberg-Marquardt's initial trust region radius (large: "
-               "solves reach the optimum's flat directions)");
+  AddSolverOptions(manager, "BundleAdjustment.", &ba.solver);
 }
 
 void AddFilterOptions(OptionManager* manager, FilterOptions* o) {

@@ -41,6 +41,11 @@ void AddGlobalPositioningOptions(OptionManager* manager,
                                  GlobalPositionerOptions* options);
 void AddTranslationAveragingOptions(OptionManager* manager,
                                     TranslationAveragingOptions* options);
+// --<prefix>max_num_iterations, function_tolerance, gradient_tolerance,
+// parameter_tolerance, initial_trust_region_radius, print_progress (the
+// stages' Ceres settings; their threads and progress bars are --Mapper.*).
+void AddSolverOptions(OptionManager* manager, const std::string& prefix,
+                      SolverOptions* options);
 void AddTriangulationOptions(OptionManager* manager,
                              TriangulationOptions* options);
 void AddBundleAdjustmentOptions(OptionManager* manager,

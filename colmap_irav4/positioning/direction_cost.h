@@ -1,7 +1,5 @@
 #pragma once
 
-#include <string>
-
 #include <ceres/ceres.h>
 #include <Eigen/Core>
 
@@ -34,13 +32,5 @@ struct ProjectedDirectionCost {
 
   const Eigen::Vector3d direction_;
 };
-
-// "huber", "cauchy" or "trivial" (nullptr).
-inline ceres::LossFunction* CreateLossFunction(const std::string& name,
-                                               double scale) {
-  if (name == "huber") return new ceres::HuberLoss(scale);
-  if (name == "cauchy") return new ceres::CauchyLoss(scale);
-  return nullptr;
-}
 
 }  // namespace colmap_irav4

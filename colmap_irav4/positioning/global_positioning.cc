@@ -18,13 +18,19 @@
 
 namespace colmap_irav4 {
 
+GlobalPositionerOptions::GlobalPositionerOptions() {
+  solver.ceres.max_num_iterations = 200;
+  solver.ceres.function_tolerance = 1e-3;
+  solver.ceres.gradient_tolerance = 1e-10;
+  solver.ceres.parameter_tolerance = 1e-4;
+}
+
 void GlobalPositionerOptions::Check() const {
   if (min_track_length < 2) {
     throw OptionError(&min_track_length, "GlobalPositioning.min_track_length",
                       "must be at least 2");
   }
-  if (loss_function != "huber" && loss_function != "cauchy" &&
-      loss_function != "trivial") {
+  if (!IsLossFunction(loss_function)) {
     throw OptionError(
         &loss_function, "GlobalPositioning.loss_function",
         "must be huber, cauchy or trivial, not '" + loss_function + "'");
@@ -43,15 +49,7 @@ void GlobalPositionerOptions::Check() const {
                       "GlobalPositioning.max_angular_error_deg",
                       "must be in [0, 180)");
   }
-  if (max_num_iterations < 1) {
-    throw OptionError(&max_num_iterations,
-                      "GlobalPositioning.max_num_iterations",
-                      "must be positive");
-  }
-  if (!(function_tolerance >= 0)) {
-    throw OptionError(&function_tolerance,
-                      "GlobalPositioning.function_tolerance", "must be >= 0");
-  }
+  solver.Check("GlobalPositioning.");
 }
 
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
@@ -162,16 +160,16 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   }
   problem.SetParameterBlockConstant(centers.at(gauge_image_id).data());
 
-  ceres::Solver::Options solver_options;
+  SolverOptions solver = options.solver;
   // The scales are eliminated in the cost (ProjectedDirectionCost), so Schur
   // elimination of the points leaves a camera-sized system: on a synthetic
   // 100-image scene (200k observations) 13 s with explicit scales and a sparse
   // Cholesky, DENSE_SCHUR/SPARSE_SCHUR here.
-  solver_options.linear_solver_type =
+  solver.ceres.linear_solver_type =
       centers.size() < 50 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
-  solver_options.linear_solver_ordering = ordering;
+  solver.ceres.linear_solver_ordering = ordering;
   const ceres::Solver::Summary solver_summary =
-      SolveProblem("global positioning", options, solver_options, &problem);
+      SolveProblem("global positioning", solver, &problem);
 
   local_summary.num_observations = observations.size();
   local_summary.num_iterations = solver_summary.iterations.size();

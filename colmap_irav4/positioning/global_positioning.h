@@ -4,6 +4,7 @@
 #include <string>
 
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/ceres_solve.h"
 
 namespace colmap_irav4 {
 
@@ -37,19 +38,13 @@ struct GlobalPositionerOptions {
   // After solving, observations whose bearing disagrees with the estimated
   // camera-to-point direction by more than this (deg) are unlinked; 0: keep.
   double max_angular_error_deg = 5.0;
-  // Ceres.
-  int max_num_iterations = 200;
-  // Loose: this is the initialisation of bundle adjustment. On fountain-P11
-  // 1e-3 / 1e-4 take 9 iterations instead of 39 (1.3 s instead of 4.7 s) and
-  // give the same model after bundle adjustment.
-  double function_tolerance = 1e-3;
-  double gradient_tolerance = 1e-10;
-  double parameter_tolerance = 1e-4;
-  // -1: the hardware concurrency.
-  int num_threads = -1;
-  bool print_progress = false;     // Ceres' per-iteration log
-  bool show_progress_bar = false;  // progress bar over the iterations
+  // Ceres: 200 iterations; loose tolerances (function 1e-3, parameter 1e-4),
+  // as this is the initialisation of bundle adjustment: on fountain-P11 they
+  // take 9 iterations instead of 39 (1.3 s instead of 4.7 s) and give the
+  // same model after bundle adjustment.
+  SolverOptions solver;
 
+  GlobalPositionerOptions();
   // Throws InputError naming the offending option.
   void Check() const;
 };
@@ -76,7 +71,5 @@ struct GlobalPositionerSummary {
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           Reconstruction* reconstruction,
                           GlobalPositionerSummary* summary = nullptr);
-
-// Shared by global positioning and translation averaging.
 
 }  // namespace colmap_irav4

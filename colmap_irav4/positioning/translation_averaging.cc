@@ -10,7 +10,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/positioning/direction_cost.h"  // CreateLossFunction
+#include "colmap_irav4/positioning/direction_cost.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
@@ -116,9 +116,15 @@ bool LinearInitialization(
 
 }  // namespace
 
+TranslationAveragingOptions::TranslationAveragingOptions() {
+  solver.ceres.max_num_iterations = 200;
+  solver.ceres.function_tolerance = 1e-7;
+  solver.ceres.gradient_tolerance = 1e-10;
+  solver.ceres.parameter_tolerance = 1e-8;
+}
+
 void TranslationAveragingOptions::Check() const {
-  if (loss_function != "huber" && loss_function != "cauchy" &&
-      loss_function != "trivial") {
+  if (!IsLossFunction(loss_function)) {
     throw OptionError(
         &loss_function, "TranslationAveraging.loss_function",
         "must be huber, cauchy or trivial, not '" + loss_function + "'");
@@ -140,11 +146,7 @@ void TranslationAveragingOptions::Check() const {
                       "TranslationAveraging.max_angular_error_deg",
                       "must be in [0, 180)");
   }
-  if (max_num_iterations < 1) {
-    throw OptionError(&max_num_iterations,
-                      "TranslationAveraging.max_num_iterations",
-                      "must be positive");
-  }
+  solver.Check("TranslationAveraging.");
 }
 
 bool RunTranslationAveraging(const TranslationAveragingOptions& options,
@@ -223,11 +225,11 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
     }
     problem.SetParameterBlockConstant(centers.at(gauge_image_id).data());
 
-    ceres::Solver::Options solver_options;
+    SolverOptions solver = options.solver;
     // One block per image and pair: a sparse Cholesky of the normal equations.
-    solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    const ceres::Solver::Summary solver_summary = SolveProblem(
-        "translation averaging", options, solver_options, &problem);
+    solver.ceres.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    const ceres::Solver::Summary solver_summary =
+        SolveProblem("translation averaging", solver, &problem);
     local_summary.num_iterations += solver_summary.iterations.size();
     local_summary.num_pairs = constraints.size();
     if (!solver_summary.IsSolutionUsable()) {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/view_graph/view_graph.h"
 
 namespace colmap_irav4 {
@@ -36,15 +37,10 @@ struct TranslationAveragingOptions {
   // Pairs whose direction disagrees with the result by more than this (deg)
   // are counted as outliers in the summary (0: not counted).
   double max_angular_error_deg = 5.0;
-  // Ceres.
-  int max_num_iterations = 200;
-  double function_tolerance = 1e-7;
-  double gradient_tolerance = 1e-10;
-  double parameter_tolerance = 1e-8;
-  int num_threads = -1;            // -1: the hardware concurrency
-  bool print_progress = false;     // Ceres' per-iteration log
-  bool show_progress_bar = false;  // progress bar over the iterations
+  // Ceres: 200 iterations, function tolerance 1e-7, parameter 1e-8.
+  SolverOptions solver;
 
+  TranslationAveragingOptions();
   // Throws InputError naming the offending option.
   void Check() const;
 };

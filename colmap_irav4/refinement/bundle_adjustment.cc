@@ -70,10 +70,10 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
 
 // "huber" is iteratively reweighted: each solve weighs an observation by
 // Huber's weight min(1, scale / error) at its error when the solve starts
-// (the rounds update the weights). Ceres' HuberLoss makes Levenberg-Marquardt
-// crawl whenever many residuals sit in the linear region (its corrector drops
-// their curvature): 59 iterations instead of 12 on fountain-P11 for the same
-// result.
+// (the rounds update the weights). Ceres' HuberLoss ("huber_ceres") makes
+// Levenberg-Marquardt crawl whenever many residuals sit in the linear region
+// (its corrector drops their curvature): 59 iterations instead of 12 on
+// fountain-P11 for the same result. The others: CreateLossFunction.
 ceres::LossFunction* MakeLoss(const std::string& name, double scale,
                               double error) {
   if (name == "huber") {
@@ -81,9 +81,7 @@ ceres::LossFunction* MakeLoss(const std::string& name, double scale,
                                                  ceres::TAKE_OWNERSHIP)
                          : nullptr;
   }
-  if (name == "huber_ceres") return new ceres::HuberLoss(scale);
-  if (name == "cauchy") return new ceres::CauchyLoss(scale);
-  return nullptr;
+  return CreateLossFunction(name == "huber_ceres" ? "huber" : name, scale);
 }
 
 // One solve. Returns the Ceres summary.
@@ -176,27 +174,32 @@ ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
     }
   }
 
-  ceres::Solver::Options solver_options;
+  SolverOptions solver = options.solver;
   if (options.linear_solver == "dense_schur" ||
       (options.linear_solver == "auto" && used_images.size() < 50)) {
-    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    solver.ceres.linear_solver_type = ceres::DENSE_SCHUR;
   } else if (options.linear_solver == "iterative_schur") {
-    solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
-    solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+    solver.ceres.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    solver.ceres.preconditioner_type = ceres::SCHUR_JACOBI;
   } else {
-    solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+    solver.ceres.linear_solver_type = ceres::SPARSE_SCHUR;
   }
-  if (options.refine_points) solver_options.linear_solver_ordering = ordering;
-  solver_options.initial_trust_region_radius =
-      options.initial_trust_region_radius;
-  return SolveProblem("bundle adjustment", options, solver_options, &problem);
+  if (options.refine_points) solver.ceres.linear_solver_ordering = ordering;
+  return SolveProblem("bundle adjustment", solver, &problem);
 }
 
 }  // namespace
 
+BundleAdjustmentOptions::BundleAdjustmentOptions() {
+  solver.ceres.max_num_iterations = 100;
+  solver.ceres.function_tolerance = 1e-5;
+  solver.ceres.gradient_tolerance = 1e-10;
+  solver.ceres.parameter_tolerance = 1e-8;
+  solver.ceres.initial_trust_region_radius = 1e8;
+}
+
 void BundleAdjustmentOptions::Check() const {
-  if (loss_function != "huber" && loss_function != "huber_ceres" &&
-      loss_function != "cauchy" && loss_function != "trivial") {
+  if (!IsLossFunction(loss_function) && loss_function != "huber_ceres") {
     throw OptionError(&loss_function, "BundleAdjustment.loss_function",
                       "must be huber, huber_ceres, cauchy or trivial, not '" +
                           loss_function + "'");
@@ -222,20 +225,7 @@ void BundleAdjustmentOptions::Check() const {
         &linear_solver, "BundleAdjustment.linear_solver",
         "must be auto, sparse_schur, dense_schur or iterative_schur");
   }
-  if (max_num_iterations < 1) {
-    throw OptionError(&max_num_iterations,
-                      "BundleAdjustment.max_num_iterations",
-                      "must be positive");
-  }
-  if (!(function_tolerance >= 0)) {
-    throw OptionError(&function_tolerance,
-                      "BundleAdjustment.function_tolerance", "must be >= 0");
-  }
-  if (!(initial_trust_region_radius > 0)) {
-    throw OptionError(&initial_trust_region_radius,
-                      "BundleAdjustment.initial_trust_region_radius",
-                      "must be positive");
-  }
+  solver.Check("BundleAdjustment.");
 }
 
 bool RunBundleAdjustment(const BundleAdjustmentOptions& options,

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/ceres_solve.h"
 
 namespace colmap_irav4 {
 
@@ -45,15 +46,11 @@ struct BundleAdjustmentOptions {
   // "auto" (COLMAP's rule: DENSE_SCHUR below 50 images, else SPARSE_SCHUR),
   // "sparse_schur", "dense_schur", "iterative_schur".
   std::string linear_solver = "auto";
-  // Ceres.
-  int max_num_iterations = 100;
-  // 1e-5: on fountain-P11 20 instead of 30 iterations over the two bundle
-  // adjustments of the pipeline, same accuracy against the ground truth.
-  double function_tolerance = 1e-5;
-  double gradient_tolerance = 1e-10;
-  double parameter_tolerance = 1e-8;
-  // Levenberg-Marquardt's initial trust region (Ceres' default: 1e4). Its
-  // damping (diag(J^T J) / radius) smothers the weakly constrained
+  // Ceres: 100 iterations per solve; function tolerance 1e-5 (on
+  // fountain-P11 20 instead of 30 iterations over the two bundle adjustments
+  // of the pipeline, same accuracy against the ground truth), parameter 1e-8.
+  // Levenberg-Marquardt's initial trust region 1e8 (Ceres' default: 1e4):
+  // its damping (diag(J^T J) / radius) smothers the weakly constrained
   // directions of a bundle adjustment (camera centres along the flat valleys
   // of the cost): from 1e4 the radius grows 3x per iteration and the
   // function tolerance stops the solve long before those directions have
@@ -61,11 +58,9 @@ struct BundleAdjustmentOptions {
   // is at 5.0 mm, the cost within 3e-5 of it; COLMAP 3.8: 5.5 mm). 1e8
   // reaches it in fewer iterations; steps that do not fit are rejected and
   // the radius shrinks, so a large start costs little.
-  double initial_trust_region_radius = 1e8;
-  int num_threads = -1;            // -1: the hardware concurrency
-  bool print_progress = false;     // Ceres' per-iteration log
-  bool show_progress_bar = false;  // progress bar over the iterations
+  SolverOptions solver;
 
+  BundleAdjustmentOptions();
   // Throws InputError naming the offending option.
   void Check() const;
 };

@@ -50,8 +50,10 @@ struct IncrementalOptions {
   // dense rotation graph is well conditioned for CG. 400 vertices keep a
   // dense factor under ~1e9 flops. 0 = always direct.
   int max_direct_solver_vertices = 400;
-  // Ceres threads (use_ceres); 1 keeps the output bit-identical from run to
-  // run.
+  // Threads: IRAv4 finds its cluster seeds, grows its clusters beside its
+  // reference and optimises its clusters in parallel (the same result for
+  // any count); Ceres threads with use_ceres (1 keeps its output
+  // bit-identical from run to run).
   int num_threads = 1;
   // The problems of Eq. 3, 10 and 12 with Ceres (autodiff, the previous
   // engine: 6-10x slower on dense graphs) instead of Gauss-Newton in the

@@ -9,6 +9,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/cds.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -339,6 +340,7 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   auto to_input = [&](int v) { return whole ? v : components.front()[v]; };
   const int n = graph.NumVertices();
   report_.num_vertices = n;
+  const int num_threads = ResolveNumThreads(options_.engine.num_threads);
 
   // 1. Communities and one seed triplet each (Eq. 1-4 inside the community).
   const std::vector<std::vector<int>> communities =
@@ -353,17 +355,23 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   std::vector<bool> affiliated(n, false);
   std::shared_ptr<const IncrementalEngine::AdjacencyList> adjacency =
       IncrementalEngine::BuildAdjacency(graph);
-  for (size_t k = 0; k < communities.size(); ++k) {
-    if (communities[k].size() < 3) continue;
+  // The communities' seeds are independent: found in parallel, collected in
+  // community order (the same clusters for any thread count).
+  std::vector<std::unique_ptr<IncrementalEngine>> seeded(communities.size());
+  ParallelFor(num_threads, communities.size(), [&](size_t k) {
+    if (communities[k].size() < 3) return;
     // All vertices allowed for now; the potential clusters are set below,
     // once it is known which communities seeded a cluster.
     auto cluster = std::make_unique<IncrementalEngine>(
         graph, options_.engine, std::vector<bool>(), adjacency);
-    if (!cluster->InitializeFromBestTriplet(MaskOf(n, communities[k]))) {
-      continue;
+    if (cluster->InitializeFromBestTriplet(MaskOf(n, communities[k]))) {
+      seeded[k] = std::move(cluster);
     }
-    for (int v : cluster->Selected()) affiliated[v] = true;
-    clusters.push_back(std::move(cluster));
+  });
+  for (size_t k = 0; k < communities.size(); ++k) {
+    if (!seeded[k]) continue;
+    for (int v : seeded[k]->Selected()) affiliated[v] = true;
+    clusters.push_back(std::move(seeded[k]));
     cluster_community.push_back(static_cast<int>(k));
   }
   if (clusters.empty()) {
@@ -450,96 +458,119 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       << num_clusters << " cluster seeds ("
       << result.stage_seconds.back().second << " s)";
 
+  // 2 and 3 side by side (with num_threads >= 2): the reference depends on
+  // the graph only, not on the clusters, so both results are the same for
+  // any thread count.
+  //
   // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
   // clusters joins, by normalised reward. A cluster's best candidate only
   // changes when the cluster grows or its candidate is taken by another
   // cluster, so it is cached. A second pass (fallback) lets every cluster
   // take any adjacent vertex that no pre-selected pair reached.
-  timer.Restart();
-  std::vector<IncrementalEngine::Candidate> best(num_clusters);
-  std::vector<double> best_score(num_clusters, 0.0);
-  std::vector<bool> stale(num_clusters, true);
-  int num_affiliated = 0;
-  for (bool a : affiliated) num_affiliated += a;
-  const int max_size = options_.max_cluster_size;
-  for (int pass = 0; pass < 2 && num_affiliated < n; ++pass) {
-    const bool fallback = pass == 1;
-    if (fallback) {
-      for (int c = 0; c < num_clusters; ++c) {
-        for (int v = 0; v < n; ++v) {
-          if (!affiliated[v]) {
-            clusters[c]->Allow(v);
-            potential[c][v] = true;
+  double clustering_seconds = 0.0;
+  auto grow_clusters = [&]() {
+    Timer clustering_timer;
+    std::vector<IncrementalEngine::Candidate> best(num_clusters);
+    std::vector<double> best_score(num_clusters, 0.0);
+    std::vector<bool> stale(num_clusters, true);
+    int num_affiliated = 0;
+    for (bool a : affiliated) num_affiliated += a;
+    const int max_size = options_.max_cluster_size;
+    for (int pass = 0; pass < 2 && num_affiliated < n; ++pass) {
+      const bool fallback = pass == 1;
+      if (fallback) {
+        for (int c = 0; c < num_clusters; ++c) {
+          for (int v = 0; v < n; ++v) {
+            if (!affiliated[v]) {
+              clusters[c]->Allow(v);
+              potential[c][v] = true;
+            }
           }
+          stale[c] = true;
         }
-        stale[c] = true;
       }
+      while (num_affiliated < n) {
+        int chosen = -1;
+        for (int c = 0; c < num_clusters; ++c) {
+          if (!fallback && max_size > 0 &&
+              clusters[c]->NumSelected() >= max_size) {
+            continue;
+          }
+          if (stale[c]) {
+            best[c] = clusters[c]->BestCandidate();
+            best_score[c] =
+                best[c].vertex < 0
+                    ? 0.0
+                    : best[c].reward / edges_into_potential(c, best[c].vertex);
+            stale[c] = false;
+          }
+          if (best[c].vertex < 0) continue;
+          if (chosen < 0 || best_score[c] > best_score[chosen]) chosen = c;
+        }
+        if (chosen < 0) break;  // nothing reachable in this pass
+        const IncrementalEngine::Candidate candidate = best[chosen];
+        CHECK(!affiliated[candidate.vertex]);
+        clusters[chosen]->AddVertex(candidate);
+        affiliated[candidate.vertex] = true;
+        ++num_affiliated;
+        LOG_IF(INFO,
+               options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
+            << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
+            << " vertices (" << clustering_timer.ElapsedSeconds() << " s)";
+        stale[chosen] = true;
+        for (int c = 0; c < num_clusters; ++c) {
+          if (c == chosen) continue;
+          if (!clusters[c]->IsExcluded(candidate.vertex)) {
+            clusters[c]->Exclude(candidate.vertex);
+          }
+          if (best[c].vertex == candidate.vertex) stale[c] = true;
+        }
+      }
+      if (!fallback) report_.num_fallback_vertices = n - num_affiliated;
     }
-    while (num_affiliated < n) {
-      int chosen = -1;
-      for (int c = 0; c < num_clusters; ++c) {
-        if (!fallback && max_size > 0 &&
-            clusters[c]->NumSelected() >= max_size) {
-          continue;
-        }
-        if (stale[c]) {
-          best[c] = clusters[c]->BestCandidate();
-          best_score[c] =
-              best[c].vertex < 0
-                  ? 0.0
-                  : best[c].reward / edges_into_potential(c, best[c].vertex);
-          stale[c] = false;
-        }
-        if (best[c].vertex < 0) continue;
-        if (chosen < 0 || best_score[c] > best_score[chosen]) chosen = c;
-      }
-      if (chosen < 0) break;  // nothing reachable in this pass
-      const IncrementalEngine::Candidate candidate = best[chosen];
-      CHECK(!affiliated[candidate.vertex]);
-      clusters[chosen]->AddVertex(candidate);
-      affiliated[candidate.vertex] = true;
-      ++num_affiliated;
-      LOG_IF(INFO,
-             options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
-          << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
-          << " vertices (" << timer.ElapsedSeconds() << " s)";
-      stale[chosen] = true;
-      for (int c = 0; c < num_clusters; ++c) {
-        if (c == chosen) continue;
-        if (!clusters[c]->IsExcluded(candidate.vertex)) {
-          clusters[c]->Exclude(candidate.vertex);
-        }
-        if (best[c].vertex == candidate.vertex) stale[c] = true;
-      }
+    // Each cluster's last optimisation touches only its own engine.
+    ParallelFor(num_threads, clusters.size(),
+                [&](size_t c) { clusters[c]->GlobalOptimize(); });
+    for (auto& cluster : clusters) {
+      report_.cluster_sizes.push_back(
+          static_cast<int>(cluster->Selected().size()));
     }
-    if (!fallback) report_.num_fallback_vertices = n - num_affiliated;
-  }
-  for (auto& cluster : clusters) {
-    cluster->GlobalOptimize();
-    report_.cluster_sizes.push_back(
-        static_cast<int>(cluster->Selected().size()));
-  }
-  result.stage_seconds.emplace_back("on_the_fly_clustering",
-                                    timer.ElapsedSeconds());
-  if (options_.log_progress) {
-    std::string sizes;
-    for (int size : report_.cluster_sizes) sizes += " " + std::to_string(size);
-    LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
-              << report_.num_fallback_vertices << " placed by the fallback "
-              << "pass, " << result.stage_seconds.back().second << " s)";
-  }
-
+    clustering_seconds = clustering_timer.ElapsedSeconds();
+    if (options_.log_progress) {
+      std::string sizes;
+      for (int size : report_.cluster_sizes) {
+        sizes += " " + std::to_string(size);
+      }
+      LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
+                << report_.num_fallback_vertices << " placed by the fallback "
+                << "pass, " << clustering_seconds << " s)";
+    }
+  };
   // 3. The alignment reference.
-  timer.Restart();
-  const AlignmentReference reference = BuildAlignmentReference(
-      graph, options_, ReferenceMethodFromString(options_.reference_method));
+  AlignmentReference reference;
+  double reference_seconds = 0.0;
+  auto build_reference = [&]() {
+    Timer reference_timer;
+    reference = BuildAlignmentReference(
+        graph, options_, ReferenceMethodFromString(options_.reference_method));
+    reference_seconds = reference_timer.ElapsedSeconds();
+  };
+  ParallelFor(std::min(num_threads, 2), 2, [&](size_t task) {
+    if (task == 0) {
+      grow_clusters();
+    } else {
+      build_reference();
+    }
+  });
+  result.stage_seconds.emplace_back("on_the_fly_clustering",
+                                    clustering_seconds);
   report_.n_ref = static_cast<int>(reference.vertices.size());
-  result.stage_seconds.emplace_back("reference", timer.ElapsedSeconds());
+  result.stage_seconds.emplace_back("reference", reference_seconds);
   LOG_IF(INFO, options_.log_progress)
       << "IRAv4: " << options_.reference_method
       << " reference n_ref = " << report_.n_ref
       << (reference.is_cds ? " (connected dominating)" : "") << " ("
-      << result.stage_seconds.back().second << " s)";
+      << reference_seconds << " s)";
 
   // 4. Common-vertex-guided alignment of each cluster and global alignment.
   timer.Restart();

@@ -26,7 +26,8 @@ std::string ReferenceMethodToString(ReferenceMethod method);
 
 struct Irav4Options {
   // Engine parameters (theta = outlier threshold, 5% global growth ratio),
-  // shared by the reference, the clusters and the final optimisation.
+  // shared by the reference, the clusters and the final optimisation; in
+  // RotationAveragerOptions also the ira method's.
   IncrementalOptions engine;
   // Community detection for the cluster seeds.
   CommunityDetectionOptions communities;
@@ -77,7 +78,7 @@ struct Irav4Options {
   double reseed_threshold_deg = 15.0;
   double reseed_support_fraction = 0.5;
   // Parameters of the refinement (l1_*, irls_*, gm_sigma_deg, linear
-  // solver). The factory shares L1-IRLS's.
+  // solver); in RotationAveragerOptions also the l1_irls method's.
   L1IrlsOptions refinement;
   // Log a line per stage and every 10% of the on-the-fly clustering.
   bool log_progress = false;

@@ -17,8 +17,6 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
       {"irav4",
        [](const RotationAveragerOptions& o) {
          Irav4Options irav4 = o.irav4;
-         irav4.engine = o.ira.engine;   // one set of engine options
-         irav4.refinement = o.l1_irls;  // one set of IRLS options
          irav4.log_progress = irav4.log_progress || o.log_progress;
          return std::make_unique<Irav4>(irav4);
        }},
@@ -27,21 +25,20 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
       {"irav4_paper",
        [](const RotationAveragerOptions& o) {
          Irav4Options irav4 = o.irav4;
-         irav4.engine = o.ira.engine;
-         irav4.refinement = o.l1_irls;
          irav4.final_refinement = "none";
          irav4.log_progress = irav4.log_progress || o.log_progress;
          return std::make_unique<Irav4>(irav4);
        }},
       {"ira",
        [](const RotationAveragerOptions& o) {
-         IraOptions ira = o.ira;
-         ira.progress = ira.progress || o.log_progress;
+         IraOptions ira;
+         ira.engine = o.irav4.engine;
+         ira.progress = o.log_progress;
          return std::make_unique<Ira>(ira);
        }},
       {"l1_irls",
        [](const RotationAveragerOptions& o) {
-         L1IrlsOptions l1_irls = o.l1_irls;
+         L1IrlsOptions l1_irls = o.irav4.refinement;
          l1_irls.log_progress = l1_irls.log_progress || o.log_progress;
          return std::make_unique<L1IrlsAverager>(l1_irls);
        }},
@@ -55,14 +52,7 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
 
 }  // namespace
 
-void RotationAveragerOptions::Check() const {
-  ira.Check();
-  Irav4Options irav4_with_engine = irav4;
-  irav4_with_engine.engine = ira.engine;
-  irav4_with_engine.refinement = l1_irls;
-  irav4_with_engine.Check();
-  l1_irls.Check();
-}
+void RotationAveragerOptions::Check() const { irav4.Check(); }
 
 std::vector<std::string> RotationAveragerMethods() {
   std::vector<std::string> names;

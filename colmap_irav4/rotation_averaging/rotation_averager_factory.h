@@ -12,11 +12,11 @@
 namespace colmap_irav4 {
 
 // The options of every rotation averaging method, exposed on the command
-// line as --RotationAveraging.<name>.
+// line as --RotationAveraging.<name>. One set each: IRAv4's engine is also
+// the ira method's, and IRAv4's refinement (L1-IRLS' settings) also the
+// l1_irls method's.
 struct RotationAveragerOptions {
-  IraOptions ira;  // its engine options are IRAv4's too
   Irav4Options irav4;
-  L1IrlsOptions l1_irls;
   // Log progress lines during long runs.
   bool log_progress = false;
 

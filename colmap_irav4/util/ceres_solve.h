@@ -3,54 +3,42 @@
 #include <string>
 
 #include <ceres/ceres.h>
-#include <glog/logging.h>
-
-#include "colmap_irav4/util/progress_bar.h"
-#include "colmap_irav4/util/threading.h"
 
 namespace colmap_irav4 {
 
-// Advances a ProgressBar by the iterations of a Ceres solve (out of its
-// max_num_iterations; finished when the solver stops early).
-class CeresProgressCallback : public ceres::IterationCallback {
- public:
-  explicit CeresProgressCallback(ProgressBar* bar) : bar_(bar) {}
-  ceres::CallbackReturnType operator()(
-      const ceres::IterationSummary& summary) override {
-    bar_->Update(summary.iteration);
-    return ceres::SOLVER_CONTINUE;
-  }
+// The Ceres settings of a stage that solves with Ceres (bundle adjustment,
+// global positioning, translation averaging): one member of each stage's
+// options struct, as COLMAP's and GLOMAP's solver_options, registered once
+// per stage prefix (pipeline/option_registration) and checked here.
+struct SolverOptions {
+  // Ceres' defaults, except num_threads = -1 (all cores).
+  SolverOptions();
 
- private:
-  ProgressBar* bar_;
+  // Ceres' own options. The stages read max_num_iterations,
+  // function/gradient/parameter_tolerance, initial_trust_region_radius,
+  // num_threads (-1: all cores, resolved when solving) and
+  // minimizer_progress_to_stdout (Ceres' per-iteration log and full report);
+  // each stage chooses the linear solver and ordering itself.
+  ceres::Solver::Options ceres;
+  // A progress bar over the iterations.
+  bool show_progress_bar = false;
+
+  // Throws OptionError naming `prefix` + the option (e.g.
+  // "BundleAdjustment.max_num_iterations").
+  void Check(const std::string& prefix) const;
 };
 
-// Solves `problem` with the linear solver already chosen in `solver_options`
-// and the settings every stage's options struct shares (max_num_iterations,
-// function/gradient/parameter_tolerance, num_threads, print_progress: Ceres'
-// per-iteration log and full report; show_progress_bar: a progress bar named
-// `label`).
-template <typename StageOptions>
+// Solves `problem` with `options` (a progress bar named `label` with
+// show_progress_bar). Returns Ceres' summary.
 ceres::Solver::Summary SolveProblem(const std::string& label,
-                                    const StageOptions& options,
-                                    ceres::Solver::Options solver_options,
-                                    ceres::Problem* problem) {
-  solver_options.max_num_iterations = options.max_num_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.gradient_tolerance = options.gradient_tolerance;
-  solver_options.parameter_tolerance = options.parameter_tolerance;
-  solver_options.num_threads = ResolveNumThreads(options.num_threads);
-  solver_options.minimizer_progress_to_stdout = options.print_progress;
-  solver_options.logging_type =
-      options.print_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
-  ProgressBar bar(label, options.max_num_iterations, options.show_progress_bar);
-  CeresProgressCallback callback(&bar);
-  if (options.show_progress_bar) solver_options.callbacks.push_back(&callback);
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, problem, &summary);
-  bar.Finish();
-  if (options.print_progress) LOG(INFO) << summary.FullReport();
-  return summary;
-}
+                                    const SolverOptions& options,
+                                    ceres::Problem* problem);
+
+// The robust losses every stage offers, by the name its --*.loss_function
+// flag takes: "huber", "cauchy" (Ceres' losses at `scale`) or "trivial"
+// (nullptr: least squares). The caller (or the problem) owns the result.
+ceres::LossFunction* CreateLossFunction(const std::string& name, double scale);
+// Whether CreateLossFunction knows `name`.
+bool IsLossFunction(const std::string& name);
 
 }  // namespace colmap_irav4

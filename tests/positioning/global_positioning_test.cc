@@ -36,8 +36,8 @@ TEST(GlobalPositioning, RecoversCentersOfExactScene) {
   Reconstruction reconstruction = PrepareFromTracks(scene);
   GlobalPositionerOptions options;
   // Exact data: solved to tight tolerances the cost's minimum is the truth.
-  options.function_tolerance = 1e-10;
-  options.parameter_tolerance = 1e-10;
+  options.solver.ceres.function_tolerance = 1e-10;
+  options.solver.ceres.parameter_tolerance = 1e-10;
   GlobalPositionerSummary summary;
   ASSERT_TRUE(RunGlobalPositioning(options, &reconstruction, &summary));
   EXPECT_EQ(summary.num_images, 15);

@@ -104,7 +104,7 @@ TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
   BundleAdjustmentOptions exact_options = options;
   exact_options.loss_function = "trivial";
   exact_options.max_reproj_error = 0;
-  exact_options.function_tolerance = 1e-12;
+  exact_options.solver.ceres.function_tolerance = 1e-12;
   Reconstruction from_perturbed = scene.truth;
   Perturb(1.0, 0.1, 0.05, 1.03, 5, &from_perturbed);
   ASSERT_TRUE(RunBundleAdjustment(exact_options, &from_perturbed));

@@ -135,6 +135,34 @@ TEST(Irav4, SameInputAndSeedGiveBitIdenticalOutput) {
   }
 }
 
+// The parallel stages (cluster seeds, clusters beside the reference, the
+// clusters' last optimisations) give bit for bit the result of one thread:
+// the same rotations, clusters and reference.
+TEST(Irav4, SameResultForOneAndTwoThreads) {
+  const SyntheticProblem problem =
+      CommunityProblem(4, 30, 0.4, 0.03, 3.0, 0.3, 11);
+  Irav4Options options;
+  options.engine.num_threads = 1;
+  Irav4 one(options);
+  const RotationAveragingResult a = one.Estimate(problem.graph);
+  options.engine.num_threads = 2;
+  Irav4 two(options);
+  const RotationAveragingResult b = two.Estimate(problem.graph);
+  ASSERT_GE(one.LastReport().num_clusters, 2);
+  EXPECT_EQ(one.LastReport().cluster_sizes, two.LastReport().cluster_sizes);
+  EXPECT_EQ(one.LastReport().reference.vertices,
+            two.LastReport().reference.vertices);
+  EXPECT_EQ(one.LastReport().num_reseeded_vertices,
+            two.LastReport().num_reseeded_vertices);
+  ASSERT_EQ(a.rotations.size(), b.rotations.size());
+  EXPECT_EQ(a.NumEstimated(), 120);
+  for (size_t v = 0; v < a.rotations.size(); ++v) {
+    EXPECT_EQ(a.estimated[v], b.estimated[v]);
+    EXPECT_TRUE((a.rotations[v].array() == b.rotations[v].array()).all())
+        << "vertex " << v;
+  }
+}
+
 // Noise and outliers of the paper's protocol (sigma 5 deg, 30% outliers):
 // the IRLS refinement over all edges beats the paper's truncated least
 // squares on the median, and stays bit-identical from run to run.

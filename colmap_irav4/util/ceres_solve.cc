@@ -1,0 +1,88 @@
+#include "colmap_irav4/util/ceres_solve.h"
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/progress_bar.h"
+#include "colmap_irav4/util/threading.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// Advances a ProgressBar by the iterations of a Ceres solve (out of its
+// max_num_iterations; finished when the solver stops early).
+class CeresProgressCallback : public ceres::IterationCallback {
+ public:
+  explicit CeresProgressCallback(ProgressBar* bar) : bar_(bar) {}
+  ceres::CallbackReturnType operator()(
+      const ceres::IterationSummary& summary) override {
+    bar_->Update(summary.iteration);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  ProgressBar* bar_;
+};
+
+}  // namespace
+
+SolverOptions::SolverOptions() { ceres.num_threads = -1; }
+
+void SolverOptions::Check(const std::string& prefix) const {
+  if (ceres.max_num_iterations < 1) {
+    throw OptionError(&ceres.max_num_iterations, prefix + "max_num_iterations",
+                      "must be positive");
+  }
+  if (!(ceres.function_tolerance >= 0)) {
+    throw OptionError(&ceres.function_tolerance, prefix + "function_tolerance",
+                      "must be >= 0");
+  }
+  if (!(ceres.gradient_tolerance >= 0)) {
+    throw OptionError(&ceres.gradient_tolerance, prefix + "gradient_tolerance",
+                      "must be >= 0");
+  }
+  if (!(ceres.parameter_tolerance >= 0)) {
+    throw OptionError(&ceres.parameter_tolerance,
+                      prefix + "parameter_tolerance", "must be >= 0");
+  }
+  if (!(ceres.initial_trust_region_radius > 0)) {
+    throw OptionError(&ceres.initial_trust_region_radius,
+                      prefix + "initial_trust_region_radius",
+                      "must be positive");
+  }
+  if (ceres.num_threads == 0 || ceres.num_threads < -1) {
+    throw OptionError(&ceres.num_threads, prefix + "num_threads",
+                      "must be -1 (all cores) or > 0");
+  }
+}
+
+ceres::Solver::Summary SolveProblem(const std::string& label,
+                                    const SolverOptions& options,
+                                    ceres::Problem* problem) {
+  ceres::Solver::Options solver_options = options.ceres;
+  solver_options.num_threads = ResolveNumThreads(options.ceres.num_threads);
+  const bool print_progress = options.ceres.minimizer_progress_to_stdout;
+  solver_options.logging_type =
+      print_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
+  ProgressBar bar(label, solver_options.max_num_iterations,
+                  options.show_progress_bar);
+  CeresProgressCallback callback(&bar);
+  if (options.show_progress_bar) solver_options.callbacks.push_back(&callback);
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, problem, &summary);
+  bar.Finish();
+  if (print_progress) LOG(INFO) << summary.FullReport();
+  return summary;
+}
+
+ceres::LossFunction* CreateLossFunction(const std::string& name, double scale) {
+  if (name == "huber") return new ceres::HuberLoss(scale);
+  if (name == "cauchy") return new ceres::CauchyLoss(scale);
+  return nullptr;
+}
+
+bool IsLossFunction(const std::string& name) {
+  return name == "huber" || name == "cauchy" || name == "trivial";
+}
+
+}  // namespace colmap_irav4

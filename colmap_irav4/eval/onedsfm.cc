@@ -1,6 +1,7 @@
 #include "colmap_irav4/eval/onedsfm.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -101,10 +102,10 @@ BundlerFile ReadBundlerFile(const std::string& path) {
     camera.focal = ParseDouble(path, intrinsics, 0);
     camera.k1 = ParseDouble(path, intrinsics, 1);
     camera.k2 = ParseDouble(path, intrinsics, 2);
-    TextLine rotation;  // the three rows joined
-    rotation.number = lines[next].number;
+    TextLine rotation;  // the three rows joined, numbered by the first
     for (int row = 0; row < 3; ++row) {
       const TextLine& line = take(3, 3);
+      if (row == 0) rotation.number = line.number;
       rotation.fields.insert(rotation.fields.end(), line.fields.begin(),
                              line.fields.end());
     }
@@ -133,7 +134,16 @@ BundlerFile ReadBundlerFile(const std::string& path) {
     if (next >= lines.size()) throw InputError(path, "unexpected end of file");
     const TextLine& views = lines[next];
     const int num_views = ParseIndex(path, views, 0);
-    RequireFieldCount(path, views, 1 + 4 * num_views, 1 + 4 * num_views);
+    // Four fields a view; compared in 64 bits (1 + 4 * num_views can
+    // overflow an int).
+    if (static_cast<int64_t>(views.fields.size()) !=
+        1 + 4 * static_cast<int64_t>(num_views)) {
+      throw InputError(path, "line " + std::to_string(views.number) + ": " +
+                                 std::to_string(num_views) + " views need " +
+                                 std::to_string(1 + 4 * int64_t{num_views}) +
+                                 " fields, found " +
+                                 std::to_string(views.fields.size()));
+    }
     for (int v = 0; v < num_views; ++v) {
       point.cameras.push_back(ParseIndex(path, views, 1 + 4 * v, num_cameras));
     }

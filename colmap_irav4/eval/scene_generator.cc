@@ -395,8 +395,11 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
 
   // Grid over the ground plane for visibility queries.
   const double cell = 4.0;
+  // In unsigned arithmetic: a left shift of a negative cell index is
+  // undefined behaviour (same bits as before where it was defined).
   auto cell_key = [](int64_t ix, int64_t iz) {
-    return (ix << 32) ^ (iz & 0xffffffff);
+    return static_cast<int64_t>((static_cast<uint64_t>(ix) << 32) ^
+                                (static_cast<uint64_t>(iz) & 0xffffffffu));
   };
   std::unordered_map<int64_t, std::vector<int>> grid;
   for (int64_t k = 0; k < num_cloud_points; ++k) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <glog/logging.h>
@@ -414,6 +415,13 @@ FeatureKeypoints Database::ReadKeypoints(image_t image_id) const {
   if (cols != 2 && cols != 4 && cols != 6) {
     Fail(what + ": " + std::to_string(cols) + " columns, expected 2, 4 or 6");
   }
+  // A blob holds at most INT_MAX bytes: a larger row count cannot match its
+  // blob, and its byte count could overflow.
+  if (rows > std::numeric_limits<int>::max() /
+                 (cols * static_cast<int64_t>(sizeof(float)))) {
+    Fail(what + ": row count " + std::to_string(rows) +
+         " is larger than a blob can hold");
+  }
   const int64_t expected = rows * cols * static_cast<int64_t>(sizeof(float));
   const int bytes = statement.BlobBytes(2);
   if (bytes != expected) {
@@ -452,6 +460,14 @@ bool DecodeMatches(int64_t rows, int64_t cols, const void* blob, int bytes,
   if (rows == 0) return true;
   if (cols != 2) {
     *problem = std::to_string(cols) + " columns, expected 2";
+    return false;
+  }
+  // A blob holds at most INT_MAX bytes: a larger row count cannot match its
+  // blob, and its byte count could overflow.
+  if (rows > std::numeric_limits<int>::max() /
+                 (2 * static_cast<int64_t>(sizeof(uint32_t)))) {
+    *problem =
+        "row count " + std::to_string(rows) + " is larger than a blob can hold";
     return false;
   }
   const int64_t expected = rows * 2 * static_cast<int64_t>(sizeof(uint32_t));

@@ -6,6 +6,7 @@
 #include <functional>
 #include <numeric>
 #include <set>
+#include <sstream>
 
 #include <glog/logging.h>
 
@@ -77,6 +78,33 @@ GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
 bool GlobalMapper::Fail(const std::string& reason) {
   failure_ = reason;
   return false;
+}
+
+bool GlobalMapper::FailIfNoPoints(const std::string& when) {
+  if (!reconstruction_.points3D.empty()) return true;
+  const size_t num_without_translation = static_cast<size_t>(std::count_if(
+      pairs_.begin(), pairs_.end(), [](const ImagePairGeometry& pair) {
+        return !(pair.t.squaredNorm() > 0);
+      }));
+  std::ostringstream angle;
+  angle << options_.filtering.min_tri_angle;
+  // A panorama whose few noisy pairs got a spurious translation reaches this
+  // point instead of the check in RotationFilter: positioning then places
+  // every camera near one centre and the filter removes every point for its
+  // triangulation angle. Most pairs without translation name the cause.
+  if (2 * num_without_translation >= pairs_.size()) {
+    return Fail(
+        "pure rotation (panorama): " + std::to_string(num_without_translation) +
+        " of " + std::to_string(pairs_.size()) +
+        " pairs have no measurable translation and no 3D point has a "
+        "triangulation angle of " +
+        angle.str() + " deg " + when +
+        ": the cameras share one centre and no 3D point can be "
+        "triangulated");
+  }
+  return Fail("no 3D point left " + when + " (none has a triangulation angle " +
+              "of " + angle.str() + " deg with a reprojection error " +
+              "within the filter's limits)");
 }
 
 void GlobalMapper::AddModelFigures(StageTimer* stage) {
@@ -309,6 +337,10 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       if (retriangulated_ && iteration + 1 == num_ba) {
         round_options.num_rounds = 1;
       }
+      if (!FailIfNoPoints(iteration == 0 ? "after positioning"
+                                         : "after retriangulation")) {
+        return false;
+      }
       BundleAdjustmentSummary ba_summary;
       if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
         return Fail("bundle adjustment failed");
@@ -361,6 +393,7 @@ bool GlobalMapper::Finalize() {
     AddModelFigures(&stage);
     stage.Finish(log_prefix_, &stages_);
   }
+  if (!FailIfNoPoints("after refinement")) return false;
   RemoveUnusedCameras(&reconstruction_);
   if (static_cast<int>(reconstruction_.images.size()) <
       options_.min_model_size) {

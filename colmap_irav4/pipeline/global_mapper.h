@@ -189,6 +189,10 @@ class GlobalMapper {
 
  private:
   bool Fail(const std::string& reason);
+  // Fails when the model has no 3D point left (`when`: after which step):
+  // bundle adjustment has nothing to adjust and a model of poses alone is no
+  // reconstruction. Names a pure rotation (panorama) when the pairs say so.
+  bool FailIfNoPoints(const std::string& when);
   // Adds the model's registered images, points and reprojection errors to
   // the stage's figures.
   void AddModelFigures(StageTimer* stage);

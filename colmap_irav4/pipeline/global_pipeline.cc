@@ -203,6 +203,8 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
   std::map<const GlobalMapper*, FoldCheckedModel> fold_checks;
   const ComponentStages component_stages =
       GlobalMapperStages(options, database, view_graph.cameras);
+  // Why each component gave no model, for the error if none did.
+  std::vector<std::string> failures;
   for (size_t c = 0; c < components.size(); ++c) {
     if (static_cast<int>(components[c].size()) < options.min_model_size) break;
     const std::set<image_t> images(components[c].begin(), components[c].end());
@@ -223,6 +225,9 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
       summary->notes.push_back("component of " +
                                std::to_string(components[c].size()) +
                                " images gave no model: " + failure);
+      failures.push_back("the component of " +
+                         std::to_string(components[c].size()) +
+                         " images: " + failure);
       continue;
     }
     for (FoldCheckedModel& model : checked) {
@@ -235,9 +240,13 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     }
   }
   if (mappers.empty()) {
-    throw InputError(database.path,
-                     "no model: no component could be reconstructed (see the "
-                     "warnings above)");
+    std::string reasons;
+    for (const std::string& failure : failures) {
+      reasons += (reasons.empty() ? "" : "; ") + failure;
+    }
+    throw InputError(
+        database.path,
+        "no model: no component could be reconstructed (" + reasons + ")");
   }
   // Largest first, by registered images (stable: graph order on ties).
   std::stable_sort(mappers.begin(), mappers.end(),

@@ -209,6 +209,19 @@ TEST(OneDsfm, MalformedComponentAndBundler) {
       WriteFile("truncated.out", "# Bundle file v0.3\n1 0\n1 0 0\n1 0 0\n");
   ExpectInputError([&] { ReadBundlerFile(truncated); }, truncated,
                    "unexpected end of file");
+  // Ends right after a camera's intrinsics (found by the fuzzer: read past
+  // the last line).
+  const std::string no_rotation =
+      WriteFile("no_rotation.out", "# Bundle file v0.3\n2 1\n500 0 0.5\n");
+  ExpectInputError([&] { ReadBundlerFile(no_rotation); }, no_rotation,
+                   "unexpected end of file");
+  // A view count whose field count overflows an int.
+  const std::string many_views =
+      WriteFile("many_views.out",
+                "# Bundle file v0.3\n1 1\n500 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n"
+                "1 2 3\n255 0 0\n1999999999 0 3 4.5 6.5\n");
+  ExpectInputError([&] { ReadBundlerFile(many_views); }, many_views,
+                   "1999999999 views need 7999999997 fields, found 5");
   const std::string empty = WriteFile("empty.out", "");
   ExpectInputError([&] { ReadBundlerFile(empty); }, empty, "empty file");
 }

@@ -466,6 +466,18 @@ TEST(Database, BadInputGivesOneClearError) {
   ExpectBadDatabase(make("bad_camera_ref.db",
                          "UPDATE images SET camera_id = 9 WHERE image_id = 2;"),
                     "refers to camera 9");
+  // Row counts whose byte count overflows 64 bits (found by the fuzzer: UB
+  // before the size check).
+  ExpectBadDatabase(
+      make("huge_keypoint_rows.db",
+           "UPDATE keypoints SET rows = 4755801206503243780 WHERE image_id = "
+           "2;"),
+      "keypoints of image 2: row count 4755801206503243780 is larger than a "
+      "blob can hold");
+  ExpectBadDatabase(
+      make("huge_match_rows.db",
+           "UPDATE two_view_geometries SET rows = 4755801206503243780;"),
+      "row count 4755801206503243780 is larger than a blob can hold");
   // A directory is not a database either.
   ExpectBadDatabase(dir.File(""), "not a regular file");
 }

@@ -15,11 +15,14 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <random>
 #include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
+#include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/io/model_io.h"
 #include "tests/test_utils/database_test_utils.h"
 
@@ -445,6 +448,116 @@ TEST(Reliability, SigtermCleansTheTemporaryDirectoryAndKeepsTheOldModel) {
         WIFSIGNALED(status) ? 128 + WTERMSIG(status) : WEXITSTATUS(status),
         c.Unchanged(), state);
   }
+}
+
+// A panorama as COLMAP's matcher leaves it: `num_images` PINHOLE images
+// taken from one centre while turning 20 deg about the vertical axis each
+// (and tilting a little), of points at 5-20 m all around; pairs sharing at
+// least 30 points are stored as PLANAR_OR_PANORAMIC with H = K R K^-1 and
+// E = [t]x R for an arbitrary unit t (with x2 ~ R x1, every t satisfies the
+// epipolar constraint exactly, so a matcher's E carries no translation).
+void WritePanoramaDatabase(const std::string& path, int num_images) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> depth(5, 20);
+  std::normal_distribution<double> gaussian(0, 1);
+  Camera camera;
+  camera.camera_id = 1;
+  camera.model_id = 1;  // PINHOLE
+  camera.width = 640;
+  camera.height = 480;
+  camera.params = {500, 500, 320, 240};
+  camera.has_prior_focal_length = true;
+  Eigen::Matrix3d K;
+  K << 500, 0, 320, 0, 500, 240, 0, 0, 1;
+  std::vector<Eigen::Vector3d> points(3000);
+  for (Eigen::Vector3d& point : points) {
+    const Eigen::Vector3d direction(gaussian(rng), 0.3 * gaussian(rng),
+                                    gaussian(rng));
+    point = depth(rng) * direction.normalized();
+  }
+  std::vector<Eigen::Matrix3d> rotations;
+  // keypoint index of each point in each image (-1: not seen).
+  std::vector<std::vector<int>> index(num_images,
+                                      std::vector<int>(points.size(), -1));
+  DatabaseWriter writer(path);
+  writer.WriteCamera(camera);
+  for (int i = 0; i < num_images; ++i) {
+    const Eigen::Matrix3d R =
+        (Eigen::AngleAxisd(0.05 * std::sin(i), Eigen::Vector3d::UnitX()) *
+         Eigen::AngleAxisd(i * 20.0 * M_PI / 180, Eigen::Vector3d::UnitY()))
+            .toRotationMatrix();
+    rotations.push_back(R);
+    FeatureKeypoints keypoints;
+    for (size_t p = 0; p < points.size(); ++p) {
+      const Eigen::Vector3d x = K * (R * points[p]);
+      if (x.z() < 0.1) continue;
+      const Eigen::Vector2d xy =
+          x.hnormalized() + 0.5 * Eigen::Vector2d(gaussian(rng), gaussian(rng));
+      if (xy.x() < 1 || xy.y() < 1 || xy.x() > 639 || xy.y() > 479) continue;
+      index[i][p] = static_cast<int>(keypoints.size());
+      keypoints.push_back(xy.cast<float>());
+    }
+    const image_t image_id = static_cast<image_t>(i + 1);
+    writer.WriteImage(image_id, "pano" + std::to_string(i) + ".jpg", 1);
+    writer.WriteKeypoints(image_id, keypoints);
+  }
+  for (int i = 0; i < num_images; ++i) {
+    for (int j = i + 1; j < num_images; ++j) {
+      TwoViewGeometry geometry;
+      geometry.image_id1 = static_cast<image_t>(i + 1);
+      geometry.image_id2 = static_cast<image_t>(j + 1);
+      for (size_t p = 0; p < points.size(); ++p) {
+        if (index[i][p] >= 0 && index[j][p] >= 0) {
+          geometry.inlier_matches.push_back(
+              {static_cast<point2D_t>(index[i][p]),
+               static_cast<point2D_t>(index[j][p])});
+        }
+      }
+      if (geometry.inlier_matches.size() < 30) continue;
+      geometry.config = TwoViewGeometry::PLANAR_OR_PANORAMIC;
+      const Eigen::Matrix3d R = rotations[j] * rotations[i].transpose();
+      const Eigen::Vector3d t =
+          Eigen::Vector3d(gaussian(rng), gaussian(rng), gaussian(rng))
+              .normalized();
+      Eigen::Matrix3d t_cross;
+      t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+      geometry.E = t_cross * R;
+      geometry.F = K.inverse().transpose() * geometry.E * K.inverse();
+      geometry.H = K * R * K.inverse();
+      writer.WriteMatches(geometry.image_id1, geometry.image_id2,
+                          geometry.inlier_matches);
+      writer.WriteTwoViewGeometry(geometry);
+    }
+  }
+  writer.Commit();
+}
+
+TEST(Reliability, PureRotationPanoramaIsReportedAsSuch) {
+  TempDir temp;
+  const std::string database = temp.File("panorama.db");
+  WritePanoramaDatabase(database, 10);
+  const uint64_t hash = HashFile(database);
+  const std::string sparse = temp.File("sparse");
+  const RunResult run =
+      RunProgram("mapper --database_path " + database + " --output_path " +
+                     sparse + " --Mapper.num_threads 2",
+                 temp);
+  const bool unchanged = HashFile(database) == hash &&
+                         !fs::exists(database + "-wal") &&
+                         !fs::exists(database + "-shm");
+  // Exit 1 with the cause in the error itself, not "bundle adjustment
+  // failed" or a model of poses without points.
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(LineWith(run.output, "ERROR").find("pure rotation (panorama)"),
+            std::string::npos)
+      << run.output;
+  EXPECT_EQ(run.output.find("bundle adjustment failed"), std::string::npos)
+      << run.output;
+  EXPECT_TRUE(unchanged);
+  EXPECT_FALSE(fs::exists(sparse + "/0"));
+  PrintCase("pure rotation (panorama), 10 images from one centre",
+            LineWith(run.output, "ERROR"), run.exit_code, unchanged,
+            ModelState(sparse + "/0", 0));
 }
 
 TEST(Reliability, RelposeFileCases) {

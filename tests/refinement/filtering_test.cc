@@ -28,7 +28,9 @@ void ExpectConsistent(const Reconstruction& reconstruction) {
       ++num_linked;
       const auto& track = reconstruction.points3D.at(point3D_id).track;
       EXPECT_EQ(std::count_if(track.begin(), track.end(),
-                              [&](const TrackElement& e) {
+                              // Captured by name: clang (C++17) cannot
+                              // capture a structured binding.
+                              [&, image_id = image_id](const TrackElement& e) {
                                 return e.image_id == image_id &&
                                        e.point2D_idx == idx;
                               }),

@@ -505,12 +505,16 @@ void ReadImagesText(const std::string& path, Reconstruction* reconstruction) {
     image.camera_id = static_cast<camera_t>(reader.ParseUInt(
         tokens[8], "camera id", std::numeric_limits<camera_t>::max()));
     // The name is the rest of the line (COLMAP names have no spaces, but
-    // keep any rather than fail).
+    // keep any rather than fail). The separators are SplitWhitespace's
+    // (isspace: a vertical tab or form feed too), so that the ten tokens
+    // found there are found here.
+    constexpr char kSpaces[] = " \t\n\v\f\r";
     size_t name_begin = 0;
     for (int k = 0; k < 9; ++k) {
-      name_begin = line.find_first_not_of(" \t", name_begin);
-      name_begin = line.find_first_of(" \t", name_begin);
+      name_begin = line.find_first_not_of(kSpaces, name_begin);
+      name_begin = line.find_first_of(kSpaces, name_begin);
     }
+    CHECK_NE(name_begin, std::string::npos);  // tokens.size() >= 10
     image.name = Trim(line.substr(name_begin));
     const std::string problem = ImageRecordProblem(image, *reconstruction);
     if (!problem.empty()) reader.Fail(problem);

@@ -421,6 +421,21 @@ TEST(ModelIO, BadTextContents) {
                    temp.File("cameras.txt"), "line 15:");
 }
 
+// Found by text_readers_fuzzer: an image line whose fields are separated by
+// a vertical tab split into ten tokens, but the name search knew only spaces
+// and tabs and threw std::out_of_range. Any isspace separator now works.
+TEST(ModelIO, ImageLineWithOtherWhitespaceSeparators) {
+  const Reconstruction model = SyntheticModel();
+  TempDir temp;
+  WriteReconstruction(model, temp.path(), "TXT");
+  WriteBytes(temp.File("images.txt"),
+             ImagesTextBytes(model) + "999\v1 0 0 0\f0 0 0 10\vx.jpg\n\n");
+  const Reconstruction read = ReadReconstruction(temp.path());
+  ASSERT_EQ(read.images.count(999), 1u);
+  EXPECT_EQ(read.images.at(999).name, "x.jpg");
+  EXPECT_EQ(read.images.at(999).camera_id, 10u);
+}
+
 TEST(ModelIO, FailedWriteLeavesNoPartialModel) {
   const Reconstruction model = SyntheticModel();
   TempDir temp;

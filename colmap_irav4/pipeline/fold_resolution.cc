@@ -29,6 +29,9 @@ void AddFoldFigures(const FoldReport& fold, StageTimer* stage) {
   stage->Add("contradictory tracks",
              static_cast<double>(fold.num_contradictory_tracks));
   stage->Add("suspect pairs", static_cast<double>(fold.suspect_pairs.size()));
+  stage->Add("weak pairs", static_cast<double>(fold.num_weak_pairs));
+  stage->Add("weak pairs across their cut",
+             static_cast<double>(fold.num_weak_cut_pairs));
 }
 
 std::vector<ImagePairGeometry> PairsWithin(

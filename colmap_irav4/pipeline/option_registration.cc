@@ -306,6 +306,9 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.min_weak_cut_fraction", &d.min_weak_cut_fraction,
                "... making this fraction of the consistent pairs across it "
                "is a fold");
+  manager->Add("Fold.min_weak_alone_pairs", &d.min_weak_alone_pairs,
+               "an image with this many consistent pairs, all weak, and this "
+               "many contradicted ones may be turned alone");
 }
 
 void AddGlobalMapperOptions(OptionManager* manager,

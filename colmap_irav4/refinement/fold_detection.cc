@@ -179,6 +179,9 @@ void FoldDetectionOptions::Check() const {
   if (!(min_weak_cut_fraction > 0.5 && min_weak_cut_fraction <= 1)) {
     throw InputError("--Fold.min_weak_cut_fraction", "must be in (0.5, 1]");
   }
+  if (min_weak_alone_pairs < 1) {
+    throw InputError("--Fold.min_weak_alone_pairs", "must be >= 1");
+  }
   if (min_suspect_conflicts < 1) {
     throw InputError("--Fold.min_suspect_conflicts", "must be >= 1");
   }
@@ -205,7 +208,8 @@ std::string FoldReport::Describe() const {
        << std::setprecision(2) << typical_ratio
        << " inliers per predicted point; " << num_weak_cut_pairs
        << " weak and " << num_strong_cut_pairs << " strong across their cut"
-       << (weak_fold ? ": a fold)" : ")");
+       << (weak_fold ? ": a fold)" : ")") << ", "
+       << weak_alone_images.size() << " images weak alone";
   return line.str();
 }
 
@@ -345,6 +349,7 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   std::vector<std::pair<int, int>> consistent;
   std::vector<int> consistent_inliers;
   std::vector<int> inconsistent_inliers;
+  std::vector<int> contradicted(num_views, 0);  // per image
   for (const auto& [key, pair] : by_pair) {
     if (!pair->has_rotation || pair->num_inliers < options.min_num_matches) {
       continue;
@@ -374,6 +379,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
       }
     } else {
       inconsistent_inliers.push_back(pair->num_inliers);
+      ++contradicted[index.at(pair->image_id1)];
+      ++contradicted[index.at(pair->image_id2)];
     }
   }
   report.num_inconsistent_pairs = static_cast<int>(inconsistent_inliers.size());
@@ -384,6 +391,25 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
                  static_cast<double>(report.num_weak_cut_pairs) /
                      report.num_support_pairs);
     report.folded = true;
+  }
+  // Images weak alone: every consistent predicted pair at them weak, and
+  // verified pairs at them contradicted.
+  std::vector<int> num_support(num_views, 0);
+  std::vector<int> num_weak(num_views, 0);
+  for (const PairSupport& support : report.pair_support) {
+    if (!support.predicted) continue;
+    for (const image_t image_id : {support.image_id1, support.image_id2}) {
+      const int i = index.at(image_id);
+      ++num_support[i];
+      num_weak[i] += support.weak;
+    }
+  }
+  for (int i = 0; i < num_views; ++i) {
+    if (num_support[i] >= options.min_weak_alone_pairs &&
+        num_weak[i] == num_support[i] &&
+        contradicted[i] >= options.min_weak_alone_pairs) {
+      report.weak_alone_images.push_back(views[i].image_id);
+    }
   }
   if (!consistent_inliers.empty()) {
     std::vector<int> sorted = consistent_inliers;
@@ -506,11 +532,19 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   // total).
   std::set<std::pair<image_t, image_t>> suspects(
       report.suspect_pairs.begin(), report.suspect_pairs.end());
-  // Weak pairs are not trusted; the weak predicted ones push apart as the
-  // missing pairs do (a fold's false pairs are the weak ones across it).
+  // Where the missing pairs do not flag the model alone, the weak pairs are
+  // not trusted and the weak predicted ones push apart as the missing pairs
+  // do (a fold's false pairs are the weak ones across it). Where they do,
+  // the missing pairs place the cut (the weak pairs, noisier, would move
+  // images near it).
+  const bool missing_fold =
+      report.num_predicted_pairs > 0 &&
+      report.num_missing_pairs >
+          options.max_fold_score * report.num_predicted_pairs &&
+      report.num_missing_pairs >= options.min_missing_pairs;
   std::vector<std::pair<image_t, image_t>> negatives = report.missing_pairs;
   for (const PairSupport& support : report.pair_support) {
-    if (!support.weak) continue;
+    if (!support.weak || missing_fold) continue;
     suspects.insert({support.image_id1, support.image_id2});
     if (support.predicted)
       negatives.emplace_back(support.image_id1, support.image_id2);

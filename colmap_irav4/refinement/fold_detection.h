@@ -86,6 +86,14 @@ struct FoldDetectionOptions {
   // wide-baseline pairs of a correct sequence are weak too, but a cut through
   // it also crosses its strong near pairs).
   double min_weak_cut_fraction = 0.9;
+  // An image is "weak alone" when at least this many consistent predicted
+  // pairs are at it, all weak, and at least this many verified pairs at it
+  // contradict the model: what a camera turned alone among cameras the
+  // right way round shows (its true pairs contradicted, its false ones
+  // weak), which no cut separates (a cut needs strong pairs on both sides).
+  // Reported only; the resolution re-orients such images of a model it
+  // would accept.
+  int min_weak_alone_pairs = 2;
   // Skip the camera pairs too far apart to share a point under the view
   // angle and scale ratio before projecting any point (exact: the report is
   // the same; false only to measure what it saves).
@@ -184,6 +192,8 @@ struct FoldReport {
   int num_weak_cut_pairs = 0;
   int num_strong_cut_pairs = 0;
   bool weak_fold = false;
+  // Images weak alone (min_weak_alone_pairs).
+  std::vector<image_t> weak_alone_images;
 
   // One line for the log: "fold score 0.42 (31 of 74 predicted pairs
   // missing), ...".

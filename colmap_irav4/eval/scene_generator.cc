@@ -51,17 +51,14 @@ struct RectLoop {
     double along = std::fmod(s, p);
     if (along < 0) along += p;
     // Signed distance to the nearest corner (negative: before it).
-    double nearest = 0;
     double best = p;
     for (const double corner : Corners()) {
       for (const double c : {corner, corner + p, corner - p}) {
         if (std::abs(along - c) < std::abs(best)) {
           best = along - c;
-          nearest = c;
         }
       }
     }
-    (void)nearest;
     if (std::abs(best) >= turn) return outward;
     // Before a corner the path turns left next (counter-clockwise loop seen
     // from above in x, z: outward rotates by +90 deg from one side to the

@@ -65,8 +65,9 @@ row() {  # scene mapper rate seed: prints the table row
   local eval_line fold="-" wall="-" user=0 sys=0 cpu pairs mirror
   pairs=$(sqlite3 "file:$scene/database.db?immutable=1" \
     "select count(*) from two_view_geometries where rows > 0" 2>/dev/null || echo -)
-  mirror=$(grep -o "[0-9]* mirror-twin" "$scene.generator.log" 2>/dev/null |
-           awk '{print $1}' || true)
+  # The generator's summary line ("N true, M mirror-twin"), not its warning.
+  mirror=$(grep -o "true, [0-9]* mirror-twin" "$scene.generator.log" \
+             2>/dev/null | awk 'NR == 1 {print $2}' || true)
   if [ ! -f "$scene/$mapper.time" ]; then
     printf "$format" "$layout" "$rate" "$seed" "$pairs" "${mirror:--}" "$mapper" \
       "not run" - - - - - - -

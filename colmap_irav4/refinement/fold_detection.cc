@@ -532,19 +532,11 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   // total).
   std::set<std::pair<image_t, image_t>> suspects(
       report.suspect_pairs.begin(), report.suspect_pairs.end());
-  // Where the missing pairs do not flag the model alone, the weak pairs are
-  // not trusted and the weak predicted ones push apart as the missing pairs
-  // do (a fold's false pairs are the weak ones across it). Where they do,
-  // the missing pairs place the cut (the weak pairs, noisier, would move
-  // images near it).
-  const bool missing_fold =
-      report.num_predicted_pairs > 0 &&
-      report.num_missing_pairs >
-          options.max_fold_score * report.num_predicted_pairs &&
-      report.num_missing_pairs >= options.min_missing_pairs;
+  // Weak pairs are not trusted; the weak predicted ones push apart as the
+  // missing pairs do (a fold's false pairs are the weak ones across it).
   std::vector<std::pair<image_t, image_t>> negatives = report.missing_pairs;
   for (const PairSupport& support : report.pair_support) {
-    if (!support.weak || missing_fold) continue;
+    if (!support.weak) continue;
     suspects.insert({support.image_id1, support.image_id2});
     if (support.predicted)
       negatives.emplace_back(support.image_id1, support.image_id2);

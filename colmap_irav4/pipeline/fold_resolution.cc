@@ -247,27 +247,11 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
   std::vector<ImagePairGeometry> current = pairs;
   Attempt best = std::move(first);
   size_t num_removed = 0;
-  // Each round tries the cut of the missing pairs alone first where it
-  // differs from the cut of the missing and weak pairs (the weak pairs can
-  // move a camera near the cut to the wrong side; the missing pairs alone
-  // can leave cameras turned where the fold is strong), then the latter.
-  using Cut = std::pair<std::vector<image_t>, std::vector<image_t>>;
   for (int round = 0; round <= options.max_iterations; ++round) {
     const Reconstruction& model = best.model.mapper->reconstruction();
-    const Cut with_weak =
-        FoldCut(options.detection, model, evidence, best.model.fold, true);
-    const Cut missing_only =
-        FoldCut(options.detection, model, evidence, best.model.fold, false);
-    std::vector<Cut> cuts;
-    if (!missing_only.second.empty() && missing_only != with_weak)
-      cuts.push_back(missing_only);
-    if (!with_weak.second.empty()) cuts.push_back(with_weak);
-    if (cuts.empty()) break;
-    bool stop = false;
-    for (size_t c = 0; c < cuts.size() && !stop; ++c) {
-    const bool last_cut = c + 1 == cuts.size();
-    const std::vector<image_t>& side1 = cuts[c].first;
-    const std::vector<image_t>& side2 = cuts[c].second;
+    const auto [side1, side2] =
+        FoldCut(options.detection, model, evidence, best.model.fold);
+    if (side2.empty()) break;
     const std::set<image_t> in_side1(side1.begin(), side1.end());
     const std::set<image_t> in_side2(side2.begin(), side2.end());
     std::vector<ImagePairGeometry> reoriented;
@@ -291,18 +275,14 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
         PairComponents(reoriented);
     if (num_dropped == 0 || components.empty() ||
         static_cast<int>(components[0].size()) < min_model_size) {
-      stop = last_cut;
-      continue;
+      break;
     }
     const std::set<image_t> component(components[0].begin(),
                                       components[0].end());
     std::vector<ImagePairGeometry> component_pairs =
         PairsWithin(reoriented, component);
     Attempt attempt = run(components[0], component_pairs, prefix);
-    if (!attempt.ok) {
-      stop = last_cut;
-      continue;
-    }
+    if (!attempt.ok) break;
     if (!attempt.model.fold.folded && refine(&attempt, prefix) &&
         !attempt.model.fold.folded &&
         attempt.model.mapper->reconstruction().images.size() * 4 >=
@@ -351,10 +331,6 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
             reoriented_alone = true;
           }
         }
-        if (!reoriented_alone && !last_cut) {
-          num_removed -= num_dropped;
-          continue;  // the next cut may leave no image alone
-        }
         if (!reoriented_alone) {
           LOG(WARNING) << prefix << "fold resolved but " << alone.size()
                        << " images may still be turned alone: the model is "
@@ -385,8 +361,6 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     }
     LOG(INFO) << prefix << "re-oriented model not accepted: "
               << attempt.model.fold.Describe();
-    if (!last_cut) continue;
-    stop = true;
     if (!(attempt.model.fold.fold_score < best.model.fold.fold_score) ||
         attempt.model.mapper->reconstruction().images.size() * 4 <
             best.model.mapper->reconstruction().images.size() * 3) {
@@ -395,9 +369,6 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     best = std::move(attempt);
     current = std::move(component_pairs);
     num_removed += num_dropped;
-    stop = false;
-    }
-    if (stop) break;
   }
 
   // 2. Remove the suspect pairs and map again.

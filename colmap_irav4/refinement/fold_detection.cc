@@ -519,8 +519,7 @@ std::vector<int> SignedGraphCut(
 
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const FoldDetectionOptions& options, const Reconstruction& reconstruction,
-    const FoldEvidence& evidence, const FoldReport& report,
-    bool use_weak_pairs) {
+    const FoldEvidence& evidence, const FoldReport& report) {
   std::vector<image_t> ids;
   std::map<image_t, int> index;
   for (const auto& [image_id, image] : reconstruction.images) {
@@ -537,7 +536,7 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   // missing pairs do (a fold's false pairs are the weak ones across it).
   std::vector<std::pair<image_t, image_t>> negatives = report.missing_pairs;
   for (const PairSupport& support : report.pair_support) {
-    if (!support.weak || !use_weak_pairs) continue;
+    if (!support.weak) continue;
     suspects.insert({support.image_id1, support.image_id2});
     if (support.predicted)
       negatives.emplace_back(support.image_id1, support.image_id2);

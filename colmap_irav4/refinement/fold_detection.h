@@ -221,10 +221,8 @@ std::vector<int> SignedGraphCut(
 // sides (each sorted; the larger first); one side is empty when the cut does
 // not explain the fold (fewer than 80% of the missing and weak pairs cross
 // it, and fewer than the trusted pairs it cuts).
-// use_weak_pairs false: the missing pairs alone (the weak pairs trusted).
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const FoldDetectionOptions& options, const Reconstruction& reconstruction,
-    const FoldEvidence& evidence, const FoldReport& report,
-    bool use_weak_pairs = true);
+    const FoldEvidence& evidence, const FoldReport& report);
 
 }  // namespace colmap_irav4

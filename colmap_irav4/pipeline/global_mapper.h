@@ -66,6 +66,9 @@ struct GlobalMapperOptions {
   // many observations (0: all tracks); the rest are triangulated after the
   // first bundle adjustment. Fewer unknowns, same poses, much faster.
   int positioning_tracks_per_image = 500;
+  // ... spread over each image: a grid of this many cells per side, each
+  // cell's share of the quota filled first (1: the longest tracks only).
+  int positioning_grid_size = 4;
   // ... and every view-graph pair keeps at least this many of its tracks
   // (0: no pair quota): a pair that alone ties two parts of the graph
   // together must not lose its tracks to the per-image quota (see

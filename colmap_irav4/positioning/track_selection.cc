@@ -95,7 +95,8 @@ std::vector<size_t> SelectTracksForPositioning(
     is_selected[k] = 1;
     selected.push_back(k);
     for (size_t j = offsets[k]; j < offsets[k + 1]; ++j) ++cell_count[keys[j]];
-    for (const TrackElement& element : tracks[k]) ++image_count[element.image_id];
+    for (const TrackElement& element : tracks[k])
+      ++image_count[element.image_id];
     if (!pair_count.empty()) {
       for_pairs(tracks[k], [](int* count) {
         ++*count;
@@ -106,12 +107,12 @@ std::vector<size_t> SelectTracksForPositioning(
   // The cells' quotas and the pairs' quotas.
   for (const size_t k : order) {
     const Track& track = tracks[k];
-    bool needed = std::any_of(
-        keys.begin() + offsets[k], keys.begin() + offsets[k + 1],
-        [&](uint64_t key) {
-          const auto it = cell_count.find(key);
-          return it == cell_count.end() || it->second < per_cell;
-        });
+    bool needed =
+        std::any_of(keys.begin() + offsets[k], keys.begin() + offsets[k + 1],
+                    [&](uint64_t key) {
+                      const auto it = cell_count.find(key);
+                      return it == cell_count.end() || it->second < per_cell;
+                    });
     if (!needed && !pair_count.empty()) {
       needed = for_pairs(
           track, [&](int* count) { return *count < options.tracks_per_pair; });
@@ -124,11 +125,10 @@ std::vector<size_t> SelectTracksForPositioning(
     for (const size_t k : order) {
       if (is_selected[k]) continue;
       const Track& track = tracks[k];
-      if (std::any_of(track.begin(), track.end(),
-                      [&](const TrackElement& element) {
-                        return image_count[element.image_id] <
-                               options.tracks_per_image;
-                      })) {
+      if (std::any_of(
+              track.begin(), track.end(), [&](const TrackElement& element) {
+                return image_count[element.image_id] < options.tracks_per_image;
+              })) {
         select(k);
       }
     }

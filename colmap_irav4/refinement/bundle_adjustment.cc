@@ -267,8 +267,8 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
           solver_summary.preprocessor_time_in_seconds;
       local_summary.linear_solver_seconds +=
           solver_summary.linear_solver_time_in_seconds;
-      local_summary.linear_solver =
-          ceres::LinearSolverTypeToString(solver_summary.linear_solver_type_used);
+      local_summary.linear_solver = ceres::LinearSolverTypeToString(
+          solver_summary.linear_solver_type_used);
       if (solver_summary.termination_type == ceres::FAILURE ||
           solver_summary.iterations.size() <= 2) {
         break;

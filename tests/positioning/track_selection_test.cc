@@ -95,7 +95,6 @@ TEST(TrackSelection, RejectsNegativeQuotas) {
                OptionError);
 }
 
-
 // Two images; 100 tracks seen by both, the 60 longest-ranked (first) in the
 // top-left cell of each image, the others 10 per remaining cell...; the
 // spread selection takes tracks from every cell, the longest-first one only
@@ -122,8 +121,8 @@ TEST(TrackSelection, GridSpreadsTheTracksOverTheImage) {
   const ObservationCellFn cell = [&](const TrackElement& element) {
     return track_cell.at(element.point2D_idx);
   };
-  const std::vector<std::pair<image_t, image_t>> pairs = {{1, 2}, {1, 3},
-                                                          {2, 3}};
+  const std::vector<std::pair<image_t, image_t>> pairs = {
+      {1, 2}, {1, 3}, {2, 3}};
   PositioningTrackSelectionOptions options;
   options.tracks_per_image = 20;
   options.tracks_per_pair = 0;
@@ -160,9 +159,9 @@ TEST(TrackSelection, GridKeepsThePairQuota) {
   options.tracks_per_pair = 10;
   // Every observation in cell 0: the grid's per-cell quota (4) is filled by
   // the chains' tracks; the junction pair still gets its 10.
-  const std::vector<size_t> selected = SelectTracksForPositioning(
-      options, scene.tracks, scene.pairs,
-      [](const TrackElement&) { return 0; });
+  const std::vector<size_t> selected =
+      SelectTracksForPositioning(options, scene.tracks, scene.pairs,
+                                 [](const TrackElement&) { return 0; });
   EXPECT_EQ(scene.NumJunctionTracks(selected), 10);
   // Without the pair quota the grid alone would lose them.
   options.tracks_per_pair = 0;

@@ -20,7 +20,7 @@ struct PositioningTrackSelectionOptions {
   // tracks kept so far; then, for images whose keypoints fill few cells,
   // while one of its images has fewer than tracks_per_image observations
   // (0: every track).
-  int tracks_per_image = 500;
+  int tracks_per_image = 250;
   // Cells per side of each image's grid (1: no spreading, the longest
   // tracks only). Spread observations constrain a camera's position better
   // than the same number bunched where the longest tracks happen to be.

@@ -63,6 +63,9 @@ int Run(int argc, char** argv) {
               "uneven density in [0, 1): cameras crowd at hot spots");
   manager.Add("num_hotspots", &options.num_hotspots,
               "hot spots of density_skew");
+  manager.Add("corner_turn_length", &options.corner_turn_length,
+              "cameras turn gradually within this arc length (m) of the "
+              "path's corners (0: abruptly)");
   manager.Add("camera_models", &camera_models,
               "comma-separated COLMAP model names, one per camera in turn");
   manager.Add("num_cameras", &options.num_cameras, "number of cameras");
@@ -146,6 +149,12 @@ int Run(int argc, char** argv) {
             << std::setprecision(1) << generate_seconds << " s, written in "
             << timer.ElapsedSeconds() - generate_seconds << " s to "
             << output_path << "\n";
+  const std::vector<int> across = PairsAcrossCorners(scene);
+  if (!across.empty()) {
+    std::cout << "true pairs across the path's corners:";
+    for (const int count : across) std::cout << ' ' << count;
+    std::cout << "\n";
+  }
   return 0;
 }
 

@@ -34,6 +34,42 @@ struct RectLoop {
   double hx = 1;
   double hz = 1;
   double Perimeter() const { return 4 * (hx + hz); }
+  // Arc lengths of the corners: the start of each side.
+  std::vector<double> Corners() const {
+    return {0, 2 * hx, 2 * hx + 2 * hz, 4 * hx + 2 * hz};
+  }
+  // The outward direction at arc length s, turned gradually at the corners:
+  // within `turn` of a corner it rotates from one side's normal to the
+  // next's (the diagonal at the corner itself), so that neighbouring cameras
+  // around a corner keep looking at overlapping walls.
+  Eigen::Vector2d TurningOutward(double s, double turn) const {
+    Eigen::Vector2d point, outward;
+    At(s, &point, &outward);
+    turn = std::min(turn, 0.4 * 2 * std::min(hx, hz));
+    if (turn <= 0) return outward;
+    const double p = Perimeter();
+    double along = std::fmod(s, p);
+    if (along < 0) along += p;
+    // Signed distance to the nearest corner (negative: before it).
+    double best = p;
+    for (const double corner : Corners()) {
+      for (const double c : {corner, corner + p, corner - p}) {
+        if (std::abs(along - c) < std::abs(best)) {
+          best = along - c;
+        }
+      }
+    }
+    if (std::abs(best) >= turn) return outward;
+    // Before a corner the path turns left next (counter-clockwise loop seen
+    // from above in x, z: outward rotates by +90 deg from one side to the
+    // next); weight of the other side's normal: 0.5 at the corner, 0 at
+    // `turn`.
+    const double other_weight = 0.5 * (1 - std::abs(best) / turn);
+    const double angle = (best < 0 ? 1 : -1) * other_weight * 0.5 * kPi;
+    const double c = std::cos(angle), sn = std::sin(angle);
+    return {c * outward.x() - sn * outward.y(),
+            sn * outward.x() + c * outward.y()};
+  }
   // Point at arc length s and the outward normal of its side.
   void At(double s, Eigen::Vector2d* point, Eigen::Vector2d* outward) const {
     s = std::fmod(s, Perimeter());
@@ -145,6 +181,29 @@ Camera MakeCamera(const SceneGeneratorOptions& options, camera_t camera_id,
   return camera;
 }
 
+// `xy` (inside the image) plus Gaussian noise of noise_px per coordinate,
+// drawn again while the result is outside [0, width] x [0, height]: a
+// detector reports keypoints inside the image only. Resampling (a Gaussian
+// truncated to the image) rather than clamping: clamping would put a share of
+// the border keypoints exactly on the border line. The truncation biases a
+// keypoint within ~noise_px of the border inwards by a fraction of a pixel,
+// as a detector's own border handling does.
+Eigen::Vector2d NoisyKeypoint(const Eigen::Vector2d& xy, double noise_px,
+                              const Camera& camera, std::mt19937_64* rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double w = camera.width, h = camera.height;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const double nx = normal(*rng), ny = normal(*rng);
+    const Eigen::Vector2d noisy = xy + noise_px * Eigen::Vector2d(nx, ny);
+    if (noisy.x() >= 0 && noisy.y() >= 0 && noisy.x() <= w && noisy.y() <= h) {
+      return noisy;
+    }
+  }
+  // Unreachable in practice (each attempt succeeds with probability >= 1/4):
+  // the noiseless position, which is inside.
+  return xy;
+}
+
 struct Layout {
   std::vector<Wall> walls;
   // Camera path: arc-length parameter in [0, path_length); position and
@@ -206,6 +265,7 @@ void SceneGeneratorOptions::Check() const {
   require(density_skew >= 0 && density_skew < 1, "density_skew",
           "must be in [0, 1)");
   require(num_hotspots >= 1, "num_hotspots", "must be >= 1");
+  require(corner_turn_length >= 0, "corner_turn_length", "must be >= 0");
   require(!camera_models.empty(), "camera_models", "must name a model");
   for (const std::string& name : camera_models) {
     require(CameraModelNameToId(name) >= 0, "camera_models",
@@ -240,6 +300,33 @@ Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world) {
   Rigid3d twin = cam_from_world;
   twin.rotation = (cam_from_world.rotation * MirrorRotation()).normalized();
   return twin;
+}
+
+std::vector<int> PairsAcrossCorners(const GeneratedScene& scene) {
+  std::vector<int> counts(scene.path_corners.size(), 0);
+  const double p = scene.path_length;
+  if (p <= 0) return counts;
+  auto wrap = [p](double x) {
+    x = std::fmod(x, p);
+    return x < 0 ? x + p : x;
+  };
+  for (const GeneratedPair& pair : scene.pairs) {
+    if (pair.kind != PairKind::kTrue) continue;
+    const double s1 = scene.image_path_positions.at(pair.image_id1 - 1);
+    const double s2 = scene.image_path_positions.at(pair.image_id2 - 1);
+    // The shorter arc between the two images: [start, start + length].
+    double start = s1;
+    double length = wrap(s2 - s1);
+    if (length > 0.5 * p) {
+      start = s2;
+      length = p - length;
+    }
+    for (size_t c = 0; c < scene.path_corners.size(); ++c) {
+      const double offset = wrap(scene.path_corners[c] - start);
+      if (offset > 0 && offset <= length) ++counts[c];
+    }
+  }
+  return counts;
 }
 
 GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
@@ -432,6 +519,16 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     }
   }
   std::sort(params.begin(), params.end());
+  scene.path_length = layout.path_length;
+  scene.image_path_positions.resize(n);
+  for (int i = 0; i < n; ++i) {
+    double along = std::fmod(params[i], layout.path_length);
+    if (along < 0) along += layout.path_length;
+    scene.image_path_positions[i] = along;
+  }
+  if (options.layout != SceneLayout::kStreet) {
+    scene.path_corners = loop.Corners();
+  }
 
   // Observations per point: (image, keypoint index).
   std::vector<std::vector<TrackElement>> observations(num_cloud_points);
@@ -451,7 +548,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         Eigen::Vector2d outward;
         loop.At(s, &ground, &outward);
         ground += 1.0 * (2 * unit(rng) - 1) * outward;
-        facing = outward;  // look at the nearest wall
+        // Look at the nearest wall, turning gradually at the corners.
+        facing = loop.TurningOutward(s, options.corner_turn_length);
         break;
       }
       case SceneLayout::kTower: {
@@ -459,6 +557,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         loop.At(s, &ground, &outward);
         // 8-30 m from the walls (the loop is 16 m out).
         ground += (-8 + 22 * unit(rng)) * outward;
+        // (Seen whole from afar, the tower ties its loop's sides together
+        // at an abrupt turn too: no gradual turn needed.)
         facing = -outward;
         pitch = DegToRad(10 + 20 * unit(rng));
         break;
@@ -537,8 +637,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
           }
           if (unit(rng) >= options.detection_probability) continue;
           Point2D point2D;
-          point2D.xy =
-              xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+          point2D.xy = NoisyKeypoint(xy, options.noise_px, camera, &rng);
           point2D.point3D_id = static_cast<point3D_t>(k) + 1;
           observations[k].push_back(
               {image.image_id, static_cast<point2D_t>(image.points2D.size())});
@@ -760,8 +859,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         continue;
       }
       Point2D point2D;
-      point2D.xy =
-          xy + options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+      point2D.xy = NoisyKeypoint(xy, options.noise_px, camera2, &rng);
       pair.random_inliers.push_back(
           {idx1, static_cast<point2D_t>(image2.points2D.size())});
       image2.points2D.push_back(point2D);

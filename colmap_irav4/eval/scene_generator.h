@@ -53,6 +53,12 @@ struct SceneGeneratorOptions {
   // hot spots, and the point density varies along the walls by this factor.
   double density_skew = 0.0;
   int num_hotspots = 3;
+  // Courtyard: cameras turn gradually at the corners of their loop: within
+  // this arc length (m) either side of a corner their viewing direction
+  // turns from one wall to the next (capped at 0.4 of the shorter side). 0:
+  // an abrupt 90 deg turn, which leaves a large courtyard's sides tied by
+  // only a few pairs. (The tower, seen whole from afar, needs no turn.)
+  double corner_turn_length = 10.0;
   // Cameras: COLMAP model names, one per camera in turn; images are assigned
   // to num_cameras cameras at random (1: one shared camera).
   std::vector<std::string> camera_models = {"SIMPLE_RADIAL"};
@@ -64,6 +70,8 @@ struct SceneGeneratorOptions {
   // farthest distance at which it does, keypoint noise (px, per coordinate).
   double detection_probability = 0.8;
   double max_view_distance = 40.0;
+  // (A noisy keypoint that would leave the image is drawn again: a detector
+  // reports positions inside [0, width] x [0, height] only.)
   double noise_px = 1.0;
   // Keypoints of nothing (clutter), as a fraction of each image's keypoints.
   double clutter_fraction = 0.1;
@@ -119,9 +127,20 @@ struct GeneratedScene {
   int num_mirror_pairs = 0;
   int num_random_pairs = 0;
   int num_mirror_candidates = 0;  // pairs that could have been mirror pairs
+  // The camera path: length (m), each image's arc-length position on it
+  // (indexed by image_id - 1) and the arc lengths of its corners (courtyard,
+  // tower: a closed loop with 4 corners; street: none).
+  double path_length = 0;
+  std::vector<double> image_path_positions;
+  std::vector<double> path_corners;
 };
 
 GeneratedScene GenerateScene(const SceneGeneratorOptions& options);
+
+// For each corner of the camera path (scene.path_corners), the number of
+// true pairs whose images lie on either side of it (the shorter way round
+// the loop passes it): the pairs that tie the path's sides together.
+std::vector<int> PairsAcrossCorners(const GeneratedScene& scene);
 
 // The stored geometry of a pair (database orientation image_id1 <
 // image_id2): inlier matches, CALIBRATED config, E and F of its (possibly

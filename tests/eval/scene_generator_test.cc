@@ -3,6 +3,7 @@
 // the database reads back, the mapper maps a clean scene accurately, and the
 // output is deterministic.
 
+#include <algorithm>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -156,6 +157,86 @@ TEST(SceneGenerator, DeterministicAndSeeded) {
             test::HashFile(temp.File("b.db")));
   // Never overwrites.
   EXPECT_THROW(WriteSceneDatabase(a, temp.File("a.db")), InputError);
+}
+
+// Pairs across the middle of each side of the camera loop: the reference for
+// the pairs across its corners.
+std::vector<int> PairsAcrossSideMiddles(const GeneratedScene& scene) {
+  GeneratedScene middles = scene;
+  const std::vector<double>& corners = scene.path_corners;
+  for (size_t c = 0; c < corners.size(); ++c) {
+    const double next =
+        c + 1 < corners.size() ? corners[c + 1] : scene.path_length;
+    middles.path_corners[c] = 0.5 * (corners[c] + next);
+  }
+  return PairsAcrossCorners(middles);
+}
+
+TEST(SceneGenerator, CamerasTurnGraduallyAtTheLoopCorners) {
+  for (const SceneLayout layout :
+       {SceneLayout::kCourtyard, SceneLayout::kTower}) {
+    SceneGeneratorOptions options;
+    options.layout = layout;
+    options.num_images = layout == SceneLayout::kCourtyard ? 300 : 150;
+    options.point_density = 20;
+    const GeneratedScene scene = GenerateScene(options);
+    const std::vector<int> corners = PairsAcrossCorners(scene);
+    const std::vector<int> middles = PairsAcrossSideMiddles(scene);
+    ASSERT_EQ(corners.size(), 4u);
+    double mean_middle = 0;
+    for (const int count : middles) mean_middle += count / 4.0;
+    ASSERT_GT(mean_middle, 20);
+    // Every corner is crossed by at least half as many pairs as a side's
+    // middle: the loop's sides are tied together as strongly as its parts.
+    for (size_t c = 0; c < corners.size(); ++c) {
+      EXPECT_GE(corners[c], 0.5 * mean_middle)
+          << SceneLayoutName(layout) << " corner " << c;
+    }
+    if (layout == SceneLayout::kCourtyard) {
+      // The bound fails with an abrupt turn (the generator before the fix).
+      options.corner_turn_length = 0;
+      const std::vector<int> abrupt =
+          PairsAcrossCorners(GenerateScene(options));
+      EXPECT_LT(*std::min_element(abrupt.begin(), abrupt.end()),
+                0.5 * mean_middle);
+    }
+  }
+  // A street has no corners.
+  EXPECT_TRUE(
+      GenerateScene(SmallOptions(SceneLayout::kStreet)).path_corners.empty());
+}
+
+TEST(SceneGenerator, NoisyKeypointsStayInsideTheImage) {
+  // Large noise, several camera models, random pairs (their keypoints are
+  // drawn separately): every keypoint in [0, width] x [0, height].
+  for (const SceneLayout layout :
+       {SceneLayout::kCourtyard, SceneLayout::kStreet, SceneLayout::kTower}) {
+    SceneGeneratorOptions options = SmallOptions(layout);
+    options.noise_px = 3.0;
+    options.random_pair_rate = 0.2;
+    options.camera_models = {"SIMPLE_RADIAL", "OPENCV", "PINHOLE"};
+    options.num_cameras = 3;
+    const GeneratedScene scene = GenerateScene(options);
+    size_t num_keypoints = 0, num_near_border = 0;
+    for (const auto& [image_id, image] : scene.truth.images) {
+      const Camera& camera = scene.truth.cameras.at(image.camera_id);
+      for (const Point2D& point2D : image.points2D) {
+        ++num_keypoints;
+        EXPECT_GE(point2D.xy.x(), 0);
+        EXPECT_GE(point2D.xy.y(), 0);
+        EXPECT_LE(point2D.xy.x(), camera.width);
+        EXPECT_LE(point2D.xy.y(), camera.height);
+        if (std::min({point2D.xy.x(), point2D.xy.y(),
+                      camera.width - point2D.xy.x(),
+                      camera.height - point2D.xy.y()}) < 3.0) {
+          ++num_near_border;
+        }
+      }
+    }
+    // The test means something: keypoints within the noise of the border.
+    EXPECT_GT(num_near_border, 10u) << SceneLayoutName(layout);
+    EXPECT_GT(num_keypoints, 1000u);
+  }
 }
 
 TEST(SceneGenerator, BadOptionsNameTheOption) {

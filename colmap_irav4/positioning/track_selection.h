@@ -20,11 +20,11 @@ struct PositioningTrackSelectionOptions {
   // tracks kept so far; then, for images whose keypoints fill few cells,
   // while one of its images has fewer than tracks_per_image observations
   // (0: every track).
-  int tracks_per_image = 250;
+  int tracks_per_image = 500;
   // Cells per side of each image's grid (1: no spreading, the longest
   // tracks only). Spread observations constrain a camera's position better
   // than the same number bunched where the longest tracks happen to be.
-  int grid_size = 4;
+  int grid_size = 1;
   // ... or while one of the view-graph pairs it spans is covered by fewer
   // than this many kept tracks (0: no pair quota). Without it, a pair that
   // alone ties two parts of the graph together (a corner of a long loop

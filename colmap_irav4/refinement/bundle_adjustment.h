@@ -53,12 +53,12 @@ struct BundleAdjustmentOptions {
   // images); but with the large trust region below its conjugate gradients
   // need many iterations. Measured on the synthetic courtyard (first bundle
   // adjustment of the mapper, CPU s, 2 threads): 300 images 47.2 iterative
-  // vs 5.8 sparse (8.1x), 1,000 images > 125 vs 36.2 (> 3.5x). The ratio
-  // falls with size; extrapolated as a power law through these two it
-  // reaches 1 at ~6,000 images at the earliest, hence the default (not
-  // measured there: `--BundleAdjustment.linear_solver` names one).
+  // vs 5.8 sparse (8.1x slower), 1,000 images > 262 vs 36.2 (> 7x, stopped
+  // unfinished): no crossover in sight, so the default keeps SPARSE_SCHUR
+  // beyond the sizes measured (10,000; `--BundleAdjustment.linear_solver
+  // iterative_schur` forces it).
   std::string linear_solver = "auto";
-  int iterative_schur_min_num_images = 6000;
+  int iterative_schur_min_num_images = 10000;
   // Ceres: 100 iterations per solve; function tolerance 1e-5 (on
   // fountain-P11 20 instead of 30 iterations over the two bundle adjustments
   // of the pipeline, same accuracy against the ground truth), parameter 1e-8.

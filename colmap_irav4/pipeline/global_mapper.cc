@@ -357,10 +357,14 @@ bool GlobalMapper::IterativeBundleAdjustment() {
           RunFiltering(options_.filtering, &reconstruction_);
       stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
       stage.Add("solves", static_cast<double>(ba_summary.num_solves));
-      // Wall seconds: where a bundle adjustment's time goes.
-      stage.Add("problem building s", ba_summary.problem_seconds);
-      stage.Add("ceres preprocessing s", ba_summary.preprocessor_seconds);
-      stage.Add("linear solves s", ba_summary.linear_solver_seconds);
+      // Where its time goes (wall seconds; not figures: they vary by run).
+      LOG(INFO) << log_prefix_ << "bundle adjustment "
+                << std::to_string(iteration + 1) << ": "
+                << ba_summary.linear_solver << ", building the problems "
+                << ba_summary.problem_seconds << " s, Ceres' preprocessing "
+                << ba_summary.preprocessor_seconds << " s, linear solves "
+                << ba_summary.linear_solver_seconds << " s of "
+                << ba_summary.seconds << " s";
       stage.Add("observations filtered",
                 static_cast<double>(ba_summary.num_observations_filtered +
                                     filter_summary.num_observations_filtered));

@@ -20,6 +20,9 @@
 #   REUSE=1 keeps scenes and mapper results that already exist
 #   THREADS threads per mapper (default 1)
 #   OURS_ARGS extra arguments to our mapper
+#   GEN_ARGS  extra arguments to scene_generator (e.g. "--point_density 15
+#             --noise_px 0.5 --false_pair_inlier_fraction 0.7"); scenes are
+#             named by them, so that different settings do not share a scene
 # COLMAP 3.8's mapper requires --image_path to be a directory; the scenes
 # have no image files, so the scene directory is passed (COLMAP then only
 # warns that it cannot read the colours).
@@ -41,6 +44,8 @@ tag=${TAG:-ours}
 reuse=${REUSE:-0}
 threads=${THREADS:-1}
 ours_args=${OURS_ARGS:-}
+gen_args=${GEN_ARGS:-}
+gen_tag=$(echo "$gen_args" | tr -s ' -' '_' | sed 's/^_//; s/_$//')
 for tool in colmap_irav4 scene_generator fold_eval; do
   [ -x "$build/$tool" ] || { echo "ERROR: $build/$tool: not built" >&2; exit 1; }
 done
@@ -52,7 +57,7 @@ workspace=$(cd "$workspace" && pwd)
 format="%-9s %-6s %-4s %-6s %-6s %-7s %-6s %-5s %-6s %-9s %-9s %-7s %-7s %s\n"
 
 scene_dir() {  # rate seed
-  echo "$workspace/${layout}_n${num_images}_r$1_s$2"
+  echo "$workspace/${layout}_n${num_images}${gen_tag:+_$gen_tag}_r$1_s$2"
 }
 
 row() {  # scene mapper rate seed: prints the table row
@@ -60,8 +65,9 @@ row() {  # scene mapper rate seed: prints the table row
   local eval_line fold="-" wall="-" user=0 sys=0 cpu pairs mirror
   pairs=$(sqlite3 "file:$scene/database.db?immutable=1" \
     "select count(*) from two_view_geometries where rows > 0" 2>/dev/null || echo -)
-  mirror=$(grep -o "[0-9]* mirror-twin" "$scene.generator.log" 2>/dev/null |
-           awk '{print $1}' || true)
+  # The generator's summary line ("N true, M mirror-twin"), not its warning.
+  mirror=$(grep -o "true, [0-9]* mirror-twin" "$scene.generator.log" \
+             2>/dev/null | awk 'NR == 1 {print $2}' || true)
   if [ ! -f "$scene/$mapper.time" ]; then
     printf "$format" "$layout" "$rate" "$seed" "$pairs" "${mirror:--}" "$mapper" \
       "not run" - - - - - - -
@@ -102,9 +108,10 @@ generate_and_map_ours() {
     scene=$(scene_dir "$rate" "$seed")
     if [ "$reuse" != 1 ] || [ ! -f "$scene/.generated" ]; then
       rm -rf "$scene"
+      # shellcheck disable=SC2086
       if ! "$build/scene_generator" --output_path "$scene" --layout "$layout" \
           --num_images "$num_images" --mirror_pair_rate "$rate" --seed "$seed" \
-          > "$scene.generator.log" 2>&1; then
+          $gen_args > "$scene.generator.log" 2>&1; then
         echo "ERROR: scene_generator failed, see $scene.generator.log" >&2
         mkdir -p "$scene" && touch "$scene/.failed"
         continue
@@ -168,7 +175,7 @@ if [ "$run_colmap" = 1 ]; then
 fi
 wait "$ours_pid" || true
 
-table=$workspace/table_${layout}_n${num_images}_${tag}.txt
+table=$workspace/table_${layout}_n${num_images}${gen_tag:+_$gen_tag}_${tag}.txt
 {
   printf "$format" layout rate seed pairs mirror mapper models reg turned \
     c_med_m c_mean_m wall_s cpu_s fold

@@ -29,6 +29,9 @@ void AddFoldFigures(const FoldReport& fold, StageTimer* stage) {
   stage->Add("contradictory tracks",
              static_cast<double>(fold.num_contradictory_tracks));
   stage->Add("suspect pairs", static_cast<double>(fold.suspect_pairs.size()));
+  stage->Add("weak pairs", static_cast<double>(fold.num_weak_pairs));
+  stage->Add("weak pairs across their cut",
+             static_cast<double>(fold.num_weak_cut_pairs));
 }
 
 std::vector<ImagePairGeometry> PairsWithin(
@@ -219,7 +222,10 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
       notes->push_back(prefix + "model looks folded (fold score " +
                        std::to_string(first.model.fold.fold_score) +
                        "); not resolved (--Fold.resolve 0)");
-      finish(&first, "folded (not resolved)", &models);
+      // Flagged after positioning: flagged as written, even if the check
+      // after refinement no longer sees it.
+      if (finish(&first, "folded (not resolved)", &models))
+        models.back().fold.folded = true;
     }
     if (models.empty()) *failure = first.failure;
     return models;
@@ -282,6 +288,66 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
         attempt.model.mapper->reconstruction().images.size() * 4 >=
             num_first_images * 3) {
       num_removed += num_dropped;
+      // Cameras turned alone among cameras the right way round are no cut;
+      // re-orient them once (their pairs the model agrees with removed),
+      // else write the model flagged folded.
+      const std::vector<image_t> alone_images =
+          attempt.model.fold.weak_alone_images;
+      if (!alone_images.empty()) {
+        const Reconstruction& resolved =
+            attempt.model.mapper->reconstruction();
+        const std::set<image_t> alone(alone_images.begin(),
+                                      alone_images.end());
+        std::vector<ImagePairGeometry> kept;
+        for (const ImagePairGeometry& pair : component_pairs) {
+          if ((!alone.count(pair.image_id1) && !alone.count(pair.image_id2)) ||
+              ContradictedByModel(pair, resolved,
+                                  options.detection.max_rotation_error_deg)) {
+            kept.push_back(pair);
+          }
+        }
+        const size_t num_alone_dropped = component_pairs.size() - kept.size();
+        LOG(INFO) << prefix << alone.size()
+                  << " images may be turned alone: " << num_alone_dropped
+                  << " pairs at them agree with the model and are removed, "
+                     "mapping again";
+        const std::vector<std::vector<image_t>> kept_components =
+            PairComponents(kept);
+        bool reoriented_alone = false;
+        if (num_alone_dropped > 0 && !kept_components.empty() &&
+            kept_components[0].size() * 4 >= num_first_images * 3) {
+          Attempt again = run(
+              kept_components[0],
+              PairsWithin(kept, std::set<image_t>(kept_components[0].begin(),
+                                                  kept_components[0].end())),
+              prefix);
+          if (again.ok && !again.model.fold.folded &&
+              refine(&again, prefix) && !again.model.fold.folded &&
+              again.model.fold.weak_alone_images.empty() &&
+              again.model.mapper->reconstruction().images.size() * 4 >=
+                  num_first_images * 3) {
+            attempt = std::move(again);
+            num_removed += num_alone_dropped;
+            reoriented_alone = true;
+          }
+        }
+        if (!reoriented_alone) {
+          LOG(WARNING) << prefix << "fold resolved but " << alone.size()
+                       << " images may still be turned alone: the model is "
+                          "written flagged FOLDED: "
+                       << attempt.model.fold.Describe();
+          notes->push_back(prefix + std::to_string(alone.size()) +
+                           " images may be turned alone after the fold "
+                           "resolution");
+          if (finish(&attempt,
+                     "folded (" + std::to_string(alone.size()) +
+                         " images may be turned alone)",
+                     &models)) {
+            models.back().fold.folded = true;
+          }
+          return models;
+        }
+      }
       LOG(INFO) << prefix << "fold resolved: " << attempt.model.fold.Describe();
       notes->push_back(prefix + "fold resolved by removing " +
                        std::to_string(num_removed) +
@@ -399,7 +465,11 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
   notes->push_back(prefix + "model likely folded (fold score " +
                    std::to_string(best.model.fold.fold_score) +
                    "), not resolved");
-  if (!finish(&best, "folded (unresolved)", &models)) *failure = best.failure;
+  if (finish(&best, "folded (unresolved)", &models)) {
+    models.back().fold.folded = true;  // as above
+  } else {
+    *failure = best.failure;
+  }
   return models;
 }
 

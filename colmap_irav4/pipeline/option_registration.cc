@@ -302,6 +302,17 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.min_overlap_fraction", &d.min_overlap_fraction,
                "a pair is predicted to overlap when each image expects this "
                "fraction of the other's points");
+  manager->Add("Fold.weak_pair_ratio", &d.weak_pair_ratio,
+               "a consistent pair with fewer inliers per predicted co-visible "
+               "point than this fraction of the typical is weak (0: off)");
+  manager->Add("Fold.min_weak_cut_pairs", &d.min_weak_cut_pairs,
+               "a cut with at least this many weak pairs across it...");
+  manager->Add("Fold.min_weak_cut_fraction", &d.min_weak_cut_fraction,
+               "... making this fraction of the consistent pairs across it "
+               "is a fold");
+  manager->Add("Fold.min_weak_alone_pairs", &d.min_weak_alone_pairs,
+               "an image with this many consistent pairs, all weak, and this "
+               "many contradicted ones may be turned alone");
 }
 
 void AddGlobalMapperOptions(OptionManager* manager,

@@ -28,6 +28,7 @@ struct View {
   Eigen::Vector3d center;
   Eigen::Vector3d axis;  // viewing direction in world coordinates
   std::vector<Eigen::Vector3d> points;  // sampled model points it observes
+  int num_points = 0;  // all the model points it observes
   double radius = 0;  // largest distance from the centre to those points
 };
 
@@ -73,6 +74,67 @@ std::pair<image_t, image_t> Ordered(image_t a, image_t b) {
   return a < b ? std::make_pair(a, b) : std::make_pair(b, a);
 }
 
+// Marks the weak pairs of report->pair_support and finds the cut that best
+// separates the weak consistent predicted pairs from the strong ones
+// (FoldReport: typical_ratio ... weak_fold). `index`: image id -> node.
+void WeakPairCut(const FoldDetectionOptions& options,
+                 const std::map<image_t, int>& index, FoldReport* report) {
+  std::vector<double> ratios;
+  for (PairSupport& support : report->pair_support) {
+    const double predicted =
+        std::sqrt(support.num_predicted12 * support.num_predicted21);
+    support.ratio = predicted > 0 ? support.num_inliers / predicted : 0;
+    // Only the predicted pairs: the overlap of the others (wide baselines,
+    // few predicted points) is predicted too poorly for a ratio.
+    if (support.predicted) ratios.push_back(support.ratio);
+  }
+  report->num_support_pairs = static_cast<int>(ratios.size());
+  if (ratios.empty() || options.weak_pair_ratio <= 0) return;
+  const size_t k = ratios.size() * 3 / 4;
+  std::nth_element(ratios.begin(), ratios.begin() + k, ratios.end());
+  report->typical_ratio = ratios[k];
+  const double threshold = options.weak_pair_ratio * report->typical_ratio;
+  // Signed graph over the images: strong predicted pairs pull together (+1),
+  // weak ones push apart (scaled so that both kinds weigh the same).
+  std::vector<std::tuple<int, int, double>> edges;
+  int num_strong = 0;
+  for (PairSupport& support : report->pair_support) {
+    support.weak = support.ratio < threshold;
+    if (!support.predicted) continue;
+    report->num_weak_pairs += support.weak;
+    num_strong += !support.weak;
+  }
+  if (report->num_weak_pairs < options.min_weak_cut_pairs || num_strong == 0) {
+    return;
+  }
+  const double negative =
+      static_cast<double>(num_strong) / report->num_weak_pairs;
+  for (const PairSupport& support : report->pair_support) {
+    if (!support.predicted) continue;
+    edges.emplace_back(index.at(support.image_id1),
+                       index.at(support.image_id2),
+                       support.weak ? -negative : 1.0);
+  }
+  const int n = static_cast<int>(index.size());
+  const std::vector<int> side = SignedGraphCut(n, edges);
+  int side_size[2] = {0, 0};
+  for (const int x : side) ++side_size[x > 0];
+  const int smaller = side_size[1] <= side_size[0] ? 1 : -1;
+  bool smaller_side_has_strong_pair = false;
+  for (const auto& [a, b, w] : edges) {
+    if (side[a] != side[b]) {
+      (w < 0 ? report->num_weak_cut_pairs : report->num_strong_cut_pairs) += 1;
+    } else if (w > 0 && side[a] == smaller) {
+      smaller_side_has_strong_pair = true;
+    }
+  }
+  const int cut = report->num_weak_cut_pairs + report->num_strong_cut_pairs;
+  report->weak_fold =
+      smaller_side_has_strong_pair &&
+      report->num_weak_cut_pairs >= options.min_weak_cut_pairs &&
+      report->num_weak_cut_pairs >= options.min_weak_cut_fraction * cut;
+}
+
 }  // namespace
 
 void FoldDetectionOptions::Check() const {
@@ -108,6 +170,18 @@ void FoldDetectionOptions::Check() const {
     throw InputError("--Fold.contradictory_ray_angle_deg",
                      "must be in (0, 180]");
   }
+  if (!(weak_pair_ratio >= 0 && weak_pair_ratio < 1)) {
+    throw InputError("--Fold.weak_pair_ratio", "must be in [0, 1)");
+  }
+  if (min_weak_cut_pairs < 1) {
+    throw InputError("--Fold.min_weak_cut_pairs", "must be >= 1");
+  }
+  if (!(min_weak_cut_fraction > 0.5 && min_weak_cut_fraction <= 1)) {
+    throw InputError("--Fold.min_weak_cut_fraction", "must be in (0.5, 1]");
+  }
+  if (min_weak_alone_pairs < 1) {
+    throw InputError("--Fold.min_weak_alone_pairs", "must be >= 1");
+  }
   if (min_suspect_conflicts < 1) {
     throw InputError("--Fold.min_suspect_conflicts", "must be >= 1");
   }
@@ -129,7 +203,13 @@ std::string FoldReport::Describe() const {
        << num_inconsistent_pairs << " contradicted, "
        << num_contradictory_tracks << " of " << num_tracks
        << " tracks seen from contradictory sides, " << suspect_pairs.size()
-       << " suspect pairs";
+       << " suspect pairs, " << num_weak_pairs << " of " << num_support_pairs
+       << " consistent predicted pairs weak (typical "
+       << std::setprecision(2) << typical_ratio
+       << " inliers per predicted point; " << num_weak_cut_pairs
+       << " weak and " << num_strong_cut_pairs << " strong across their cut"
+       << (weak_fold ? ": a fold)" : ")") << ", "
+       << weak_alone_images.size() << " images weak alone";
   return line.str();
 }
 
@@ -157,6 +237,7 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     }
     std::sort(ids.begin(), ids.end());
     ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    view.num_points = static_cast<int>(ids.size());
     const size_t n = std::min<size_t>(ids.size(), options.max_points_per_image);
     for (size_t k = 0; k < n; ++k) {
       // Evenly spaced over the sorted ids: deterministic.
@@ -268,6 +349,7 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   std::vector<std::pair<int, int>> consistent;
   std::vector<int> consistent_inliers;
   std::vector<int> inconsistent_inliers;
+  std::vector<int> contradicted(num_views, 0);  // per image
   for (const auto& [key, pair] : by_pair) {
     if (!pair->has_rotation || pair->num_inliers < options.min_num_matches) {
       continue;
@@ -279,11 +361,56 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
       consistent.emplace_back(index.at(pair->image_id1),
                               index.at(pair->image_id2));
       consistent_inliers.push_back(pair->num_inliers);
+      const int i = index.at(pair->image_id1);
+      const int j = index.at(pair->image_id2);
+      const int e_ij = expected_count(i, j);
+      const int e_ji = expected_count(j, i);
+      if (e_ij > 0 && e_ji > 0) {
+        PairSupport support;
+        support.image_id1 = pair->image_id1;
+        support.image_id2 = pair->image_id2;
+        support.num_inliers = pair->num_inliers;
+        support.num_predicted12 = static_cast<double>(e_ij) *
+                                  views[i].num_points / views[i].points.size();
+        support.num_predicted21 = static_cast<double>(e_ji) *
+                                  views[j].num_points / views[j].points.size();
+        support.predicted = is_predicted(i, j);
+        report.pair_support.push_back(support);
+      }
     } else {
       inconsistent_inliers.push_back(pair->num_inliers);
+      ++contradicted[index.at(pair->image_id1)];
+      ++contradicted[index.at(pair->image_id2)];
     }
   }
   report.num_inconsistent_pairs = static_cast<int>(inconsistent_inliers.size());
+  WeakPairCut(options, index, &report);
+  if (report.weak_fold) {
+    report.fold_score =
+        std::max(report.fold_score,
+                 static_cast<double>(report.num_weak_cut_pairs) /
+                     report.num_support_pairs);
+    report.folded = true;
+  }
+  // Images weak alone: every consistent predicted pair at them weak, and
+  // verified pairs at them contradicted.
+  std::vector<int> num_support(num_views, 0);
+  std::vector<int> num_weak(num_views, 0);
+  for (const PairSupport& support : report.pair_support) {
+    if (!support.predicted) continue;
+    for (const image_t image_id : {support.image_id1, support.image_id2}) {
+      const int i = index.at(image_id);
+      ++num_support[i];
+      num_weak[i] += support.weak;
+    }
+  }
+  for (int i = 0; i < num_views; ++i) {
+    if (num_support[i] >= options.min_weak_alone_pairs &&
+        num_weak[i] == num_support[i] &&
+        contradicted[i] >= options.min_weak_alone_pairs) {
+      report.weak_alone_images.push_back(views[i].image_id);
+    }
+  }
   if (!consistent_inliers.empty()) {
     std::vector<int> sorted = consistent_inliers;
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
@@ -347,56 +474,9 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   return report;
 }
 
-std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
-    const FoldDetectionOptions& options, const Reconstruction& reconstruction,
-    const FoldEvidence& evidence, const FoldReport& report) {
-  std::vector<image_t> ids;
-  std::map<image_t, int> index;
-  for (const auto& [image_id, image] : reconstruction.images) {
-    index[image_id] = static_cast<int>(ids.size());
-    ids.push_back(image_id);
-  }
-  const int n = static_cast<int>(ids.size());
-  // Signed graph: trusted pairs pull together (+1 each), missing pairs
-  // push apart (-1 each, scaled so that both kinds weigh the same in total).
-  const std::set<std::pair<image_t, image_t>> suspects(
-      report.suspect_pairs.begin(), report.suspect_pairs.end());
-  std::vector<std::tuple<int, int, double>> edges;
-  int num_trusted = 0;
-  for (const PairEvidence& pair : evidence.pairs) {
-    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
-      continue;
-    }
-    const auto i1 = index.find(pair.image_id1);
-    const auto i2 = index.find(pair.image_id2);
-    if (i1 == index.end() || i2 == index.end()) continue;
-    if (suspects.count(Ordered(pair.image_id1, pair.image_id2))) continue;
-    const Image& image1 = reconstruction.images.at(pair.image_id1);
-    const Image& image2 = reconstruction.images.at(pair.image_id2);
-    const Eigen::Matrix3d R1 =
-        image1.cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Matrix3d R2 =
-        image2.cam_from_world.rotation.toRotationMatrix();
-    if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
-        options.max_rotation_error_deg) {
-      continue;
-    }
-    edges.emplace_back(i1->second, i2->second, 1.0);
-    ++num_trusted;
-  }
-  const int num_missing = static_cast<int>(report.missing_pairs.size());
-  std::pair<std::vector<image_t>, std::vector<image_t>> sides;
-  if (n < 2 || num_missing == 0 || num_trusted == 0) {
-    sides.first = ids;
-    return sides;
-  }
-  const double negative = static_cast<double>(num_trusted) / num_missing;
-  for (const auto& [a, b] : report.missing_pairs) {
-    const auto i1 = index.find(a);
-    const auto i2 = index.find(b);
-    if (i1 == index.end() || i2 == index.end()) continue;
-    edges.emplace_back(i1->second, i2->second, -negative);
-  }
+std::vector<int> SignedGraphCut(
+    int n, const std::vector<std::tuple<int, int, double>>& edges) {
+  if (n == 0) return {};
   // Leading eigenvector of the signed adjacency (power iteration with a
   // shift that makes the matrix positive definite), then single flips while
   // they increase the agreement sum_ij w_ij x_i x_j.
@@ -434,6 +514,70 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
       }
     }
   }
+  return side;
+}
+
+std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
+    const FoldDetectionOptions& options, const Reconstruction& reconstruction,
+    const FoldEvidence& evidence, const FoldReport& report) {
+  std::vector<image_t> ids;
+  std::map<image_t, int> index;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    index[image_id] = static_cast<int>(ids.size());
+    ids.push_back(image_id);
+  }
+  const int n = static_cast<int>(ids.size());
+  // Signed graph: trusted pairs pull together (+1 each), missing and weak
+  // pairs push apart (-1 each, scaled so that both kinds weigh the same in
+  // total).
+  std::set<std::pair<image_t, image_t>> suspects(
+      report.suspect_pairs.begin(), report.suspect_pairs.end());
+  // Weak pairs are not trusted; the weak predicted ones push apart as the
+  // missing pairs do (a fold's false pairs are the weak ones across it).
+  std::vector<std::pair<image_t, image_t>> negatives = report.missing_pairs;
+  for (const PairSupport& support : report.pair_support) {
+    if (!support.weak) continue;
+    suspects.insert({support.image_id1, support.image_id2});
+    if (support.predicted)
+      negatives.emplace_back(support.image_id1, support.image_id2);
+  }
+  std::vector<std::tuple<int, int, double>> edges;
+  int num_trusted = 0;
+  for (const PairEvidence& pair : evidence.pairs) {
+    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
+      continue;
+    }
+    const auto i1 = index.find(pair.image_id1);
+    const auto i2 = index.find(pair.image_id2);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    if (suspects.count(Ordered(pair.image_id1, pair.image_id2))) continue;
+    const Image& image1 = reconstruction.images.at(pair.image_id1);
+    const Image& image2 = reconstruction.images.at(pair.image_id2);
+    const Eigen::Matrix3d R1 =
+        image1.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R2 =
+        image2.cam_from_world.rotation.toRotationMatrix();
+    if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+        options.max_rotation_error_deg) {
+      continue;
+    }
+    edges.emplace_back(i1->second, i2->second, 1.0);
+    ++num_trusted;
+  }
+  const int num_missing = static_cast<int>(negatives.size());
+  std::pair<std::vector<image_t>, std::vector<image_t>> sides;
+  if (n < 2 || num_missing == 0 || num_trusted == 0) {
+    sides.first = ids;
+    return sides;
+  }
+  const double negative = static_cast<double>(num_trusted) / num_missing;
+  for (const auto& [a, b] : negatives) {
+    const auto i1 = index.find(a);
+    const auto i2 = index.find(b);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    edges.emplace_back(i1->second, i2->second, -negative);
+  }
+  const std::vector<int> side = SignedGraphCut(n, edges);
   int cut_trusted = 0;
   int cut_missing = 0;
   for (const auto& [a, b, w] : edges) {

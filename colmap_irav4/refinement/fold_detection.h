@@ -13,12 +13,23 @@
 //   - inconsistent strong pairs: verified pairs with many inliers whose
 //     relative rotation the model contradicts;
 //   - tracks seen from contradictory sides of their point.
+//   - weak pairs across a cut: a false (mirror) pair that the folded model
+//     explains matches only part of what a true pair with the same predicted
+//     overlap matches (only the repeated part of the facade matches), so its
+//     verified inliers per co-visible model point predicted for it fall far
+//     below the typical ratio; in a folded model these weak pairs are the
+//     ones that cross the fold, and nearly every consistent pair across it
+//     is weak (where the symmetry is strong the folded model leaves few
+//     pairs missing, and this is the remaining evidence).
 // The fold score is the fraction of the predicted-overlapping (tried) pairs
-// without matches: near 0 for a correct model from exhaustive matching, high
-// where cameras were folded onto their twins' side.
+// without matches, or, where the weak pairs form a cut, the fraction of the
+// consistent predicted pairs that are weak and cross it (whichever is
+// larger): near 0 for a correct model from exhaustive matching, high where
+// cameras were folded onto their twins' side.
 
 #include <map>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -61,6 +72,28 @@ struct FoldDetectionOptions {
   // images predicted to overlap both match exactly one of them, and more of
   // them do than match both.
   int min_suspect_conflicts = 2;
+  // A consistent predicted pair is weak when its verified inliers per
+  // co-visible model point predicted for it fall below this fraction of the
+  // typical ratio (the 75th percentile over those pairs: false pairs may be
+  // the majority where the symmetry is strong). 0: weak pairs are not used.
+  // A false pair that keeps more than about this fraction of what a true
+  // pair matches cannot be told from a true one.
+  double weak_pair_ratio = 0.75;
+  // A model is folded when a cut separates at least this many weak pairs...
+  int min_weak_cut_pairs = 10;
+  // ... that make at least this fraction of the consistent predicted pairs
+  // across it (a fold leaves only false pairs consistent across it; the
+  // wide-baseline pairs of a correct sequence are weak too, but a cut through
+  // it also crosses its strong near pairs).
+  double min_weak_cut_fraction = 0.9;
+  // An image is "weak alone" when at least this many consistent predicted
+  // pairs are at it, all weak, and at least this many verified pairs at it
+  // contradict the model: what a camera turned alone among cameras the
+  // right way round shows (its true pairs contradicted, its false ones
+  // weak), which no cut separates (a cut needs strong pairs on both sides).
+  // Reported only; the resolution re-orients such images of a model it
+  // would accept.
+  int min_weak_alone_pairs = 2;
   // Skip the camera pairs too far apart to share a point under the view
   // angle and scale ratio before projecting any point (exact: the report is
   // the same; false only to measure what it saves).
@@ -106,6 +139,24 @@ struct FoldEvidence {
   bool absent_pairs_were_tried = false;
 };
 
+// A verified pair the model agrees with, and how much of what the model
+// predicts the two images share its matches cover.
+struct PairSupport {
+  image_t image_id1 = kInvalidImageId;  // smaller id
+  image_t image_id2 = kInvalidImageId;
+  int num_inliers = 0;
+  // Model points of image 1 that image 2 is expected to see, and vice versa
+  // (scaled from the sample to all of the image's points).
+  double num_predicted12 = 0;
+  double num_predicted21 = 0;
+  // Whether the pair is one of the predicted overlapping pairs.
+  bool predicted = false;
+  // Inliers per predicted co-visible point (geometric mean of both
+  // directions), and whether that is below weak_pair_ratio of the typical.
+  double ratio = 0;
+  bool weak = false;
+};
+
 struct FoldReport {
   // Fraction of the predicted-overlapping tried pairs without matches.
   double fold_score = 0;
@@ -127,6 +178,22 @@ struct FoldReport {
   // Pairs the model agrees with that explain the conflict (their matches
   // tie together images whose other predicted neighbours disagree).
   std::vector<std::pair<image_t, image_t>> suspect_pairs;
+  // The consistent pairs with a predicted overlap in both directions.
+  std::vector<PairSupport> pair_support;
+  // Typical inliers per predicted co-visible point of the consistent
+  // predicted pairs (0 if none), how many of those pairs are weak, and the
+  // cut that best separates the weak pairs from the strong ones: weak and
+  // strong consistent predicted pairs across it. weak_fold: the cut is a
+  // fold (min_weak_cut_pairs, min_weak_cut_fraction, and the smaller side
+  // holds a strong pair, so that one poorly matched image is not a fold).
+  double typical_ratio = 0;
+  int num_support_pairs = 0;
+  int num_weak_pairs = 0;
+  int num_weak_cut_pairs = 0;
+  int num_strong_cut_pairs = 0;
+  bool weak_fold = false;
+  // Images weak alone (min_weak_alone_pairs).
+  std::vector<image_t> weak_alone_images;
 
   // One line for the log: "fold score 0.42 (31 of 74 predicted pairs
   // missing), ...".
@@ -139,12 +206,21 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
                       const Reconstruction& reconstruction,
                       const FoldEvidence& evidence);
 
+// A 2-partition of the n nodes of a signed graph (edges (a, b, weight):
+// positive pull together, negative push apart) that maximises the agreement
+// sum w_ab x_a x_b: the leading eigenvector of the signed adjacency, then
+// single flips while they help. Deterministic. Sides are +1 / -1.
+std::vector<int> SignedGraphCut(
+    int n, const std::vector<std::tuple<int, int, double>>& edges);
+
 // The weakest cut of a folded model: a 2-partition of the images that keeps
 // together the images matched by trusted pairs (the model agrees with them,
-// not suspected; weight: inlier count) and separates the images of missing
-// pairs. Returns the two sides (each sorted; the larger first); one side is
-// empty when the cut does not explain the fold (fewer than 80% of the missing
-// pairs cross it, and fewer than the trusted pairs it cuts).
+// not suspected, not weak; weight: one each) and separates the images of
+// missing pairs and of weak predicted pairs (each -1, scaled so that the
+// negative and the positive edges weigh the same in total). Returns the two
+// sides (each sorted; the larger first); one side is empty when the cut does
+// not explain the fold (fewer than 80% of the missing and weak pairs cross
+// it, and fewer than the trusted pairs it cuts).
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const FoldDetectionOptions& options, const Reconstruction& reconstruction,
     const FoldEvidence& evidence, const FoldReport& report);

@@ -7,8 +7,10 @@
 // Counts of cameras turned by more than 30 deg against the exact ground truth.
 
 #include <sys/wait.h>
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -34,28 +36,49 @@ struct SymmetricRun {
   double center_error_median = -1;  // largest model
 };
 
-// A 40-image courtyard (fast: a few seconds), mapped in-process.
-SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
-                          bool resolve) {
+// A 40-image courtyard (fast: a few seconds) whose false pairs keep
+// `false_pair_inlier_fraction` of the matches their geometry allows.
+SceneGeneratorOptions CourtyardOptions(double mirror_pair_rate, uint64_t seed,
+                                       double false_pair_inlier_fraction) {
   SceneGeneratorOptions options;
   options.layout = SceneLayout::kCourtyard;
   options.num_images = 40;
   options.point_density = 15;
   options.noise_px = 0.5;
   options.mirror_pair_rate = mirror_pair_rate;
+  options.false_pair_inlier_fraction = false_pair_inlier_fraction;
   options.seed = seed;
-  const GeneratedScene scene = GenerateScene(options);
-  if (mirror_pair_rate > 0) {
-    EXPECT_GE(scene.num_mirror_pairs,
-              static_cast<int>(0.9 * mirror_pair_rate * scene.pairs.size()));
+  return options;
+}
+
+// The courtyard generated and written as a database in `temp`; returns its
+// path.
+std::string WriteCourtyard(const SceneGeneratorOptions& options,
+                           const test::TempDir& temp, GeneratedScene* scene) {
+  *scene = GenerateScene(options);
+  if (options.mirror_pair_rate > 0) {
+    EXPECT_GE(scene->num_mirror_pairs,
+              static_cast<int>(0.9 * options.mirror_pair_rate *
+                               scene->pairs.size()));
   }
-  test::TempDir temp;
   const std::string path = temp.File("database.db");
-  WriteSceneDatabase(scene, path);
-  const DatabaseContents database = ReadDatabase(path);
+  WriteSceneDatabase(*scene, path);
+  return path;
+}
+
+// The courtyard mapped in-process; `fold` are the fold options (resolution,
+// weak pairs).
+SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
+                          const FoldResolutionOptions& fold,
+                          double false_pair_inlier_fraction = 0.4) {
+  test::TempDir temp;
+  GeneratedScene scene;
+  const DatabaseContents database = ReadDatabase(WriteCourtyard(
+      CourtyardOptions(mirror_pair_rate, seed, false_pair_inlier_fraction),
+      temp, &scene));
 
   GlobalMapperOptions mapper_options;
-  mapper_options.fold.resolve = resolve;
+  mapper_options.fold = fold;
   SymmetricRun run;
   run.num_images = static_cast<int>(scene.truth.images.size());
   run.models = RunGlobalMapper(mapper_options, database, "", &run.summary);
@@ -75,6 +98,13 @@ SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
     if (k == 0) run.center_error_median = comparison.center_error_median;
   }
   return run;
+}
+
+SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
+                          bool resolve) {
+  FoldResolutionOptions fold;
+  fold.resolve = resolve;
+  return MapCourtyard(mirror_pair_rate, seed, fold);
 }
 
 TEST(SymmetricScene, NoMirrorPairsGiveOneCleanModel) {
@@ -133,15 +163,10 @@ TEST(SymmetricScene, AnotherSeedIsResolvedToo) {
 // never silent: exit code 3, num_folded_models in summary.json, and the
 // last warning names it; the resolved run exits 0.
 TEST(SymmetricScene, FoldedModelIsNotWrittenSilently) {
-  SceneGeneratorOptions options;
-  options.num_images = 40;
-  options.point_density = 15;
-  options.noise_px = 0.5;
-  options.mirror_pair_rate = 0.2;
-  options.seed = 1;
   test::TempDir temp;
-  const std::string database = temp.File("database.db");
-  WriteSceneDatabase(GenerateScene(options), database);
+  GeneratedScene scene;
+  const std::string database =
+      WriteCourtyard(CourtyardOptions(0.2, 1, 0.4), temp, &scene);
   auto run = [&](const std::string& name, const std::string& flags,
                  std::string* log, std::string* summary) {
     const std::string output = temp.File(name);
@@ -171,6 +196,102 @@ TEST(SymmetricScene, FoldedModelIsNotWrittenSilently) {
   EXPECT_NE(summary.find("\"num_folded_models\": 0"), std::string::npos)
       << summary;
   EXPECT_EQ(log.find("is likely FOLDED"), std::string::npos) << log;
+}
+
+// Half the pairs mirror-twin pairs: the folded model (half the cameras
+// turned) explains nearly every predicted pair, so the missing pairs do not
+// flag it; what is left is that its false pairs match only part of what
+// true pairs of the same predicted overlap match. Without that evidence
+// (weak_pair_ratio 0) the model is written folded and unflagged; with it
+// the fold is found and resolved: every camera right, one model. For false
+// pairs keeping 40% and 70% of their possible matches.
+TEST(SymmetricScene, FoldWithFewMissingPairsIsFoundFromWeakPairs) {
+  for (const double keep : {0.4, 0.7}) {
+    SCOPED_TRACE("false_pair_inlier_fraction " + std::to_string(keep));
+    FoldResolutionOptions without;
+    without.detection.weak_pair_ratio = 0;
+    const SymmetricRun silent = MapCourtyard(0.5, 1, without, keep);
+    ASSERT_EQ(silent.models.size(), 1u);
+    EXPECT_GE(silent.num_turned, 10);
+    ASSERT_EQ(silent.summary.components.size(), 1u);
+    EXPECT_FALSE(silent.summary.components[0].folded);
+
+    FoldResolutionOptions detect_only;
+    detect_only.resolve = false;
+    const SymmetricRun flagged = MapCourtyard(0.5, 1, detect_only, keep);
+    ASSERT_EQ(flagged.summary.components.size(), 1u);
+    EXPECT_GE(flagged.num_turned, 10);
+    EXPECT_TRUE(flagged.summary.components[0].folded);
+    EXPECT_GT(flagged.summary.components[0].fold_score, 0.1);
+
+    const SymmetricRun run = MapCourtyard(0.5, 1, FoldResolutionOptions(), keep);
+    ASSERT_EQ(run.models.size(), 1u);
+    EXPECT_EQ(run.num_registered, run.num_images);
+    EXPECT_EQ(run.num_turned, 0);
+    EXPECT_LT(run.center_error_median, 0.01);
+    ASSERT_EQ(run.summary.components.size(), 1u);
+    EXPECT_FALSE(run.summary.components[0].folded);
+    EXPECT_EQ(run.summary.components[0].fold_outcome.rfind("resolved", 0), 0u)
+        << run.summary.components[0].fold_outcome;
+  }
+}
+
+// Weak pairs alone are no fold: a correct model's consistent pairs, with
+// the inliers of some thinned (a poorly matched image, wide baselines),
+// give no weak cut; the inliers of every pair across a cut thinned do.
+TEST(SymmetricScene, WeakPairsFlagOnlyACut) {
+  const GeneratedScene scene = GenerateScene(CourtyardOptions(0.0, 3, 0.4));
+  auto evidence_with = [&](const std::function<bool(const GeneratedPair&)>&
+                               thin) {
+    FoldEvidence evidence;
+    for (const GeneratedPair& pair : scene.pairs) {
+      PairEvidence entry;
+      entry.image_id1 = pair.image_id1;
+      entry.image_id2 = pair.image_id2;
+      entry.num_inliers = thin(pair) ? std::max(15, pair.num_candidates * 4 / 10)
+                                     : pair.num_candidates;
+      entry.has_rotation = true;
+      entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
+      evidence.pairs.push_back(entry);
+    }
+    evidence.absent_pairs_were_tried = true;
+    return evidence;
+  };
+  const FoldDetectionOptions options;
+  const FoldReport clean = DetectFold(
+      options, scene.truth, evidence_with([](const GeneratedPair&) {
+        return false;
+      }));
+  EXPECT_GT(clean.num_support_pairs, 50);
+  EXPECT_EQ(clean.num_weak_pairs, 0);
+  EXPECT_FALSE(clean.folded);
+  // Every pair of images 1-3 thinned: one poorly matched corner.
+  const FoldReport corner = DetectFold(
+      options, scene.truth, evidence_with([](const GeneratedPair& pair) {
+        return pair.image_id1 <= 3 || pair.image_id2 <= 3;
+      }));
+  EXPECT_GT(corner.num_weak_pairs, 0);
+  EXPECT_FALSE(corner.weak_fold) << corner.Describe();
+  EXPECT_FALSE(corner.folded);
+  // Every second pair thinned: weak pairs everywhere, no cut.
+  const FoldReport scattered = DetectFold(
+      options, scene.truth, evidence_with([](const GeneratedPair& pair) {
+        return (pair.image_id1 + pair.image_id2) % 2 == 0;
+      }));
+  EXPECT_GE(scattered.num_weak_pairs, options.min_weak_cut_pairs);
+  EXPECT_FALSE(scattered.weak_fold) << scattered.Describe();
+  EXPECT_FALSE(scattered.folded);
+  // Every pair across blocks of five images (1-5, 11-15, ... against 6-10,
+  // 16-20, ...) thinned: a cut.
+  const FoldReport cut = DetectFold(
+      options, scene.truth, evidence_with([](const GeneratedPair& pair) {
+        return ((pair.image_id1 - 1) / 5) % 2 != ((pair.image_id2 - 1) / 5) % 2;
+      }));
+  EXPECT_GE(cut.num_weak_cut_pairs, options.min_weak_cut_pairs)
+      << cut.Describe();
+  EXPECT_TRUE(cut.weak_fold);
+  EXPECT_TRUE(cut.folded);
+  EXPECT_GT(cut.fold_score, 0.0);
 }
 
 // The fold check skips camera pairs too far apart to share a point before

@@ -245,6 +245,10 @@ void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
                "inlier threshold of (re)triangulation (px)");
   manager->Add("Triangulation.min_tri_angle", &o->min_tri_angle,
                "minimum triangulation angle (deg)");
+  manager->Add("Triangulation.ignore_two_view_tracks",
+               &o->ignore_two_view_tracks,
+               "do not (re)triangulate tracks of two observations (COLMAP's "
+               "ignore_two_view_tracks)");
 }
 
 void AddBundleAdjustmentOptions(OptionManager* manager,

@@ -231,13 +231,21 @@ bool GlobalMapper::BuildTracks() {
     selection.tracks_per_image = options_.skip_retriangulation
                                      ? 0
                                      : options_.positioning_tracks_per_image;
+    selection.grid_size = options_.positioning_grid_size;
     selection.tracks_per_pair = options_.positioning_tracks_per_pair;
     std::vector<std::pair<image_t, image_t>> pair_ids;
     pair_ids.reserve(pairs_.size());
     for (const ImagePairGeometry& pair : pairs_) {
       pair_ids.emplace_back(pair.image_id1, pair.image_id2);
     }
-    selected = SelectTracksForPositioning(selection, tracks_, pair_ids);
+    const ObservationCellFn cell = [&](const TrackElement& element) {
+      const Image& image = reconstruction_.images.at(element.image_id);
+      const Camera& camera = reconstruction_.cameras.at(image.camera_id);
+      const Eigen::Vector2d& xy = image.points2D[element.point2D_idx].xy;
+      return GridCell(xy.x(), xy.y(), static_cast<double>(camera.width),
+                      static_cast<double>(camera.height), selection.grid_size);
+    };
+    selected = SelectTracksForPositioning(selection, tracks_, pair_ids, cell);
   }
   // The cap: positioning's tracks first (they keep every pair tied), then
   // the longest; the others are dropped.
@@ -348,6 +356,15 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       const FilterSummary filter_summary =
           RunFiltering(options_.filtering, &reconstruction_);
       stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
+      stage.Add("solves", static_cast<double>(ba_summary.num_solves));
+      // Where its time goes (wall seconds; not figures: they vary by run).
+      LOG(INFO) << log_prefix_ << "bundle adjustment "
+                << std::to_string(iteration + 1) << ": "
+                << ba_summary.linear_solver << ", building the problems "
+                << ba_summary.problem_seconds << " s, Ceres' preprocessing "
+                << ba_summary.preprocessor_seconds << " s, linear solves "
+                << ba_summary.linear_solver_seconds << " s of "
+                << ba_summary.seconds << " s";
       stage.Add("observations filtered",
                 static_cast<double>(ba_summary.num_observations_filtered +
                                     filter_summary.num_observations_filtered));
@@ -521,6 +538,10 @@ void GlobalMapperOptions::Check() const {
   if (positioning_tracks_per_image < 0) {
     throw OptionError(&positioning_tracks_per_image,
                       "Mapper.positioning_tracks_per_image", "must be >= 0");
+  }
+  if (positioning_grid_size < 1) {
+    throw OptionError(&positioning_grid_size, "Mapper.positioning_grid_size",
+                      "must be >= 1");
   }
   if (max_num_tracks < 0) {
     throw OptionError(&max_num_tracks, "Mapper.max_num_tracks", "must be >= 0");

@@ -66,6 +66,14 @@ struct GlobalMapperOptions {
   // many observations (0: all tracks); the rest are triangulated after the
   // first bundle adjustment. Fewer unknowns, same poses, much faster.
   int positioning_tracks_per_image = 500;
+  // ... spread over each image: a grid of this many cells per side, each
+  // cell's share of the quota filled first (1: the longest tracks only, as
+  // before the grid). 4 x 4 cells, 250 per image: 300-image synthetic
+  // courtyard 17,442 tracks instead of 22,008 and centres 3.90 mm instead
+  // of 3.99, but at 1,000 images 53,352 instead of 60,324 and centres
+  // 11.9 mm instead of 10.8 (the final bundle adjustment does not reach the
+  // same optimum from there): off by default.
+  int positioning_grid_size = 1;
   // ... and every view-graph pair keeps at least this many of its tracks
   // (0: no pair quota): a pair that alone ties two parts of the graph
   // together must not lose its tracks to the per-image quota (see

@@ -245,6 +245,10 @@ void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
                "inlier threshold of (re)triangulation (px)");
   manager->Add("Triangulation.min_tri_angle", &o->min_tri_angle,
                "minimum triangulation angle (deg)");
+  manager->Add("Triangulation.ignore_two_view_tracks",
+               &o->ignore_two_view_tracks,
+               "do not (re)triangulate tracks of two observations (COLMAP's "
+               "ignore_two_view_tracks)");
 }
 
 void AddBundleAdjustmentOptions(OptionManager* manager,
@@ -260,6 +264,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "observations over this error are removed between rounds (px)");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
                "auto, sparse_schur, dense_schur or iterative_schur");
+  manager->Add("BundleAdjustment.iterative_schur_min_num_images",
+               &ba.iterative_schur_min_num_images,
+               "linear_solver auto: iterative_schur from this many images "
+               "(sparse_schur from 50)");
   AddSolverOptions(manager, "BundleAdjustment.", &ba.solver);
 }
 
@@ -346,6 +354,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
                &o.positioning_tracks_per_image,
                "global positioning uses the longest tracks until each image "
                "has this many observations (0: all tracks)");
+  manager->Add("Mapper.positioning_grid_size", &o.positioning_grid_size,
+               "... spread over each image: a grid of this many cells per "
+               "side, each cell's share of the quota first (1: the longest "
+               "tracks only)");
   manager->Add("Mapper.max_num_tracks", &o.max_num_tracks,
                "at most this many tracks (points): positioning's first, then "
                "the longest; a warning says how many were dropped (0: no "

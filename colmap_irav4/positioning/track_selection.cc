@@ -1,6 +1,8 @@
 #include "colmap_irav4/positioning/track_selection.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <unordered_map>
 
@@ -13,16 +15,30 @@ void PositioningTrackSelectionOptions::Check() const {
     throw OptionError(&tracks_per_image, "Mapper.positioning_tracks_per_image",
                       "must be >= 0");
   }
+  if (grid_size < 1) {
+    throw OptionError(&grid_size, "Mapper.positioning_grid_size",
+                      "must be >= 1");
+  }
   if (tracks_per_pair < 0) {
     throw OptionError(&tracks_per_pair, "Mapper.positioning_tracks_per_pair",
                       "must be >= 0");
   }
 }
 
+int GridCell(double x, double y, double width, double height, int grid_size) {
+  auto index = [grid_size](double v, double size) {
+    const double scaled = size > 0 ? std::floor(v / size * grid_size) : 0.0;
+    return static_cast<int>(
+        std::clamp(scaled, 0.0, static_cast<double>(grid_size - 1)));
+  };
+  return index(y, height) * grid_size + index(x, width);
+}
+
 std::vector<size_t> SelectTracksForPositioning(
     const PositioningTrackSelectionOptions& options,
     const std::vector<Track>& tracks,
-    const std::vector<std::pair<image_t, image_t>>& pairs) {
+    const std::vector<std::pair<image_t, image_t>>& pairs,
+    const ObservationCellFn& cell) {
   options.Check();
   std::vector<size_t> selected;
   if (options.tracks_per_image <= 0) {
@@ -35,6 +51,25 @@ std::vector<size_t> SelectTracksForPositioning(
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return tracks[a].size() > tracks[b].size();
   });
+  const bool spread = cell != nullptr && options.grid_size > 1;
+  const int num_cells = spread ? options.grid_size * options.grid_size : 1;
+  const int per_cell = (options.tracks_per_image + num_cells - 1) / num_cells;
+  // The (image, cell) key of every observation, once: offsets[k] is the
+  // first of track k's.
+  std::vector<size_t> offsets(tracks.size() + 1, 0);
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    offsets[k + 1] = offsets[k] + tracks[k].size();
+  }
+  std::vector<uint64_t> keys(offsets.back());
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    for (size_t j = 0; j < tracks[k].size(); ++j) {
+      const TrackElement& element = tracks[k][j];
+      keys[offsets[k] + j] =
+          static_cast<uint64_t>(element.image_id) * num_cells +
+          (spread ? std::clamp(cell(element), 0, num_cells - 1) : 0);
+    }
+  }
+  std::unordered_map<uint64_t, int> cell_count;
   std::unordered_map<image_t, int> image_count;
   std::unordered_map<image_pair_t, int> pair_count;
   if (options.tracks_per_pair > 0) {
@@ -55,26 +90,47 @@ std::vector<size_t> SelectTracksForPositioning(
     }
     return false;
   };
+  std::vector<char> is_selected(tracks.size(), 0);
+  auto select = [&](size_t k) {
+    is_selected[k] = 1;
+    selected.push_back(k);
+    for (size_t j = offsets[k]; j < offsets[k + 1]; ++j) ++cell_count[keys[j]];
+    for (const TrackElement& element : tracks[k])
+      ++image_count[element.image_id];
+    if (!pair_count.empty()) {
+      for_pairs(tracks[k], [](int* count) {
+        ++*count;
+        return false;
+      });
+    }
+  };
+  // The cells' quotas and the pairs' quotas.
   for (const size_t k : order) {
     const Track& track = tracks[k];
-    bool needed = std::any_of(
-        track.begin(), track.end(), [&](const TrackElement& element) {
-          const auto it = image_count.find(element.image_id);
-          return it == image_count.end() ||
-                 it->second < options.tracks_per_image;
-        });
+    bool needed =
+        std::any_of(keys.begin() + offsets[k], keys.begin() + offsets[k + 1],
+                    [&](uint64_t key) {
+                      const auto it = cell_count.find(key);
+                      return it == cell_count.end() || it->second < per_cell;
+                    });
     if (!needed && !pair_count.empty()) {
       needed = for_pairs(
           track, [&](int* count) { return *count < options.tracks_per_pair; });
     }
-    if (!needed) continue;
-    selected.push_back(k);
-    for (const TrackElement& element : track) ++image_count[element.image_id];
-    if (!pair_count.empty()) {
-      for_pairs(track, [](int* count) {
-        ++*count;
-        return false;
-      });
+    if (needed) select(k);
+  }
+  // Images whose keypoints fill few cells: up to tracks_per_image anyway
+  // (without spreading the first pass already did this).
+  if (spread) {
+    for (const size_t k : order) {
+      if (is_selected[k]) continue;
+      const Track& track = tracks[k];
+      if (std::any_of(
+              track.begin(), track.end(), [&](const TrackElement& element) {
+                return image_count[element.image_id] < options.tracks_per_image;
+              })) {
+        select(k);
+      }
     }
   }
   std::sort(selected.begin(), selected.end());

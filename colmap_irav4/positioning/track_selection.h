@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -10,12 +11,20 @@
 namespace colmap_irav4 {
 
 // The tracks global positioning solves for: a subset that ties every camera
-// down and keeps the view graph's connections, the rest being triangulated
-// from the refined poses afterwards.
+// down, spread over each image, and keeps the view graph's connections, the
+// rest being triangulated from the refined poses afterwards.
 struct PositioningTrackSelectionOptions {
-  // Longest tracks first, each kept while one of its images has fewer than
-  // this many observations from the tracks kept so far (0: every track).
+  // Longest tracks first, each kept while one of its observations falls in
+  // a cell of its image's grid (grid_size x grid_size cells) that has fewer
+  // than tracks_per_image / grid_size^2 (rounded up) observations from the
+  // tracks kept so far; then, for images whose keypoints fill few cells,
+  // while one of its images has fewer than tracks_per_image observations
+  // (0: every track).
   int tracks_per_image = 500;
+  // Cells per side of each image's grid (1: no spreading, the longest
+  // tracks only). Spread observations constrain a camera's position better
+  // than the same number bunched where the longest tracks happen to be.
+  int grid_size = 1;
   // ... or while one of the view-graph pairs it spans is covered by fewer
   // than this many kept tracks (0: no pair quota). Without it, a pair that
   // alone ties two parts of the graph together (a corner of a long loop
@@ -28,12 +37,22 @@ struct PositioningTrackSelectionOptions {
   void Check() const;
 };
 
+// The cell of an observation in its image's grid, in [0, grid_size^2).
+typedef std::function<int(const TrackElement&)> ObservationCellFn;
+
+// The cell of keypoint (x, y) in a width x height image's grid_size x
+// grid_size grid (keypoints outside the image: the nearest cell).
+int GridCell(double x, double y, double width, double height, int grid_size);
+
 // Returns the indices of the selected tracks, in increasing order. `pairs`:
 // the view graph's pairs (image ids in either order); tracks spanning other
-// image pairs count for the per-image quota only. Deterministic.
+// image pairs count for the per-image quota only. `cell`: each
+// observation's grid cell (GridCell); null: no spreading (as grid_size 1).
+// Deterministic.
 std::vector<size_t> SelectTracksForPositioning(
     const PositioningTrackSelectionOptions& options,
     const std::vector<Track>& tracks,
-    const std::vector<std::pair<image_t, image_t>>& pairs);
+    const std::vector<std::pair<image_t, image_t>>& pairs,
+    const ObservationCellFn& cell = nullptr);
 
 }  // namespace colmap_irav4

@@ -165,6 +165,7 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
   std::vector<Ray> rays;
   for (const Track& track : tracks) {
     rays.clear();
+    if (options.ignore_two_view_tracks && track.size() == 2) continue;
     for (const TrackElement& element : track) {
       auto image_it = reconstruction->images.find(element.image_id);
       if (image_it == reconstruction->images.end()) continue;

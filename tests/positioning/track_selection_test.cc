@@ -95,5 +95,91 @@ TEST(TrackSelection, RejectsNegativeQuotas) {
                OptionError);
 }
 
+// Two images; 100 tracks seen by both, the 60 longest-ranked (first) in the
+// top-left cell of each image, the others 10 per remaining cell...; the
+// spread selection takes tracks from every cell, the longest-first one only
+// from the crowded corner.
+TEST(TrackSelection, GridSpreadsTheTracksOverTheImage) {
+  std::vector<Track> tracks;
+  std::vector<int> track_cell;
+  // 40 long tracks (3 images) in cell 0, then 10 two-image tracks in each of
+  // cells 1-3 of a 2 x 2 grid.
+  for (int k = 0; k < 40; ++k) {
+    tracks.push_back(MakeTrack({1, 2, 3}));
+    track_cell.push_back(0);
+  }
+  for (int c = 1; c < 4; ++c) {
+    for (int k = 0; k < 10; ++k) {
+      tracks.push_back(MakeTrack({1, 2}));
+      track_cell.push_back(c);
+    }
+  }
+  // The cell of an observation: its track's (point2D_idx = track index).
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    for (TrackElement& element : tracks[k]) element.point2D_idx = k;
+  }
+  const ObservationCellFn cell = [&](const TrackElement& element) {
+    return track_cell.at(element.point2D_idx);
+  };
+  const std::vector<std::pair<image_t, image_t>> pairs = {
+      {1, 2}, {1, 3}, {2, 3}};
+  PositioningTrackSelectionOptions options;
+  options.tracks_per_image = 20;
+  options.tracks_per_pair = 0;
+  auto cells_covered = [&](const std::vector<size_t>& selected) {
+    std::set<int> cells;
+    for (const size_t k : selected) cells.insert(track_cell[k]);
+    return cells.size();
+  };
+  options.grid_size = 1;
+  const std::vector<size_t> longest =
+      SelectTracksForPositioning(options, tracks, pairs, cell);
+  EXPECT_EQ(longest.size(), 20u);
+  EXPECT_EQ(cells_covered(longest), 1u);
+  // Without a cell function: the same as grid_size 1.
+  EXPECT_EQ(SelectTracksForPositioning(options, tracks, pairs), longest);
+
+  options.grid_size = 2;  // 5 per cell
+  const std::vector<size_t> spread =
+      SelectTracksForPositioning(options, tracks, pairs, cell);
+  EXPECT_EQ(cells_covered(spread), 4u);
+  // 5 per cell for images 1 and 2, then image 3 (cell 0 only) filled up to
+  // its 20 observations with long tracks.
+  EXPECT_EQ(spread.size(), 35u);
+  for (const size_t k : spread) {
+    EXPECT_TRUE(track_cell[k] == 0 || k % 10 < 5) << k;
+  }
+}
+
+TEST(TrackSelection, GridKeepsThePairQuota) {
+  const TwoChains scene;
+  PositioningTrackSelectionOptions options;
+  options.tracks_per_image = 16;
+  options.grid_size = 2;
+  options.tracks_per_pair = 10;
+  // Every observation in cell 0: the grid's per-cell quota (4) is filled by
+  // the chains' tracks; the junction pair still gets its 10.
+  const std::vector<size_t> selected =
+      SelectTracksForPositioning(options, scene.tracks, scene.pairs,
+                                 [](const TrackElement&) { return 0; });
+  EXPECT_EQ(scene.NumJunctionTracks(selected), 10);
+  // Without the pair quota the grid alone would lose them.
+  options.tracks_per_pair = 0;
+  EXPECT_EQ(scene.NumJunctionTracks(SelectTracksForPositioning(
+                options, scene.tracks, scene.pairs,
+                [](const TrackElement&) { return 0; })),
+            0);
+}
+
+TEST(TrackSelection, GridCellOfAKeypoint) {
+  EXPECT_EQ(GridCell(0, 0, 1600, 1200, 4), 0);
+  EXPECT_EQ(GridCell(1599, 0, 1600, 1200, 4), 3);
+  EXPECT_EQ(GridCell(0, 1199, 1600, 1200, 4), 12);
+  EXPECT_EQ(GridCell(900, 700, 1600, 1200, 4), 2 * 4 + 2);
+  // Outside the image: the nearest cell.
+  EXPECT_EQ(GridCell(-5, 1300, 1600, 1200, 4), 12);
+  EXPECT_EQ(GridCell(800, 600, 1600, 1200, 1), 0);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

@@ -190,6 +190,61 @@ TEST(BundleAdjustment, FixedPosesMoveOnlyPoints) {
   EXPECT_LT(max_point_error, 0.05);
 }
 
+TEST(BundleAdjustment, ChoosesTheLinearSolverBySize) {
+  BundleAdjustmentOptions options;
+  options.iterative_schur_min_num_images = 300;
+  ceres::Solver::Options ceres_options;
+  ChooseLinearSolver(options, 49, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
+  ChooseLinearSolver(options, 50, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  ChooseLinearSolver(options, 299, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  ChooseLinearSolver(options, 300, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  EXPECT_EQ(ceres_options.preconditioner_type, ceres::SCHUR_JACOBI);
+  // A named solver whatever the size.
+  options.linear_solver = "sparse_schur";
+  ChooseLinearSolver(options, 5000, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  options.linear_solver = "iterative_schur";
+  ChooseLinearSolver(options, 10, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  options.linear_solver = "dense_schur";
+  ChooseLinearSolver(options, 5000, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
+}
+
+// Above the threshold the iterative solver runs, and reaches the optimum
+// the direct one does.
+TEST(BundleAdjustment, IterativeSchurAboveTheThresholdReachesTheSameOptimum) {
+  SyntheticSceneOptions scene_options = SceneOptions();
+  scene_options.num_images = 50;
+  scene_options.num_points = 500;
+  scene_options.visibility = 0.3;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  BundleAdjustmentOptions options;
+  options.refine_extra_params = false;
+  options.max_reproj_error = 0;
+  options.loss_function = "trivial";
+  options.solver.ceres.function_tolerance = 1e-12;
+  options.solver.ceres.num_threads = 1;
+  Reconstruction direct = scene.truth;
+  Perturb(0.5, 0.05, 0.02, 1.0, 7, &direct);
+  Reconstruction iterative = direct;
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &direct, &summary));
+  EXPECT_EQ(summary.linear_solver, "SPARSE_SCHUR");
+  options.iterative_schur_min_num_images = 50;
+  ASSERT_TRUE(RunBundleAdjustment(options, &iterative, &summary));
+  EXPECT_EQ(summary.linear_solver, "ITERATIVE_SCHUR");
+  EXPECT_EQ(summary.num_solves, 1);
+  const Errors errors = Compare(iterative, direct);
+  EXPECT_LT(errors.max_center_error, 1e-4);  // radius 10
+  EXPECT_LT(errors.max_rotation_error_deg, 1e-3);
+  EXPECT_LT(Compare(iterative, scene.truth).max_center_error, 0.02);
+}
+
 TEST(BundleAdjustment, OptionsCheck) {
   BundleAdjustmentOptions options;
   EXPECT_NO_THROW(options.Check());
@@ -197,6 +252,9 @@ TEST(BundleAdjustment, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
   options = BundleAdjustmentOptions();
   options.num_rounds = 0;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.iterative_schur_min_num_images = 0;
   EXPECT_THROW(options.Check(), InputError);
 }
 

@@ -161,5 +161,33 @@ TEST(Triangulation, RespectsMinimumAngle) {
             50u);
 }
 
+TEST(Triangulation, IgnoresTwoViewTracksWhenAsked) {
+  // Low visibility: many points are seen by two images only.
+  SyntheticSceneOptions scene_options;
+  scene_options.num_images = 8;
+  scene_options.num_points = 300;
+  scene_options.visibility = 0.3;
+  scene_options.noise_px = 0.5;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  const Reconstruction stripped = StripPoints(scene.truth);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, stripped.images);
+  size_t num_two_view = 0;
+  for (const Track& track : tracks) num_two_view += track.size() == 2;
+  ASSERT_GT(num_two_view, 20u);  // the scene has many
+  Reconstruction all = stripped;
+  EXPECT_EQ(
+      TriangulateTracks(TriangulationOptions(), tracks, &all).num_points_added,
+      tracks.size());
+  TriangulationOptions options;
+  options.ignore_two_view_tracks = true;
+  Reconstruction ignored = stripped;
+  EXPECT_EQ(TriangulateTracks(options, tracks, &ignored).num_points_added,
+            tracks.size() - num_two_view);
+  for (const auto& [point3D_id, point] : ignored.points3D) {
+    EXPECT_GE(point.track.size(), 3u);
+  }
+}
+
 }  // namespace
 }  // namespace colmap_irav4

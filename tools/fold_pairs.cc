@@ -36,7 +36,8 @@ int main(int argc, char** argv) {
     std::set<image_t> images;
     for (const auto& [image_id, image] : model.images) images.insert(image_id);
     ViewGraphSummary summary;
-    const ViewGraph graph = BuildViewGraph(database, ViewGraphBuilderOptions(), &summary);
+    const ViewGraph graph =
+        BuildViewGraph(database, ViewGraphBuilderOptions(), &summary);
     std::vector<ImagePairGeometry> pairs;
     for (const ImagePairGeometry& pair : graph.pairs) {
       if (images.count(pair.image_id1) && images.count(pair.image_id2))
@@ -55,19 +56,21 @@ int main(int argc, char** argv) {
         // Truth and database share image ids (the generator's).
         const PairEvidence& pair =
             *by_pair.at({support.image_id1, support.image_id2});
-        const Eigen::Matrix3d R1 = truth.images.at(support.image_id1)
-                                       .cam_from_world.rotation.toRotationMatrix();
-        const Eigen::Matrix3d R2 = truth.images.at(support.image_id2)
-                                       .cam_from_world.rotation.toRotationMatrix();
+        const Eigen::Matrix3d R1 =
+            truth.images.at(support.image_id1)
+                .cam_from_world.rotation.toRotationMatrix();
+        const Eigen::Matrix3d R2 =
+            truth.images.at(support.image_id2)
+                .cam_from_world.rotation.toRotationMatrix();
         kind = AngularDistanceDeg(pair.R, R2 * R1.transpose()) < 5 ? "true"
-                                                                     : "false";
+                                                                   : "false";
       }
       std::cout << support.image_id1 << " " << support.image_id2 << " "
                 << support.num_inliers << " " << std::fixed
                 << std::setprecision(1) << support.num_predicted12 << " "
                 << support.num_predicted21 << " " << std::setprecision(3)
-                << support.ratio << " " << kind << " " << support.predicted << " "
-                << (support.weak ? "weak" : "strong") << "\n";
+                << support.ratio << " " << kind << " " << support.predicted
+                << " " << (support.weak ? "weak" : "strong") << "\n";
     }
   } catch (const std::exception& error) {
     std::cerr << "ERROR: " << error.what() << "\n";

@@ -294,10 +294,8 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
       const std::vector<image_t> alone_images =
           attempt.model.fold.weak_alone_images;
       if (!alone_images.empty()) {
-        const Reconstruction& resolved =
-            attempt.model.mapper->reconstruction();
-        const std::set<image_t> alone(alone_images.begin(),
-                                      alone_images.end());
+        const Reconstruction& resolved = attempt.model.mapper->reconstruction();
+        const std::set<image_t> alone(alone_images.begin(), alone_images.end());
         std::vector<ImagePairGeometry> kept;
         for (const ImagePairGeometry& pair : component_pairs) {
           if ((!alone.count(pair.image_id1) && !alone.count(pair.image_id2)) ||
@@ -321,8 +319,8 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
               PairsWithin(kept, std::set<image_t>(kept_components[0].begin(),
                                                   kept_components[0].end())),
               prefix);
-          if (again.ok && !again.model.fold.folded &&
-              refine(&again, prefix) && !again.model.fold.folded &&
+          if (again.ok && !again.model.fold.folded && refine(&again, prefix) &&
+              !again.model.fold.folded &&
               again.model.fold.weak_alone_images.empty() &&
               again.model.mapper->reconstruction().images.size() * 4 >=
                   num_first_images * 3) {

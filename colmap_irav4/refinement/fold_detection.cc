@@ -28,7 +28,7 @@ struct View {
   Eigen::Vector3d center;
   Eigen::Vector3d axis;  // viewing direction in world coordinates
   std::vector<Eigen::Vector3d> points;  // sampled model points it observes
-  int num_points = 0;  // all the model points it observes
+  int num_points = 0;                   // all the model points it observes
   double radius = 0;  // largest distance from the centre to those points
 };
 
@@ -111,8 +111,7 @@ void WeakPairCut(const FoldDetectionOptions& options,
       static_cast<double>(num_strong) / report->num_weak_pairs;
   for (const PairSupport& support : report->pair_support) {
     if (!support.predicted) continue;
-    edges.emplace_back(index.at(support.image_id1),
-                       index.at(support.image_id2),
+    edges.emplace_back(index.at(support.image_id1), index.at(support.image_id2),
                        support.weak ? -negative : 1.0);
   }
   const int n = static_cast<int>(index.size());
@@ -204,11 +203,10 @@ std::string FoldReport::Describe() const {
        << num_contradictory_tracks << " of " << num_tracks
        << " tracks seen from contradictory sides, " << suspect_pairs.size()
        << " suspect pairs, " << num_weak_pairs << " of " << num_support_pairs
-       << " consistent predicted pairs weak (typical "
-       << std::setprecision(2) << typical_ratio
-       << " inliers per predicted point; " << num_weak_cut_pairs
-       << " weak and " << num_strong_cut_pairs << " strong across their cut"
-       << (weak_fold ? ": a fold)" : ")") << ", "
+       << " consistent predicted pairs weak (typical " << std::setprecision(2)
+       << typical_ratio << " inliers per predicted point; "
+       << num_weak_cut_pairs << " weak and " << num_strong_cut_pairs
+       << " strong across their cut" << (weak_fold ? ": a fold)" : ")") << ", "
        << weak_alone_images.size() << " images weak alone";
   return line.str();
 }
@@ -386,10 +384,9 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   report.num_inconsistent_pairs = static_cast<int>(inconsistent_inliers.size());
   WeakPairCut(options, index, &report);
   if (report.weak_fold) {
-    report.fold_score =
-        std::max(report.fold_score,
-                 static_cast<double>(report.num_weak_cut_pairs) /
-                     report.num_support_pairs);
+    report.fold_score = std::max(
+        report.fold_score, static_cast<double>(report.num_weak_cut_pairs) /
+                               report.num_support_pairs);
     report.folded = true;
   }
   // Images weak alone: every consistent predicted pair at them weak, and
@@ -530,8 +527,8 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   // Signed graph: trusted pairs pull together (+1 each), missing and weak
   // pairs push apart (-1 each, scaled so that both kinds weigh the same in
   // total).
-  std::set<std::pair<image_t, image_t>> suspects(
-      report.suspect_pairs.begin(), report.suspect_pairs.end());
+  std::set<std::pair<image_t, image_t>> suspects(report.suspect_pairs.begin(),
+                                                 report.suspect_pairs.end());
   // Weak pairs are not trusted; the weak predicted ones push apart as the
   // missing pairs do (a fold's false pairs are the weak ones across it).
   std::vector<std::pair<image_t, image_t>> negatives = report.missing_pairs;

@@ -57,9 +57,9 @@ std::string WriteCourtyard(const SceneGeneratorOptions& options,
                            const test::TempDir& temp, GeneratedScene* scene) {
   *scene = GenerateScene(options);
   if (options.mirror_pair_rate > 0) {
-    EXPECT_GE(scene->num_mirror_pairs,
-              static_cast<int>(0.9 * options.mirror_pair_rate *
-                               scene->pairs.size()));
+    EXPECT_GE(
+        scene->num_mirror_pairs,
+        static_cast<int>(0.9 * options.mirror_pair_rate * scene->pairs.size()));
   }
   const std::string path = temp.File("database.db");
   WriteSceneDatabase(*scene, path);
@@ -107,15 +107,24 @@ SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
   return MapCourtyard(mirror_pair_rate, seed, fold);
 }
 
-TEST(SymmetricScene, NoMirrorPairsGiveOneCleanModel) {
-  const SymmetricRun run = MapCourtyard(0.0, 1, true);
+// One model of every image, no camera turned, centres right, and the fold
+// check's outcome starting with `outcome` ("clean" or "resolved").
+void ExpectOneCorrectModel(const SymmetricRun& run,
+                           const std::string& outcome) {
   ASSERT_EQ(run.models.size(), 1u);
   EXPECT_EQ(run.num_registered, run.num_images);
   EXPECT_EQ(run.num_turned, 0);
   EXPECT_LT(run.center_error_median, 0.01);
   ASSERT_EQ(run.summary.components.size(), 1u);
   EXPECT_FALSE(run.summary.components[0].folded);
-  EXPECT_EQ(run.summary.components[0].fold_outcome, "clean");
+  EXPECT_EQ(run.summary.components[0].fold_outcome.rfind(outcome, 0), 0u)
+      << run.summary.components[0].fold_outcome;
+}
+
+TEST(SymmetricScene, NoMirrorPairsGiveOneCleanModel) {
+  const SymmetricRun run = MapCourtyard(0.0, 1, true);
+  ExpectOneCorrectModel(run, "clean");
+  ASSERT_EQ(run.summary.components.size(), 1u);
   EXPECT_EQ(run.summary.components[0].fold_score, 0.0);
 }
 
@@ -135,15 +144,7 @@ TEST(SymmetricScene, FoldIsDetectedWithoutResolution) {
 // re-orients only part of the fold; the second cut finishes it (before the
 // repeated cut this scene was split into two models).
 TEST(SymmetricScene, FoldIsResolvedIntoOneCorrectModel) {
-  const SymmetricRun run = MapCourtyard(0.2, 1, true);
-  ASSERT_EQ(run.models.size(), 1u);
-  EXPECT_EQ(run.num_registered, run.num_images);
-  EXPECT_EQ(run.num_turned, 0);
-  EXPECT_LT(run.center_error_median, 0.01);
-  ASSERT_EQ(run.summary.components.size(), 1u);
-  EXPECT_FALSE(run.summary.components[0].folded);
-  EXPECT_EQ(run.summary.components[0].fold_outcome.rfind("resolved", 0), 0u)
-      << run.summary.components[0].fold_outcome;
+  ExpectOneCorrectModel(MapCourtyard(0.2, 1, true), "resolved");
 }
 
 // Another seed and rate: folded without resolution, right with it.
@@ -224,15 +225,8 @@ TEST(SymmetricScene, FoldWithFewMissingPairsIsFoundFromWeakPairs) {
     EXPECT_TRUE(flagged.summary.components[0].folded);
     EXPECT_GT(flagged.summary.components[0].fold_score, 0.1);
 
-    const SymmetricRun run = MapCourtyard(0.5, 1, FoldResolutionOptions(), keep);
-    ASSERT_EQ(run.models.size(), 1u);
-    EXPECT_EQ(run.num_registered, run.num_images);
-    EXPECT_EQ(run.num_turned, 0);
-    EXPECT_LT(run.center_error_median, 0.01);
-    ASSERT_EQ(run.summary.components.size(), 1u);
-    EXPECT_FALSE(run.summary.components[0].folded);
-    EXPECT_EQ(run.summary.components[0].fold_outcome.rfind("resolved", 0), 0u)
-        << run.summary.components[0].fold_outcome;
+    ExpectOneCorrectModel(MapCourtyard(0.5, 1, FoldResolutionOptions(), keep),
+                          "resolved");
   }
 }
 
@@ -241,27 +235,27 @@ TEST(SymmetricScene, FoldWithFewMissingPairsIsFoundFromWeakPairs) {
 // give no weak cut; the inliers of every pair across a cut thinned do.
 TEST(SymmetricScene, WeakPairsFlagOnlyACut) {
   const GeneratedScene scene = GenerateScene(CourtyardOptions(0.0, 3, 0.4));
-  auto evidence_with = [&](const std::function<bool(const GeneratedPair&)>&
-                               thin) {
-    FoldEvidence evidence;
-    for (const GeneratedPair& pair : scene.pairs) {
-      PairEvidence entry;
-      entry.image_id1 = pair.image_id1;
-      entry.image_id2 = pair.image_id2;
-      entry.num_inliers = thin(pair) ? std::max(15, pair.num_candidates * 4 / 10)
-                                     : pair.num_candidates;
-      entry.has_rotation = true;
-      entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
-      evidence.pairs.push_back(entry);
-    }
-    evidence.absent_pairs_were_tried = true;
-    return evidence;
-  };
+  auto evidence_with =
+      [&](const std::function<bool(const GeneratedPair&)>& thin) {
+        FoldEvidence evidence;
+        for (const GeneratedPair& pair : scene.pairs) {
+          PairEvidence entry;
+          entry.image_id1 = pair.image_id1;
+          entry.image_id2 = pair.image_id2;
+          entry.num_inliers = thin(pair)
+                                  ? std::max(15, pair.num_candidates * 4 / 10)
+                                  : pair.num_candidates;
+          entry.has_rotation = true;
+          entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
+          evidence.pairs.push_back(entry);
+        }
+        evidence.absent_pairs_were_tried = true;
+        return evidence;
+      };
   const FoldDetectionOptions options;
-  const FoldReport clean = DetectFold(
-      options, scene.truth, evidence_with([](const GeneratedPair&) {
-        return false;
-      }));
+  const FoldReport clean =
+      DetectFold(options, scene.truth,
+                 evidence_with([](const GeneratedPair&) { return false; }));
   EXPECT_GT(clean.num_support_pairs, 50);
   EXPECT_EQ(clean.num_weak_pairs, 0);
   EXPECT_FALSE(clean.folded);

@@ -204,6 +204,14 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
     models->push_back(std::move(attempt->model));
     return true;
   };
+  // A model written as folded stays flagged even if the check after
+  // refinement no longer sees the fold.
+  auto finish_folded = [&](Attempt* attempt, const std::string& outcome,
+                           std::vector<FoldCheckedModel>* models) {
+    if (!finish(attempt, outcome, models)) return false;
+    models->back().fold.folded = true;
+    return true;
+  };
 
   std::vector<FoldCheckedModel> models;
   Attempt first = run(images, pairs, prefix);
@@ -222,10 +230,7 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
       notes->push_back(prefix + "model looks folded (fold score " +
                        std::to_string(first.model.fold.fold_score) +
                        "); not resolved (--Fold.resolve 0)");
-      // Flagged after positioning: flagged as written, even if the check
-      // after refinement no longer sees it.
-      if (finish(&first, "folded (not resolved)", &models))
-        models.back().fold.folded = true;
+      finish_folded(&first, "folded (not resolved)", &models);
     }
     if (models.empty()) *failure = first.failure;
     return models;
@@ -244,6 +249,17 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
   // no fewer images), cut it again (up to 1 + max_iterations rounds).
   const size_t num_first_images =
       first.model.mapper->reconstruction().images.size();
+  // A resolution may lose a few images, not a quarter of the first model's.
+  auto keeps_most = [&](size_t num_images) {
+    return num_images * 4 >= num_first_images * 3;
+  };
+  // A re-mapped model that is taken: not folded after positioning nor after
+  // refinement, and keeping most images.
+  auto accepted = [&](Attempt* attempt) {
+    return !attempt->model.fold.folded && refine(attempt, prefix) &&
+           !attempt->model.fold.folded &&
+           keeps_most(attempt->model.mapper->reconstruction().images.size());
+  };
   std::vector<ImagePairGeometry> current = pairs;
   Attempt best = std::move(first);
   size_t num_removed = 0;
@@ -283,10 +299,7 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
         PairsWithin(reoriented, component);
     Attempt attempt = run(components[0], component_pairs, prefix);
     if (!attempt.ok) break;
-    if (!attempt.model.fold.folded && refine(&attempt, prefix) &&
-        !attempt.model.fold.folded &&
-        attempt.model.mapper->reconstruction().images.size() * 4 >=
-            num_first_images * 3) {
+    if (accepted(&attempt)) {
       num_removed += num_dropped;
       // Cameras turned alone among cameras the right way round are no cut;
       // re-orient them once (their pairs the model agrees with removed),
@@ -313,17 +326,14 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
             PairComponents(kept);
         bool reoriented_alone = false;
         if (num_alone_dropped > 0 && !kept_components.empty() &&
-            kept_components[0].size() * 4 >= num_first_images * 3) {
+            keeps_most(kept_components[0].size())) {
           Attempt again = run(
               kept_components[0],
               PairsWithin(kept, std::set<image_t>(kept_components[0].begin(),
                                                   kept_components[0].end())),
               prefix);
-          if (again.ok && !again.model.fold.folded && refine(&again, prefix) &&
-              !again.model.fold.folded &&
-              again.model.fold.weak_alone_images.empty() &&
-              again.model.mapper->reconstruction().images.size() * 4 >=
-                  num_first_images * 3) {
+          if (again.ok && accepted(&again) &&
+              again.model.fold.weak_alone_images.empty()) {
             attempt = std::move(again);
             num_removed += num_alone_dropped;
             reoriented_alone = true;
@@ -337,12 +347,10 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
           notes->push_back(prefix + std::to_string(alone.size()) +
                            " images may be turned alone after the fold "
                            "resolution");
-          if (finish(&attempt,
-                     "folded (" + std::to_string(alone.size()) +
-                         " images may be turned alone)",
-                     &models)) {
-            models.back().fold.folded = true;
-          }
+          finish_folded(&attempt,
+                        "folded (" + std::to_string(alone.size()) +
+                            " images may be turned alone)",
+                        &models);
           return models;
         }
       }
@@ -463,9 +471,7 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
   notes->push_back(prefix + "model likely folded (fold score " +
                    std::to_string(best.model.fold.fold_score) +
                    "), not resolved");
-  if (finish(&best, "folded (unresolved)", &models)) {
-    models.back().fold.folded = true;  // as above
-  } else {
+  if (!finish_folded(&best, "folded (unresolved)", &models)) {
     *failure = best.failure;
   }
   return models;

@@ -12,6 +12,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
@@ -517,12 +518,9 @@ std::vector<int> SignedGraphCut(
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const FoldDetectionOptions& options, const Reconstruction& reconstruction,
     const FoldEvidence& evidence, const FoldReport& report) {
-  std::vector<image_t> ids;
-  std::map<image_t, int> index;
-  for (const auto& [image_id, image] : reconstruction.images) {
-    index[image_id] = static_cast<int>(ids.size());
-    ids.push_back(image_id);
-  }
+  const DenseImageIndex dense(reconstruction);
+  const std::vector<image_t>& ids = dense.ids;
+  const std::map<image_t, int>& index = dense.index;
   const int n = static_cast<int>(ids.size());
   // Signed graph: trusted pairs pull together (+1 each), missing and weak
   // pairs push apart (-1 each, scaled so that both kinds weigh the same in

@@ -4,18 +4,16 @@
 #include <map>
 #include <utility>
 
+#include "colmap_irav4/scene/reconstruction_utils.h"
+
 namespace colmap_irav4 {
 
 ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
                                    const Reconstruction& reconstruction,
                                    int min_model_size) {
-  // Dense image indices.
-  std::vector<image_t> ids;
-  std::map<image_t, int> index;
-  for (const auto& [image_id, image] : reconstruction.images) {
-    index[image_id] = static_cast<int>(ids.size());
-    ids.push_back(image_id);
-  }
+  const DenseImageIndex dense(reconstruction);
+  const std::vector<image_t>& ids = dense.ids;
+  const std::map<image_t, int>& index = dense.index;
   const int n = static_cast<int>(ids.size());
 
   // Tie graph: common points per image pair, counted per first image with

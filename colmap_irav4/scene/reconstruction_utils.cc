@@ -122,6 +122,14 @@ size_t NumObservations(const Reconstruction& reconstruction) {
   return count;
 }
 
+DenseImageIndex::DenseImageIndex(const Reconstruction& reconstruction) {
+  ids.reserve(reconstruction.images.size());
+  for (const auto& [image_id, image] : reconstruction.images) {
+    index[image_id] = static_cast<int>(ids.size());
+    ids.push_back(image_id);
+  }
+}
+
 double MeanTrackLength(const Reconstruction& reconstruction) {
   if (reconstruction.points3D.empty()) return 0.0;
   return static_cast<double>(NumObservations(reconstruction)) /

@@ -3,6 +3,9 @@
 // Editing and measuring a Reconstruction while keeping points2D[].point3D_id
 // and the points' tracks consistent with each other.
 
+#include <map>
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "colmap_irav4/scene/reconstruction.h"
@@ -35,6 +38,13 @@ double UpdateReprojectionErrors(Reconstruction* reconstruction);
 // UpdateReprojectionErrors): COLMAP model_analyzer's mean reprojection error.
 double MeanPointReprojectionError(const Reconstruction& reconstruction);
 size_t NumObservations(const Reconstruction& reconstruction);
+
+// The model's images numbered 0..n-1 in image id order, for graphs over them.
+struct DenseImageIndex {
+  explicit DenseImageIndex(const Reconstruction& reconstruction);
+  std::vector<image_t> ids;      // number -> image id
+  std::map<image_t, int> index;  // image id -> number
+};
 // Mean over points of the number of observations (0 without points).
 double MeanTrackLength(const Reconstruction& reconstruction);
 

@@ -1,8 +1,11 @@
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <set>
+#include <unordered_map>
+#include <vector>
 
 #include <ceres/ceres.h>
 #include <glog/logging.h>
@@ -18,11 +21,13 @@ namespace colmap_irav4 {
 namespace {
 
 // Reprojection residual; blocks: quaternion (x, y, z, w), translation, point,
-// camera params (kNumParams).
+// camera params (kNumParams). With a weight, the residual is scaled by it
+// when evaluated (the weight may change between solves).
 template <int kNumParams>
 struct ReprojectionCost {
-  ReprojectionCost(int model_id, const Eigen::Vector2d& xy)
-      : model_id_(model_id), xy_(xy) {}
+  ReprojectionCost(int model_id, const Eigen::Vector2d& xy,
+                   const double* weight)
+      : model_id_(model_id), xy_(xy), weight_(weight) {}
 
   template <typename T>
   bool operator()(const T* rotation, const T* translation, const T* point,
@@ -36,154 +41,277 @@ struct ReprojectionCost {
                              &x, &y);
     residuals[0] = x - T(xy_[0]);
     residuals[1] = y - T(xy_[1]);
+    if (weight_ != nullptr) {
+      residuals[0] *= *weight_;
+      residuals[1] *= *weight_;
+    }
     return true;
   }
 
   const int model_id_;
   const Eigen::Vector2d xy_;
+  const double* weight_;
 };
 
 template <int kNumParams>
-ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy) {
+ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy,
+                              const double* weight) {
   return new ceres::AutoDiffCostFunction<ReprojectionCost<kNumParams>, 2, 4, 3,
                                          3, kNumParams>(
-      new ReprojectionCost<kNumParams>(model_id, xy));
+      new ReprojectionCost<kNumParams>(model_id, xy, weight));
 }
 
 ceres::CostFunction* CreateReprojectionCost(int model_id,
-                                            const Eigen::Vector2d& xy) {
+                                            const Eigen::Vector2d& xy,
+                                            const double* weight) {
   switch (CameraModelNumParams(model_id)) {
     case 3:
-      return MakeCost<3>(model_id, xy);
+      return MakeCost<3>(model_id, xy, weight);
     case 4:
-      return MakeCost<4>(model_id, xy);
+      return MakeCost<4>(model_id, xy, weight);
     case 5:
-      return MakeCost<5>(model_id, xy);
+      return MakeCost<5>(model_id, xy, weight);
     case 8:
-      return MakeCost<8>(model_id, xy);
+      return MakeCost<8>(model_id, xy, weight);
     case 12:
-      return MakeCost<12>(model_id, xy);
+      return MakeCost<12>(model_id, xy, weight);
   }
   LOG(FATAL) << "unsupported camera model " << model_id;
   return nullptr;
 }
 
-// "huber" is iteratively reweighted: each solve weighs an observation by
-// Huber's weight min(1, scale / error) at its error when the solve starts
-// (the rounds update the weights). Ceres' HuberLoss ("huber_ceres") makes
-// Levenberg-Marquardt crawl whenever many residuals sit in the linear region
-// (its corrector drops their curvature): 59 iterations instead of 12 on
-// fountain-P11 for the same result. The others: CreateLossFunction.
-ceres::LossFunction* MakeLoss(const std::string& name, double scale,
-                              double error) {
-  if (name == "huber") {
-    return error > scale ? new ceres::ScaledLoss(nullptr, scale / error,
-                                                 ceres::TAKE_OWNERSHIP)
-                         : nullptr;
+// The Ceres problem of one bundle adjustment, built once and kept for all
+// its solves. Each observation's residual is scaled by a weight its cost
+// reads when evaluated: the Huber reweighting sets the weights, and the
+// filter between rounds sets those of the observations it unlinks to zero
+// (removing residual blocks would cost Ceres a set of blocks per parameter
+// block, a rebuild the whole problem). Points the filter leaves with fewer
+// than two observations are held constant and deleted when it is done (the
+// problem points at their coordinates).
+class BundleAdjustmentProblem {
+ public:
+  BundleAdjustmentProblem(const BundleAdjustmentOptions& options,
+                          Reconstruction* reconstruction)
+      : options_(options),
+        reconstruction_(reconstruction),
+        huber_(options.loss_function == "huber"),
+        weighted_(huber_ ||
+                  (options.num_rounds > 1 && options.max_reproj_error > 0)),
+        ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
+    ceres::Problem::Options problem_options;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_ = std::make_unique<ceres::Problem>(problem_options);
+    Build();
   }
-  return CreateLossFunction(name == "huber_ceres" ? "huber" : name, scale);
-}
 
-// One solve. Returns the Ceres summary; adds the time spent building the
-// problem to *problem_seconds.
-ceres::Solver::Summary Solve(const BundleAdjustmentOptions& options,
-                             Reconstruction* reconstruction,
-                             double* problem_seconds) {
-  Timer timer;
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-
-  for (auto& [image_id, image] : reconstruction->images) {
-    image.cam_from_world.rotation.normalize();
-  }
-  std::set<image_t> used_images;
-  std::set<camera_t> used_cameras;
-  for (auto& [point3D_id, point] : reconstruction->points3D) {
-    for (const TrackElement& element : point.track) {
-      Image& image = reconstruction->images.at(element.image_id);
-      Camera& camera = reconstruction->cameras.at(image.camera_id);
-      // Points behind the camera would give meaningless residuals; the
-      // filtering between rounds removes them.
-      if ((image.cam_from_world * point.xyz).z() <= 0) continue;
-      const double error =
-          options.loss_function == "huber"
-              ? ReprojectionError(camera, image, point.xyz,
-                                  image.points2D[element.point2D_idx].xy)
-              : 0.0;
-      problem.AddResidualBlock(
-          CreateReprojectionCost(camera.model_id,
-                                 image.points2D[element.point2D_idx].xy),
-          MakeLoss(options.loss_function, options.loss_scale, error),
-          image.cam_from_world.rotation.coeffs().data(),
-          image.cam_from_world.translation.data(), point.xyz.data(),
-          camera.params.data());
-      used_images.insert(element.image_id);
-      used_cameras.insert(image.camera_id);
-    }
-    if (problem.HasParameterBlock(point.xyz.data())) {
-      ordering->AddElementToGroup(point.xyz.data(), 0);
-      if (!options.refine_points)
-        problem.SetParameterBlockConstant(point.xyz.data());
-    }
-  }
-  if (problem.NumResidualBlocks() == 0) return ceres::Solver::Summary();
-
-  // Poses and gauge.
-  std::vector<image_t> images(used_images.begin(), used_images.end());
-  for (size_t k = 0; k < images.size(); ++k) {
-    Image& image = reconstruction->images.at(images[k]);
-    double* rotation = image.cam_from_world.rotation.coeffs().data();
-    double* translation = image.cam_from_world.translation.data();
-    ordering->AddElementToGroup(rotation, 1);
-    ordering->AddElementToGroup(translation, 1);
-    problem.SetManifold(rotation, new ceres::EigenQuaternionManifold());
-    if (!options.refine_poses || (options.fix_gauge && k == 0)) {
-      problem.SetParameterBlockConstant(rotation);
-      problem.SetParameterBlockConstant(translation);
-    } else if (options.fix_gauge && k == 1) {
-      const Image& first = reconstruction->images.at(images[0]);
-      const Eigen::Vector3d baseline =
-          image.cam_from_world.rotation *
-          (image.ProjectionCenter() - first.ProjectionCenter());
-      int fixed_coordinate = 0;
-      baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
-      problem.SetManifold(translation,
-                          new ceres::SubsetManifold(3, {fixed_coordinate}));
+  ~BundleAdjustmentProblem() {
+    // The model is whole again: no point with fewer than two observations.
+    problem_.reset();
+    for (const point3D_t point3D_id : held_points_) {
+      const auto it = reconstruction_->points3D.find(point3D_id);
+      if (it == reconstruction_->points3D.end()) continue;
+      const std::vector<TrackElement> track = it->second.track;
+      for (const TrackElement& element : track) {
+        DeleteObservation(element.image_id, element.point2D_idx,
+                          reconstruction_);
+      }
+      reconstruction_->points3D.erase(point3D_id);
     }
   }
 
-  // Intrinsics.
-  for (camera_t camera_id : used_cameras) {
-    Camera& camera = reconstruction->cameras.at(camera_id);
-    ordering->AddElementToGroup(camera.params.data(), 1);
-    std::vector<int> constant;
-    auto add = [&constant](const std::vector<int>& idxs) {
-      constant.insert(constant.end(), idxs.begin(), idxs.end());
-    };
-    if (!options.refine_focal_length)
-      add(CameraModelFocalLengthIdxs(camera.model_id));
-    if (!options.refine_principal_point)
-      add(CameraModelPrincipalPointIdxs(camera.model_id));
-    if (!options.refine_extra_params)
-      add(CameraModelExtraParamsIdxs(camera.model_id));
-    const int num_params = camera.params.size();
-    if (static_cast<int>(constant.size()) >= num_params) {
-      problem.SetParameterBlockConstant(camera.params.data());
-    } else if (!constant.empty()) {
-      problem.SetManifold(camera.params.data(),
-                          new ceres::SubsetManifold(num_params, constant));
+  bool Empty() const { return problem_->NumResidualBlocks() == 0; }
+
+  // "huber" is iteratively reweighted: each solve weighs an observation by
+  // Huber's weight min(1, scale / error) at its error when the solve starts
+  // (the residual by its square root). Ceres' HuberLoss ("huber_ceres")
+  // makes Levenberg-Marquardt crawl whenever many residuals sit in the
+  // linear region (its corrector drops their curvature): 59 iterations
+  // instead of 12 on fountain-P11 for the same result.
+  void Reweight() {
+    if (!huber_) return;
+    ForEachLiveObservation([&](const Image& image, const Camera& camera,
+                               point2D_t idx, double* weight) {
+      const Point2D& point2D = image.points2D[idx];
+      const double error = ReprojectionError(
+          camera, image, reconstruction_->points3D.at(point2D.point3D_id).xyz,
+          point2D.xy);
+      *weight = error > options_.loss_scale
+                    ? std::sqrt(options_.loss_scale / error)
+                    : 1.0;
+    });
+  }
+
+  ceres::Solver::Summary Solve() const {
+    SolverOptions solver = options_.solver;
+    ChooseLinearSolver(options_, num_images_, &solver.ceres);
+    if (options_.refine_points) solver.ceres.linear_solver_ordering = ordering_;
+    return SolveProblem("bundle adjustment", solver, problem_.get());
+  }
+
+  // Unlinks from the model the observations whose reprojection error is
+  // above max_reproj_error (FindObservationsWithLargeReprojectionError) and
+  // zeroes their weights. Returns the number unlinked.
+  size_t Filter(double max_reproj_error) {
+    CHECK(weighted_);
+    size_t num_filtered = 0;
+    for (const TrackElement& element :
+         FindObservationsWithLargeReprojectionError(max_reproj_error,
+                                                    *reconstruction_)) {
+      Image& image = reconstruction_->images.at(element.image_id);
+      Point2D& point2D = image.points2D.at(element.point2D_idx);
+      Point3D& point = reconstruction_->points3D.at(point2D.point3D_id);
+      if (point.track.size() < 2) continue;  // held: deleted at the end
+      Unweigh(element);
+      ++num_filtered;
+      if (point.track.size() == 2) {
+        // Its last observation cannot fix it: held constant, weightless.
+        held_points_.push_back(point2D.point3D_id);
+        for (const TrackElement& other : point.track) Unweigh(other);
+        if (problem_->HasParameterBlock(point.xyz.data())) {
+          problem_->SetParameterBlockConstant(point.xyz.data());
+        }
+      }
+      auto& track = point.track;
+      track.erase(std::find_if(
+          track.begin(), track.end(), [&](const TrackElement& other) {
+            return other.image_id == element.image_id &&
+                   other.point2D_idx == element.point2D_idx;
+          }));
+      point2D.point3D_id = kInvalidPoint3DId;
+    }
+    return num_filtered;
+  }
+
+ private:
+  // Zero for an observation without a residual block (behind its camera
+  // when the problem was built) too.
+  void Unweigh(const TrackElement& element) {
+    const auto it = weights_.find(element.image_id);
+    if (it != weights_.end()) it->second[element.point2D_idx] = 0.0;
+  }
+
+  // Calls f(image, camera, point2D_idx, weight) for each observation of the
+  // model with a non-zero weight.
+  template <typename F>
+  void ForEachLiveObservation(F&& f) {
+    for (auto& [image_id, weights] : weights_) {
+      const Image& image = reconstruction_->images.at(image_id);
+      const Camera& camera = reconstruction_->cameras.at(image.camera_id);
+      for (point2D_t idx = 0; idx < weights.size(); ++idx) {
+        if (weights[idx] > 0) f(image, camera, idx, &weights[idx]);
+      }
     }
   }
 
-  SolverOptions solver = options.solver;
-  ChooseLinearSolver(options, static_cast<int>(used_images.size()),
-                     &solver.ceres);
-  if (options.refine_points) solver.ceres.linear_solver_ordering = ordering;
-  *problem_seconds += timer.ElapsedSeconds();
-  return SolveProblem("bundle adjustment", solver, &problem);
-}
+  void Build() {
+    if (!huber_ && options_.loss_function != "trivial") {
+      loss_.reset(CreateLossFunction(options_.loss_function == "huber_ceres"
+                                         ? "huber"
+                                         : options_.loss_function,
+                                     options_.loss_scale));
+    }
+    for (auto& [image_id, image] : reconstruction_->images) {
+      image.cam_from_world.rotation.normalize();
+    }
+    std::set<image_t> used_images;
+    std::set<camera_t> used_cameras;
+    for (auto& [point3D_id, point] : reconstruction_->points3D) {
+      for (const TrackElement& element : point.track) {
+        Image& image = reconstruction_->images.at(element.image_id);
+        Camera& camera = reconstruction_->cameras.at(image.camera_id);
+        // Points behind the camera would give meaningless residuals; the
+        // filtering between rounds removes them.
+        if ((image.cam_from_world * point.xyz).z() <= 0) continue;
+        const double* weight = nullptr;
+        if (weighted_) {
+          // Sized once per image, before any address is taken (0: no
+          // residual block).
+          std::vector<double>& weights = weights_[element.image_id];
+          if (weights.empty()) weights.assign(image.points2D.size(), 0.0);
+          weights[element.point2D_idx] = 1.0;
+          weight = &weights[element.point2D_idx];
+        }
+        problem_->AddResidualBlock(
+            CreateReprojectionCost(camera.model_id,
+                                   image.points2D[element.point2D_idx].xy,
+                                   weight),
+            loss_.get(), image.cam_from_world.rotation.coeffs().data(),
+            image.cam_from_world.translation.data(), point.xyz.data(),
+            camera.params.data());
+        used_images.insert(element.image_id);
+        used_cameras.insert(image.camera_id);
+      }
+      if (problem_->HasParameterBlock(point.xyz.data())) {
+        ordering_->AddElementToGroup(point.xyz.data(), 0);
+        if (!options_.refine_points) {
+          problem_->SetParameterBlockConstant(point.xyz.data());
+        }
+      }
+    }
+    num_images_ = static_cast<int>(used_images.size());
+    if (Empty()) return;
+
+    // Poses and gauge.
+    std::vector<image_t> images(used_images.begin(), used_images.end());
+    for (size_t k = 0; k < images.size(); ++k) {
+      Image& image = reconstruction_->images.at(images[k]);
+      double* rotation = image.cam_from_world.rotation.coeffs().data();
+      double* translation = image.cam_from_world.translation.data();
+      ordering_->AddElementToGroup(rotation, 1);
+      ordering_->AddElementToGroup(translation, 1);
+      problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
+      if (!options_.refine_poses || (options_.fix_gauge && k == 0)) {
+        problem_->SetParameterBlockConstant(rotation);
+        problem_->SetParameterBlockConstant(translation);
+      } else if (options_.fix_gauge && k == 1) {
+        const Image& first = reconstruction_->images.at(images[0]);
+        const Eigen::Vector3d baseline =
+            image.cam_from_world.rotation *
+            (image.ProjectionCenter() - first.ProjectionCenter());
+        int fixed_coordinate = 0;
+        baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
+        problem_->SetManifold(translation,
+                              new ceres::SubsetManifold(3, {fixed_coordinate}));
+      }
+    }
+
+    // Intrinsics.
+    for (camera_t camera_id : used_cameras) {
+      Camera& camera = reconstruction_->cameras.at(camera_id);
+      ordering_->AddElementToGroup(camera.params.data(), 1);
+      std::vector<int> constant;
+      auto add = [&constant](const std::vector<int>& idxs) {
+        constant.insert(constant.end(), idxs.begin(), idxs.end());
+      };
+      if (!options_.refine_focal_length)
+        add(CameraModelFocalLengthIdxs(camera.model_id));
+      if (!options_.refine_principal_point)
+        add(CameraModelPrincipalPointIdxs(camera.model_id));
+      if (!options_.refine_extra_params)
+        add(CameraModelExtraParamsIdxs(camera.model_id));
+      const int num_params = camera.params.size();
+      if (static_cast<int>(constant.size()) >= num_params) {
+        problem_->SetParameterBlockConstant(camera.params.data());
+      } else if (!constant.empty()) {
+        problem_->SetManifold(camera.params.data(),
+                              new ceres::SubsetManifold(num_params, constant));
+      }
+    }
+  }
+
+  const BundleAdjustmentOptions& options_;
+  Reconstruction* reconstruction_;
+  const bool huber_;
+  const bool weighted_;  // residuals reweighted or filtered: weights_
+  std::unique_ptr<ceres::LossFunction> loss_;  // outlives the problem
+  // Each image's weights, by keypoint; vectors never resized once built
+  // (the costs hold their addresses).
+  std::unordered_map<image_t, std::vector<double>> weights_;
+  std::vector<point3D_t> held_points_;
+  std::unique_ptr<ceres::Problem> problem_;
+  std::shared_ptr<ceres::ParameterBlockOrdering> ordering_;
+  int num_images_ = 0;
+};
 
 }  // namespace
 
@@ -254,43 +382,64 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
   local_summary.initial_mean_reproj_error =
       UpdateReprojectionErrors(reconstruction);
   bool success = true;
-  for (int round = 0; round < options.num_rounds; ++round) {
-    // Huber by reweighting: a few solves, each from the last one's errors.
-    const int num_solves = options.loss_function == "huber" ? 3 : 1;
-    ceres::Solver::Summary solver_summary;
-    for (int solve = 0; solve < num_solves; ++solve) {
-      solver_summary =
-          Solve(options, reconstruction, &local_summary.problem_seconds);
-      local_summary.num_iterations += solver_summary.iterations.size();
-      ++local_summary.num_solves;
-      local_summary.preprocessor_seconds +=
-          solver_summary.preprocessor_time_in_seconds;
-      local_summary.linear_solver_seconds +=
-          solver_summary.linear_solver_time_in_seconds;
-      local_summary.linear_solver = ceres::LinearSolverTypeToString(
-          solver_summary.linear_solver_type_used);
-      if (solver_summary.termination_type == ceres::FAILURE ||
-          solver_summary.iterations.size() <= 2) {
+  // The last round's filter works on the model alone (nothing is solved
+  // after it); the problem is gone by then.
+  bool filter_model = false;
+  {
+    Timer build_timer;
+    BundleAdjustmentProblem problem(options, reconstruction);
+    local_summary.problem_seconds += build_timer.ElapsedSeconds();
+    for (int round = 0; round < options.num_rounds && !problem.Empty();
+         ++round) {
+      // Huber by reweighting: a few solves, each from the last one's errors.
+      const int num_solves = options.loss_function == "huber" ? 3 : 1;
+      ceres::Solver::Summary solver_summary;
+      for (int solve = 0; solve < num_solves; ++solve) {
+        build_timer.Restart();
+        problem.Reweight();
+        local_summary.problem_seconds += build_timer.ElapsedSeconds();
+        solver_summary = problem.Solve();
+        local_summary.num_iterations += solver_summary.iterations.size();
+        ++local_summary.num_solves;
+        local_summary.preprocessor_seconds +=
+            solver_summary.preprocessor_time_in_seconds;
+        local_summary.linear_solver_seconds +=
+            solver_summary.linear_solver_time_in_seconds;
+        local_summary.linear_solver = ceres::LinearSolverTypeToString(
+            solver_summary.linear_solver_type_used);
+        if (solver_summary.termination_type == ceres::FAILURE ||
+            solver_summary.iterations.size() <= 2) {
+          break;
+        }
+      }
+      ++local_summary.num_rounds;
+      local_summary.converged =
+          solver_summary.termination_type == ceres::CONVERGENCE;
+      if (solver_summary.termination_type == ceres::FAILURE) {
+        LOG(WARNING) << "Bundle adjustment: " << solver_summary.message;
+        success = false;
+        break;
+      }
+      if (options.max_reproj_error <= 0) break;
+      if (round + 1 == options.num_rounds) {
+        filter_model = true;
+        break;
+      }
+      build_timer.Restart();
+      const size_t num_filtered = problem.Filter(options.max_reproj_error);
+      local_summary.problem_seconds += build_timer.ElapsedSeconds();
+      local_summary.num_observations_filtered += num_filtered;
+      if (num_filtered == 0 ||
+          num_filtered < options.min_filtered_fraction *
+                             NumObservations(*reconstruction)) {
         break;
       }
     }
-    ++local_summary.num_rounds;
-    local_summary.converged =
-        solver_summary.termination_type == ceres::CONVERGENCE;
-    if (solver_summary.termination_type == ceres::FAILURE) {
-      LOG(WARNING) << "Bundle adjustment: " << solver_summary.message;
-      success = false;
-      break;
-    }
-    if (options.max_reproj_error <= 0) break;
-    const size_t num_filtered = FilterObservationsWithLargeReprojectionError(
-        options.max_reproj_error, reconstruction);
-    local_summary.num_observations_filtered += num_filtered;
-    if (num_filtered == 0 ||
-        num_filtered <
-            options.min_filtered_fraction * NumObservations(*reconstruction)) {
-      break;
-    }
+  }  // the problem deletes the points its filter held
+  if (filter_model) {
+    local_summary.num_observations_filtered +=
+        FilterObservationsWithLargeReprojectionError(options.max_reproj_error,
+                                                     reconstruction);
   }
   local_summary.final_mean_reproj_error =
       UpdateReprojectionErrors(reconstruction);

@@ -11,18 +11,26 @@
 
 namespace colmap_irav4 {
 
-size_t FilterObservationsWithLargeReprojectionError(
-    double max_reproj_error, Reconstruction* reconstruction) {
+std::vector<TrackElement> FindObservationsWithLargeReprojectionError(
+    double max_reproj_error, const Reconstruction& reconstruction) {
   std::vector<TrackElement> outliers;
-  for (const auto& [point3D_id, point] : reconstruction->points3D) {
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
     for (const TrackElement& element : point.track) {
-      const Image& image = reconstruction->images.at(element.image_id);
-      const Camera& camera = reconstruction->cameras.at(image.camera_id);
+      const Image& image = reconstruction.images.at(element.image_id);
+      const Camera& camera = reconstruction.cameras.at(image.camera_id);
       const double error = ReprojectionError(
           camera, image, point.xyz, image.points2D[element.point2D_idx].xy);
       if (!(error <= max_reproj_error)) outliers.push_back(element);
     }
   }
+  return outliers;
+}
+
+size_t FilterObservationsWithLargeReprojectionError(
+    double max_reproj_error, Reconstruction* reconstruction) {
+  const std::vector<TrackElement> outliers =
+      FindObservationsWithLargeReprojectionError(max_reproj_error,
+                                                 *reconstruction);
   for (const TrackElement& element : outliers) {
     DeleteObservation(element.image_id, element.point2D_idx, reconstruction);
   }

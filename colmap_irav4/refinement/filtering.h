@@ -1,9 +1,16 @@
 #pragma once
 
+#include <vector>
+
 #include "colmap_irav4/geometry/sim3d.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {
+
+// The observations whose reprojection error exceeds max_reproj_error (px) or
+// whose point is behind the camera.
+std::vector<TrackElement> FindObservationsWithLargeReprojectionError(
+    double max_reproj_error, const Reconstruction& reconstruction);
 
 // Unlinks observations whose reprojection error exceeds max_reproj_error (px)
 // or whose point is behind the camera; points left with fewer than two

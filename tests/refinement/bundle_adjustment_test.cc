@@ -167,6 +167,51 @@ TEST(BundleAdjustment, RoundsRemoveWrongObservations) {
   EXPECT_LT(Compare(reconstruction, scene.truth).max_center_error, 0.02);
 }
 
+// The problem is built once and kept across the rounds: the filter zeroes
+// the weights of the observations it unlinks (and of the points it
+// deletes). Were any left weighing, the last round's result would not be
+// the optimum of the model's remaining observations, which a bundle
+// adjustment built afresh from the model then finds.
+TEST(BundleAdjustment, KeptProblemSolvesTheFilteredObservations) {
+  const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
+  Reconstruction reconstruction = scene.truth;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (auto& [image_id, image] : reconstruction.images) {
+    for (Point2D& point2D : image.points2D) {
+      if (uniform(rng) < 0.1) point2D.xy += Eigen::Vector2d(40, -30);
+    }
+  }
+  Perturb(0.5, 0.05, 0.02, 1.0, 3, &reconstruction);
+  const size_t num_points_before = reconstruction.points3D.size();
+  BundleAdjustmentOptions options;
+  options.loss_function = "trivial";
+  options.min_filtered_fraction = 0;
+  options.solver.ceres.function_tolerance = 1e-12;
+  options.solver.ceres.gradient_tolerance = 1e-14;
+  options.solver.ceres.parameter_tolerance = 1e-12;
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+  EXPECT_GE(summary.num_rounds, 2);
+  EXPECT_GT(summary.num_observations_filtered, 0);
+  // Some points kept only one observation and were deleted with their block.
+  EXPECT_LT(reconstruction.points3D.size(), num_points_before);
+
+  Reconstruction rebuilt = reconstruction;
+  options.num_rounds = 1;
+  options.max_reproj_error = 0;
+  ASSERT_TRUE(RunBundleAdjustment(options, &rebuilt, &summary));
+  double max_center_change = 0;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    max_center_change = std::max(
+        max_center_change, (image.ProjectionCenter() -
+                            rebuilt.images.at(image_id).ProjectionCenter())
+                               .norm());
+  }
+  EXPECT_LT(max_center_change, 1e-6);
+  EXPECT_LT(Compare(reconstruction, scene.truth).max_center_error, 0.02);
+}
+
 TEST(BundleAdjustment, FixedPosesMoveOnlyPoints) {
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
   Reconstruction reconstruction = scene.truth;

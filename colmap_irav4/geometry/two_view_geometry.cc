@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <Eigen/Dense>
 #include <Eigen/SVD>
@@ -36,6 +37,14 @@ constexpr double kMinRefinedSupport = 0.95;
 
 bool IsZero(const Eigen::Matrix3d& M) { return M.cwiseAbs().maxCoeff() == 0; }
 
+// Whether two non-zero matrices are equal up to a (signed) scale, to
+// rounding.
+bool SameUpToScale(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
+  const Eigen::Matrix3d a = A / A.norm();
+  const Eigen::Matrix3d b = B / B.norm();
+  return std::min((a - b).norm(), (a + b).norm()) < 1e-9;
+}
+
 // A candidate cam2_from_cam1; pure_rotation candidates have no translation.
 struct Candidate {
   RelativePoseSource source = RelativePoseSource::kNone;
@@ -48,6 +57,10 @@ struct Candidate {
   int support = 0;
   // Set by Refine: the rotation's standard deviation at the start (deg).
   double rotation_std_deg = -1;
+  // Consecutive candidates with the same group share one essential matrix up
+  // to sign (the four decompositions of an E; a homography's (R, t) and
+  // (R, -t)): ScoreGroup computes their epipolar errors once.
+  int group = -1;
 };
 
 // Normalised correspondences of the inlier matches.
@@ -94,8 +107,69 @@ void Score(const Correspondences& corrs, double focal, double max_error_px,
   }
 }
 
+// Scores candidates [begin, end) of one group at once: [t]x R is the same
+// essential matrix up to sign for each of them (the Sampson error ignores
+// sign and scale), so a match's error is computed once, and its depths once
+// per distinct rotation (negating t negates both depths exactly). The costs
+// are those Score gives each candidate alone.
+void ScoreGroup(const Correspondences& corrs, double focal,
+                double max_error_px, Candidate* begin, Candidate* end) {
+  const int num = static_cast<int>(end - begin);
+  if (num == 1 || begin->pure_rotation) {
+    for (Candidate* candidate = begin; candidate != end; ++candidate) {
+      Score(corrs, focal, max_error_px, candidate);
+    }
+    return;
+  }
+  constexpr int kMaxGroup = 4;
+  CHECK_LE(num, kMaxGroup);
+  // twin[k]: an earlier candidate with the same R and the opposite t, or -1.
+  int twin[kMaxGroup];
+  for (int k = 0; k < num; ++k) {
+    twin[k] = -1;
+    CHECK(!begin[k].pure_rotation);
+    for (int j = 0; j < k && twin[k] < 0; ++j) {
+      if (twin[j] < 0 && begin[j].R == begin[k].R &&
+          begin[j].t == -begin[k].t) {
+        twin[k] = j;
+      }
+    }
+    begin[k].cost = 0;
+    begin[k].support = 0;
+  }
+  const double max_error_sq = max_error_px * max_error_px;
+  const double focal_sq = focal * focal;
+  const Eigen::Matrix3d E = EssentialFromPose(begin->R, begin->t);
+  for (size_t i = 0; i < corrs.x1.size(); ++i) {
+    const double error_sq =
+        SampsonErrorSquared(E, corrs.x1[i], corrs.x2[i]) * focal_sq;
+    if (!(error_sq < max_error_sq)) {
+      for (int k = 0; k < num; ++k) begin[k].cost += max_error_sq;
+      continue;
+    }
+    double depth1[kMaxGroup], depth2[kMaxGroup];
+    for (int k = 0; k < num; ++k) {
+      if (twin[k] >= 0) {
+        depth1[k] = -depth1[twin[k]];
+        depth2[k] = -depth2[twin[k]];
+      } else {
+        TriangulateDepths(begin[k].R, begin[k].t, corrs.x1[i], corrs.x2[i],
+                          &depth1[k], &depth2[k]);
+      }
+      // As MatchError.
+      if (depth1[k] > 0 && depth2[k] > 0 && depth1[k] < 1000 &&
+          depth2[k] < 1000) {
+        begin[k].cost += error_sq;
+        ++begin[k].support;
+      } else {
+        begin[k].cost += max_error_sq;
+      }
+    }
+  }
+}
+
 void AddEssentialCandidates(const Eigen::Matrix3d& E, RelativePoseSource source,
-                            std::vector<Candidate>* candidates) {
+                            int group, std::vector<Candidate>* candidates) {
   std::vector<Eigen::Matrix3d> Rs;
   std::vector<Eigen::Vector3d> ts;
   DecomposeEssentialMatrix(E, &Rs, &ts);
@@ -104,6 +178,7 @@ void AddEssentialCandidates(const Eigen::Matrix3d& E, RelativePoseSource source,
     candidate.source = source;
     candidate.R = Rs[i];
     candidate.t = ts[i];
+    candidate.group = group;
     candidates->push_back(candidate);
   }
 }
@@ -313,18 +388,20 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
 double MedianTriAngleDeg(const Correspondences& corrs,
                          const std::vector<char>& supporting,
                          const Eigen::Matrix3d& R) {
-  std::vector<double> angles;
+  // The median of the cosines, descending, is the cosine of the median
+  // angle (acos decreases strictly): one acos instead of one per match.
+  std::vector<double> cosines;
   for (size_t i = 0; i < corrs.x1.size(); ++i) {
     if (!supporting[i]) continue;
     const Eigen::Vector3d ray1 = corrs.x1[i].homogeneous().normalized();
     const Eigen::Vector3d ray2 =
         (R.transpose() * corrs.x2[i].homogeneous()).normalized();
-    angles.push_back(std::acos(std::clamp(ray1.dot(ray2), -1.0, 1.0)));
+    cosines.push_back(std::clamp(ray1.dot(ray2), -1.0, 1.0));
   }
-  if (angles.empty()) return 0;
-  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2,
-                   angles.end());
-  return RadToDeg(angles[angles.size() / 2]);
+  if (cosines.empty()) return 0;
+  std::nth_element(cosines.begin(), cosines.begin() + cosines.size() / 2,
+                   cosines.end(), std::greater<double>());
+  return RadToDeg(std::acos(cosines[cosines.size() / 2]));
 }
 
 }  // namespace
@@ -643,9 +720,11 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
       0.5 * (CameraMeanFocalLength(camera1) + CameraMeanFocalLength(camera2));
 
   std::vector<Candidate> candidates;
+  int num_groups = 0;
   if (geometry.has_pose) {
     Candidate stored;
     stored.source = RelativePoseSource::kStored;
+    stored.group = num_groups++;
     stored.R = QuaternionToRotation(geometry.qvec);
     const double norm = geometry.tvec.norm();
     stored.pure_rotation = !(norm > 0);
@@ -654,13 +733,19 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
   }
   if (!IsZero(geometry.E)) {
     AddEssentialCandidates(geometry.E, RelativePoseSource::kEssential,
-                           &candidates);
+                           num_groups++, &candidates);
   }
   const Eigen::Matrix3d K1 = CameraCalibrationMatrix(camera1);
   const Eigen::Matrix3d K2 = CameraCalibrationMatrix(camera2);
   if (!IsZero(geometry.F)) {
-    AddEssentialCandidates(K2.transpose() * geometry.F * K1,
-                           RelativePoseSource::kFundamental, &candidates);
+    const Eigen::Matrix3d E_from_F = K2.transpose() * geometry.F * K1;
+    // Where F is the stored E in pixels (a matcher that derived one from the
+    // other, the synthetic scenes), its candidates are the E's again, which
+    // are preferred at equal cost: scoring them would change nothing.
+    if (IsZero(geometry.E) || !SameUpToScale(E_from_F, geometry.E)) {
+      AddEssentialCandidates(E_from_F, RelativePoseSource::kFundamental,
+                             num_groups++, &candidates);
+    }
   }
   if (!IsZero(geometry.H)) {
     const Eigen::Matrix3d Hn = K2.inverse() * geometry.H * K1;
@@ -669,9 +754,13 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
       std::vector<Eigen::Matrix3d> Rs;
       std::vector<Eigen::Vector3d> ts, ns;
       DecomposeHomographyMatrix(sign * Hn, &Rs, &ts, &ns);
+      const int first_group = num_groups;
       for (size_t i = 0; i < Rs.size(); ++i) {
         if (!IsRotation(Rs[i], 1e-6)) continue;
         Candidate candidate;
+        // Solutions come as (R, t), (R, -t).
+        candidate.group = first_group + static_cast<int>(i / 2);
+        num_groups = candidate.group + 1;
         candidate.source = RelativePoseSource::kHomography;
         candidate.R = Rs[i];
         candidate.t = ts[i].norm() > 0 ? Eigen::Vector3d(ts[i].normalized())
@@ -689,11 +778,13 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
     rotation.source = RelativePoseSource::kRotation;
     rotation.R = ProjectToRotation(Hr);
     rotation.pure_rotation = true;
+    rotation.group = num_groups++;
     candidates.push_back(rotation);
   }
   Eigen::Matrix3d E8;
   if (EstimateEssentialEightPoint(corrs.x1, corrs.x2, &E8)) {
-    AddEssentialCandidates(E8, RelativePoseSource::kEightPoint, &candidates);
+    AddEssentialCandidates(E8, RelativePoseSource::kEightPoint, num_groups++,
+                           &candidates);
   }
 
   // Sources in order of preference. A planar scene fits the true pose and
@@ -705,8 +796,16 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
       RelativePoseSource::kHomography, RelativePoseSource::kRotation,
       RelativePoseSource::kEightPoint};
   double min_cost = std::numeric_limits<double>::infinity();
-  for (Candidate& candidate : candidates) {
-    Score(corrs, focal, options.max_error_px, &candidate);
+  for (size_t begin = 0, end = 0; begin < candidates.size(); begin = end) {
+    end = begin + 1;
+    while (end < candidates.size() &&
+           candidates[end].group == candidates[begin].group) {
+      ++end;
+    }
+    ScoreGroup(corrs, focal, options.max_error_px, &candidates[begin],
+               candidates.data() + end);
+  }
+  for (const Candidate& candidate : candidates) {
     if (candidate.source != RelativePoseSource::kStored) {
       min_cost = std::min(min_cost, candidate.cost);
     }

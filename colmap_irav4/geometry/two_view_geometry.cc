@@ -112,8 +112,8 @@ void Score(const Correspondences& corrs, double focal, double max_error_px,
 // sign and scale), so a match's error is computed once, and its depths once
 // per distinct rotation (negating t negates both depths exactly). The costs
 // are those Score gives each candidate alone.
-void ScoreGroup(const Correspondences& corrs, double focal,
-                double max_error_px, Candidate* begin, Candidate* end) {
+void ScoreGroup(const Correspondences& corrs, double focal, double max_error_px,
+                Candidate* begin, Candidate* end) {
   const int num = static_cast<int>(end - begin);
   if (num == 1 || begin->pure_rotation) {
     for (Candidate* candidate = begin; candidate != end; ++candidate) {

@@ -55,8 +55,10 @@ struct Candidate {
   // number of matches under the threshold and in front of both cameras.
   double cost = 0;
   int support = 0;
-  // Set by Refine: the rotation's standard deviation at the start (deg).
+  // Set by Refine: the rotation's standard deviation at the start (deg) and
+  // the number of passes over the matches.
   double rotation_std_deg = -1;
+  int num_refine_passes = 0;
   // Consecutive candidates with the same group share one essential matrix up
   // to sign (the four decompositions of an E; a homography's (R, t) and
   // (R, -t)): ScoreGroup computes their epipolar errors once.
@@ -269,6 +271,7 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
                       Eigen::Matrix<double, 5, 1>* Jtr,
                       Eigen::Matrix<double, 5, 5>* JtJ_irls = nullptr) {
     CauchyCostSum cost(b);
+    ++candidate->num_refine_passes;
     if (JtJ != nullptr) {
       JtJ->setZero();
       Jtr->setZero();
@@ -950,6 +953,7 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
     Candidate refined = chosen;
     Refine(corrs, chosen.supporting, focal, options, &refined);
     result.rotation_std_deg = refined.rotation_std_deg;
+    result.num_refine_passes = refined.num_refine_passes;
     // Refinement minimises a robust cost, not the truncated one: accept it
     // unless it loses support clearly. (Where the rotation_std gate stopped
     // it the pose is unchanged: no need to score it again.)

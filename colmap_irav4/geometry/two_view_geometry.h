@@ -122,6 +122,8 @@ struct RelativePose {
   // The rotation's standard deviation before refinement (deg; -1 when the
   // refinement did not run).
   double rotation_std_deg = -1;
+  // Passes of the refinement over the supporting matches (0: not run).
+  int num_refine_passes = 0;
   std::string failure;  // why success is false
 };
 

@@ -4,8 +4,8 @@
 //                SCENE_DIR [SCENE_DIR ...]
 // A scene directory holds database.db and either gt_cameras/ (the Strecha
 // layout of ../shared/data/strecha/<scene>) or gt/, a COLMAP model of the
-// ground truth (scene_generator's layout). Prints pairs, rotation error median / mean
-// / max / count over 5 deg, and the same for the translation direction;
+// ground truth (scene_generator's layout). Prints pairs, rotation error median
+// / mean / max / count over 5 deg, and the same for the translation direction;
 // --verbose lists the pairs with a rotation error over 1 deg.
 
 #include <cstdio>

@@ -77,6 +77,12 @@ struct RelativePoseOptions {
   // of 1,043, median 0.067 -> 0.059 deg; Strecha unchanged (1.0 would also
   // skip a fountain-P11 pair that refinement improves, 3.1 -> 2.3 deg).
   double refine_max_rotation_std_deg = 2.0;
+  // Skip the eight-point re-estimate where a candidate from the stored
+  // geometry is supported by at least this fraction of the inlier matches:
+  // refinement then starts from an equally good pose (fountain-P11,
+  // Herz-Jesus-P8, 300-image courtyard: rotations within 0.003 deg of those
+  // with it). Above 1: always estimated.
+  double skip_eight_point_min_support = 0.99;
   // Use the pose stored in the database when it is non-zero and supported by
   // at least this fraction of the support of the best derived candidate (it
   // is refined like a derived one: COLMAP 3.8's stored poses were measured
@@ -116,6 +122,8 @@ struct RelativePose {
   // The rotation's standard deviation before refinement (deg; -1 when the
   // refinement did not run).
   double rotation_std_deg = -1;
+  // Passes of the refinement over the supporting matches (0: not run).
+  int num_refine_passes = 0;
   std::string failure;  // why success is false
 };
 

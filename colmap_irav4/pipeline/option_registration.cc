@@ -70,6 +70,11 @@ void AddViewGraphOptions(OptionManager* manager,
                &rp.refine_max_rotation_std_deg,
                "refine a pose only where its inliers determine the rotation "
                "to this first-order standard deviation (deg)");
+  manager->Add("RelativePose.skip_eight_point_min_support",
+               &rp.skip_eight_point_min_support,
+               "skip the eight-point re-estimate where a stored-geometry "
+               "candidate is supported by this fraction of the inliers "
+               "(above 1: never skip)");
 }
 
 void AddIrav4Options(OptionManager* manager, Irav4Options* options) {

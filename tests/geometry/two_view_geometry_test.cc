@@ -259,6 +259,95 @@ TEST(TwoViewGeometry, RefinementImprovesNoisyPoses) {
   EXPECT_LT(error_refined, 0.8 * error_plain);
 }
 
+TEST(TwoViewGeometry, RefinementConvergesToOneOptimumInFewPasses) {
+  // The same noisy matches refined from the exact E and from an E a third of
+  // the noise away: both must reach the same optimum of the robust cost (the
+  // stopping rule must not stop short), in few passes (the loss's curvature
+  // in the Hessian: reweighted least squares alone took about 8).
+  const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
+  int max_passes = 0;
+  double max_rotation_gap_deg = 0, max_translation_gap_deg = 0;
+  for (int trial = 0; trial < 10; ++trial) {
+    std::mt19937_64 rng(200 + trial);
+    const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(10), &rng);
+    const Eigen::Vector3d t(1, 0.1, 0.2);
+    SyntheticPair pair =
+        MakeSyntheticPair(camera, camera, R, t, 300, 1.0, false, &rng);
+    pair.geometry.F.setZero();
+    pair.geometry.H.setZero();
+    RelativePoseOptions options;
+    options.skip_eight_point_min_support = 0;  // start from the stored E
+    const RelativePose from_exact =
+        EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                             pair.keypoints2, options);
+    pair.geometry.E = EssentialFromPose(
+        RandomRotationWithAngle(DegToRad(0.013), &rng) * R,
+        (t.normalized() + Eigen::Vector3d(0, 2e-4, -2e-4)).normalized());
+    const RelativePose from_off =
+        EstimateRelativePose(pair.geometry, camera, camera, pair.keypoints1,
+                             pair.keypoints2, options);
+    ASSERT_TRUE(from_exact.success && from_off.success);
+    ASSERT_TRUE(from_exact.refined && from_off.refined);
+    EXPECT_EQ(from_exact.source, RelativePoseSource::kEssential);
+    EXPECT_EQ(from_off.source, RelativePoseSource::kEssential);
+    // The start moved the pose: the refinement did something.
+    EXPECT_GT(AngularDistanceDeg(from_exact.R, R), 1e-4);
+    max_rotation_gap_deg = std::max(
+        max_rotation_gap_deg, AngularDistanceDeg(from_exact.R, from_off.R));
+    max_translation_gap_deg = std::max(
+        max_translation_gap_deg, TranslationErrorDeg(from_exact.t, from_off.t));
+    max_passes = std::max(
+        {max_passes, from_exact.num_refine_passes, from_off.num_refine_passes});
+  }
+  ::colmap_irav4::test::RecordFiguresF(
+      "refined from the exact E and from one 0.013 deg off, 10 noisy pairs: "
+      "largest gap %.2e deg (R), %.2e deg (t); at most %d passes\n",
+      max_rotation_gap_deg, max_translation_gap_deg, max_passes);
+  EXPECT_LT(max_rotation_gap_deg, 2e-3);
+  EXPECT_LT(max_translation_gap_deg, 1e-2);
+  EXPECT_GE(max_passes, 2);
+  EXPECT_LE(max_passes, 5);
+}
+
+TEST(TwoViewGeometry, EightPointOnlyWhereTheStoredGeometryFallsShort) {
+  std::mt19937_64 rng(50);
+  const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
+  const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(12), &rng);
+  const Eigen::Vector3d t(1, 0.2, -0.1);
+  SyntheticPair pair =
+      MakeSyntheticPair(camera, camera, R, t, 300, 0.5, false, &rng);
+  pair.geometry.F.setZero();
+  pair.geometry.H.setZero();
+  // A stored E that every match supports: the eight-point estimate is
+  // skipped, and the refined pose is the one with it to rounding.
+  RelativePoseOptions options;
+  const RelativePose skipped = EstimateRelativePose(
+      pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2, options);
+  options.skip_eight_point_min_support = 2;  // never skipped
+  const RelativePose full = EstimateRelativePose(
+      pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2, options);
+  ASSERT_TRUE(skipped.success && full.success);
+  EXPECT_EQ(skipped.source, RelativePoseSource::kEssential);
+  EXPECT_LT(AngularDistanceDeg(skipped.R, full.R), 2e-3);
+  EXPECT_LT(TranslationErrorDeg(skipped.t, full.t), 1e-2);
+  EXPECT_LT(AngularDistanceDeg(skipped.R, R), 0.1);
+  // A stored E 3 deg off explains few matches: the eight-point estimate is
+  // made and wins, unless it is always skipped.
+  pair.geometry.E = EssentialFromPose(
+      RandomRotationWithAngle(DegToRad(3), &rng) * R, t.normalized());
+  options = RelativePoseOptions();
+  const RelativePose recovered = EstimateRelativePose(
+      pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2, options);
+  ASSERT_TRUE(recovered.success);
+  EXPECT_EQ(recovered.source, RelativePoseSource::kEightPoint);
+  EXPECT_LT(AngularDistanceDeg(recovered.R, R), 0.1);
+  options.skip_eight_point_min_support = 0;
+  const RelativePose stuck = EstimateRelativePose(
+      pair.geometry, camera, camera, pair.keypoints1, pair.keypoints2, options);
+  EXPECT_FALSE(stuck.success &&
+               stuck.source == RelativePoseSource::kEightPoint);
+}
+
 TEST(TwoViewGeometry, StoredPoseUsedOnlyWhenConsistent) {
   std::mt19937_64 rng(30);
   const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));
@@ -313,6 +402,11 @@ TEST(TwoViewGeometry, OptionsCheck) {
   options = RelativePoseOptions();
   options.min_stored_pose_support = 1.5;
   EXPECT_THROW(options.Check(), InputError);
+  options = RelativePoseOptions();
+  options.skip_eight_point_min_support = -0.1;
+  EXPECT_THROW(options.Check(), InputError);
+  options.skip_eight_point_min_support = 1.5;  // never skipped
+  EXPECT_NO_THROW(options.Check());
 }
 
 TEST(TwoViewGeometry, ConfigNames) {

@@ -78,13 +78,14 @@ ObservationStatistics ComputeObservationStatistics(
       stats.min_observations_per_image = count;
     }
     const auto cell = cells.find(image_id);
-    coverage_sum += cell == cells.end() ? 0.0
-                                        : static_cast<double>(
-                                              cell->second.size()) /
-                                              (grid_size * grid_size);
+    coverage_sum += cell == cells.end()
+                        ? 0.0
+                        : static_cast<double>(cell->second.size()) /
+                              (grid_size * grid_size);
   }
   stats.median_observations_per_image = Median(counts);
-  if (stats.num_images > 0) stats.mean_grid_coverage = coverage_sum / stats.num_images;
+  if (stats.num_images > 0)
+    stats.mean_grid_coverage = coverage_sum / stats.num_images;
   return stats;
 }
 
@@ -137,7 +138,6 @@ int TransferPoses(const Reconstruction& source, bool copy_intrinsics,
   }
   return num_transferred;
 }
-
 
 TrackCorrectness CompareTracksWithTruth(const Reconstruction& model,
                                         const Reconstruction& truth) {

@@ -19,7 +19,7 @@ struct ObservationStatistics {
   double two_view_point_fraction = 0;  // points seen by exactly two images
   double median_observations_per_image = 0;
   int min_observations_per_image = 0;
-  double mean_reproj_error = 0;  // px, over observations
+  double mean_reproj_error = 0;     // px, over observations
   double median_tri_angle_deg = 0;  // largest angle per point, median
   // Mean over images of the fraction of grid_size x grid_size cells of the
   // image holding at least one observation.
@@ -40,14 +40,13 @@ ObservationStatistics ComputeObservationStatistics(
 int TransferPoses(const Reconstruction& source, bool copy_intrinsics,
                   Reconstruction* target);
 
-
 // The observations of a model checked against the exact model of a
 // synthetic scene (same image names, same keypoint indices): an observation
 // is correct when its keypoint is the truth's projection of the truth point
 // most of its track's keypoints belong to.
 struct TrackCorrectness {
   size_t num_observations = 0;
-  size_t num_wrong = 0;        // another truth point, or clutter
+  size_t num_wrong = 0;  // another truth point, or clutter
   size_t num_points = 0;
   size_t num_points_with_wrong = 0;
   // Truth observations (of the model's images) the model does not use.

@@ -36,9 +36,9 @@ double MaxCenterDistance(const Reconstruction& a, const Reconstruction& b) {
   double max_distance = 0;
   for (const auto& [image_id, image] : a.images) {
     max_distance = std::max(
-        max_distance, (image.ProjectionCenter() -
-                       b.images.at(image_id).ProjectionCenter())
-                          .norm());
+        max_distance,
+        (image.ProjectionCenter() - b.images.at(image_id).ProjectionCenter())
+            .norm());
   }
   return max_distance;
 }
@@ -63,11 +63,11 @@ TEST(ObservationStatistics, CountsAHandBuiltModel) {
   for (image_t id = 1; id <= 3; ++id) {
     Image& image = model.images.at(id);
     const Eigen::Vector3d p1 = image.cam_from_world * xyz1;
-    image.points2D[0].xy = Eigen::Vector2d(100 * p1.x() / p1.z() + 50,
-                                           100 * p1.y() / p1.z() + 50);
+    image.points2D[0].xy =
+        Eigen::Vector2d(100 * p1.x() / p1.z() + 50, 100 * p1.y() / p1.z() + 50);
     const Eigen::Vector3d p2 = image.cam_from_world * xyz2;
-    image.points2D[1].xy = Eigen::Vector2d(100 * p2.x() / p2.z() + 50,
-                                           100 * p2.y() / p2.z() + 50);
+    image.points2D[1].xy =
+        Eigen::Vector2d(100 * p2.x() / p2.z() + 50, 100 * p2.y() / p2.z() + 50);
   }
   AddPoint3D(xyz1, {{1, 0}, {2, 0}, {3, 0}}, &model);
   AddPoint3D(xyz2, {{1, 1}, {2, 1}}, &model);
@@ -110,9 +110,10 @@ TEST(TransferPoses, TakesThePosesOfAModelInAnotherFrame) {
     const Image& truth = scene.truth.images.at(image_id);
     EXPECT_LT((image.ProjectionCenter() - truth.ProjectionCenter()).norm(),
               1e-9);
-    EXPECT_LT(AngularDistanceDeg(image.cam_from_world.rotation.toRotationMatrix(),
-                                 truth.cam_from_world.rotation.toRotationMatrix()),
-              1e-6);
+    EXPECT_LT(
+        AngularDistanceDeg(image.cam_from_world.rotation.toRotationMatrix(),
+                           truth.cam_from_world.rotation.toRotationMatrix()),
+        1e-6);
   }
   // The points are the target's, untouched.
   EXPECT_EQ(target.points3D.begin()->second.xyz,

@@ -159,81 +159,138 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
         calibration_pairs, options.focal_calibration, &cameras);
   }
 
-  // Each image's keypoints are undistorted once (not once per pair: an
-  // image of a dense capture is in hundreds of pairs), then the relative
-  // poses are derived; both in parallel.
-  std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
-  for (const TwoViewGeometry* geometry : candidates) {
-    normalized[geometry->image_id1];
-    normalized[geometry->image_id2];
-  }
-  std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
-  for (auto& slot : normalized) slots.push_back(&slot);
-  ParallelFor(options.num_threads, slots.size(), [&](size_t i) {
-    const image_t image_id = slots[i]->first;
-    const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
-    const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
-    std::vector<Eigen::Vector2d>& points = slots[i]->second;
-    points.reserve(keypoints.size());
-    for (const auto& keypoint : keypoints) {
-      points.push_back(CameraImageToCamera(camera, keypoint.cast<double>()));
-    }
-  });
-  std::vector<RelativePose> candidate_poses(candidates.size());
-  ParallelFor(options.num_threads, candidates.size(), [&](size_t i) {
-    const TwoViewGeometry& geometry = *candidates[i];
-    const DatabaseImage& image1 = database.images.at(geometry.image_id1);
-    const DatabaseImage& image2 = database.images.at(geometry.image_id2);
-    candidate_poses[i] = EstimateRelativePoseNormalized(
-        geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
-        normalized.at(geometry.image_id1), normalized.at(geometry.image_id2),
-        options.relative_pose);
-  });
-
-  std::vector<ImagePairGeometry> pairs;
-  std::vector<RelativePose> poses;
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    const TwoViewGeometry& geometry = *candidates[i];
-    const RelativePose& pose = candidate_poses[i];
-    if (!pose.success) {
-      VLOG(1) << "pair (" << geometry.image_id1 << ", " << geometry.image_id2
-              << "): " << pose.failure;
-      ++summary->num_dropped["relative pose failed"];
-      continue;
-    }
-    ImagePairGeometry pair;
-    pair.image_id1 = geometry.image_id1;
-    pair.image_id2 = geometry.image_id2;
-    pair.R = pose.R;
-    pair.t = pose.t;
-    pair.num_inliers = static_cast<int>(geometry.inlier_matches.size());
-    pair.config = geometry.config;
-    pairs.push_back(pair);
-    poses.push_back(pose);
-  }
-
-  // Connected components over the kept pairs, on image indices in image id
-  // order. An image without a pair is a singleton component and is not
-  // counted. Largest by images first; ties go to the component of the
-  // smallest image id, for determinism.
+  // Cheap rejection before any pose is derived: a pair outside the largest
+  // connected component of the candidate pairs cannot end in the largest
+  // component of the kept ones, unless failed poses split that component
+  // below the size of another; the other components are then derived too
+  // (below), so the result is the same as deriving every pair.
   std::map<image_t, int> index;
   std::vector<image_t> ids;
   for (const auto& [image_id, image] : database.images) {
     index[image_id] = static_cast<int>(ids.size());
     ids.push_back(image_id);
   }
-  std::vector<std::pair<int, int>> edges;
-  edges.reserve(pairs.size());
-  for (const ImagePairGeometry& pair : pairs) {
-    edges.emplace_back(index.at(pair.image_id1), index.at(pair.image_id2));
+  std::vector<const TwoViewGeometry*> deferred;
+  int largest_deferred_component = 0;
+  int num_deferred_components = 0;
+  if (options.keep_largest_component) {
+    std::vector<std::pair<int, int>> edges;
+    edges.reserve(candidates.size());
+    for (const TwoViewGeometry* geometry : candidates) {
+      edges.emplace_back(index.at(geometry->image_id1),
+                         index.at(geometry->image_id2));
+    }
+    const std::vector<std::vector<int>> candidate_components =
+        ConnectedComponents(static_cast<int>(ids.size()), edges);
+    std::vector<char> in_largest(ids.size(), 0);
+    if (!candidate_components.empty()) {
+      for (const int i : candidate_components[0]) in_largest[i] = 1;
+    }
+    for (size_t c = 1; c < candidate_components.size(); ++c) {
+      if (candidate_components[c].size() < 2) break;  // sorted: singletons
+      ++num_deferred_components;
+      largest_deferred_component =
+          std::max(largest_deferred_component,
+                   static_cast<int>(candidate_components[c].size()));
+    }
+    std::vector<const TwoViewGeometry*> in_component;
+    for (const TwoViewGeometry* geometry : candidates) {
+      (in_largest[index.at(geometry->image_id1)] ? in_component : deferred)
+          .push_back(geometry);
+    }
+    candidates.swap(in_component);
   }
-  const std::vector<std::vector<int>> components =
-      ConnectedComponents(static_cast<int>(ids.size()), edges);
+
+  // Each image's keypoints are undistorted once (not once per pair: an
+  // image of a dense capture is in hundreds of pairs), then the relative
+  // poses are derived; both in parallel.
+  std::vector<ImagePairGeometry> pairs;
+  std::vector<RelativePose> poses;
+  auto derive = [&](const std::vector<const TwoViewGeometry*>& geometries) {
+    std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
+    for (const TwoViewGeometry* geometry : geometries) {
+      normalized[geometry->image_id1];
+      normalized[geometry->image_id2];
+    }
+    std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
+    for (auto& slot : normalized) slots.push_back(&slot);
+    ParallelFor(options.num_threads, slots.size(), [&](size_t i) {
+      const image_t image_id = slots[i]->first;
+      const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
+      const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
+      std::vector<Eigen::Vector2d>& points = slots[i]->second;
+      points.reserve(keypoints.size());
+      for (const auto& keypoint : keypoints) {
+        points.push_back(CameraImageToCamera(camera, keypoint.cast<double>()));
+      }
+    });
+    std::vector<RelativePose> derived(geometries.size());
+    ParallelFor(options.num_threads, geometries.size(), [&](size_t i) {
+      const TwoViewGeometry& geometry = *geometries[i];
+      const DatabaseImage& image1 = database.images.at(geometry.image_id1);
+      const DatabaseImage& image2 = database.images.at(geometry.image_id2);
+      derived[i] = EstimateRelativePoseNormalized(
+          geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
+          normalized.at(geometry.image_id1), normalized.at(geometry.image_id2),
+          options.relative_pose);
+    });
+    for (size_t i = 0; i < geometries.size(); ++i) {
+      const TwoViewGeometry& geometry = *geometries[i];
+      const RelativePose& pose = derived[i];
+      if (!pose.success) {
+        VLOG(1) << "pair (" << geometry.image_id1 << ", " << geometry.image_id2
+                << "): " << pose.failure;
+        ++summary->num_dropped["relative pose failed"];
+        continue;
+      }
+      ImagePairGeometry pair;
+      pair.image_id1 = geometry.image_id1;
+      pair.image_id2 = geometry.image_id2;
+      pair.R = pose.R;
+      pair.t = pose.t;
+      pair.num_inliers = static_cast<int>(geometry.inlier_matches.size());
+      pair.config = geometry.config;
+      pairs.push_back(pair);
+      poses.push_back(pose);
+    }
+  };
+
+  // Connected components over the kept pairs, on image indices in image id
+  // order. An image without a pair is a singleton component and is not
+  // counted. Largest by images first; ties go to the component of the
+  // smallest image id, for determinism.
+  std::vector<std::vector<int>> components;
+  std::vector<std::pair<int, int>> edges;
+  auto find_components = [&]() {
+    edges.clear();
+    for (const ImagePairGeometry& pair : pairs) {
+      edges.emplace_back(index.at(pair.image_id1), index.at(pair.image_id2));
+    }
+    components = ConnectedComponents(static_cast<int>(ids.size()), edges);
+  };
+  derive(candidates);
+  find_components();
+  if (!deferred.empty() &&
+      (components.empty() ||
+       static_cast<int>(components[0].size()) <= largest_deferred_component)) {
+    // Failed poses split the largest candidate component: derive the rest.
+    derive(deferred);
+    deferred.clear();
+    num_deferred_components = 0;
+    find_components();
+  }
+  if (!deferred.empty()) {
+    summary->num_dropped["outside the largest component"] +=
+        static_cast<int>(deferred.size());
+  }
   std::vector<char> has_pair(ids.size(), 0);
   for (const auto& [a, b] : edges) has_pair[a] = has_pair[b] = 1;
-  summary->num_components = static_cast<int>(
-      std::count_if(components.begin(), components.end(),
-                    [](const std::vector<int>& c) { return c.size() > 1; }));
+  // The components not derived count as read (each is at least one).
+  summary->num_components =
+      num_deferred_components +
+      static_cast<int>(std::count_if(
+          components.begin(), components.end(),
+          [](const std::vector<int>& c) { return c.size() > 1; }));
   std::vector<char> in_best(ids.size(), 0);
   const bool has_best = !components.empty() && components[0].size() > 1;
   if (has_best) {

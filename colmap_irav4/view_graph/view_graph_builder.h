@@ -44,6 +44,8 @@ struct ViewGraphSummary {
   std::map<std::string, int> num_dropped;         // by reason
   std::map<std::string, int> num_kept_by_source;  // relative pose source
   int num_kept_without_translation = 0;
+  // Connected components of the kept pairs; a candidate component outside
+  // the largest, whose poses are not derived, counts as one.
   int num_components = 0;
   int num_images_in_component = 0;
   std::vector<FocalCalibrationResult> focal_calibration;
@@ -53,10 +55,12 @@ struct ViewGraphSummary {
 
 // Builds the epipolar graph: filters the verified pairs, derives each kept
 // pair's relative pose (R = cam2_from_cam1, unit t) and keeps the largest
-// connected component. view_graph.image_names holds the component's images;
-// pairs keep the database orientation (image_id1 < image_id2).
-// view_graph.cameras are the database's cameras with the focal lengths of
-// those without a prior self-calibrated (options.focal_calibration).
+// connected component (with keep_largest_component, the poses of pairs
+// outside the largest component of the filtered pairs are not derived: they
+// count as "outside the largest component"). view_graph.image_names holds the
+// component's images; pairs keep the database orientation (image_id1 <
+// image_id2). view_graph.cameras are the database's cameras with the focal
+// lengths of those without a prior self-calibrated (options.focal_calibration).
 ViewGraph BuildViewGraph(const DatabaseContents& database,
                          const ViewGraphBuilderOptions& options,
                          ViewGraphSummary* summary);

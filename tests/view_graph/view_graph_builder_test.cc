@@ -12,14 +12,14 @@
 namespace colmap_irav4 {
 namespace {
 
-// Images 1..7 with ground-truth poses; pairs added on demand from synthetic
-// views of one scene.
+// Images 1..num_images with ground-truth poses; pairs added on demand from
+// synthetic views of one scene.
 class SyntheticDatabase {
  public:
-  SyntheticDatabase() : rng_(5) {
+  explicit SyntheticDatabase(int num_images = 7) : rng_(5) {
     camera_ = test::MakeCamera(CameraModelNameToId("SIMPLE_RADIAL"));
     contents_.cameras[1] = camera_;
-    for (image_t id = 1; id <= 7; ++id) {
+    for (image_t id = 1; id <= static_cast<image_t>(num_images); ++id) {
       DatabaseImage image;
       image.image_id = id;
       image.name = "img" + std::to_string(id) + ".jpg";
@@ -121,6 +121,55 @@ TEST(ViewGraphBuilder, FiltersAndKeepsLargestComponent) {
   EXPECT_EQ(view_graph.pairs.size(), 4u);  // 1-2, 2-3, 3-4, 5-6
   EXPECT_EQ(view_graph.image_names.size(), 6u);
   EXPECT_EQ(summary.num_dropped["config PLANAR_OR_PANORAMIC"], 1);
+}
+
+TEST(ViewGraphBuilder, ComponentSplitByFailedPosesFallsBackToAllPairs) {
+  // Candidate components: A = 1-2-3-4-5-6 (6 images) and B = 7-8-9-10 (4).
+  // B's poses are not derived while A stays the largest; here the pose of
+  // 3-4 fails (no geometry stored, 6 matches), A splits into two halves of 3
+  // and B is the largest component, as if every pose had been derived.
+  SyntheticDatabase db(10);
+  const int kCal = TwoViewGeometry::CALIBRATED;
+  db.AddPair(1, 2, 100, kCal);
+  db.AddPair(2, 3, 100, kCal);
+  db.AddPair(3, 4, 6, kCal);
+  TwoViewGeometry& failing = db.contents_.two_view_geometries.back();
+  failing.E.setZero();
+  failing.F.setZero();
+  failing.H.setZero();
+  db.AddPair(4, 5, 100, kCal);
+  db.AddPair(5, 6, 100, kCal);
+  db.AddPair(7, 8, 100, kCal);
+  db.AddPair(8, 9, 100, kCal);
+  db.AddPair(9, 10, 100, kCal);
+  ViewGraphBuilderOptions options;
+  options.min_num_inliers = 5;
+  ViewGraphSummary summary;
+  ViewGraph view_graph = BuildViewGraph(db.contents_, options, &summary);
+  EXPECT_EQ(summary.num_dropped["relative pose failed"], 1);
+  EXPECT_EQ(summary.num_dropped["outside the largest component"], 4);
+  EXPECT_EQ(summary.num_components, 3);
+  EXPECT_EQ(summary.num_images_in_component, 4);
+  ASSERT_EQ(view_graph.pairs.size(), 3u);
+  for (const ImagePairGeometry& pair : view_graph.pairs) {
+    EXPECT_GE(pair.image_id1, 7u);
+  }
+  // With 3-4 intact, A is kept and B's three pairs are never derived.
+  SyntheticDatabase intact(10);
+  intact.AddPair(1, 2, 100, kCal);
+  intact.AddPair(2, 3, 100, kCal);
+  intact.AddPair(3, 4, 100, kCal);
+  intact.AddPair(4, 5, 100, kCal);
+  intact.AddPair(5, 6, 100, kCal);
+  intact.AddPair(7, 8, 100, kCal);
+  intact.AddPair(8, 9, 100, kCal);
+  intact.AddPair(9, 10, 100, kCal);
+  view_graph = BuildViewGraph(intact.contents_, options, &summary);
+  EXPECT_EQ(summary.num_dropped.count("relative pose failed"), 0u);
+  EXPECT_EQ(summary.num_dropped["outside the largest component"], 3);
+  EXPECT_EQ(summary.num_components, 2);
+  EXPECT_EQ(summary.num_images_in_component, 6);
+  EXPECT_EQ(view_graph.pairs.size(), 5u);
 }
 
 TEST(ViewGraphBuilder, OptionsCheck) {

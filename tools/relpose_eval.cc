@@ -2,13 +2,15 @@
 // scene, with and without the refinement of the relative poses:
 //   relpose_eval [--verbose] [--refine_max_num_matches N] [--num_threads N]
 //                SCENE_DIR [SCENE_DIR ...]
-// A scene directory holds database.db and gt_cameras/ (the Strecha layout of
-// ../shared/data/strecha/<scene>). Prints pairs, rotation error median / mean
-// / max / count over 5 deg, and the same for the translation direction;
+// A scene directory holds database.db and either gt_cameras/ (the Strecha
+// layout of ../shared/data/strecha/<scene>) or gt/, a COLMAP model of the
+// ground truth (scene_generator's layout). Prints pairs, rotation error median
+// / mean / max / count over 5 deg, and the same for the translation direction;
 // --verbose lists the pairs with a rotation error over 1 deg.
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -18,6 +20,7 @@
 #include "colmap_irav4/eval/relative_pose_eval.h"
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/timer.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -73,7 +76,7 @@ int main(int argc, char** argv) {
   if (argc < 2) {
     std::cerr << "Usage: relpose_eval [--verbose] [--refine_max_num_matches N] "
                  "[--num_threads N] SCENE_DIR [SCENE_DIR ...]\n"
-                 "  SCENE_DIR holds database.db and gt_cameras/\n";
+                 "  SCENE_DIR holds database.db and gt_cameras/ or gt/\n";
     return 1;
   }
   bool verbose = false;
@@ -104,9 +107,16 @@ int main(int argc, char** argv) {
       const DatabaseContents database =
           ReadDatabase(scene_dir + "/database.db");
       std::map<std::string, Rigid3d> gt;
-      for (const auto& [image_name, camera] :
-           ReadStrechaGroundTruth(scene_dir + "/gt_cameras")) {
-        gt[image_name] = camera.cam_from_world;
+      if (std::filesystem::is_directory(scene_dir + "/gt_cameras")) {
+        for (const auto& [image_name, camera] :
+             ReadStrechaGroundTruth(scene_dir + "/gt_cameras")) {
+          gt[image_name] = camera.cam_from_world;
+        }
+      } else {
+        for (const auto& [image_id, image] :
+             ReadReconstruction(scene_dir + "/gt").images) {
+          gt[image.name] = image.cam_from_world;
+        }
       }
       for (const bool refine : {false, true}) {
         ViewGraphBuilderOptions options;

@@ -6,10 +6,29 @@
 //   refinement_benchmark synthetic NUM_IMAGES NUM_POINTS
 //       synthetic 180 deg arc, 1 px noise, 0.1% wrong matches, rotations
 //       perturbed by 0.1 deg.
+//   refinement_benchmark final_ba --model MODEL --gt GT [--poses MODEL2]
+//       [--intrinsics_from_poses 0|1] [--num_rounds N] [--tight 0|1]
+//       [--per_image CSV] [--truth MODEL] [--min_track_length N]
+//       [--restrict_to MODEL]
+//       The "swap" experiment: the mapper's last bundle adjustment and final
+//       filtering (GlobalMapperOptions' defaults, one round) on MODEL's
+//       observation set (points, tracks, intrinsics), started from MODEL's
+//       poses or from MODEL2's (similarity-aligned by camera centres), e.g.
+//       our final bundle adjustment on COLMAP's model. GT: a model
+//       directory or a Strecha gt_cameras directory (errors in mm, both
+//       metric). Prints the observation statistics and the errors before
+//       and after; --per_image writes each image's centre error; --truth
+//       (a synthetic scene's exact model) counts the wrong observations;
+//       --min_track_length deletes shorter tracks and --restrict_to the
+//       observations (image name, keypoint) another model does not use,
+//       before the adjustment.
 
 #include <cstdlib>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
+#include <memory>
 #include <random>
 #include <string>
 
@@ -19,10 +38,12 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
+#include "colmap_irav4/refinement/model_statistics.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -177,12 +198,179 @@ int RunSynthetic(int num_images, int num_points) {
   return 0;
 }
 
+void PrintStatistics(const std::string& label, const Reconstruction& model) {
+  const ObservationStatistics stats = ComputeObservationStatistics(model);
+  std::cout << label << ": " << stats.num_images << " images, "
+            << stats.num_points << " points, " << stats.num_observations
+            << " observations, track " << stats.mean_track_length
+            << ", two-view points " << stats.two_view_point_fraction
+            << ", observations per image median "
+            << stats.median_observations_per_image << " min "
+            << stats.min_observations_per_image << ", reprojection "
+            << stats.mean_reproj_error << " px, triangulation angle median "
+            << stats.median_tri_angle_deg << " deg, 4x4 grid coverage "
+            << stats.mean_grid_coverage << "\n";
+  for (const auto& [camera_id, camera] : model.cameras) {
+    std::cout << "  camera " << camera_id << " params";
+    for (const double p : camera.params) std::cout << " " << p;
+    std::cout << "\n";
+  }
+}
+
+// Errors of `model` against `reference`; fills `per_image` (name -> centre
+// error in mm) when given.
+void PrintErrors(const std::string& label, const Reconstruction& model,
+                 const std::map<std::string, Rigid3d>& reference,
+                 std::map<std::string, double>* per_image) {
+  PoseComparison comparison;
+  if (!ComparePoses(PosesByName(model), reference, SimilarityRansacOptions(),
+                    &comparison)) {
+    std::cout << label << ": alignment failed\n";
+    return;
+  }
+  double mean = 0;
+  for (const double e : comparison.center_errors) mean += e;
+  mean /= std::max<size_t>(1, comparison.center_errors.size());
+  std::cout << std::left << std::setw(34) << label << " rotation median "
+            << comparison.rotation_error_median_deg << " deg, centre median "
+            << 1000 * comparison.center_error_median << " mm (mean "
+            << 1000 * mean << ", max " << 1000 * comparison.center_error_max
+            << ")\n";
+  if (per_image != nullptr) {
+    for (size_t k = 0; k < comparison.names.size(); ++k) {
+      (*per_image)[comparison.names[k]] = 1000 * comparison.center_errors[k];
+    }
+  }
+}
+
+std::map<std::string, Rigid3d> ReadGroundTruth(const std::string& path) {
+  if (ExistsBinaryModel(path) || ExistsTextModel(path)) {
+    return PosesByName(ReadReconstruction(path));
+  }
+  std::map<std::string, Rigid3d> reference;
+  for (const auto& [name, camera] : ReadStrechaGroundTruth(path)) {
+    reference[name] = camera.cam_from_world;
+  }
+  return reference;
+}
+
+int RunFinalBundleAdjustment(int argc, char** argv) {
+  std::map<std::string, std::string> args;
+  for (int k = 2; k + 1 < argc; k += 2) {
+    const std::string key = argv[k];
+    if (key.rfind("--", 0) != 0) throw InputError(key, "expected --option");
+    args[key.substr(2)] = argv[k + 1];
+  }
+  for (const auto& [key, value] : args) {
+    if (key != "model" && key != "gt" && key != "poses" &&
+        key != "intrinsics_from_poses" && key != "num_rounds" &&
+        key != "tight" && key != "per_image" && key != "truth" &&
+        key != "min_track_length" && key != "restrict_to") {
+      throw InputError("--" + key, "unknown option");
+    }
+  }
+  if (!args.count("model") || !args.count("gt")) {
+    throw InputError("final_ba", "--model and --gt are required");
+  }
+  const std::map<std::string, Rigid3d> reference = ReadGroundTruth(args["gt"]);
+  Reconstruction model = ReadReconstruction(args["model"]);
+  std::map<std::string, double> before;
+  std::map<std::string, double> after;
+  PrintStatistics("observations (" + args["model"] + ")", model);
+  PrintErrors("model as read", model, reference, &before);
+  std::unique_ptr<Reconstruction> truth;
+  if (args.count("truth")) {
+    truth = std::make_unique<Reconstruction>(ReadReconstruction(args["truth"]));
+    const TrackCorrectness check = CompareTracksWithTruth(model, *truth);
+    std::cout << "against the truth: " << check.num_wrong << " of "
+              << check.num_observations << " observations wrong ("
+              << check.num_points_with_wrong << " of " << check.num_points
+              << " points), " << check.num_truth_missing
+              << " truth observations unused\n";
+  }
+  if (args.count("restrict_to")) {
+    // Only the observations (image name, keypoint) the other model uses.
+    const Reconstruction other = ReadReconstruction(args["restrict_to"]);
+    std::map<std::string, const Image*> other_by_name;
+    for (const auto& [image_id, image] : other.images) {
+      other_by_name[image.name] = &image;
+    }
+    std::vector<std::pair<image_t, point2D_t>> unused;
+    for (const auto& [image_id, image] : model.images) {
+      const auto it = other_by_name.find(image.name);
+      for (point2D_t k = 0; k < image.points2D.size(); ++k) {
+        if (image.points2D[k].point3D_id == kInvalidPoint3DId) continue;
+        if (it == other_by_name.end() || k >= it->second->points2D.size() ||
+            it->second->points2D[k].point3D_id == kInvalidPoint3DId) {
+          unused.emplace_back(image_id, k);
+        }
+      }
+    }
+    for (const auto& [image_id, k] : unused) {
+      DeleteObservation(image_id, k, &model);
+    }
+    std::cout << unused.size() << " observations " << args["restrict_to"]
+              << " does not use deleted\n";
+  }
+  if (args.count("min_track_length")) {
+    const size_t num =
+        DeleteShortTracks(std::stoi(args["min_track_length"]), &model);
+    std::cout << num << " points with tracks shorter than "
+              << args["min_track_length"] << " deleted\n";
+  }
+  if (args.count("poses")) {
+    const Reconstruction poses = ReadReconstruction(args["poses"]);
+    const int num =
+        TransferPoses(poses, args["intrinsics_from_poses"] == "1", &model);
+    std::cout << num << " poses from " << args["poses"] << "\n";
+    PrintErrors("start (poses transferred)", model, reference, &before);
+  }
+  // The mapper's last bundle adjustment (after retriangulation): one round,
+  // then the filtering.
+  const GlobalMapperOptions mapper_options;
+  BundleAdjustmentOptions ba = mapper_options.bundle_adjustment;
+  ba.num_rounds = args.count("num_rounds") ? std::stoi(args["num_rounds"]) : 1;
+  if (args["tight"] == "1") {
+    ba.solver.ceres.function_tolerance = 0;
+    ba.solver.ceres.parameter_tolerance = 0;
+    ba.solver.ceres.gradient_tolerance = 0;
+    ba.solver.ceres.max_num_iterations = 500;
+  }
+  BundleAdjustmentSummary summary;
+  if (!RunBundleAdjustment(ba, &model, &summary)) {
+    std::cout << "bundle adjustment failed\n";
+    return 1;
+  }
+  const FilterSummary filtering =
+      RunFiltering(mapper_options.filtering, &model);
+  std::cout << "bundle adjustment: " << summary.num_iterations
+            << " iterations, " << summary.initial_mean_reproj_error << " -> "
+            << summary.final_mean_reproj_error << " px, "
+            << summary.num_observations_filtered << " + "
+            << filtering.num_observations_filtered
+            << " observations filtered, converged " << summary.converged
+            << "\n";
+  PrintStatistics("after", model);
+  PrintErrors("after our final bundle adjustment", model, reference, &after);
+  if (args.count("per_image")) {
+    std::ofstream csv(args["per_image"]);
+    csv << "image,center_error_before_mm,center_error_after_mm\n";
+    for (const auto& [name, error] : after) {
+      csv << name << "," << before[name] << "," << error << "\n";
+    }
+    if (!csv) throw InputError(args["per_image"], "cannot write");
+  }
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
     if (argc == 3 && std::string(argv[1]) == "strecha")
       return RunStrecha(argv[2]);
+    if (argc >= 2 && std::string(argv[1]) == "final_ba") {
+      return RunFinalBundleAdjustment(argc, argv);
+    }
     if (argc == 4 && std::string(argv[1]) == "synthetic") {
       return RunSynthetic(std::atoi(argv[2]), std::atoi(argv[3]));
     }
@@ -191,6 +379,10 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::cerr << "usage: refinement_benchmark strecha SCENE_DIR\n"
-               "       refinement_benchmark synthetic NUM_IMAGES NUM_POINTS\n";
+               "       refinement_benchmark synthetic NUM_IMAGES NUM_POINTS\n"
+               "       refinement_benchmark final_ba --model MODEL --gt GT "
+               "[--poses MODEL2] [--intrinsics_from_poses 0|1] "
+               "[--num_rounds N] [--tight 0|1] [--per_image CSV] "
+               "[--truth MODEL] [--min_track_length N] [--restrict_to MODEL]\n";
   return 2;
 }

@@ -71,8 +71,11 @@ struct GlobalMapperOptions {
   // before the grid). 4 x 4 cells, 250 per image: 300-image synthetic
   // courtyard 17,442 tracks instead of 22,008 and centres 3.90 mm instead
   // of 3.99, but at 1,000 images 53,352 instead of 60,324 and centres
-  // 11.9 mm instead of 10.8 (the final bundle adjustment does not reach the
-  // same optimum from there): off by default.
+  // 11.9 mm instead of 10.8: off by default. At 300 images (default 500
+  // per image) the grid's gain is not the selection's: its final model
+  // differs from the default's by 32 observations near the 4 px filter, and
+  // the exact model restricted to either observation set gives either
+  // figure (refinement_benchmark final_ba, docs/BENCHMARKS.md).
   int positioning_grid_size = 1;
   // ... and every view-graph pair keeps at least this many of its tracks
   // (0: no pair quota): a pair that alone ties two parts of the graph

@@ -5,6 +5,7 @@
 #include <memory>
 #include <set>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -84,10 +85,10 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
 // its solves. Each observation's residual is scaled by a weight its cost
 // reads when evaluated: the Huber reweighting sets the weights, and the
 // filter between rounds sets those of the observations it unlinks to zero
-// (removing residual blocks would cost Ceres a set of blocks per parameter
-// block, a rebuild the whole problem). Points the filter leaves with fewer
-// than two observations are held constant and deleted when it is done (the
-// problem points at their coordinates).
+// (removing residual blocks would need Ceres' fast removal, a set of blocks
+// per parameter block, which made building slower than rebuilding). Points the
+// filter leaves with fewer than two observations are held constant and deleted
+// when it is done (the problem points at their coordinates).
 class BundleAdjustmentProblem {
  public:
   BundleAdjustmentProblem(const BundleAdjustmentOptions& options,
@@ -108,14 +109,7 @@ class BundleAdjustmentProblem {
     // The model is whole again: no point with fewer than two observations.
     problem_.reset();
     for (const point3D_t point3D_id : held_points_) {
-      const auto it = reconstruction_->points3D.find(point3D_id);
-      if (it == reconstruction_->points3D.end()) continue;
-      const std::vector<TrackElement> track = it->second.track;
-      for (const TrackElement& element : track) {
-        DeleteObservation(element.image_id, element.point2D_idx,
-                          reconstruction_);
-      }
-      reconstruction_->points3D.erase(point3D_id);
+      DeletePoint3D(point3D_id, reconstruction_);
     }
   }
 
@@ -154,30 +148,32 @@ class BundleAdjustmentProblem {
   size_t Filter(double max_reproj_error) {
     CHECK(weighted_);
     size_t num_filtered = 0;
+    std::unordered_set<point3D_t> held_this_pass;
     for (const TrackElement& element :
          FindObservationsWithLargeReprojectionError(max_reproj_error,
                                                     *reconstruction_)) {
-      Image& image = reconstruction_->images.at(element.image_id);
-      Point2D& point2D = image.points2D.at(element.point2D_idx);
-      Point3D& point = reconstruction_->points3D.at(point2D.point3D_id);
-      if (point.track.size() < 2) continue;  // held: deleted at the end
+      const point3D_t point3D_id = reconstruction_->images.at(element.image_id)
+                                       .points2D.at(element.point2D_idx)
+                                       .point3D_id;
+      Point3D& point = reconstruction_->points3D.at(point3D_id);
+      if (point.track.size() < 2) {
+        // Held (deleted at the end). An outlier of a point held by this
+        // pass counts, as it did when the point was deleted at once.
+        num_filtered += held_this_pass.count(point3D_id);
+        continue;
+      }
       Unweigh(element);
       ++num_filtered;
       if (point.track.size() == 2) {
         // Its last observation cannot fix it: held constant, weightless.
-        held_points_.push_back(point2D.point3D_id);
+        held_points_.push_back(point3D_id);
+        held_this_pass.insert(point3D_id);
         for (const TrackElement& other : point.track) Unweigh(other);
         if (problem_->HasParameterBlock(point.xyz.data())) {
           problem_->SetParameterBlockConstant(point.xyz.data());
         }
       }
-      auto& track = point.track;
-      track.erase(std::find_if(
-          track.begin(), track.end(), [&](const TrackElement& other) {
-            return other.image_id == element.image_id &&
-                   other.point2D_idx == element.point2D_idx;
-          }));
-      point2D.point3D_id = kInvalidPoint3DId;
+      UnlinkObservation(element.image_id, element.point2D_idx, reconstruction_);
     }
     return num_filtered;
   }

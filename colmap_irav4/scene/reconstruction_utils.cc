@@ -42,22 +42,29 @@ void DeletePoint3D(point3D_t point3D_id, Reconstruction* reconstruction) {
   reconstruction->points3D.erase(it);
 }
 
-bool DeleteObservation(image_t image_id, point2D_t point2D_idx,
-                       Reconstruction* reconstruction) {
+point3D_t UnlinkObservation(image_t image_id, point2D_t point2D_idx,
+                            Reconstruction* reconstruction) {
   Point2D& point2D =
       reconstruction->images.at(image_id).points2D.at(point2D_idx);
   const point3D_t point3D_id = point2D.point3D_id;
-  if (point3D_id == kInvalidPoint3DId) return false;
+  if (point3D_id == kInvalidPoint3DId) return kInvalidPoint3DId;
   point2D.point3D_id = kInvalidPoint3DId;
-  Point3D& point = reconstruction->points3D.at(point3D_id);
-  auto& track = point.track;
+  auto& track = reconstruction->points3D.at(point3D_id).track;
   for (auto it = track.begin(); it != track.end(); ++it) {
     if (it->image_id == image_id && it->point2D_idx == point2D_idx) {
       track.erase(it);
       break;
     }
   }
-  if (track.size() < 2) {
+  return point3D_id;
+}
+
+bool DeleteObservation(image_t image_id, point2D_t point2D_idx,
+                       Reconstruction* reconstruction) {
+  const point3D_t point3D_id =
+      UnlinkObservation(image_id, point2D_idx, reconstruction);
+  if (point3D_id == kInvalidPoint3DId) return false;
+  if (reconstruction->points3D.at(point3D_id).track.size() < 2) {
     DeletePoint3D(point3D_id, reconstruction);
     return true;
   }

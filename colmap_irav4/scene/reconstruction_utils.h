@@ -19,6 +19,11 @@ point3D_t AddPoint3D(const Eigen::Vector3d& xyz,
                      Reconstruction* reconstruction);
 // Removes the point and unlinks its observations.
 void DeletePoint3D(point3D_t point3D_id, Reconstruction* reconstruction);
+// Unlinks one observation from its point and returns the point's id
+// (kInvalidPoint3DId if the keypoint had none); the point stays, whatever
+// its track's length.
+point3D_t UnlinkObservation(image_t image_id, point2D_t point2D_idx,
+                            Reconstruction* reconstruction);
 // Unlinks one observation from its point; a point left with fewer than two
 // observations is deleted. Returns whether the point was deleted.
 bool DeleteObservation(image_t image_id, point2D_t point2D_idx,

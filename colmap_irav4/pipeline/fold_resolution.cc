@@ -163,8 +163,13 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
   auto check = [&](Attempt* attempt, const std::string& when,
                    const std::string& check_prefix) {
     StageTimer stage("fold check (" + when + ")");
-    attempt->model.fold = DetectFold(
-        options.detection, attempt->model.mapper->reconstruction(), evidence);
+    // After positioning the model holds only the tracks selected for it:
+    // the predicted overlap is scaled to all the tracks, which the verified
+    // inliers count (DetectFold's `tracks`).
+    const GlobalMapper& mapper = *attempt->model.mapper;
+    attempt->model.fold =
+        DetectFold(options.detection, mapper.reconstruction(), evidence,
+                   attempt->refined ? nullptr : &mapper.tracks());
     attempt->model.checked = true;
     AddFoldFigures(attempt->model.fold, &stage);
     stage.Finish(check_prefix, &attempt->model.stages);

@@ -30,6 +30,9 @@ struct View {
   Eigen::Vector3d axis;  // viewing direction in world coordinates
   std::vector<Eigen::Vector3d> points;  // sampled model points it observes
   int num_points = 0;                   // all the model points it observes
+  // What the predicted overlap is scaled to: num_points, or the image's
+  // observations in all the tracks (DetectFold's `tracks`).
+  double num_scaled_points = 0;
   double radius = 0;  // largest distance from the centre to those points
 };
 
@@ -214,8 +217,17 @@ std::string FoldReport::Describe() const {
 
 FoldReport DetectFold(const FoldDetectionOptions& options,
                       const Reconstruction& reconstruction,
-                      const FoldEvidence& evidence) {
+                      const FoldEvidence& evidence,
+                      const std::vector<Track>* tracks) {
   FoldReport report;
+  std::map<image_t, int> track_points;  // image -> observations in tracks
+  if (tracks != nullptr) {
+    for (const Track& track : *tracks) {
+      for (const TrackElement& element : track) {
+        ++track_points[element.image_id];
+      }
+    }
+  }
   // The registered images with a sample of their model points.
   std::vector<View> views;
   std::map<image_t, int> index;
@@ -237,6 +249,11 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     std::sort(ids.begin(), ids.end());
     ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
     view.num_points = static_cast<int>(ids.size());
+    const auto image_track_points = track_points.find(image_id);
+    view.num_scaled_points =
+        image_track_points != track_points.end()
+            ? std::max(image_track_points->second, view.num_points)
+            : view.num_points;
     const size_t n = std::min<size_t>(ids.size(), options.max_points_per_image);
     for (size_t k = 0; k < n; ++k) {
       // Evenly spaced over the sorted ids: deterministic.
@@ -370,9 +387,11 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
         support.image_id2 = pair->image_id2;
         support.num_inliers = pair->num_inliers;
         support.num_predicted12 = static_cast<double>(e_ij) *
-                                  views[i].num_points / views[i].points.size();
+                                  views[i].num_scaled_points /
+                                  views[i].points.size();
         support.num_predicted21 = static_cast<double>(e_ji) *
-                                  views[j].num_points / views[j].points.size();
+                                  views[j].num_scaled_points /
+                                  views[j].points.size();
         support.predicted = is_predicted(i, j);
         report.pair_support.push_back(support);
       }

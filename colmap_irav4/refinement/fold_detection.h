@@ -36,6 +36,7 @@
 #include <Eigen/Core>
 
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/types.h"
 
 namespace colmap_irav4 {
@@ -146,7 +147,8 @@ struct PairSupport {
   image_t image_id2 = kInvalidImageId;
   int num_inliers = 0;
   // Model points of image 1 that image 2 is expected to see, and vice versa
-  // (scaled from the sample to all of the image's points).
+  // (scaled from the sample to all of the image's points, or to its
+  // observations in all the tracks: DetectFold's `tracks`).
   double num_predicted12 = 0;
   double num_predicted21 = 0;
   // Whether the pair is one of the predicted overlapping pairs.
@@ -202,9 +204,19 @@ struct FoldReport {
 
 // Tests the model against the evidence. Only registered images and the
 // model's points are used; cameras must have valid parameters.
+// `tracks`: where the model holds only some of the tracks of its images
+// (after global positioning: those selected for it, a few hundred per image
+// whatever the image holds), all of them. A pair's verified inliers count
+// all the points it shares, so the points predicted for it are then scaled
+// to the image's observations in all the tracks, not to its model points:
+// else the inliers per predicted point measure the share of an image's
+// tracks that positioning kept (high in the dense parts of a scene, about 1
+// in sparse ones), not the pair, and a correct model's weak pairs separate
+// its dense part from its sparse one. Null: the model's points.
 FoldReport DetectFold(const FoldDetectionOptions& options,
                       const Reconstruction& reconstruction,
-                      const FoldEvidence& evidence);
+                      const FoldEvidence& evidence,
+                      const std::vector<Track>* tracks = nullptr);
 
 // A 2-partition of the n nodes of a signed graph (edges (a, b, weight):
 // positive pull together, negative push apart) that maximises the agreement

@@ -9,7 +9,9 @@
 //   refinement_benchmark final_ba --model MODEL --gt GT [--poses MODEL2]
 //       [--intrinsics_from_poses 0|1] [--num_rounds N] [--tight 0|1]
 //       [--per_image CSV] [--truth MODEL] [--min_track_length N]
-//       [--restrict_to MODEL]
+//       [--restrict_to MODEL] [--function_tolerance X]
+//       [--max_num_iterations N] [--loss_function NAME] [--print_progress 1]
+//       [--initial_trust_region_radius R]
 //       The "swap" experiment: the mapper's last bundle adjustment and final
 //       filtering (GlobalMapperOptions' defaults, one round) on MODEL's
 //       observation set (points, tracks, intrinsics), started from MODEL's
@@ -265,7 +267,10 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
     if (key != "model" && key != "gt" && key != "poses" &&
         key != "intrinsics_from_poses" && key != "num_rounds" &&
         key != "tight" && key != "per_image" && key != "truth" &&
-        key != "min_track_length" && key != "restrict_to") {
+        key != "min_track_length" && key != "restrict_to" &&
+        key != "function_tolerance" && key != "max_num_iterations" &&
+        key != "loss_function" && key != "print_progress" &&
+        key != "initial_trust_region_radius") {
       throw InputError("--" + key, "unknown option");
     }
   }
@@ -336,6 +341,18 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
     ba.solver.ceres.gradient_tolerance = 0;
     ba.solver.ceres.max_num_iterations = 500;
   }
+  if (args.count("function_tolerance")) {
+    ba.solver.ceres.function_tolerance = std::stod(args["function_tolerance"]);
+  }
+  if (args.count("max_num_iterations")) {
+    ba.solver.ceres.max_num_iterations = std::stoi(args["max_num_iterations"]);
+  }
+  if (args.count("loss_function")) ba.loss_function = args["loss_function"];
+  if (args.count("initial_trust_region_radius")) {
+    ba.solver.ceres.initial_trust_region_radius =
+        std::stod(args["initial_trust_region_radius"]);
+  }
+  ba.solver.ceres.minimizer_progress_to_stdout = args["print_progress"] == "1";
   BundleAdjustmentSummary summary;
   if (!RunBundleAdjustment(ba, &model, &summary)) {
     std::cout << "bundle adjustment failed\n";
@@ -383,6 +400,9 @@ int main(int argc, char** argv) {
                "       refinement_benchmark final_ba --model MODEL --gt GT "
                "[--poses MODEL2] [--intrinsics_from_poses 0|1] "
                "[--num_rounds N] [--tight 0|1] [--per_image CSV] "
-               "[--truth MODEL] [--min_track_length N] [--restrict_to MODEL]\n";
+               "[--truth MODEL] [--min_track_length N] [--restrict_to MODEL] "
+               "[--function_tolerance X] [--max_num_iterations N] "
+               "[--loss_function NAME] [--print_progress 0|1] "
+               "[--initial_trust_region_radius R]\n";
   return 2;
 }

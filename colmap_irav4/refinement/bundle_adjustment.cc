@@ -331,7 +331,7 @@ BundleAdjustmentOptions::BundleAdjustmentOptions() {
   solver.ceres.function_tolerance = 1e-5;
   solver.ceres.gradient_tolerance = 1e-10;
   solver.ceres.parameter_tolerance = 1e-8;
-  solver.ceres.initial_trust_region_radius = 1e8;
+  solver.ceres.initial_trust_region_radius = 1e16;
 }
 
 void BundleAdjustmentOptions::Check() const {

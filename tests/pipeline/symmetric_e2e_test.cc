@@ -334,6 +334,23 @@ TEST(SymmetricScene, StreetWithoutFalsePairsIsNotFlagged) {
   EXPECT_EQ(num_registered, options.num_images);
 }
 
+// The database's evidence of a generated scene, every pair with its exact
+// rotation and as many inliers as its geometry allows.
+FoldEvidence ExactEvidence(const GeneratedScene& scene) {
+  FoldEvidence evidence;
+  for (const GeneratedPair& pair : scene.pairs) {
+    PairEvidence entry;
+    entry.image_id1 = pair.image_id1;
+    entry.image_id2 = pair.image_id2;
+    entry.num_inliers = pair.num_candidates;
+    entry.has_rotation = true;
+    entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
+    evidence.pairs.push_back(entry);
+  }
+  evidence.absent_pairs_were_tried = true;
+  return evidence;
+}
+
 // The same at the check, on the exact street model holding only the tracks
 // positioning selects: scaled to the model's points, the inliers per
 // predicted point are 3 times those of the whole model and the exact model
@@ -348,19 +365,11 @@ TEST(SymmetricScene, PositioningTracksArePredictedAsAllTracks) {
   options.num_images = 40;
   options.seed = 2;
   const GeneratedScene scene = GenerateScene(options);
-  FoldEvidence evidence;
+  const FoldEvidence evidence = ExactEvidence(scene);
   std::vector<std::pair<image_t, image_t>> pair_ids;
   for (const GeneratedPair& pair : scene.pairs) {
-    PairEvidence entry;
-    entry.image_id1 = pair.image_id1;
-    entry.image_id2 = pair.image_id2;
-    entry.num_inliers = pair.num_candidates;
-    entry.has_rotation = true;
-    entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
-    evidence.pairs.push_back(entry);
     pair_ids.emplace_back(pair.image_id1, pair.image_id2);
   }
-  evidence.absent_pairs_were_tried = true;
   std::vector<Track> tracks;
   std::vector<point3D_t> track_points;
   for (const auto& [point3D_id, point] : scene.truth.points3D) {
@@ -413,17 +422,7 @@ TEST(SymmetricScene, DistantPairSkipIsExact) {
   options.point_density = 10;
   options.mirror_pair_rate = 0.1;
   const GeneratedScene scene = GenerateScene(options);
-  FoldEvidence evidence;
-  for (const GeneratedPair& pair : scene.pairs) {
-    PairEvidence entry;
-    entry.image_id1 = pair.image_id1;
-    entry.image_id2 = pair.image_id2;
-    entry.num_inliers = pair.num_candidates;
-    entry.has_rotation = true;
-    entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
-    evidence.pairs.push_back(entry);
-  }
-  evidence.absent_pairs_were_tried = true;
+  const FoldEvidence evidence = ExactEvidence(scene);
   Reconstruction turned = scene.truth;
   for (auto& [image_id, image] : turned.images) {
     if (image_id > 60)

@@ -9,9 +9,7 @@
 //   refinement_benchmark final_ba --model MODEL --gt GT [--poses MODEL2]
 //       [--intrinsics_from_poses 0|1] [--num_rounds N] [--tight 0|1]
 //       [--per_image CSV] [--truth MODEL] [--min_track_length N]
-//       [--restrict_to MODEL] [--function_tolerance X]
-//       [--max_num_iterations N] [--loss_function NAME] [--print_progress 1]
-//       [--initial_trust_region_radius R]
+//       [--restrict_to MODEL] [--BundleAdjustment.* as the mapper's]
 //       The "swap" experiment: the mapper's last bundle adjustment and final
 //       filtering (GlobalMapperOptions' defaults, one round) on MODEL's
 //       observation set (points, tracks, intrinsics), started from MODEL's
@@ -33,6 +31,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "colmap_irav4/eval/model_alignment.h"
 #include "colmap_irav4/eval/strecha_gt.h"
@@ -41,6 +40,7 @@
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
@@ -49,6 +49,7 @@
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/timer.h"
 
 using namespace colmap_irav4;
@@ -258,25 +259,44 @@ std::map<std::string, Rigid3d> ReadGroundTruth(const std::string& path) {
 
 int RunFinalBundleAdjustment(int argc, char** argv) {
   std::map<std::string, std::string> args;
+  // --BundleAdjustment.* flags, under the mapper's names (parsed below).
+  std::vector<char*> ba_argv = {argv[1]};
   for (int k = 2; k + 1 < argc; k += 2) {
     const std::string key = argv[k];
     if (key.rfind("--", 0) != 0) throw InputError(key, "expected --option");
+    if (key.rfind("--BundleAdjustment.", 0) == 0) {
+      ba_argv.push_back(argv[k]);
+      ba_argv.push_back(argv[k + 1]);
+      continue;
+    }
     args[key.substr(2)] = argv[k + 1];
   }
   for (const auto& [key, value] : args) {
     if (key != "model" && key != "gt" && key != "poses" &&
         key != "intrinsics_from_poses" && key != "num_rounds" &&
         key != "tight" && key != "per_image" && key != "truth" &&
-        key != "min_track_length" && key != "restrict_to" &&
-        key != "function_tolerance" && key != "max_num_iterations" &&
-        key != "loss_function" && key != "print_progress" &&
-        key != "initial_trust_region_radius") {
+        key != "min_track_length" && key != "restrict_to") {
       throw InputError("--" + key, "unknown option");
     }
   }
   if (!args.count("model") || !args.count("gt")) {
     throw InputError("final_ba", "--model and --gt are required");
   }
+  // The mapper's last bundle adjustment (after retriangulation): one round,
+  // then the filtering.
+  const GlobalMapperOptions mapper_options;
+  BundleAdjustmentOptions ba = mapper_options.bundle_adjustment;
+  ba.num_rounds = args.count("num_rounds") ? std::stoi(args["num_rounds"]) : 1;
+  if (args["tight"] == "1") {
+    ba.solver.ceres.function_tolerance = 0;
+    ba.solver.ceres.parameter_tolerance = 0;
+    ba.solver.ceres.gradient_tolerance = 0;
+    ba.solver.ceres.max_num_iterations = 500;
+  }
+  // Given flags override the above.
+  OptionManager ba_flags("refinement_benchmark final_ba");
+  AddBundleAdjustmentOptions(&ba_flags, &ba);
+  ba_flags.Parse(static_cast<int>(ba_argv.size()), ba_argv.data());
   const std::map<std::string, Rigid3d> reference = ReadGroundTruth(args["gt"]);
   Reconstruction model = ReadReconstruction(args["model"]);
   std::map<std::string, double> before;
@@ -330,29 +350,6 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
     std::cout << num << " poses from " << args["poses"] << "\n";
     PrintErrors("start (poses transferred)", model, reference, &before);
   }
-  // The mapper's last bundle adjustment (after retriangulation): one round,
-  // then the filtering.
-  const GlobalMapperOptions mapper_options;
-  BundleAdjustmentOptions ba = mapper_options.bundle_adjustment;
-  ba.num_rounds = args.count("num_rounds") ? std::stoi(args["num_rounds"]) : 1;
-  if (args["tight"] == "1") {
-    ba.solver.ceres.function_tolerance = 0;
-    ba.solver.ceres.parameter_tolerance = 0;
-    ba.solver.ceres.gradient_tolerance = 0;
-    ba.solver.ceres.max_num_iterations = 500;
-  }
-  if (args.count("function_tolerance")) {
-    ba.solver.ceres.function_tolerance = std::stod(args["function_tolerance"]);
-  }
-  if (args.count("max_num_iterations")) {
-    ba.solver.ceres.max_num_iterations = std::stoi(args["max_num_iterations"]);
-  }
-  if (args.count("loss_function")) ba.loss_function = args["loss_function"];
-  if (args.count("initial_trust_region_radius")) {
-    ba.solver.ceres.initial_trust_region_radius =
-        std::stod(args["initial_trust_region_radius"]);
-  }
-  ba.solver.ceres.minimizer_progress_to_stdout = args["print_progress"] == "1";
   BundleAdjustmentSummary summary;
   if (!RunBundleAdjustment(ba, &model, &summary)) {
     std::cout << "bundle adjustment failed\n";
@@ -401,8 +398,6 @@ int main(int argc, char** argv) {
                "[--poses MODEL2] [--intrinsics_from_poses 0|1] "
                "[--num_rounds N] [--tight 0|1] [--per_image CSV] "
                "[--truth MODEL] [--min_track_length N] [--restrict_to MODEL] "
-               "[--function_tolerance X] [--max_num_iterations N] "
-               "[--loss_function NAME] [--print_progress 0|1] "
-               "[--initial_trust_region_radius R]\n";
+               "[--BundleAdjustment.* as the mapper's]\n";
   return 2;
 }

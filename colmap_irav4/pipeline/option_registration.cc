@@ -273,6 +273,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "
                "(sparse_schur from 50)");
+  manager->Add("BundleAdjustment.parameterize_centers",
+               &ba.parameterize_centers,
+               "poses as rotation and projection centre (0: rotation and "
+               "translation)");
   AddSolverOptions(manager, "BundleAdjustment.", &ba.solver);
 }
 

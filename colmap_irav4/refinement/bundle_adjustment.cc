@@ -21,22 +21,25 @@
 namespace colmap_irav4 {
 namespace {
 
-// Reprojection residual; blocks: quaternion (x, y, z, w), translation, point,
-// camera params (kNumParams). With a weight, the residual is scaled by it
-// when evaluated (the weight may change between solves).
+// Reprojection residual; blocks: quaternion (x, y, z, w), translation (or,
+// with `center`, the projection centre), point, camera params (kNumParams).
+// With a weight, the residual is scaled by it when evaluated (the weight may
+// change between solves).
 template <int kNumParams>
 struct ReprojectionCost {
   ReprojectionCost(int model_id, const Eigen::Vector2d& xy,
-                   const double* weight)
-      : model_id_(model_id), xy_(xy), weight_(weight) {}
+                   const double* weight, bool center)
+      : model_id_(model_id), xy_(xy), weight_(weight), center_(center) {}
 
   template <typename T>
-  bool operator()(const T* rotation, const T* translation, const T* point,
+  bool operator()(const T* rotation, const T* position, const T* point,
                   const T* params, T* residuals) const {
     const Eigen::Map<const Eigen::Quaternion<T>> q(rotation);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> xyz(point);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p(position);
     const Eigen::Matrix<T, 3, 1> in_cam =
-        q * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(point) +
-        Eigen::Map<const Eigen::Matrix<T, 3, 1>>(translation);
+        center_ ? Eigen::Matrix<T, 3, 1>(q * (xyz - p))
+                : Eigen::Matrix<T, 3, 1>(q * xyz + p);
     T x, y;
     CameraModelImgFromCam<T>(model_id_, params, in_cam[0], in_cam[1], in_cam[2],
                              &x, &y);
@@ -52,30 +55,31 @@ struct ReprojectionCost {
   const int model_id_;
   const Eigen::Vector2d xy_;
   const double* weight_;
+  const bool center_;
 };
 
 template <int kNumParams>
 ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy,
-                              const double* weight) {
+                              const double* weight, bool center) {
   return new ceres::AutoDiffCostFunction<ReprojectionCost<kNumParams>, 2, 4, 3,
                                          3, kNumParams>(
-      new ReprojectionCost<kNumParams>(model_id, xy, weight));
+      new ReprojectionCost<kNumParams>(model_id, xy, weight, center));
 }
 
 ceres::CostFunction* CreateReprojectionCost(int model_id,
                                             const Eigen::Vector2d& xy,
-                                            const double* weight) {
+                                            const double* weight, bool center) {
   switch (CameraModelNumParams(model_id)) {
     case 3:
-      return MakeCost<3>(model_id, xy, weight);
+      return MakeCost<3>(model_id, xy, weight, center);
     case 4:
-      return MakeCost<4>(model_id, xy, weight);
+      return MakeCost<4>(model_id, xy, weight, center);
     case 5:
-      return MakeCost<5>(model_id, xy, weight);
+      return MakeCost<5>(model_id, xy, weight, center);
     case 8:
-      return MakeCost<8>(model_id, xy, weight);
+      return MakeCost<8>(model_id, xy, weight, center);
     case 12:
-      return MakeCost<12>(model_id, xy, weight);
+      return MakeCost<12>(model_id, xy, weight, center);
   }
   LOG(FATAL) << "unsupported camera model " << model_id;
   return nullptr;
@@ -135,11 +139,23 @@ class BundleAdjustmentProblem {
     });
   }
 
-  ceres::Solver::Summary Solve() const {
+  ceres::Solver::Summary Solve() {
     SolverOptions solver = options_.solver;
     ChooseLinearSolver(options_, num_images_, &solver.ceres);
     if (options_.refine_points) solver.ceres.linear_solver_ordering = ordering_;
-    return SolveProblem("bundle adjustment", solver, problem_.get());
+    ceres::Solver::Summary summary =
+        SolveProblem("bundle adjustment", solver, problem_.get());
+    // The model's poses from the solved centres (the filter and the
+    // reweighting read them).
+    for (const auto& [image_id, center] : centers_) {
+      if (!problem_->HasParameterBlock(center.data()) ||
+          problem_->IsParameterBlockConstant(center.data())) {
+        continue;  // held: the model's pose stays as it was, bit for bit
+      }
+      Rigid3d& pose = reconstruction_->images.at(image_id).cam_from_world;
+      pose.translation = -(pose.rotation * center);
+    }
+    return summary;
   }
 
   // Unlinks from the model the observations whose reprojection error is
@@ -199,6 +215,13 @@ class BundleAdjustmentProblem {
     }
   }
 
+  // The position block of an image: its centre or its translation.
+  double* Position(image_t image_id) {
+    if (use_centers_) return centers_.at(image_id).data();
+    return reconstruction_->images.at(image_id)
+        .cam_from_world.translation.data();
+  }
+
   void Build() {
     if (!huber_ && options_.loss_function != "trivial") {
       loss_.reset(CreateLossFunction(options_.loss_function == "huber_ceres"
@@ -208,6 +231,11 @@ class BundleAdjustmentProblem {
     }
     for (auto& [image_id, image] : reconstruction_->images) {
       image.cam_from_world.rotation.normalize();
+    }
+    if (use_centers_) {
+      for (auto& [image_id, image] : reconstruction_->images) {
+        centers_[image_id] = image.ProjectionCenter();
+      }
     }
     std::set<image_t> used_images;
     std::set<camera_t> used_cameras;
@@ -230,10 +258,9 @@ class BundleAdjustmentProblem {
         problem_->AddResidualBlock(
             CreateReprojectionCost(camera.model_id,
                                    image.points2D[element.point2D_idx].xy,
-                                   weight),
+                                   weight, use_centers_),
             loss_.get(), image.cam_from_world.rotation.coeffs().data(),
-            image.cam_from_world.translation.data(), point.xyz.data(),
-            camera.params.data());
+            Position(element.image_id), point.xyz.data(), camera.params.data());
         used_images.insert(element.image_id);
         used_cameras.insert(image.camera_id);
       }
@@ -252,7 +279,7 @@ class BundleAdjustmentProblem {
     for (size_t k = 0; k < images.size(); ++k) {
       Image& image = reconstruction_->images.at(images[k]);
       double* rotation = image.cam_from_world.rotation.coeffs().data();
-      double* translation = image.cam_from_world.translation.data();
+      double* translation = Position(images[k]);
       ordering_->AddElementToGroup(rotation, 1);
       ordering_->AddElementToGroup(translation, 1);
       problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
@@ -260,10 +287,14 @@ class BundleAdjustmentProblem {
         problem_->SetParameterBlockConstant(rotation);
         problem_->SetParameterBlockConstant(translation);
       } else if (options_.fix_gauge && k == 1) {
+        // The coordinate of the position along which a scaling about the
+        // first image moves this one most.
         const Image& first = reconstruction_->images.at(images[0]);
-        const Eigen::Vector3d baseline =
-            image.cam_from_world.rotation *
-            (image.ProjectionCenter() - first.ProjectionCenter());
+        Eigen::Vector3d baseline =
+            image.ProjectionCenter() - first.ProjectionCenter();
+        if (!use_centers_) {
+          baseline = image.cam_from_world.rotation * baseline;
+        }
         int fixed_coordinate = 0;
         baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
         problem_->SetManifold(translation,
@@ -304,6 +335,11 @@ class BundleAdjustmentProblem {
   // (the costs hold their addresses).
   std::unordered_map<image_t, std::vector<double>> weights_;
   std::vector<point3D_t> held_points_;
+  // parameterize_centers (with refine_poses): each image's centre, the
+  // parameter block.
+  const bool use_centers_ =
+      options_.parameterize_centers && options_.refine_poses;
+  std::map<image_t, Eigen::Vector3d> centers_;
   std::unique_ptr<ceres::Problem> problem_;
   std::shared_ptr<ceres::ParameterBlockOrdering> ordering_;
   int num_images_ = 0;

@@ -80,6 +80,18 @@ SyntheticSceneOptions SceneOptions() {
   return options;
 }
 
+// Least squares to convergence, no filtering, one thread (PINHOLE: no extra
+// parameters): the optimum, whatever the path to it.
+BundleAdjustmentOptions LeastSquaresOptions() {
+  BundleAdjustmentOptions options;
+  options.refine_extra_params = false;
+  options.max_reproj_error = 0;
+  options.loss_function = "trivial";
+  options.solver.ceres.function_tolerance = 1e-12;
+  options.solver.ceres.num_threads = 1;
+  return options;
+}
+
 TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
   Reconstruction truth = scene.truth;
@@ -269,12 +281,7 @@ TEST(BundleAdjustment, IterativeSchurAboveTheThresholdReachesTheSameOptimum) {
   scene_options.num_points = 500;
   scene_options.visibility = 0.3;
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
-  BundleAdjustmentOptions options;
-  options.refine_extra_params = false;
-  options.max_reproj_error = 0;
-  options.loss_function = "trivial";
-  options.solver.ceres.function_tolerance = 1e-12;
-  options.solver.ceres.num_threads = 1;
+  BundleAdjustmentOptions options = LeastSquaresOptions();
   Reconstruction direct = scene.truth;
   Perturb(0.5, 0.05, 0.02, 1.0, 7, &direct);
   Reconstruction iterative = direct;
@@ -299,12 +306,7 @@ TEST(BundleAdjustment, IterativeSchurAboveTheThresholdReachesTheSameOptimum) {
 // reached as near the origin.
 TEST(BundleAdjustment, CentreParameterisationConvergesFarFromTheOrigin) {
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
-  BundleAdjustmentOptions options;
-  options.refine_extra_params = false;
-  options.max_reproj_error = 0;
-  options.loss_function = "trivial";
-  options.solver.ceres.function_tolerance = 1e-12;
-  options.solver.ceres.num_threads = 1;
+  BundleAdjustmentOptions options = LeastSquaresOptions();
   // The optimum, from the truth at the origin (radius 10).
   Reconstruction optimum = scene.truth;
   ASSERT_TRUE(RunBundleAdjustment(options, &optimum));

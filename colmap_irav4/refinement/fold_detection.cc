@@ -575,8 +575,17 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
         options.max_rotation_error_deg) {
       continue;
     }
-    edges.emplace_back(i1->second, i2->second, 1.0);
+    edges.emplace_back(i1->second, i2->second, pair.num_inliers);
     ++num_trusted;
+  }
+  // Trusted pairs pull in proportion to their verified inliers (normalised
+  // to a mean of one): a false pair keeps only part of what a true pair
+  // matches, so an image with true pairs on one side and false pairs the
+  // fold agrees with on the other is drawn to its true side.
+  if (num_trusted > 0) {
+    double total = 0;
+    for (const auto& edge : edges) total += std::get<2>(edge);
+    for (auto& edge : edges) std::get<2>(edge) *= num_trusted / total;
   }
   const int num_missing = static_cast<int>(negatives.size());
   std::pair<std::vector<image_t>, std::vector<image_t>> sides;

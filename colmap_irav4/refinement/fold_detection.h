@@ -227,7 +227,8 @@ std::vector<int> SignedGraphCut(
 
 // The weakest cut of a folded model: a 2-partition of the images that keeps
 // together the images matched by trusted pairs (the model agrees with them,
-// not suspected, not weak; weight: one each) and separates the images of
+// not suspected, not weak; weight: their verified inliers, normalised to a
+// mean of one) and separates the images of
 // missing pairs and of weak predicted pairs (each -1, scaled so that the
 // negative and the positive edges weigh the same in total). Returns the two
 // sides (each sorted; the larger first); one side is empty when the cut does

@@ -53,10 +53,10 @@ SceneGeneratorOptions CourtyardOptions(double mirror_pair_rate, uint64_t seed,
   return options;
 }
 
-// The courtyard generated and written as a database in `temp`; returns its
+// The scene generated and written as a database in `temp`; returns its
 // path.
-std::string WriteCourtyard(const SceneGeneratorOptions& options,
-                           const test::TempDir& temp, GeneratedScene* scene) {
+std::string WriteScene(const SceneGeneratorOptions& options,
+                       const test::TempDir& temp, GeneratedScene* scene) {
   *scene = GenerateScene(options);
   if (options.mirror_pair_rate > 0) {
     EXPECT_GE(
@@ -68,16 +68,14 @@ std::string WriteCourtyard(const SceneGeneratorOptions& options,
   return path;
 }
 
-// The courtyard mapped in-process; `fold` are the fold options (resolution,
-// weak pairs).
-SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
-                          const FoldResolutionOptions& fold,
-                          double false_pair_inlier_fraction = 0.4) {
+// The generated scene mapped in-process; `fold` are the fold options
+// (resolution, weak pairs).
+SymmetricRun MapScene(const SceneGeneratorOptions& scene_options,
+                      const FoldResolutionOptions& fold) {
   test::TempDir temp;
   GeneratedScene scene;
-  const DatabaseContents database = ReadDatabase(WriteCourtyard(
-      CourtyardOptions(mirror_pair_rate, seed, false_pair_inlier_fraction),
-      temp, &scene));
+  const DatabaseContents database =
+      ReadDatabase(WriteScene(scene_options, temp, &scene));
 
   GlobalMapperOptions mapper_options;
   mapper_options.fold = fold;
@@ -100,6 +98,14 @@ SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
     if (k == 0) run.center_error_median = comparison.center_error_median;
   }
   return run;
+}
+
+SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
+                          const FoldResolutionOptions& fold,
+                          double false_pair_inlier_fraction = 0.4) {
+  return MapScene(
+      CourtyardOptions(mirror_pair_rate, seed, false_pair_inlier_fraction),
+      fold);
 }
 
 SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
@@ -169,7 +175,7 @@ TEST(SymmetricScene, FoldedModelIsNotWrittenSilently) {
   test::TempDir temp;
   GeneratedScene scene;
   const std::string database =
-      WriteCourtyard(CourtyardOptions(0.2, 1, 0.4), temp, &scene);
+      WriteScene(CourtyardOptions(0.2, 1, 0.4), temp, &scene);
   auto run = [&](const std::string& name, const std::string& flags,
                  std::string* log, std::string* summary) {
     const std::string output = temp.File(name);
@@ -332,6 +338,33 @@ TEST(SymmetricScene, StreetWithoutFalsePairsIsNotFlagged) {
     EXPECT_LT(comparison.center_error_median, 0.01);
   }
   EXPECT_EQ(num_registered, options.num_images);
+}
+
+// A street of two facades whose mirror pairs (40%) are the only link between
+// them splits into one model per facade. Its two end cameras are each
+// other's twins, with as many mirror pairs to the other facade as true
+// pairs to their own (5 and 5): the cut counting one per trusted pair put
+// each on the wrong side, and each part kept one camera turned 180 deg,
+// silently. Weighted by their verified inliers (a mirror pair keeps part of
+// a true pair's matches) the true side wins.
+TEST(SymmetricScene, StreetSplitKeepsEachCameraWithItsFacade) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kStreet;
+  options.num_images = 60;
+  options.point_density = 15;
+  options.noise_px = 0.5;
+  options.mirror_pair_rate = 0.4;
+  options.seed = 1;
+  FoldResolutionOptions fold;
+  const SymmetricRun run = MapScene(options, fold);
+  ASSERT_EQ(run.models.size(), 2u);
+  EXPECT_EQ(run.num_registered, run.num_images);
+  EXPECT_EQ(run.num_turned, 0);
+  EXPECT_LT(run.center_error_median, 0.01);
+  for (const ComponentReport& component : run.summary.components) {
+    EXPECT_FALSE(component.folded) << component.fold_outcome;
+    EXPECT_EQ(component.fold_outcome, "split");
+  }
 }
 
 // The database's evidence of a generated scene, every pair with its exact

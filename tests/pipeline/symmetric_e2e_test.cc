@@ -342,11 +342,11 @@ TEST(SymmetricScene, StreetWithoutFalsePairsIsNotFlagged) {
 
 // A street of two facades whose mirror pairs (40%) are the only link between
 // them splits into one model per facade. Its two end cameras are each
-// other's twins, with as many mirror pairs to the other facade as true
-// pairs to their own (5 and 5): the cut counting one per trusted pair put
-// each on the wrong side, and each part kept one camera turned 180 deg,
-// silently. Weighted by their verified inliers (a mirror pair keeps part of
-// a true pair's matches) the true side wins.
+// other's twins, with about as many mirror pairs to the other facade as
+// true pairs to their own (6 or 5 against 5): the cut counting one per
+// trusted pair put each on the wrong side, and each part kept one camera
+// turned 180 deg, silently. Weighted by their verified inliers (a mirror pair
+// keeps part of a true pair's matches) the true side wins.
 TEST(SymmetricScene, StreetSplitKeepsEachCameraWithItsFacade) {
   SceneGeneratorOptions options;
   options.layout = SceneLayout::kStreet;

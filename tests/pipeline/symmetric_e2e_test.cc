@@ -53,6 +53,17 @@ SceneGeneratorOptions CourtyardOptions(double mirror_pair_rate, uint64_t seed,
   return options;
 }
 
+// A street of two facades (the generator's other settings: its defaults).
+SceneGeneratorOptions StreetOptions(int num_images, double mirror_pair_rate,
+                                    uint64_t seed = 1) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kStreet;
+  options.num_images = num_images;
+  options.mirror_pair_rate = mirror_pair_rate;
+  options.seed = seed;
+  return options;
+}
+
 // The scene generated and written as a database in `temp`; returns its
 // path.
 std::string WriteScene(const SceneGeneratorOptions& options,
@@ -306,10 +317,7 @@ TEST(SymmetricScene, WeakPairsFlagOnlyACut) {
 // "folded (unresolved)" (exit 3) although the check after refinement saw
 // no weak pair.
 TEST(SymmetricScene, StreetWithoutFalsePairsIsNotFlagged) {
-  SceneGeneratorOptions options;
-  options.layout = SceneLayout::kStreet;
-  options.num_images = 40;
-  options.seed = 2;
+  const SceneGeneratorOptions options = StreetOptions(40, 0, 2);
   test::TempDir temp;
   const GeneratedScene scene = GenerateScene(options);
   ASSERT_EQ(scene.num_mirror_pairs, 0);
@@ -348,13 +356,9 @@ TEST(SymmetricScene, StreetWithoutFalsePairsIsNotFlagged) {
 // turned 180 deg, silently. Weighted by their verified inliers (a mirror pair
 // keeps part of a true pair's matches) the true side wins.
 TEST(SymmetricScene, StreetSplitKeepsEachCameraWithItsFacade) {
-  SceneGeneratorOptions options;
-  options.layout = SceneLayout::kStreet;
-  options.num_images = 60;
+  SceneGeneratorOptions options = StreetOptions(60, 0.4, 1);
   options.point_density = 15;
   options.noise_px = 0.5;
-  options.mirror_pair_rate = 0.4;
-  options.seed = 1;
   FoldResolutionOptions fold;
   const SymmetricRun run = MapScene(options, fold);
   ASSERT_EQ(run.models.size(), 2u);
@@ -393,10 +397,7 @@ FoldEvidence ExactEvidence(const GeneratedScene& scene) {
 // than the average track, so the overlap of the wider pairs is
 // over-predicted; the whole model has none.)
 TEST(SymmetricScene, PositioningTracksArePredictedAsAllTracks) {
-  SceneGeneratorOptions options;
-  options.layout = SceneLayout::kStreet;
-  options.num_images = 40;
-  options.seed = 2;
+  const SceneGeneratorOptions options = StreetOptions(40, 0, 2);
   const GeneratedScene scene = GenerateScene(options);
   const FoldEvidence evidence = ExactEvidence(scene);
   std::vector<std::pair<image_t, image_t>> pair_ids;
@@ -449,11 +450,8 @@ TEST(SymmetricScene, PositioningTracksArePredictedAsAllTracks) {
 // projecting anything; the skip must not change the report, on a correct
 // model and on one whose second half sits at its mirrored twins' place.
 TEST(SymmetricScene, DistantPairSkipIsExact) {
-  SceneGeneratorOptions options;
-  options.layout = SceneLayout::kStreet;
-  options.num_images = 120;
+  SceneGeneratorOptions options = StreetOptions(120, 0.1);
   options.point_density = 10;
-  options.mirror_pair_rate = 0.1;
   const GeneratedScene scene = GenerateScene(options);
   const FoldEvidence evidence = ExactEvidence(scene);
   Reconstruction turned = scene.truth;

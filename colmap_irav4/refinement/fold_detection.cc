@@ -541,9 +541,9 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   const std::vector<image_t>& ids = dense.ids;
   const std::map<image_t, int>& index = dense.index;
   const int n = static_cast<int>(ids.size());
-  // Signed graph: trusted pairs pull together (+1 each), missing and weak
-  // pairs push apart (-1 each, scaled so that both kinds weigh the same in
-  // total).
+  // Signed graph: trusted pairs pull together (by their inliers, below),
+  // missing and weak pairs push apart (-1 each, scaled so that both kinds
+  // weigh the same in total).
   std::set<std::pair<image_t, image_t>> suspects(report.suspect_pairs.begin(),
                                                  report.suspect_pairs.end());
   // Weak pairs are not trusted; the weak predicted ones push apart as the

@@ -21,27 +21,12 @@
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/statistics.h"
 #include "colmap_irav4/util/timer.h"
 
 using namespace colmap_irav4;
 
 namespace {
-
-struct Stats {
-  std::vector<double> values;
-  double Mean() const {
-    double sum = 0;
-    for (double v : values) sum += v;
-    return values.empty() ? 0 : sum / values.size();
-  }
-  double Std() const {
-    if (values.size() < 2) return 0;
-    const double mean = Mean();
-    double sum = 0;
-    for (double v : values) sum += (v - mean) * (v - mean);
-    return std::sqrt(sum / (values.size() - 1));
-  }
-};
 
 struct Measure {
   int n_ref = 0;
@@ -117,32 +102,32 @@ int main(int argc, char** argv) {
                   item.c_str(), "greedy_cds", greedy.n_ref, greedy.e_ref_median,
                   greedy.e_ref_mean, greedy.num_wrong, greedy.seconds,
                   greedy.is_cds ? "yes" : "NO");
-      Stats n_ref, e_median, e_mean, num_wrong, seconds;
+      std::vector<double> n_ref, e_median, e_mean, num_wrong, seconds;
       bool all_cds = true;
       for (int t = 0; t < trials; ++t) {
         Irav4Options random_options = options;
         random_options.seed = 1000 + t;
         const Measure m =
             Run(problem, random_options, ReferenceMethod::kRandomCds);
-        n_ref.values.push_back(m.n_ref);
-        e_median.values.push_back(m.e_ref_median);
-        e_mean.values.push_back(m.e_ref_mean);
-        num_wrong.values.push_back(m.num_wrong);
-        seconds.values.push_back(m.seconds);
+        n_ref.push_back(m.n_ref);
+        e_median.push_back(m.e_ref_median);
+        e_mean.push_back(m.e_ref_mean);
+        num_wrong.push_back(m.num_wrong);
+        seconds.push_back(m.seconds);
         all_cds = all_cds && m.is_cds;
       }
       char n_buf[64], med_buf[64], mean_buf[64];
-      std::snprintf(n_buf, sizeof(n_buf), "%.1f +- %.1f", n_ref.Mean(),
-                    n_ref.Std());
-      std::snprintf(med_buf, sizeof(med_buf), "%.3f +- %.3f", e_median.Mean(),
-                    e_median.Std());
-      std::snprintf(mean_buf, sizeof(mean_buf), "%.3f +- %.3f", e_mean.Mean(),
-                    e_mean.Std());
+      std::snprintf(n_buf, sizeof(n_buf), "%.1f +- %.1f", Mean(n_ref),
+                    StandardDeviation(n_ref));
+      std::snprintf(med_buf, sizeof(med_buf), "%.3f +- %.3f", Mean(e_median),
+                    StandardDeviation(e_median));
+      std::snprintf(mean_buf, sizeof(mean_buf), "%.3f +- %.3f", Mean(e_mean),
+                    StandardDeviation(e_mean));
       char wrong_buf[64];
-      std::snprintf(wrong_buf, sizeof(wrong_buf), "%.1f", num_wrong.Mean());
+      std::snprintf(wrong_buf, sizeof(wrong_buf), "%.1f", Mean(num_wrong));
       std::printf("%-6s %-12s %16s %22s %22s %12s %8.2f %6s\n", item.c_str(),
                   "random_cds", n_buf, med_buf, mean_buf, wrong_buf,
-                  seconds.Mean(), all_cds ? "yes" : "NO");
+                  Mean(seconds), all_cds ? "yes" : "NO");
       const Measure irav4 = Run(problem, options, ReferenceMethod::kIrav4);
       std::printf("%-6s %-12s %16d %22.3f %22.3f %12d %8.2f %6s\n",
                   item.c_str(), "irav4", irav4.n_ref, irav4.e_ref_median,
@@ -156,8 +141,9 @@ int main(int argc, char** argv) {
           ("s" + item + "/p" +
            std::to_string(static_cast<int>(std::lround(100 * outlier_ratio))))
               .c_str(),
-          greedy.n_ref, greedy.e_ref_median, n_ref.Mean(), n_ref.Std(),
-          e_median.Mean(), e_median.Std(), irav4.n_ref, irav4.e_ref_median);
+          greedy.n_ref, greedy.e_ref_median, Mean(n_ref),
+          StandardDeviation(n_ref), Mean(e_median), StandardDeviation(e_median),
+          irav4.n_ref, irav4.e_ref_median);
       table_rows.push_back(row);
     }
     std::printf(

@@ -29,7 +29,6 @@
 //       resampling the whole set, for errors that average over points).
 
 #include <algorithm>
-#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
@@ -57,6 +56,7 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/statistics.h"
 #include "colmap_irav4/util/timer.h"
 
 using namespace colmap_irav4;
@@ -421,16 +421,13 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
               << medians.back() << " mm\n";
   }
   if (!medians.empty()) {
-    double mean = 0, variance = 0;
-    for (const double m : medians) mean += m;
-    mean /= medians.size();
-    for (const double m : medians) variance += (m - mean) * (m - mean);
-    variance /= std::max<size_t>(1, medians.size() - 1);
+    const double mean = Mean(medians);
+    const double deviation = StandardDeviation(medians);
     std::sort(medians.begin(), medians.end());
     std::cout << "halves: centre median over " << medians.size()
               << " halves: mean " << mean << " mm, standard deviation "
-              << std::sqrt(variance) << " mm, range " << medians.front()
-              << " - " << medians.back() << " mm\n";
+              << deviation << " mm, range " << medians.front() << " - "
+              << medians.back() << " mm\n";
   }
   return 0;
 }

@@ -43,6 +43,7 @@
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
+#include "colmap_irav4/util/statistics.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -119,11 +120,6 @@ double PeakResidentMb() {
 struct Cell {
   std::vector<double> medians, means, num_far30, num_far10, seconds,
       cpu_seconds, peak_mb;
-  static double Mean(const std::vector<double>& v) {
-    double sum = 0.0;
-    for (double x : v) sum += x;
-    return v.empty() ? 0.0 : sum / v.size();
-  }
 };
 
 int Run(int argc, char** argv) {
@@ -310,13 +306,13 @@ int Run(int argc, char** argv) {
             double peak = 0.0;
             for (double p : cells[k].peak_mb) peak = std::max(peak, p);
             char cell[96];
-            std::snprintf(
-                cell, sizeof(cell), "%7.3f %6.1f %6.1f %7.2fs %7.2fs %6.0fMB",
-                Cell::Mean(cells[k].medians), Cell::Mean(cells[k].num_far30),
-                Cell::Mean(cells[k].num_far10), Cell::Mean(cells[k].seconds),
-                Cell::Mean(cells[k].cpu_seconds), peak);
+            std::snprintf(cell, sizeof(cell),
+                          "%7.3f %6.1f %6.1f %7.2fs %7.2fs %6.0fMB",
+                          Mean(cells[k].medians), Mean(cells[k].num_far30),
+                          Mean(cells[k].num_far10), Mean(cells[k].seconds),
+                          Mean(cells[k].cpu_seconds), peak);
             std::printf(" | %-48s", cell);
-            size_seconds[k][z] += Cell::Mean(cells[k].cpu_seconds);
+            size_seconds[k][z] += Mean(cells[k].cpu_seconds);
             size_peak[k][z] = std::max(size_peak[k][z], peak);
           }
           if (protocol == "structured") {

@@ -279,13 +279,13 @@ class BundleAdjustmentProblem {
     for (size_t k = 0; k < images.size(); ++k) {
       Image& image = reconstruction_->images.at(images[k]);
       double* rotation = image.cam_from_world.rotation.coeffs().data();
-      double* translation = Position(images[k]);
+      double* position = Position(images[k]);
       ordering_->AddElementToGroup(rotation, 1);
-      ordering_->AddElementToGroup(translation, 1);
+      ordering_->AddElementToGroup(position, 1);
       problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
       if (!options_.refine_poses || (options_.fix_gauge && k == 0)) {
         problem_->SetParameterBlockConstant(rotation);
-        problem_->SetParameterBlockConstant(translation);
+        problem_->SetParameterBlockConstant(position);
       } else if (options_.fix_gauge && k == 1) {
         // The coordinate of the position along which a scaling about the
         // first image moves this one most.
@@ -297,7 +297,7 @@ class BundleAdjustmentProblem {
         }
         int fixed_coordinate = 0;
         baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
-        problem_->SetManifold(translation,
+        problem_->SetManifold(position,
                               new ceres::SubsetManifold(3, {fixed_coordinate}));
       }
     }

@@ -10,6 +10,7 @@
 //       [--intrinsics_from_poses 0|1] [--num_rounds N] [--tight 0|1]
 //       [--per_image CSV] [--truth MODEL] [--min_track_length N]
 //       [--restrict_to MODEL] [--half_samples N] [--half_sample_seed S]
+//       [--half_pairs 0|1] [--database_path DB]
 //       [--BundleAdjustment.* as the mapper's]
 //       The "swap" experiment: the mapper's last bundle adjustment and final
 //       filtering (GlobalMapperOptions' defaults, one round) on MODEL's
@@ -27,6 +28,11 @@
 //       the errors over the halves shows how much the figure depends on
 //       which observations a model keeps (about 1.4x the spread of
 //       resampling the whole set, for errors that average over points).
+//       --half_pairs 1 also adjusts each half's complement and prints how
+//       far the two halves' cameras are apart (after a similarity): the
+//       adjustment's own spread, which the ground truth's errors do not
+//       blur. --database_path reads the keypoint scales of MODEL's images (by
+//       name) from DB, for --BundleAdjustment.weight_by_keypoint_scale.
 
 #include <algorithm>
 #include <cstdlib>
@@ -283,7 +289,8 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
         key != "intrinsics_from_poses" && key != "num_rounds" &&
         key != "tight" && key != "per_image" && key != "truth" &&
         key != "min_track_length" && key != "restrict_to" &&
-        key != "half_samples" && key != "half_sample_seed") {
+        key != "half_samples" && key != "half_sample_seed" &&
+        key != "database_path" && key != "half_pairs") {
       throw InputError("--" + key, "unknown option");
     }
   }
@@ -309,6 +316,33 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
   Reconstruction model = ReadReconstruction(args["model"]);
   std::map<std::string, double> before;
   std::map<std::string, double> after;
+  if (args.count("database_path")) {
+    // Keypoint scales (a model file has none), matched by image name.
+    const Database database(args["database_path"]);
+    std::map<std::string, image_t> database_ids;
+    for (const DatabaseImage& image : database.ReadAllImages()) {
+      database_ids[image.name] = image.image_id;
+    }
+    for (auto& [image_id, image] : model.images) {
+      const auto it = database_ids.find(image.name);
+      if (it == database_ids.end()) {
+        throw InputError(args["database_path"],
+                         "has no image '" + image.name + "'");
+      }
+      std::vector<float> scales;
+      database.ReadKeypoints(it->second, &scales);
+      if (scales.size() != image.points2D.size()) {
+        throw InputError(
+            args["database_path"],
+            "image '" + image.name + "' has " + std::to_string(scales.size()) +
+                " keypoint scales, the model " +
+                std::to_string(image.points2D.size()) + " points2D");
+      }
+      for (size_t k = 0; k < scales.size(); ++k) {
+        image.points2D[k].scale = scales[k];
+      }
+    }
+  }
   PrintStatistics("observations (" + args["model"] + ")", model);
   PrintErrors("model as read", model, reference, &before);
   std::unique_ptr<Reconstruction> truth;
@@ -389,25 +423,32 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
   const uint64_t seed = args.count("half_sample_seed")
                             ? std::stoull(args["half_sample_seed"])
                             : 0;
-  std::vector<double> medians;
+  // The mapper's last bundle adjustment and filtering on one half.
+  auto adjust = [&](int k, const char* which, Reconstruction* half) {
+    BundleAdjustmentSummary half_summary;
+    if (!RunBundleAdjustment(ba, half, &half_summary)) {
+      std::cout << which << " " << k << ": bundle adjustment failed\n";
+      return false;
+    }
+    RunFiltering(mapper_options.filtering, half);
+    return true;
+  };
+  const bool half_pairs = args["half_pairs"] == "1";
+  std::vector<double> medians, disagreements;
   for (int k = 0; k < num_half_samples; ++k) {
     Reconstruction half = prepared;
+    Reconstruction complement = prepared;
     // Drawn by point id, so that runs of one model with different options
     // (--min_track_length 3, say) keep the same points: paired halves.
-    std::vector<point3D_t> deleted;
+    std::vector<point3D_t> deleted, kept;
     for (const auto& [point3D_id, point] : half.points3D) {
       std::seed_seq draw{seed, static_cast<uint64_t>(k),
                          static_cast<uint64_t>(point3D_id)};
       std::mt19937_64 rng(draw);
-      if (rng() & 1) deleted.push_back(point3D_id);
+      (rng() & 1 ? deleted : kept).push_back(point3D_id);
     }
     for (const point3D_t point3D_id : deleted) DeletePoint3D(point3D_id, &half);
-    BundleAdjustmentSummary half_summary;
-    if (!RunBundleAdjustment(ba, &half, &half_summary)) {
-      std::cout << "half " << k << ": bundle adjustment failed\n";
-      continue;
-    }
-    RunFiltering(mapper_options.filtering, &half);
+    if (!adjust(k, "half", &half)) continue;
     PoseComparison comparison;
     if (!ComparePoses(PosesByName(half), reference, SimilarityRansacOptions(),
                       &comparison)) {
@@ -419,16 +460,41 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
               << " points, rotation median "
               << comparison.rotation_error_median_deg << " deg, centre median "
               << medians.back() << " mm\n";
+    if (!half_pairs) continue;
+    // The other half: the two are independent estimates, so their
+    // disagreement measures the adjustment's own spread, free of the
+    // ground truth's errors (in mm through the other half's scale to it).
+    for (const point3D_t point3D_id : kept) {
+      DeletePoint3D(point3D_id, &complement);
+    }
+    if (!adjust(k, "complement", &complement)) continue;
+    PoseComparison to_truth, between;
+    if (!ComparePoses(PosesByName(complement), reference,
+                      SimilarityRansacOptions(), &to_truth) ||
+        !ComparePoses(PosesByName(half), PosesByName(complement),
+                      SimilarityRansacOptions(), &between)) {
+      std::cout << "complement " << k << ": alignment failed\n";
+      continue;
+    }
+    disagreements.push_back(1000 * to_truth.estimate_to_reference.scale *
+                            between.center_error_median);
+    std::cout << "complement " << k << ": centre median "
+              << 1000 * to_truth.center_error_median
+              << " mm; the two halves disagree by a median of "
+              << disagreements.back() << " mm, "
+              << between.rotation_error_median_deg << " deg\n";
   }
-  if (!medians.empty()) {
-    const double mean = Mean(medians);
-    const double deviation = StandardDeviation(medians);
-    std::sort(medians.begin(), medians.end());
-    std::cout << "halves: centre median over " << medians.size()
-              << " halves: mean " << mean << " mm, standard deviation "
-              << deviation << " mm, range " << medians.front() << " - "
-              << medians.back() << " mm\n";
-  }
+  auto print = [](const std::string& what, std::vector<double> values) {
+    if (values.empty()) return;
+    const double mean = Mean(values);
+    const double deviation = StandardDeviation(values);
+    std::sort(values.begin(), values.end());
+    std::cout << what << " over " << values.size() << " halves: mean " << mean
+              << " mm, standard deviation " << deviation << " mm, range "
+              << values.front() << " - " << values.back() << " mm\n";
+  };
+  print("halves: centre median", medians);
+  print("half pairs: disagreement median", disagreements);
   return 0;
 }
 }  // namespace
@@ -454,6 +520,7 @@ int main(int argc, char** argv) {
                "[--num_rounds N] [--tight 0|1] [--per_image CSV] "
                "[--truth MODEL] [--min_track_length N] [--restrict_to MODEL] "
                "[--half_samples N] [--half_sample_seed S] "
+               "[--half_pairs 0|1] [--database_path DB] "
                "[--BundleAdjustment.* as the mapper's]\n";
   return 2;
 }

@@ -77,6 +77,11 @@ int Run(int argc, char** argv) {
   manager.Add("max_view_distance", &options.max_view_distance,
               "farthest detected point (m)");
   manager.Add("noise_px", &options.noise_px, "keypoint noise (px)");
+  manager.Add("keypoint_scales", &options.keypoint_scales,
+              "a scale per keypoint, log-uniform in [1.5, 12] px (4 columns)");
+  manager.Add("noise_scale_exponent", &options.noise_scale_exponent,
+              "noise grows as scale^exponent (1: proportional; needs "
+              "keypoint_scales 1)");
   manager.Add("clutter_fraction", &options.clutter_fraction,
               "keypoints of nothing, fraction of each image's");
   manager.Add("min_num_inliers", &options.min_num_inliers,

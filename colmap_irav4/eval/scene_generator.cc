@@ -204,6 +204,26 @@ Eigen::Vector2d NoisyKeypoint(const Eigen::Vector2d& xy, double noise_px,
   return xy;
 }
 
+// The keypoint of a projection at `xy`: with keypoint_scales a scale, and
+// noise that follows it (SceneGeneratorOptions); without, noise_px's noise
+// (and the same random draws as before scales existed).
+Point2D NoisyPoint2D(const Eigen::Vector2d& xy,
+                     const SceneGeneratorOptions& options, const Camera& camera,
+                     std::mt19937_64* rng) {
+  Point2D point2D;
+  double noise_px = options.noise_px;
+  if (options.keypoint_scales) {
+    constexpr double kMinScale = 1.5, kMaxScale = 12.0;
+    std::uniform_real_distribution<double> log_scale(std::log(kMinScale),
+                                                     std::log(kMaxScale));
+    point2D.scale = static_cast<float>(std::exp(log_scale(*rng)));
+    noise_px *= std::pow(point2D.scale / std::sqrt(kMinScale * kMaxScale),
+                         options.noise_scale_exponent);
+  }
+  point2D.xy = NoisyKeypoint(xy, noise_px, camera, rng);
+  return point2D;
+}
+
 struct Layout {
   std::vector<Wall> walls;
   // Camera path: arc-length parameter in [0, path_length); position and
@@ -279,6 +299,9 @@ void SceneGeneratorOptions::Check() const {
           "detection_probability", "must be in (0, 1]");
   require(max_view_distance > 0, "max_view_distance", "must be > 0");
   require(noise_px >= 0, "noise_px", "must be >= 0");
+  require(std::isfinite(noise_scale_exponent) &&
+              (keypoint_scales || noise_scale_exponent == 0),
+          "noise_scale_exponent", "needs keypoint_scales 1");
   require(clutter_fraction >= 0 && clutter_fraction < 10, "clutter_fraction",
           "must be in [0, 10)");
   require(min_num_inliers >= 8, "min_num_inliers", "must be >= 8");
@@ -636,8 +659,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
             continue;
           }
           if (unit(rng) >= options.detection_probability) continue;
-          Point2D point2D;
-          point2D.xy = NoisyKeypoint(xy, options.noise_px, camera, &rng);
+          Point2D point2D = NoisyPoint2D(xy, options, camera, &rng);
           point2D.point3D_id = static_cast<point3D_t>(k) + 1;
           observations[k].push_back(
               {image.image_id, static_cast<point2D_t>(image.points2D.size())});
@@ -652,6 +674,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
       Point2D point2D;
       point2D.xy =
           Eigen::Vector2d(unit(rng) * camera.width, unit(rng) * camera.height);
+      if (options.keypoint_scales) point2D.scale = 1.5f + 10.5f * unit(rng);
       image.points2D.push_back(point2D);
     }
     truth.images[image.image_id] = std::move(image);
@@ -858,8 +881,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
           xy.y() > camera2.height) {
         continue;
       }
-      Point2D point2D;
-      point2D.xy = NoisyKeypoint(xy, options.noise_px, camera2, &rng);
+      const Point2D point2D = NoisyPoint2D(xy, options, camera2, &rng);
       pair.random_inliers.push_back(
           {idx1, static_cast<point2D_t>(image2.points2D.size())});
       image2.points2D.push_back(point2D);
@@ -1032,10 +1054,13 @@ void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
   for (const auto& [image_id, image] : scene.truth.images) {
     writer.WriteImage(image_id, image.name, image.camera_id);
     FeatureKeypoints keypoints;
+    std::vector<float> scales;
     keypoints.reserve(image.points2D.size());
-    for (const Point2D& point2D : image.points2D)
+    for (const Point2D& point2D : image.points2D) {
       keypoints.push_back(point2D.xy.cast<float>());
-    writer.WriteKeypoints(image_id, keypoints);
+      if (scene.options.keypoint_scales) scales.push_back(point2D.scale);
+    }
+    writer.WriteKeypoints(image_id, keypoints, scales);
   }
   // Flat track table (the model's map costs a cache miss per level), and the
   // candidates of all pairs of one first image in one pass over its

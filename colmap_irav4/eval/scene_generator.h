@@ -73,6 +73,14 @@ struct SceneGeneratorOptions {
   // (A noisy keypoint that would leave the image is drawn again: a detector
   // reports positions inside [0, width] x [0, height] only.)
   double noise_px = 1.0;
+  // Keypoint scales: with keypoint_scales each keypoint gets one, drawn
+  // log-uniform in [1.5, 12] px (SIFT's range in COLMAP's Strecha databases),
+  // and the database stores 4 floats per keypoint (x, y, scale,
+  // orientation 0). A keypoint's noise is then noise_px * (scale /
+  // sqrt(1.5 * 12))^noise_scale_exponent: 0 the same for all, 1 proportional
+  // to the scale (a detector localises coarse keypoints less precisely).
+  bool keypoint_scales = false;
+  double noise_scale_exponent = 0.0;
   // Keypoints of nothing (clutter), as a fraction of each image's keypoints.
   double clutter_fraction = 0.1;
   // A pair is written when it has at least this many inliers.

@@ -401,7 +401,19 @@ std::vector<DatabaseImage> Database::ReadAllImages() const {
   return images;
 }
 
-FeatureKeypoints Database::ReadKeypoints(image_t image_id) const {
+float KeypointScale(const float* data, int cols) {
+  if (cols == 4) return data[2];
+  if (cols == 6) {
+    // COLMAP's FeatureKeypoint::ComputeScale: the mean length of the affine
+    // shape's two columns.
+    return 0.5f * (std::hypot(data[2], data[4]) + std::hypot(data[3], data[5]));
+  }
+  return 0.0f;
+}
+
+FeatureKeypoints Database::ReadKeypoints(image_t image_id,
+                                         std::vector<float>* scales) const {
+  if (scales != nullptr) scales->clear();
   Statement statement(
       *this, "SELECT rows, cols, data FROM keypoints WHERE image_id = ?");
   statement.Bind(1, image_id);
@@ -433,6 +445,12 @@ FeatureKeypoints Database::ReadKeypoints(image_t image_id) const {
   keypoints.resize(rows);
   for (int64_t i = 0; i < rows; ++i) {
     keypoints[i] = Eigen::Vector2f(data[i * cols], data[i * cols + 1]);
+  }
+  if (scales != nullptr && cols > 2) {
+    scales->resize(rows);
+    for (int64_t i = 0; i < rows; ++i) {
+      (*scales)[i] = KeypointScale(data + i * cols, static_cast<int>(cols));
+    }
   }
   return keypoints;
 }
@@ -756,7 +774,8 @@ DatabaseContents ReadDatabase(const std::string& path,
   // Keypoints: non-finite or outside the image can never be an observation.
   std::map<image_t, std::vector<char>> invalid_keypoints;
   for (const auto& [image_id, image] : contents.images) {
-    FeatureKeypoints keypoints = database.ReadKeypoints(image_id);
+    std::vector<float> scales;
+    FeatureKeypoints keypoints = database.ReadKeypoints(image_id, &scales);
     const Camera& camera = contents.cameras.at(image.camera_id);
     // COLMAP's keypoints lie in [0, width] x [0, height]; one pixel of slack.
     const double max_x = static_cast<double>(camera.width) + 1;
@@ -792,6 +811,7 @@ DatabaseContents ReadDatabase(const std::string& path,
            " image, never used as observations");
     }
     contents.keypoints[image_id] = std::move(keypoints);
+    if (!scales.empty()) contents.keypoint_scales[image_id] = std::move(scales);
   }
   // Verified pairs: self-pairs skipped, pairs stored with their images
   // swapped turned round (and merged when also stored in COLMAP's order).

@@ -102,7 +102,10 @@ class Database {
   std::vector<Camera> ReadAllCameras() const;
   std::vector<DatabaseImage> ReadAllImages() const;
   // Keypoints of one image (x, y); empty if the image has no keypoints row.
-  FeatureKeypoints ReadKeypoints(image_t image_id) const;
+  // With `scales`, also each keypoint's scale in pixels (KeypointScale), or
+  // none (empty) when the table stores positions only (2 columns).
+  FeatureKeypoints ReadKeypoints(image_t image_id,
+                                 std::vector<float>* scales = nullptr) const;
   // Number of keypoints per image (rows column), without reading the blobs.
   std::map<image_t, int> ReadNumKeypoints() const;
   // Raw (unverified) matches, oriented image_id1 -> image_id2.
@@ -144,6 +147,12 @@ std::string CameraIntrinsicsProblem(const Camera& camera);
 // point at the centre, zero distortion, no prior focal.
 Camera ResetCameraIntrinsics(const Camera& camera);
 
+// The scale in pixels of a keypoint stored as `cols` floats at `data`: the
+// third float of 4 (x, y, scale, orientation), the mean length of the affine
+// shape's columns of 6 (x, y, a11, a12, a21, a22; COLMAP's
+// FeatureKeypoint::ComputeScale), 0 (unknown) of 2.
+float KeypointScale(const float* data, int cols);
+
 // Everything of a database the mapper uses, validated for consistency
 // (cameras of images exist, match indices within the keypoints).
 struct DatabaseContents {
@@ -152,6 +161,9 @@ struct DatabaseContents {
   std::map<camera_t, Camera> cameras;
   std::map<image_t, DatabaseImage> images;
   std::map<image_t, FeatureKeypoints> keypoints;
+  // Each keypoint's scale in pixels, for the images whose keypoints store a
+  // shape (4 or 6 columns); bundle adjustment weighs observations by it.
+  std::map<image_t, std::vector<float>> keypoint_scales;
   // Database orientation (image_id1 < image_id2), ordered by pair id.
   std::vector<TwoViewGeometry> two_view_geometries;
   // Raw match counts per pair id (for inlier ratios); may be empty.

@@ -1,5 +1,6 @@
 #include "colmap_irav4/io/database_writer.h"
 
+#include <glog/logging.h>
 #include <sqlite3.h>
 #include <unistd.h>
 
@@ -85,7 +86,7 @@ DatabaseWriter::DatabaseWriter(const std::string& path) : path_(path) {
   image_stmt_ =
       Prepare("INSERT INTO images(image_id, name, camera_id) VALUES(?, ?, ?);");
   keypoints_stmt_ = Prepare(
-      "INSERT INTO keypoints(image_id, rows, cols, data) VALUES(?, ?, 2, ?);");
+      "INSERT INTO keypoints(image_id, rows, cols, data) VALUES(?, ?, ?, ?);");
   matches_stmt_ = Prepare(
       "INSERT INTO matches(pair_id, rows, cols, data) VALUES(?, ?, 2, ?);");
   geometry_stmt_ = Prepare(
@@ -156,17 +157,25 @@ void DatabaseWriter::WriteImage(image_t image_id, const std::string& name,
 }
 
 void DatabaseWriter::WriteKeypoints(image_t image_id,
-                                    const FeatureKeypoints& keypoints) {
+                                    const FeatureKeypoints& keypoints,
+                                    const std::vector<float>& scales) {
+  CHECK_EQ(scales.empty() ? keypoints.size() : scales.size(), keypoints.size());
+  const int cols = scales.empty() ? 2 : 4;
   std::vector<float> blob;
-  blob.reserve(2 * keypoints.size());
-  for (const Eigen::Vector2f& xy : keypoints) {
-    blob.push_back(xy.x());
-    blob.push_back(xy.y());
+  blob.reserve(cols * keypoints.size());
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    blob.push_back(keypoints[k].x());
+    blob.push_back(keypoints[k].y());
+    if (cols == 4) {
+      blob.push_back(scales[k]);
+      blob.push_back(0.0f);
+    }
   }
   sqlite3_bind_int64(keypoints_stmt_, 1, image_id);
   sqlite3_bind_int64(keypoints_stmt_, 2,
                      static_cast<int64_t>(keypoints.size()));
-  BindBlob(keypoints_stmt_, 3, blob.data(), blob.size() * sizeof(float));
+  sqlite3_bind_int64(keypoints_stmt_, 3, cols);
+  BindBlob(keypoints_stmt_, 4, blob.data(), blob.size() * sizeof(float));
   Step(keypoints_stmt_, "keypoints of image " + std::to_string(image_id));
 }
 

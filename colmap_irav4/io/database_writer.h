@@ -33,7 +33,9 @@ class DatabaseWriter {
   void WriteImage(image_t image_id, const std::string& name,
                   camera_t camera_id);
   // Two floats (x, y) per keypoint, as COLMAP reads them.
-  void WriteKeypoints(image_t image_id, const FeatureKeypoints& keypoints);
+  // With scales (one per keypoint), 4 columns: x, y, scale, orientation 0.
+  void WriteKeypoints(image_t image_id, const FeatureKeypoints& keypoints,
+                      const std::vector<float>& scales = {});
   // Raw matches oriented image_id1 -> image_id2 (swapped into the database's
   // order image_id1 < image_id2 if needed).
   void WriteMatches(image_t image_id1, image_t image_id2,

@@ -39,6 +39,12 @@ Reconstruction MakeReconstruction(
       for (size_t k = 0; k < keypoints->second.size(); ++k) {
         image.points2D[k].xy = keypoints->second[k].cast<double>();
       }
+      const auto scales = database.keypoint_scales.find(image_id);
+      if (scales != database.keypoint_scales.end()) {
+        for (size_t k = 0; k < scales->second.size(); ++k) {
+          image.points2D[k].scale = scales->second[k];
+        }
+      }
     }
     reconstruction.cameras[image.camera_id] = cameras.at(image.camera_id);
   }

@@ -277,6 +277,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.parameterize_centers,
                "poses as rotation and projection centre (0: rotation and "
                "translation)");
+  manager->Add("BundleAdjustment.weight_by_keypoint_scale",
+               &ba.weight_by_keypoint_scale,
+               "weigh each observation by the reprojection noise estimated "
+               "for keypoints of its scale (keypoints stored with a shape)");
   AddSolverOptions(manager, "BundleAdjustment.", &ba.solver);
 }
 

@@ -16,6 +16,7 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/statistics.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -100,7 +101,7 @@ class BundleAdjustmentProblem {
       : options_(options),
         reconstruction_(reconstruction),
         huber_(options.loss_function == "huber"),
-        weighted_(huber_ ||
+        weighted_(huber_ || options.weight_by_keypoint_scale ||
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
     ceres::Problem::Options problem_options;
@@ -125,18 +126,50 @@ class BundleAdjustmentProblem {
   // makes Levenberg-Marquardt crawl whenever many residuals sit in the
   // linear region (its corrector drops their curvature): 59 iterations
   // instead of 12 on fountain-P11 for the same result.
+  //
+  // With scale_edges_, each residual is first divided by the noise of its
+  // keypoint scale bin (the bin's median error), relative to the median error
+  // of all: the loss scale keeps its meaning in pixels of a typical keypoint.
   void Reweight() {
-    if (!huber_) return;
+    if (!huber_ && scale_edges_.empty()) return;
+    std::vector<double> errors;
     ForEachLiveObservation([&](const Image& image, const Camera& camera,
-                               point2D_t idx, double* weight) {
+                               point2D_t idx, double*) {
       const Point2D& point2D = image.points2D[idx];
-      const double error = ReprojectionError(
+      errors.push_back(ReprojectionError(
           camera, image, reconstruction_->points3D.at(point2D.point3D_id).xyz,
-          point2D.xy);
-      *weight = error > options_.loss_scale
-                    ? std::sqrt(options_.loss_scale / error)
-                    : 1.0;
+          point2D.xy));
     });
+    std::vector<double> bin_weights(scale_edges_.size() + 1, 1.0);
+    if (!scale_edges_.empty()) {
+      std::vector<std::vector<double>> bin_errors(bin_weights.size());
+      size_t k = 0;
+      ForEachLiveObservation([&](const Image& image, const Camera&,
+                                 point2D_t idx, double*) {
+        bin_errors[ScaleBin(image.points2D[idx].scale)].push_back(errors[k++]);
+      });
+      const double all_noise = Median(errors);
+      for (size_t b = 0; b < bin_errors.size(); ++b) {
+        const double noise = Median(std::move(bin_errors[b]));
+        // Bounded, so that a degenerate bin (errors all but zero) cannot
+        // take the adjustment over.
+        if (noise > 0 && all_noise > 0) {
+          bin_weights[b] = std::clamp(all_noise / noise, 0.25, 4.0);
+        }
+      }
+    }
+    size_t k = 0;
+    ForEachLiveObservation(
+        [&](const Image& image, const Camera&, point2D_t idx, double* weight) {
+          const double bin_weight =
+              scale_edges_.empty()
+                  ? 1.0
+                  : bin_weights[ScaleBin(image.points2D[idx].scale)];
+          const double error = bin_weight * errors[k++];
+          *weight = huber_ && error > options_.loss_scale
+                        ? bin_weight * std::sqrt(options_.loss_scale / error)
+                        : bin_weight;
+        });
   }
 
   ceres::Solver::Summary Solve() {
@@ -215,6 +248,36 @@ class BundleAdjustmentProblem {
     }
   }
 
+  // The bin of a keypoint scale: the number of bin edges below it.
+  size_t ScaleBin(float scale) const {
+    return std::upper_bound(scale_edges_.begin(), scale_edges_.end(), scale) -
+           scale_edges_.begin();
+  }
+
+  // scale_edges_: the kNumKeypointScaleBins - 1 inner edges of equal-count
+  // bins over the scales of the observations with a residual block; none
+  // (no scale weighting) unless every one has a scale and they differ.
+  void FindScaleBins() {
+    if (!options_.weight_by_keypoint_scale) return;
+    std::vector<float> scales;
+    bool all_known = true;
+    ForEachLiveObservation(
+        [&](const Image& image, const Camera&, point2D_t idx, double*) {
+          const float scale = image.points2D[idx].scale;
+          if (!(scale > 0) || !std::isfinite(scale)) all_known = false;
+          scales.push_back(scale);
+        });
+    if (!all_known ||
+        scales.size() < kNumKeypointScaleBins * kMinObservationsPerScaleBin) {
+      return;
+    }
+    std::sort(scales.begin(), scales.end());
+    if (scales.front() == scales.back()) return;
+    for (int b = 1; b < kNumKeypointScaleBins; ++b) {
+      scale_edges_.push_back(scales[b * scales.size() / kNumKeypointScaleBins]);
+    }
+  }
+
   // The position block of an image: its centre or its translation.
   double* Position(image_t image_id) {
     if (use_centers_) return centers_.at(image_id).data();
@@ -273,6 +336,7 @@ class BundleAdjustmentProblem {
     }
     num_images_ = static_cast<int>(used_images.size());
     if (Empty()) return;
+    FindScaleBins();
 
     // Poses and gauge.
     std::vector<image_t> images(used_images.begin(), used_images.end());
@@ -330,6 +394,11 @@ class BundleAdjustmentProblem {
   Reconstruction* reconstruction_;
   const bool huber_;
   const bool weighted_;  // residuals reweighted or filtered: weights_
+  // Keypoint scale bins (FindScaleBins); the bins' median errors are
+  // estimated from a few thousand observations at least.
+  static constexpr int kNumKeypointScaleBins = 8;
+  static constexpr size_t kMinObservationsPerScaleBin = 500;
+  std::vector<float> scale_edges_;
   std::unique_ptr<ceres::LossFunction> loss_;  // outlives the problem
   // Each image's weights, by keypoint; vectors never resized once built
   // (the costs hold their addresses).

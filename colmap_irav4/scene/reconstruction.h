@@ -32,6 +32,8 @@ struct Rigid3d {
 struct Point2D {
   Eigen::Vector2d xy = Eigen::Vector2d::Zero();
   point3D_t point3D_id = kInvalidPoint3DId;
+  // The keypoint's scale in pixels (0: unknown); not in COLMAP's model files.
+  float scale = 0;
 };
 
 // A registered (or not) image of the model.

@@ -8,7 +8,9 @@ namespace colmap_irav4 {
 
 // Median of `values` (the mean of the two middle values for an even count);
 // 0 for an empty vector.
-inline double Median(std::vector<double> values) {
+// (T = double for a braced list.)
+template <typename T = double>
+double Median(std::vector<T> values) {
   if (values.empty()) return 0.0;
   const size_t mid = values.size() / 2;
   std::nth_element(values.begin(), values.begin() + mid, values.end());

@@ -1,5 +1,7 @@
 #include "colmap_irav4/io/database.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -78,6 +80,13 @@ TEST(Database, ReadsColmap38StrechaDatabase) {
       ASSERT_TRUE(xy.x() >= 0 && xy.x() <= 3072 && xy.y() >= 0 &&
                   xy.y() <= 2048);
     }
+    // Scales from the affine shapes: SIFT's, from about 1.8 px upwards.
+    std::vector<float> scales;
+    EXPECT_EQ(database.ReadKeypoints(1, &scales), keypoints);
+    ASSERT_EQ(scales.size(), keypoints.size());
+    EXPECT_GT(*std::min_element(scales.begin(), scales.end()), 1.5f);
+    EXPECT_LT(*std::min_element(scales.begin(), scales.end()), 2.5f);
+    EXPECT_GT(*std::max_element(scales.begin(), scales.end()), 8.0f);
     const std::vector<TwoViewGeometry> geometries =
         database.ReadAllTwoViewGeometries();
     ASSERT_EQ(geometries.size(), 55u);
@@ -127,6 +136,18 @@ TEST(Database, ReadsColmap38StrechaDatabase) {
   }
   // Read-only: the file is unchanged.
   EXPECT_EQ(HashFile(kFountain), hash);
+}
+
+TEST(Database, KeypointScaleFromEachLayout) {
+  const float two[] = {10, 20};
+  EXPECT_EQ(KeypointScale(two, 2), 0.0f);
+  const float four[] = {10, 20, 3.5f, 0.7f};  // x, y, scale, orientation
+  EXPECT_EQ(KeypointScale(four, 4), 3.5f);
+  // x, y, then a 2x2 shape: a rotation by 30 deg scaled by 2 in x and 4 in y
+  // has columns of length 2 and 4.
+  const float c = std::cos(0.5236f), s = std::sin(0.5236f);
+  const float six[] = {10, 20, 2 * c, -4 * s, 2 * s, 4 * c};
+  EXPECT_NEAR(KeypointScale(six, 6), 3.0f, 1e-5f);
 }
 
 TEST(Database, ReadsOlderSchemaWithoutPoseColumns) {

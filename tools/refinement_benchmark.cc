@@ -410,6 +410,24 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
             << filtering.num_observations_filtered
             << " observations filtered, converged " << summary.converged
             << "\n";
+  if (!summary.scale_bin_noise_px.empty()) {
+    // "scale range: noise" per bin, e.g. "2.45-2.63 px: 0.249 px".
+    const std::vector<double>& edges = summary.scale_bin_edges_px;
+    const std::vector<double>& noise = summary.scale_bin_noise_px;
+    std::cout << "keypoint noise (median reprojection error) by scale:";
+    for (size_t b = 0; b < noise.size(); ++b) {
+      std::cout << (b == 0 ? " " : "; ");
+      if (b == 0) {
+        std::cout << "< " << edges.front();
+      } else if (b + 1 == noise.size()) {
+        std::cout << ">= " << edges.back();
+      } else {
+        std::cout << edges[b - 1] << "-" << edges[b];
+      }
+      std::cout << " px: " << noise[b] << " px";
+    }
+    std::cout << "\n";
+  }
   PrintStatistics("after", model);
   PrintErrors("after our final bundle adjustment", model, reference, &after);
   if (args.count("per_image")) {

@@ -363,6 +363,14 @@ bool GlobalMapper::IterativeBundleAdjustment() {
           RunFiltering(options_.filtering, &reconstruction_);
       stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
       stage.Add("solves", static_cast<double>(ba_summary.num_solves));
+      if (!ba_summary.scale_bin_noise_px.empty()) {
+        // The noise that weighed the observations: finest and coarsest of
+        // the keypoint scale bins.
+        stage.Add("keypoint noise px (finest scales)",
+                  ba_summary.scale_bin_noise_px.front());
+        stage.Add("keypoint noise px (coarsest scales)",
+                  ba_summary.scale_bin_noise_px.back());
+      }
       // Where its time goes (wall seconds; not figures: they vary by run).
       LOG(INFO) << log_prefix_ << "bundle adjustment "
                 << std::to_string(iteration + 1) << ": "

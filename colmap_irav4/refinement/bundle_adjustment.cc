@@ -120,6 +120,13 @@ class BundleAdjustmentProblem {
 
   bool Empty() const { return problem_->NumResidualBlocks() == 0; }
 
+  // The scale bins' inner edges and their noise at the last reweighting
+  // (BundleAdjustmentSummary).
+  std::vector<double> ScaleBinEdges() const {
+    return std::vector<double>(scale_edges_.begin(), scale_edges_.end());
+  }
+  const std::vector<double>& ScaleBinNoise() const { return bin_noise_; }
+
   // "huber" is iteratively reweighted: each solve weighs an observation by
   // Huber's weight min(1, scale / error) at its error when the solve starts
   // (the residual by its square root). Ceres' HuberLoss ("huber_ceres")
@@ -149,8 +156,10 @@ class BundleAdjustmentProblem {
         bin_errors[ScaleBin(image.points2D[idx].scale)].push_back(errors[k++]);
       });
       const double all_noise = Median(errors);
+      bin_noise_.assign(bin_errors.size(), 0.0);
       for (size_t b = 0; b < bin_errors.size(); ++b) {
         const double noise = Median(std::move(bin_errors[b]));
+        bin_noise_[b] = noise;
         // Bounded, so that a degenerate bin (errors all but zero) cannot
         // take the adjustment over.
         if (noise > 0 && all_noise > 0) {
@@ -399,6 +408,7 @@ class BundleAdjustmentProblem {
   static constexpr int kNumKeypointScaleBins = 8;
   static constexpr size_t kMinObservationsPerScaleBin = 500;
   std::vector<float> scale_edges_;
+  std::vector<double> bin_noise_;
   std::unique_ptr<ceres::LossFunction> loss_;  // outlives the problem
   // Each image's weights, by keypoint; vectors never resized once built
   // (the costs hold their addresses).
@@ -535,6 +545,10 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
                              NumObservations(*reconstruction)) {
         break;
       }
+    }
+    if (!problem.ScaleBinNoise().empty()) {
+      local_summary.scale_bin_edges_px = problem.ScaleBinEdges();
+      local_summary.scale_bin_noise_px = problem.ScaleBinNoise();
     }
   }  // the problem deletes the points its filter held
   if (filter_model) {

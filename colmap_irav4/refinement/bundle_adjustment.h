@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/ceres_solve.h"
@@ -122,6 +123,11 @@ struct BundleAdjustmentSummary {
   int num_solves = 0;
   std::string linear_solver;  // Ceres' name, of the last solve
   bool converged = false;     // last round reached a tolerance
+  // weight_by_keypoint_scale: the keypoint scale bins' inner edges (px) and
+  // each bin's noise (median reprojection error, px) when the last solve
+  // started, finest first; empty when the observations were not weighed.
+  std::vector<double> scale_bin_edges_px;
+  std::vector<double> scale_bin_noise_px;
 };
 
 // Sets the linear solver (and preconditioner) of a bundle adjustment of

@@ -5,12 +5,15 @@
 # synthetic scenes with exact ground truth (tools/scene_generator).
 #
 #   scripts/benchmark.sh [--out DIR] [--sizes 100,300,1000] [--large]
-#       [--layout courtyard] [--seed 1] [--threads 2]
+#       [--layout courtyard] [--seed 1] [--scale_noise] [--threads 2]
 #       [--colmap_max_images 300] [--no_colmap] [--no_strecha]
 #       [--global_mapper BINARY] [--global_mapper_max_images 1000]
 #       [--timeout SECONDS]
 #
-# --large adds 3000 and 5000 images. COLMAP runs on a copy of each database
+# --large adds 3000 and 5000 images. --scale_noise generates scenes whose
+# keypoints have scales and noise proportional to them (scene_generator
+# --keypoint_scales 1 --noise_scale_exponent 1; scenes named *_scalenoise_N),
+# as SIFT's on real images. COLMAP runs on a copy of each database
 # (it writes to it); ours opens it read-only. Per run: wall time and peak
 # resident memory (GNU time), CPU time, registered images, models, rotation
 # and camera-centre errors against the ground truth (colmap_irav4
@@ -25,6 +28,8 @@ out=benchmark_results
 sizes=100,300,1000
 layout=courtyard
 seed=1
+generator_args=()
+scene_suffix=""
 threads=2
 colmap_max_images=300
 run_colmap=1
@@ -43,6 +48,8 @@ while [ $# -gt 0 ]; do
     --large) sizes="$sizes,3000,5000"; shift ;;
     --layout) layout=$2; shift 2 ;;
     --seed) seed=$2; shift 2 ;;
+    --scale_noise) generator_args=(--keypoint_scales 1 --noise_scale_exponent 1)
+      scene_suffix=_scalenoise; shift ;;
     --threads) threads=$2; shift 2 ;;
     --colmap_max_images) colmap_max_images=$2; shift 2 ;;
     --no_colmap) run_colmap=0; shift ;;
@@ -211,11 +218,11 @@ fi
 
 IFS=',' read -r -a size_list <<< "$sizes"
 for n in "${size_list[@]}"; do
-  scene=${layout}_$n
+  scene=${layout}${scene_suffix}_$n
   scene_dir=$out/scenes/$scene
   if [ ! -f "$scene_dir/database.db" ]; then
     "$generator" --output_path "$scene_dir" --overwrite 1 --layout "$layout" \
-      --num_images "$n" --seed "$seed" | tee "$scene_dir.txt" >&2
+      --num_images "$n" --seed "$seed" "${generator_args[@]}" | tee "$scene_dir.txt" >&2
   fi
   mkdir -p "$scene_dir/images"  # no pixels: grey points
   bench_scene "$scene" synthetic "$n" "$scene_dir/database.db" "$scene_dir/images" \

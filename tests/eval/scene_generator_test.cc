@@ -29,6 +29,13 @@ SceneGeneratorOptions SmallOptions(SceneLayout layout) {
   return options;
 }
 
+// The scene's database, written to `path` and read as the mapper reads it.
+DatabaseContents WriteAndReadBack(const GeneratedScene& scene,
+                                  const std::string& path) {
+  WriteSceneDatabase(scene, path);
+  return ReadDatabase(path);
+}
+
 // Largest algebraic epipolar residual |x2^T E x1| of the pair's inliers
 // (normalised coordinates, noise-free when noise_px = 0).
 double MaxEpipolarResidual(const GeneratedScene& scene,
@@ -262,10 +269,8 @@ TEST(SceneGenerator, DatabaseReadsBackAndTheMapperMapsACleanScene) {
   options.num_cameras = 2;
   const GeneratedScene scene = GenerateScene(options);
   test::TempDir temp;
-  const std::string path = temp.File("database.db");
-  WriteSceneDatabase(scene, path);
-
-  const DatabaseContents contents = ReadDatabase(path);
+  const DatabaseContents contents =
+      WriteAndReadBack(scene, temp.File("database.db"));
   EXPECT_EQ(contents.schema.Description(), "COLMAP 3.8/3.9");
   ASSERT_EQ(contents.images.size(), scene.truth.images.size());
   ASSERT_EQ(contents.cameras.size(), 2u);
@@ -315,9 +320,8 @@ TEST(SceneGenerator, KeypointScalesReadBackAndWeighTheMapper) {
   options.noise_scale_exponent = 1.0;
   const GeneratedScene scene = GenerateScene(options);
   test::TempDir temp;
-  const std::string path = temp.File("database.db");
-  WriteSceneDatabase(scene, path);
-  const DatabaseContents contents = ReadDatabase(path);
+  const DatabaseContents contents =
+      WriteAndReadBack(scene, temp.File("database.db"));
   for (const auto& [image_id, image] : scene.truth.images) {
     const std::vector<float>& scales = contents.keypoint_scales.at(image_id);
     ASSERT_EQ(scales.size(), image.points2D.size());
@@ -329,8 +333,8 @@ TEST(SceneGenerator, KeypointScalesReadBackAndWeighTheMapper) {
   // Without keypoint_scales the database stores positions only.
   options.keypoint_scales = false;
   options.noise_scale_exponent = 0;
-  WriteSceneDatabase(GenerateScene(options), temp.File("plain.db"));
-  EXPECT_TRUE(ReadDatabase(temp.File("plain.db")).keypoint_scales.empty());
+  EXPECT_TRUE(WriteAndReadBack(GenerateScene(options), temp.File("plain.db"))
+                  .keypoint_scales.empty());
 
   PoseComparison comparison[2];
   for (const bool weighted : {false, true}) {

@@ -138,46 +138,40 @@ class BundleAdjustmentProblem {
   // keypoint scale bin (the bin's median error), relative to the median error
   // of all: the loss scale keeps its meaning in pixels of a typical keypoint.
   void Reweight() {
-    if (!huber_ && scale_edges_.empty()) return;
-    std::vector<double> errors;
+    if (scale_edges_.empty()) {
+      if (!huber_) return;
+      ForEachLiveObservation([&](const Image& image, const Camera& camera,
+                                 point2D_t idx, double* weight) {
+        *weight = HuberWeight(ObservationError(image, camera, idx));
+      });
+      return;
+    }
+    // Floats: the errors of all observations are held at once.
+    std::vector<float> errors;
+    std::vector<std::vector<float>> bin_errors(scale_edges_.size() + 1);
     ForEachLiveObservation([&](const Image& image, const Camera& camera,
                                point2D_t idx, double*) {
-      const Point2D& point2D = image.points2D[idx];
-      errors.push_back(ReprojectionError(
-          camera, image, reconstruction_->points3D.at(point2D.point3D_id).xyz,
-          point2D.xy));
+      errors.push_back(
+          static_cast<float>(ObservationError(image, camera, idx)));
+      bin_errors[ScaleBin(image.points2D[idx].scale)].push_back(errors.back());
     });
-    std::vector<double> bin_weights(scale_edges_.size() + 1, 1.0);
-    if (!scale_edges_.empty()) {
-      std::vector<std::vector<double>> bin_errors(bin_weights.size());
-      size_t k = 0;
-      ForEachLiveObservation([&](const Image& image, const Camera&,
-                                 point2D_t idx, double*) {
-        bin_errors[ScaleBin(image.points2D[idx].scale)].push_back(errors[k++]);
-      });
-      const double all_noise = Median(errors);
-      bin_noise_.assign(bin_errors.size(), 0.0);
-      for (size_t b = 0; b < bin_errors.size(); ++b) {
-        const double noise = Median(std::move(bin_errors[b]));
-        bin_noise_[b] = noise;
-        // Bounded, so that a degenerate bin (errors all but zero) cannot
-        // take the adjustment over.
-        if (noise > 0 && all_noise > 0) {
-          bin_weights[b] = std::clamp(all_noise / noise, 0.25, 4.0);
-        }
+    const double all_noise = Median(errors);
+    std::vector<double> bin_weights(bin_errors.size(), 1.0);
+    bin_noise_.assign(bin_errors.size(), 0.0);
+    for (size_t b = 0; b < bin_errors.size(); ++b) {
+      bin_noise_[b] = Median(std::move(bin_errors[b]));
+      // Bounded, so that a degenerate bin (errors all but zero) cannot take
+      // the adjustment over.
+      if (bin_noise_[b] > 0 && all_noise > 0) {
+        bin_weights[b] = std::clamp(all_noise / bin_noise_[b], 0.25, 4.0);
       }
     }
     size_t k = 0;
     ForEachLiveObservation(
         [&](const Image& image, const Camera&, point2D_t idx, double* weight) {
           const double bin_weight =
-              scale_edges_.empty()
-                  ? 1.0
-                  : bin_weights[ScaleBin(image.points2D[idx].scale)];
-          const double error = bin_weight * errors[k++];
-          *weight = huber_ && error > options_.loss_scale
-                        ? bin_weight * std::sqrt(options_.loss_scale / error)
-                        : bin_weight;
+              bin_weights[ScaleBin(image.points2D[idx].scale)];
+          *weight = bin_weight * HuberWeight(bin_weight * errors[k++]);
         });
   }
 
@@ -255,6 +249,21 @@ class BundleAdjustmentProblem {
         if (weights[idx] > 0) f(image, camera, idx, &weights[idx]);
       }
     }
+  }
+
+  double ObservationError(const Image& image, const Camera& camera,
+                          point2D_t idx) const {
+    const Point2D& point2D = image.points2D[idx];
+    return ReprojectionError(
+        camera, image, reconstruction_->points3D.at(point2D.point3D_id).xyz,
+        point2D.xy);
+  }
+
+  // The residual's factor of the Huber reweighting at `error` (1 without it).
+  double HuberWeight(double error) const {
+    return huber_ && error > options_.loss_scale
+               ? std::sqrt(options_.loss_scale / error)
+               : 1.0;
   }
 
   // The bin of a keypoint scale: the number of bin edges below it.

@@ -455,7 +455,6 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
   std::vector<double> medians, disagreements;
   for (int k = 0; k < num_half_samples; ++k) {
     Reconstruction half = prepared;
-    Reconstruction complement = prepared;
     // Drawn by point id, so that runs of one model with different options
     // (--min_track_length 3, say) keep the same points: paired halves.
     std::vector<point3D_t> deleted, kept;
@@ -482,6 +481,7 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
     // The other half: the two are independent estimates, so their
     // disagreement measures the adjustment's own spread, free of the
     // ground truth's errors (in mm through the other half's scale to it).
+    Reconstruction complement = prepared;
     for (const point3D_t point3D_id : kept) {
       DeletePoint3D(point3D_id, &complement);
     }

@@ -204,6 +204,9 @@ Eigen::Vector2d NoisyKeypoint(const Eigen::Vector2d& xy, double noise_px,
   return xy;
 }
 
+// The range of keypoint scales with keypoint_scales (px).
+constexpr double kMinKeypointScale = 1.5, kMaxKeypointScale = 12.0;
+
 // The keypoint of a projection at `xy`: with keypoint_scales a scale, and
 // noise that follows it (SceneGeneratorOptions); without, noise_px's noise
 // (and the same random draws as before scales existed).
@@ -213,12 +216,12 @@ Point2D NoisyPoint2D(const Eigen::Vector2d& xy,
   Point2D point2D;
   double noise_px = options.noise_px;
   if (options.keypoint_scales) {
-    constexpr double kMinScale = 1.5, kMaxScale = 12.0;
-    std::uniform_real_distribution<double> log_scale(std::log(kMinScale),
-                                                     std::log(kMaxScale));
+    std::uniform_real_distribution<double> log_scale(
+        std::log(kMinKeypointScale), std::log(kMaxKeypointScale));
     point2D.scale = static_cast<float>(std::exp(log_scale(*rng)));
-    noise_px *= std::pow(point2D.scale / std::sqrt(kMinScale * kMaxScale),
-                         options.noise_scale_exponent);
+    noise_px *= std::pow(
+        point2D.scale / std::sqrt(kMinKeypointScale * kMaxKeypointScale),
+        options.noise_scale_exponent);
   }
   point2D.xy = NoisyKeypoint(xy, noise_px, camera, rng);
   return point2D;
@@ -674,7 +677,11 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
       Point2D point2D;
       point2D.xy =
           Eigen::Vector2d(unit(rng) * camera.width, unit(rng) * camera.height);
-      if (options.keypoint_scales) point2D.scale = 1.5f + 10.5f * unit(rng);
+      if (options.keypoint_scales) {
+        point2D.scale = static_cast<float>(
+            kMinKeypointScale +
+            (kMaxKeypointScale - kMinKeypointScale) * unit(rng));
+      }
       image.points2D.push_back(point2D);
     }
     truth.images[image.image_id] = std::move(image);

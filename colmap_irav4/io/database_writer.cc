@@ -159,7 +159,7 @@ void DatabaseWriter::WriteImage(image_t image_id, const std::string& name,
 void DatabaseWriter::WriteKeypoints(image_t image_id,
                                     const FeatureKeypoints& keypoints,
                                     const std::vector<float>& scales) {
-  CHECK_EQ(scales.empty() ? keypoints.size() : scales.size(), keypoints.size());
+  CHECK(scales.empty() || scales.size() == keypoints.size());
   const int cols = scales.empty() ? 2 : 4;
   std::vector<float> blob;
   blob.reserve(cols * keypoints.size());

@@ -32,8 +32,8 @@ class DatabaseWriter {
   void WriteCamera(const Camera& camera);
   void WriteImage(image_t image_id, const std::string& name,
                   camera_t camera_id);
-  // Two floats (x, y) per keypoint, as COLMAP reads them.
-  // With scales (one per keypoint), 4 columns: x, y, scale, orientation 0.
+  // Two floats (x, y) per keypoint, as COLMAP reads them; with scales (one
+  // per keypoint) four: x, y, scale, orientation 0.
   void WriteKeypoints(image_t image_id, const FeatureKeypoints& keypoints,
                       const std::vector<float>& scales = {});
   // Raw matches oriented image_id1 -> image_id2 (swapped into the database's

@@ -402,7 +402,7 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
     return 1;
   }
   const FilterSummary filtering =
-      RunFiltering(mapper_options.filtering, &model);
+      RunFiltering(mapper_options.filtering, &model, &summary.keypoint_noise);
   std::cout << "bundle adjustment: " << summary.num_iterations
             << " iterations, " << summary.initial_mean_reproj_error << " -> "
             << summary.final_mean_reproj_error << " px, "
@@ -448,7 +448,7 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
       std::cout << which << " " << k << ": bundle adjustment failed\n";
       return false;
     }
-    RunFiltering(mapper_options.filtering, half);
+    RunFiltering(mapper_options.filtering, half, &half_summary.keypoint_noise);
     return true;
   };
   const bool half_pairs = args["half_pairs"] == "1";

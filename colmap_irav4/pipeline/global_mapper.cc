@@ -359,8 +359,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
         return Fail("bundle adjustment failed");
       }
+      keypoint_noise_ = ba_summary.keypoint_noise;
       const FilterSummary filter_summary =
-          RunFiltering(options_.filtering, &reconstruction_);
+          RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
       stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
       stage.Add("solves", static_cast<double>(ba_summary.num_solves));
       if (!ba_summary.scale_bin_noise_px.empty()) {
@@ -396,8 +397,8 @@ bool GlobalMapper::IterativeBundleAdjustment() {
 
 bool GlobalMapper::Retriangulation() {
   StageTimer stage("retriangulation");
-  const TriangulationSummary triangulation =
-      TriangulateTracks(options_.triangulation, tracks_, &reconstruction_);
+  const TriangulationSummary triangulation = TriangulateTracks(
+      options_.triangulation, tracks_, &reconstruction_, &keypoint_noise_);
   retriangulated_ = true;
   stage.Add("tracks tried",
             static_cast<double>(triangulation.num_tracks_tried));
@@ -414,7 +415,7 @@ bool GlobalMapper::Finalize() {
   if (!options_.skip_filtering) {
     StageTimer stage("final filtering");
     const FilterSummary filter_summary =
-        RunFiltering(options_.filtering, &reconstruction_);
+        RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
     stage.Add("observations filtered",
               static_cast<double>(filter_summary.num_observations_filtered));
     stage.Add("points filtered (angle)",

@@ -24,6 +24,7 @@
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/refinement/fold_detection.h"
+#include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
@@ -220,6 +221,10 @@ class GlobalMapper {
   std::vector<Track> tracks_;
   Reconstruction reconstruction_;
   bool retriangulated_ = false;
+  // The last bundle adjustment's noise by keypoint scale
+  // (BundleAdjustmentSummary::keypoint_noise): the filters and the
+  // retriangulation scale their thresholds by it; empty before or without.
+  KeypointScaleNoise keypoint_noise_;
   std::vector<StageReport> stages_;
   std::string failure_;
 };

@@ -281,6 +281,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.weight_by_keypoint_scale,
                "weigh each observation by the reprojection noise estimated "
                "for keypoints of its scale (keypoints stored with a shape)");
+  manager->Add("BundleAdjustment.filter_by_keypoint_noise",
+               &ba.filter_by_keypoint_noise,
+               "with weight_by_keypoint_scale, the reprojection filters' and "
+               "the triangulation's thresholds scale with the noise of each "
+               "keypoint's scale");
   AddSolverOptions(manager, "BundleAdjustment.", &ba.solver);
 }
 

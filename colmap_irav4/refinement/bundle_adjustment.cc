@@ -123,9 +123,12 @@ class BundleAdjustmentProblem {
   // The scale bins' inner edges and their noise at the last reweighting
   // (BundleAdjustmentSummary).
   std::vector<double> ScaleBinEdges() const {
-    return std::vector<double>(scale_edges_.begin(), scale_edges_.end());
+    return std::vector<double>(noise_.edges.begin(), noise_.edges.end());
   }
   const std::vector<double>& ScaleBinNoise() const { return bin_noise_; }
+  // The relative noise of the scale bins at the last reweighting; empty when
+  // the observations are not weighed by scale.
+  const KeypointScaleNoise& Noise() const { return noise_; }
 
   // "huber" is iteratively reweighted: each solve weighs an observation by
   // Huber's weight min(1, scale / error) at its error when the solve starts
@@ -134,11 +137,11 @@ class BundleAdjustmentProblem {
   // linear region (its corrector drops their curvature): 59 iterations
   // instead of 12 on fountain-P11 for the same result.
   //
-  // With scale_edges_, each residual is first divided by the noise of its
+  // With scale bins, each residual is first divided by the noise of its
   // keypoint scale bin (the bin's median error), relative to the median error
   // of all: the loss scale keeps its meaning in pixels of a typical keypoint.
   void Reweight() {
-    if (scale_edges_.empty()) {
+    if (noise_.edges.empty()) {
       if (!huber_) return;
       ForEachLiveObservation([&](const Image& image, const Camera& camera,
                                  point2D_t idx, double* weight) {
@@ -148,29 +151,32 @@ class BundleAdjustmentProblem {
     }
     // Floats: the errors of all observations are held at once.
     std::vector<float> errors;
-    std::vector<std::vector<float>> bin_errors(scale_edges_.size() + 1);
-    ForEachLiveObservation([&](const Image& image, const Camera& camera,
-                               point2D_t idx, double*) {
-      errors.push_back(
-          static_cast<float>(ObservationError(image, camera, idx)));
-      bin_errors[ScaleBin(image.points2D[idx].scale)].push_back(errors.back());
-    });
+    std::vector<std::vector<float>> bin_errors(noise_.edges.size() + 1);
+    ForEachLiveObservation(
+        [&](const Image& image, const Camera& camera, point2D_t idx, double*) {
+          errors.push_back(
+              static_cast<float>(ObservationError(image, camera, idx)));
+          bin_errors[noise_.Bin(image.points2D[idx].scale)].push_back(
+              errors.back());
+        });
     const double all_noise = Median(errors);
     std::vector<double> bin_weights(bin_errors.size(), 1.0);
     bin_noise_.assign(bin_errors.size(), 0.0);
+    noise_.factors.assign(bin_errors.size(), 1.0);
     for (size_t b = 0; b < bin_errors.size(); ++b) {
       bin_noise_[b] = Median(std::move(bin_errors[b]));
       // Bounded, so that a degenerate bin (errors all but zero) cannot take
       // the adjustment over.
       if (bin_noise_[b] > 0 && all_noise > 0) {
         bin_weights[b] = std::clamp(all_noise / bin_noise_[b], 0.25, 4.0);
+        noise_.factors[b] = std::clamp(bin_noise_[b] / all_noise, 0.25, 4.0);
       }
     }
     size_t k = 0;
     ForEachLiveObservation(
         [&](const Image& image, const Camera&, point2D_t idx, double* weight) {
           const double bin_weight =
-              bin_weights[ScaleBin(image.points2D[idx].scale)];
+              bin_weights[noise_.Bin(image.points2D[idx].scale)];
           *weight = bin_weight * HuberWeight(bin_weight * errors[k++]);
         });
   }
@@ -195,15 +201,17 @@ class BundleAdjustmentProblem {
   }
 
   // Unlinks from the model the observations whose reprojection error is
-  // above max_reproj_error (FindObservationsWithLargeReprojectionError) and
-  // zeroes their weights. Returns the number unlinked.
+  // above max_reproj_error (FindObservationsWithLargeReprojectionError; in
+  // units of the scale bins' noise with filter_by_keypoint_noise) and zeroes
+  // their weights. Returns the number unlinked.
   size_t Filter(double max_reproj_error) {
     CHECK(weighted_);
     size_t num_filtered = 0;
     std::unordered_set<point3D_t> held_this_pass;
     for (const TrackElement& element :
-         FindObservationsWithLargeReprojectionError(max_reproj_error,
-                                                    *reconstruction_)) {
+         FindObservationsWithLargeReprojectionError(
+             max_reproj_error, *reconstruction_,
+             options_.filter_by_keypoint_noise ? &noise_ : nullptr)) {
       const point3D_t point3D_id = reconstruction_->images.at(element.image_id)
                                        .points2D.at(element.point2D_idx)
                                        .point3D_id;
@@ -266,13 +274,7 @@ class BundleAdjustmentProblem {
                : 1.0;
   }
 
-  // The bin of a keypoint scale: the number of bin edges below it.
-  size_t ScaleBin(float scale) const {
-    return std::upper_bound(scale_edges_.begin(), scale_edges_.end(), scale) -
-           scale_edges_.begin();
-  }
-
-  // scale_edges_: the kNumKeypointScaleBins - 1 inner edges of equal-count
+  // noise_.edges: the kNumKeypointScaleBins - 1 inner edges of equal-count
   // bins over the scales of the observations with a residual block; none
   // (no scale weighting) unless every one has a scale and they differ.
   void FindScaleBins() {
@@ -292,7 +294,7 @@ class BundleAdjustmentProblem {
     std::sort(scales.begin(), scales.end());
     if (scales.front() == scales.back()) return;
     for (int b = 1; b < kNumKeypointScaleBins; ++b) {
-      scale_edges_.push_back(scales[b * scales.size() / kNumKeypointScaleBins]);
+      noise_.edges.push_back(scales[b * scales.size() / kNumKeypointScaleBins]);
     }
   }
 
@@ -416,8 +418,8 @@ class BundleAdjustmentProblem {
   // estimated from a few thousand observations at least.
   static constexpr int kNumKeypointScaleBins = 8;
   static constexpr size_t kMinObservationsPerScaleBin = 500;
-  std::vector<float> scale_edges_;
-  std::vector<double> bin_noise_;
+  KeypointScaleNoise noise_;
+  std::vector<double> bin_noise_;              // px
   std::unique_ptr<ceres::LossFunction> loss_;  // outlives the problem
   // Each image's weights, by keypoint; vectors never resized once built
   // (the costs hold their addresses).
@@ -558,12 +560,16 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     if (!problem.ScaleBinNoise().empty()) {
       local_summary.scale_bin_edges_px = problem.ScaleBinEdges();
       local_summary.scale_bin_noise_px = problem.ScaleBinNoise();
+      if (options.filter_by_keypoint_noise) {
+        local_summary.keypoint_noise = problem.Noise();
+      }
     }
   }  // the problem deletes the points its filter held
   if (filter_model) {
     local_summary.num_observations_filtered +=
-        FilterObservationsWithLargeReprojectionError(options.max_reproj_error,
-                                                     reconstruction);
+        FilterObservationsWithLargeReprojectionError(
+            options.max_reproj_error, reconstruction,
+            &local_summary.keypoint_noise);
   }
   local_summary.final_mean_reproj_error =
       UpdateReprojectionErrors(reconstruction);

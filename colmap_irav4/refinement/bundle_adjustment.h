@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/ceres_solve.h"
 
@@ -98,6 +99,12 @@ struct BundleAdjustmentOptions {
   // each residual is divided by its own noise. Models without scales (or
   // with one scale throughout) are adjusted as before.
   bool weight_by_keypoint_scale = true;
+  // With the observations weighed by scale, the reprojection filter's
+  // threshold (max_reproj_error) is in units of each scale bin's noise: a
+  // keypoint of a bin twice as noisy as the median is kept up to twice the
+  // threshold. The summary passes the bins on (keypoint_noise) for the
+  // mapper's filters and triangulation.
+  bool filter_by_keypoint_noise = true;
 
   BundleAdjustmentOptions();
   // Throws InputError naming the offending option.
@@ -128,6 +135,9 @@ struct BundleAdjustmentSummary {
   // started, finest first; empty when the observations were not weighed.
   std::vector<double> scale_bin_edges_px;
   std::vector<double> scale_bin_noise_px;
+  // filter_by_keypoint_noise: the bins' relative noise the filter used (empty
+  // when the observations were not weighed).
+  KeypointScaleNoise keypoint_noise;
 };
 
 // Sets the linear solver (and preconditioner) of a bundle adjustment of

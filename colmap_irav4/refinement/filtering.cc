@@ -12,25 +12,31 @@
 namespace colmap_irav4 {
 
 std::vector<TrackElement> FindObservationsWithLargeReprojectionError(
-    double max_reproj_error, const Reconstruction& reconstruction) {
+    double max_reproj_error, const Reconstruction& reconstruction,
+    const KeypointScaleNoise* noise) {
   std::vector<TrackElement> outliers;
   for (const auto& [point3D_id, point] : reconstruction.points3D) {
     for (const TrackElement& element : point.track) {
       const Image& image = reconstruction.images.at(element.image_id);
       const Camera& camera = reconstruction.cameras.at(image.camera_id);
-      const double error = ReprojectionError(
-          camera, image, point.xyz, image.points2D[element.point2D_idx].xy);
-      if (!(error <= max_reproj_error)) outliers.push_back(element);
+      const Point2D& point2D = image.points2D[element.point2D_idx];
+      const double error =
+          ReprojectionError(camera, image, point.xyz, point2D.xy);
+      const double threshold =
+          noise == nullptr ? max_reproj_error
+                           : max_reproj_error * noise->Factor(point2D.scale);
+      if (!(error <= threshold)) outliers.push_back(element);
     }
   }
   return outliers;
 }
 
 size_t FilterObservationsWithLargeReprojectionError(
-    double max_reproj_error, Reconstruction* reconstruction) {
+    double max_reproj_error, Reconstruction* reconstruction,
+    const KeypointScaleNoise* noise) {
   const std::vector<TrackElement> outliers =
       FindObservationsWithLargeReprojectionError(max_reproj_error,
-                                                 *reconstruction);
+                                                 *reconstruction, noise);
   for (const TrackElement& element : outliers) {
     DeleteObservation(element.image_id, element.point2D_idx, reconstruction);
   }
@@ -88,12 +94,13 @@ void FilterOptions::Check() const {
 }
 
 FilterSummary RunFiltering(const FilterOptions& options,
-                           Reconstruction* reconstruction) {
+                           Reconstruction* reconstruction,
+                           const KeypointScaleNoise* noise) {
   options.Check();
   FilterSummary summary;
   summary.num_observations_filtered =
       FilterObservationsWithLargeReprojectionError(options.max_reproj_error,
-                                                   reconstruction);
+                                                   reconstruction, noise);
   summary.num_points_filtered = FilterPointsWithSmallTriangulationAngle(
       options.min_tri_angle, reconstruction);
   if (options.min_num_observations_per_image > 0) {

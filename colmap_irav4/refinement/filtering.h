@@ -3,20 +3,24 @@
 #include <vector>
 
 #include "colmap_irav4/geometry/sim3d.h"
+#include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {
 
-// The observations whose reprojection error exceeds max_reproj_error (px) or
-// whose point is behind the camera.
+// The observations whose reprojection error exceeds max_reproj_error (px;
+// with `noise`, times the noise factor of the keypoint's scale: an empty one
+// changes nothing) or whose point is behind the camera.
 std::vector<TrackElement> FindObservationsWithLargeReprojectionError(
-    double max_reproj_error, const Reconstruction& reconstruction);
+    double max_reproj_error, const Reconstruction& reconstruction,
+    const KeypointScaleNoise* noise = nullptr);
 
-// Unlinks observations whose reprojection error exceeds max_reproj_error (px)
-// or whose point is behind the camera; points left with fewer than two
-// observations are deleted. Returns the number of observations removed.
+// Unlinks the observations FindObservationsWithLargeReprojectionError finds;
+// points left with fewer than two observations are deleted. Returns the
+// number of observations removed.
 size_t FilterObservationsWithLargeReprojectionError(
-    double max_reproj_error, Reconstruction* reconstruction);
+    double max_reproj_error, Reconstruction* reconstruction,
+    const KeypointScaleNoise* noise = nullptr);
 
 // Largest angle (rad) between the viewing rays of a point's observations.
 double MaxTriangulationAngle(const Reconstruction& reconstruction,
@@ -47,8 +51,11 @@ struct FilterSummary {
   size_t num_images_filtered = 0;
 };
 
+// `noise` (optional) scales the reprojection threshold per keypoint, as in
+// FindObservationsWithLargeReprojectionError.
 FilterSummary RunFiltering(const FilterOptions& options,
-                           Reconstruction* reconstruction);
+                           Reconstruction* reconstruction,
+                           const KeypointScaleNoise* noise = nullptr);
 
 // Applies x' = scale * R x + t to the whole model (points and poses; the
 // images are unchanged).

@@ -24,6 +24,7 @@ struct Ray {
   Eigen::Vector2d xy;
   Eigen::Vector2d normalized;  // undistorted x/z, y/z
   double focal;                // px per normalised unit, to weigh residuals
+  double max_reproj_error;     // inlier threshold, px
 };
 
 // Gauss-Newton on the reprojection error (in the undistorted normalised
@@ -60,17 +61,16 @@ void RefinePoint(const std::vector<Ray>& rays, const std::vector<int>& subset,
   if (X.allFinite()) *xyz = X;
 }
 
-// Inliers of `xyz` among `rays` (in front, within the reprojection error).
+// Inliers of `xyz` among `rays` (in front, within each ray's threshold).
 std::vector<int> Inliers(const std::vector<Ray>& rays,
                          const std::vector<int>& candidates,
-                         const Eigen::Vector3d& xyz, double max_reproj_error,
-                         double* sum_error) {
+                         const Eigen::Vector3d& xyz, double* sum_error) {
   std::vector<int> inliers;
   *sum_error = 0;
   for (int r : candidates) {
     const double error =
         ReprojectionError(*rays[r].camera, *rays[r].image, xyz, rays[r].xy);
-    if (error <= max_reproj_error) {
+    if (error <= rays[r].max_reproj_error) {
       inliers.push_back(r);
       *sum_error += error;
     }
@@ -152,7 +152,8 @@ void TriangulationOptions::Check() const {
 
 TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
                                        const std::vector<Track>& tracks,
-                                       Reconstruction* reconstruction) {
+                                       Reconstruction* reconstruction,
+                                       const KeypointScaleNoise* noise) {
   options.Check();
   TriangulationSummary summary;
   std::mt19937_64 rng(options.random_seed);
@@ -177,6 +178,10 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
       ray.image = &image;
       ray.camera = &reconstruction->cameras.at(image.camera_id);
       ray.xy = point2D.xy;
+      ray.max_reproj_error =
+          noise == nullptr
+              ? options.max_reproj_error
+              : options.max_reproj_error * noise->Factor(point2D.scale);
       const Eigen::Vector2d normalized =
           CameraImageToCamera(*ray.camera, point2D.xy);
       if (!normalized.allFinite()) continue;
@@ -223,8 +228,7 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
           continue;
         }
         double error;
-        std::vector<int> inliers =
-            Inliers(rays, remaining, xyz, options.max_reproj_error, &error);
+        std::vector<int> inliers = Inliers(rays, remaining, xyz, &error);
         if (inliers.size() > best_inliers.size() ||
             (inliers.size() == best_inliers.size() && error < best_error)) {
           best_inliers = std::move(inliers);
@@ -243,8 +247,7 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
       if (TriangulateMidpoint(inlier_centers, inlier_directions, &refined)) {
         RefinePoint(rays, best_inliers, &refined);
         double error;
-        std::vector<int> inliers =
-            Inliers(rays, remaining, refined, options.max_reproj_error, &error);
+        std::vector<int> inliers = Inliers(rays, remaining, refined, &error);
         if (inliers.size() >= best_inliers.size()) {
           best_inliers = std::move(inliers);
           best_xyz = refined;

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/scene/track.h"
 
@@ -63,8 +64,10 @@ struct TriangulationSummary {
 // points with their inlier observations. Tracks that failed positioning and
 // observations removed by filtering are recovered this way; on a model
 // without points it triangulates everything (translation averaging path).
-TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
-                                       const std::vector<Track>& tracks,
-                                       Reconstruction* reconstruction);
+// With `noise`, an observation's inlier threshold is max_reproj_error times
+// the noise factor of its keypoint's scale.
+TriangulationSummary TriangulateTracks(
+    const TriangulationOptions& options, const std::vector<Track>& tracks,
+    Reconstruction* reconstruction, const KeypointScaleNoise* noise = nullptr);
 
 }  // namespace colmap_irav4

@@ -61,6 +61,48 @@ TEST(Filtering, RemovesExactlyTheObservationsOverTheThreshold) {
             0u);
 }
 
+// With a noise model the threshold is in noise units: 4 px at factor 1,
+// 8 px for a keypoint of a bin twice as noisy, 2 px for one half as noisy.
+TEST(Filtering, ThresholdScalesWithTheNoiseOfTheKeypointScale) {
+  SyntheticSceneOptions options;
+  options.num_images = 6;
+  options.num_points = 200;
+  options.noise_px = 0.0;
+  SyntheticScene scene = GenerateSyntheticScene(options);
+  Reconstruction& reconstruction = scene.truth;
+  KeypointScaleNoise noise;
+  noise.edges = {2.0f, 8.0f};
+  noise.factors = {0.5, 1.0, 2.0};
+  // Image 3's observed keypoints: 10 fine ones moved by 3 px, 10 coarse ones
+  // by 6 px, 10 coarse ones by 10 px; the others of a middle scale.
+  int num_moved = 0;
+  for (Point2D& point2D : reconstruction.images.at(3).points2D) {
+    point2D.scale = 4.0f;
+    if (point2D.point3D_id == kInvalidPoint3DId || num_moved == 30) continue;
+    point2D.scale = num_moved < 10 ? 1.0f : 10.0f;
+    point2D.xy.x() += num_moved < 10 ? 3.0 : (num_moved < 20 ? 6.0 : 10.0);
+    ++num_moved;
+  }
+  ASSERT_EQ(num_moved, 30);
+  // In pixels: the 6 and 10 px ones.
+  EXPECT_EQ(
+      FindObservationsWithLargeReprojectionError(4.0, reconstruction).size(),
+      20u);
+  // In noise units: the fine 3 px ones (over 2) and the coarse 10 px ones
+  // (over 8); the coarse 6 px ones are within 8.
+  EXPECT_EQ(FilterObservationsWithLargeReprojectionError(4.0, &reconstruction,
+                                                         &noise),
+            20u);
+  ExpectConsistent(reconstruction);
+  int num_coarse_left = 0;
+  for (const Point2D& point2D : reconstruction.images.at(3).points2D) {
+    if (point2D.point3D_id == kInvalidPoint3DId) continue;
+    EXPECT_NE(point2D.scale, 1.0f);  // every fine moved one is gone
+    num_coarse_left += point2D.scale == 10.0f;
+  }
+  EXPECT_EQ(num_coarse_left, 10);
+}
+
 TEST(Filtering, RemovesPointsBehindTheCamera) {
   SyntheticScene scene = Scene();
   Reconstruction& reconstruction = scene.truth;

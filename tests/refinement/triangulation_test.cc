@@ -1,6 +1,7 @@
 #include "colmap_irav4/refinement/triangulation.h"
 
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -118,6 +119,46 @@ TEST(Triangulation, RejectsWrongObservationsAndSplitsMergedTracks) {
   EXPECT_LT(UpdateReprojectionErrors(&reconstruction2), 1e-6);
   EXPECT_GE(NumObservations(reconstruction2),
             NumObservations(scene.truth) - 2 * num_corrupted);
+}
+
+// With a noise model, an observation is an inlier up to max_reproj_error
+// times its scale bin's factor: a coarse keypoint moved by 12 px is kept at
+// factor 4 (16 px) and dropped without the model (4 px).
+TEST(Triangulation, InlierThresholdScalesWithTheKeypointNoise) {
+  const SyntheticScene scene = Scene(0.0);
+  Reconstruction reconstruction = StripPoints(scene.truth);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, reconstruction.images);
+  // Image 2's keypoints of tracks of 4 or more observations: a move of one
+  // of them cannot be absorbed by the point's depth.
+  std::set<point2D_t> moved;
+  for (const Track& track : tracks) {
+    if (track.size() < 4) continue;
+    for (const TrackElement& e : track) {
+      if (e.image_id == 2 && moved.size() < 40) moved.insert(e.point2D_idx);
+    }
+  }
+  ASSERT_EQ(moved.size(), 40u);
+  std::vector<Point2D>& points2D = reconstruction.images.at(2).points2D;
+  for (point2D_t idx = 0; idx < points2D.size(); ++idx) {
+    points2D[idx].scale = moved.count(idx) ? 10.0f : 4.0f;
+    if (moved.count(idx)) points2D[idx].xy.x() += 12.0;
+  }
+  KeypointScaleNoise noise;
+  noise.edges = {8.0f};
+  noise.factors = {1.0, 4.0};
+  Reconstruction without = reconstruction;
+  TriangulateTracks(TriangulationOptions(), tracks, &without);
+  TriangulateTracks(TriangulationOptions(), tracks, &reconstruction, &noise);
+  size_t num_kept_without = 0, num_kept_with = 0;
+  for (const point2D_t idx : moved) {
+    num_kept_without +=
+        without.images.at(2).points2D[idx].point3D_id != kInvalidPoint3DId;
+    num_kept_with += points2D[idx].point3D_id != kInvalidPoint3DId;
+  }
+  EXPECT_EQ(num_kept_without, 0u);
+  EXPECT_EQ(num_kept_with, moved.size());
+  EXPECT_EQ(NumObservations(reconstruction), NumObservations(scene.truth));
 }
 
 TEST(Triangulation, RetriangulatesOnlyWhatIsMissing) {

@@ -11,18 +11,9 @@
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/statistics.h"
 
 namespace colmap_irav4 {
-namespace {
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  return values[mid];
-}
-
-}  // namespace
 
 ObservationStatistics ComputeObservationStatistics(
     const Reconstruction& reconstruction, int grid_size) {

@@ -12,6 +12,7 @@
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/statistics.h"
 #include "tests/test_utils/data.h"
 #include "tests/test_utils/record.h"
 
@@ -40,12 +41,6 @@ Scene MakeScene(int num_vertices, int num_chords, double noise_deg,
 std::vector<double> Errors(const std::vector<Eigen::Matrix3d>& estimate,
                            const std::vector<Eigen::Matrix3d>& truth) {
   return EvaluateRotations(estimate, {}, truth).errors_deg;
-}
-
-double Median(std::vector<double> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2,
-                   values.end());
-  return values[values.size() / 2];
 }
 
 TEST(SpanningTree, NoiseFreeExactRecovery) {

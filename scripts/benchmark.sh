@@ -5,12 +5,16 @@
 # synthetic scenes with exact ground truth (tools/scene_generator).
 #
 #   scripts/benchmark.sh [--out DIR] [--sizes 100,300,1000] [--large]
-#       [--layout courtyard] [--seed 1] [--scale_noise] [--threads 2]
+#       [--layout courtyard] [--seeds 1[,2,...]] [--scale_noise] [--threads 2]
 #       [--colmap_max_images 300] [--no_colmap] [--no_strecha]
 #       [--global_mapper BINARY] [--global_mapper_max_images 1000]
 #       [--timeout SECONDS]
 #
-# --large adds 3000 and 5000 images. --scale_noise generates scenes whose
+# --large adds 3000 and 5000 images. --seeds maps a scene of each size per
+# generator seed (--seed S: one seed); with more than one the scenes are named
+# *_N_sS and accuracy_summary.csv gives the error ratios over the seeds (one
+# scene's figure depends on its noise draw: compare mappers over several).
+# --scale_noise generates scenes whose
 # keypoints have scales and noise proportional to them (scene_generator
 # --keypoint_scales 1 --noise_scale_exponent 1; scenes named *_scalenoise_N),
 # as SIFT's on real images. COLMAP runs on a copy of each database
@@ -27,7 +31,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 out=benchmark_results
 sizes=100,300,1000
 layout=courtyard
-seed=1
+seeds=1
 generator_args=()
 scene_suffix=""
 threads=2
@@ -47,7 +51,7 @@ while [ $# -gt 0 ]; do
     --sizes) sizes=$2; shift 2 ;;
     --large) sizes="$sizes,3000,5000"; shift ;;
     --layout) layout=$2; shift 2 ;;
-    --seed) seed=$2; shift 2 ;;
+    --seed|--seeds) seeds=$2; shift 2 ;;
     --scale_noise) generator_args=(--keypoint_scales 1 --noise_scale_exponent 1)
       scene_suffix=_scalenoise; shift ;;
     --threads) threads=$2; shift 2 ;;
@@ -58,7 +62,7 @@ while [ $# -gt 0 ]; do
     --global_mapper_max_images) global_mapper_max_images=$2; shift 2 ;;
     --timeout) timeout_seconds=$2; shift 2 ;;
     --data_dir) data_dir=$2; shift 2 ;;
-    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
     *) echo "ERROR: unknown option $1 (see $0 --help)" >&2; exit 2 ;;
   esac
 done
@@ -217,16 +221,20 @@ if [ "$run_strecha" = 1 ]; then
 fi
 
 IFS=',' read -r -a size_list <<< "$sizes"
+IFS=',' read -r -a seed_list <<< "$seeds"
 for n in "${size_list[@]}"; do
-  scene=${layout}${scene_suffix}_$n
-  scene_dir=$out/scenes/$scene
-  if [ ! -f "$scene_dir/database.db" ]; then
-    "$generator" --output_path "$scene_dir" --overwrite 1 --layout "$layout" \
-      --num_images "$n" --seed "$seed" "${generator_args[@]}" | tee "$scene_dir.txt" >&2
-  fi
-  mkdir -p "$scene_dir/images"  # no pixels: grey points
-  bench_scene "$scene" synthetic "$n" "$scene_dir/database.db" "$scene_dir/images" \
-    --input_path2 "$scene_dir/gt"
+  for seed in "${seed_list[@]}"; do
+    scene=${layout}${scene_suffix}_$n
+    [ "${#seed_list[@]}" -gt 1 ] && scene=${scene}_s$seed
+    scene_dir=$out/scenes/$scene
+    if [ ! -f "$scene_dir/database.db" ]; then
+      "$generator" --output_path "$scene_dir" --overwrite 1 --layout "$layout" \
+        --num_images "$n" --seed "$seed" "${generator_args[@]}" | tee "$scene_dir.txt" >&2
+    fi
+    mkdir -p "$scene_dir/images"  # no pixels: grey points
+    bench_scene "$scene" synthetic "$n" "$scene_dir/database.db" "$scene_dir/images" \
+      --input_path2 "$scene_dir/gt"
+  done
 done
 
 echo "load at end: $(cut -d' ' -f1-3 /proc/loadavg)" >> "$out/machine.txt"
@@ -234,4 +242,4 @@ echo "load at end: $(cut -d' ' -f1-3 /proc/loadavg)" >> "$out/machine.txt"
 # One row per scene, ours beside COLMAP (ratios), JSON, and the plots when
 # matplotlib is installed.
 "$python" "$root/scripts/plot_benchmarks.py" --results "$results" --out "$out"
-echo "Results in $out (results.csv, comparison.csv, results.json, stages.csv, machine.txt)"
+echo "Results in $out (results.csv, comparison.csv, accuracy_summary.csv, results.json, stages.csv, machine.txt)"

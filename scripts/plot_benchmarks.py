@@ -6,7 +6,9 @@
 
 Writes DIR/comparison.csv (one row per scene: ours beside COLMAP 3.8's
 incremental mapper and COLMAP 4's global_mapper, with the time and memory
-ratios theirs / ours), DIR/results.json, DIR/time_vs_images.png (wall and CPU time against the number of
+ratios theirs / ours), DIR/accuracy_summary.csv (per scene family, e.g. the
+seeds of one size, and mapper: the mean and median of our error over theirs
+and how often ours is lower), DIR/results.json, DIR/time_vs_images.png (wall and CPU time against the number of
 images on log-log axes, per mapper, with the growth exponents fitted by least
 squares on the synthetic scenes), DIR/errors.png (median camera-centre and rotation
 errors per scene and mapper) and, given tables printed by
@@ -93,6 +95,75 @@ def write_comparison(rows, out_dir):
             out[m + "_memory_ratio"] = ratio(r.get("peak_mib"), ours.get("peak_mib")) if ok else ""
         table.append(out)
     with open(os.path.join(out_dir, "comparison.csv"), "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(table)
+    return table
+
+
+def scene_family(row):
+    """The scenes compared together: the seeds of one synthetic size (the
+    name without its _sN suffix), or all Strecha scenes."""
+    if row["kind"] == "strecha":
+        return "strecha"
+    return re.sub(r"_s[0-9]+$", "", row["scene"])
+
+
+def write_accuracy_summary(rows, out_dir):
+    """accuracy_summary.csv: per scene family and competitor, our median
+    errors over theirs (below 1: ours closer), mean, median and count of
+    scenes where ours is lower, over the scenes where both registered the
+    same number of images (the others are counted as skipped); returns the
+    rows."""
+    def errors(row):
+        try:
+            return float(row["center_median_mm"]), float(row["rotation_median_deg"])
+        except (KeyError, TypeError, ValueError):
+            return None
+
+    ours = {r["scene"]: r for r in rows if r["mapper"] == "colmap_irav4" and r["status"] == "ok"}
+    groups = {}
+    skipped = {}
+    for r in rows:
+        if r["mapper"] == "colmap_irav4" or r["status"] != "ok" or r["scene"] not in ours:
+            continue
+        key = (scene_family(r), r["mapper"])
+        groups.setdefault(key, [])
+        skipped.setdefault(key, 0)
+        a, b = errors(ours[r["scene"]]), errors(r)
+        if (a is None or b is None or b[0] <= 0 or b[1] <= 0 or
+                r["registered"] != ours[r["scene"]]["registered"]):
+            skipped[key] += 1
+            continue
+        groups[key].append((a[0] / b[0], a[1] / b[1]))
+
+    def median(values):
+        values = sorted(values)
+        mid = len(values) // 2
+        return values[mid] if len(values) % 2 else 0.5 * (values[mid - 1] + values[mid])
+
+    fields = ["family", "mapper", "scenes", "scenes_skipped",
+              "center_ratio_mean", "center_ratio_median", "center_ours_lower",
+              "rotation_ratio_mean", "rotation_ratio_median", "rotation_ours_lower"]
+    table = []
+    for (family, mapper), ratios in groups.items():
+        if not ratios:
+            table.append({"family": family, "mapper": mapper, "scenes": 0,
+                          "scenes_skipped": skipped[(family, mapper)]})
+            continue
+        centres = [c for c, _ in ratios]
+        rotations = [r for _, r in ratios]
+        table.append({
+            "family": family, "mapper": mapper, "scenes": len(ratios),
+            "scenes_skipped": skipped[(family, mapper)],
+            "center_ratio_mean": "%.3f" % (sum(centres) / len(centres)),
+            "center_ratio_median": "%.3f" % median(centres),
+            "center_ours_lower": sum(c < 1 for c in centres),
+            "rotation_ratio_mean": "%.3f" % (sum(rotations) / len(rotations)),
+            "rotation_ratio_median": "%.3f" % median(rotations),
+            "rotation_ours_lower": sum(r < 1 for r in rotations),
+        })
+    with open(os.path.join(out_dir, "accuracy_summary.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(table)
@@ -258,6 +329,19 @@ def main():
                 r["colmap_seconds"] or r["colmap_status"], r["colmap_time_ratio"],
                 r["ours_peak_mib"], r["colmap_peak_mib"], r["ours_center_median_mm"],
                 r["colmap_center_median_mm"]))
+        summary = write_accuracy_summary(rows, args.out)
+        if summary:
+            print("errors, ours / theirs (mean, median over the scenes; scenes where ours is lower):")
+        for r in summary:
+            skipped = (" (%d skipped: registered images differ)" % r["scenes_skipped"]
+                       if r["scenes_skipped"] else "")
+            if not r["scenes"]:
+                print("  %-28s vs %-22s no scene to compare%s" % (r["family"], r["mapper"], skipped))
+                continue
+            print("  %-28s vs %-22s %2d scenes%s: centre %s, %s (%d lower); rotation %s, %s (%d lower)" % (
+                r["family"], r["mapper"], r["scenes"], skipped, r["center_ratio_mean"],
+                r["center_ratio_median"], r["center_ours_lower"], r["rotation_ratio_mean"],
+                r["rotation_ratio_median"], r["rotation_ours_lower"]))
         if plt is None:
             print("matplotlib missing (apt-get install python3-matplotlib): no plots")
             return

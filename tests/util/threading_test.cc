@@ -79,10 +79,24 @@ TEST(ParallelFor, UsesAtMostTheGivenNumberOfThreads) {
 TEST(ParallelFor, RethrowsTheBodysException) {
   for (const int num_threads : {1, 3}) {
     std::atomic<int> calls(0);
+    std::atomic<bool> thrown(false);
     EXPECT_THROW(ParallelFor(num_threads, 10000,
                              [&](size_t i) {
                                ++calls;
-                               if (i == 5) throw std::runtime_error("item 5");
+                               if (i == 5) {
+                                 thrown = true;
+                                 throw std::runtime_error("item 5");
+                               }
+                               // Items after the throw take 1 ms, so that
+                               // the other threads cannot run out all
+                               // 10,000 while the throwing one is
+                               // descheduled before it stops the handing
+                               // out (seen on a loaded 2-core machine);
+                               // they can only if it never stops (3 s).
+                               if (thrown) {
+                                 std::this_thread::sleep_for(
+                                     std::chrono::milliseconds(1));
+                               }
                              }),
                  std::runtime_error);
     // Handing out stops after the failure (a few items already taken by

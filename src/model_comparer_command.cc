@@ -52,7 +52,14 @@ int RunModelComparer(int argc, char** argv) {
   manager.Add("Comparer.max_relative_error", &ransac.max_relative_error,
               "RANSAC inlier threshold, fraction of the reference's median "
               "centre distance to its centroid");
+  std::string alignment = "similarity";
+  manager.Add("Comparer.alignment", &alignment,
+              "similarity (robust, RANSAC) or none: model 1 is compared in "
+              "its own frame (e.g. placed by pose priors in the reference's)");
   if (!manager.Parse(argc, argv)) return 0;
+  if (alignment != "similarity" && alignment != "none") {
+    throw InputError("--Comparer.alignment", "must be similarity or none");
+  }
   if (input_path2.empty() == gt_path.empty()) {
     throw InputError("--input_path2/--gt_path", "give exactly one of them");
   }
@@ -75,8 +82,8 @@ int RunModelComparer(int argc, char** argv) {
   }
 
   PoseComparison comparison;
-  const bool aligned =
-      ComparePoses(PosesByName(model1), reference, ransac, &comparison);
+  const bool aligned = ComparePoses(PosesByName(model1), reference, ransac,
+                                    &comparison, alignment == "similarity");
   std::cout << "common images: " << comparison.num_common
             << " (model 1: " << comparison.num_estimated
             << ", reference: " << comparison.num_reference

@@ -309,9 +309,21 @@ bool GlobalMapper::Positioning() {
   StageTimer stage(options_.positioning_method);
   if (options_.positioning_method == "global_positioning") {
     GlobalPositionerSummary positioner_summary;
-    if (!RunGlobalPositioning(options_.global_positioning, &reconstruction_,
-                              &positioner_summary)) {
+    if (!RunGlobalPositioning(
+            options_.global_positioning, &reconstruction_, &positioner_summary,
+            options_.use_pose_priors ? &database_.pose_priors : nullptr)) {
       return Fail("global positioning failed");
+    }
+    // Pose priors: the model is in their frame from here on.
+    in_prior_frame_ = positioner_summary.in_prior_frame;
+    if (in_prior_frame_) {
+      stage.Add("position priors",
+                static_cast<double>(positioner_summary.num_position_priors));
+      stage.Add(
+          "position prior inliers",
+          static_cast<double>(positioner_summary.num_position_prior_inliers));
+      stage.Add("gravity priors",
+                static_cast<double>(positioner_summary.num_gravity_priors));
     }
     stage.Add("iterations",
               static_cast<double>(positioner_summary.num_iterations));
@@ -356,7 +368,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         return false;
       }
       BundleAdjustmentSummary ba_summary;
-      if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
+      if (!RunBundleAdjustment(
+              round_options, &reconstruction_, &ba_summary,
+              in_prior_frame_ ? &database_.pose_priors : nullptr)) {
         return Fail("bundle adjustment failed");
       }
       keypoint_noise_ = ba_summary.keypoint_noise;
@@ -432,7 +446,8 @@ bool GlobalMapper::Finalize() {
     return Fail("only " + std::to_string(reconstruction_.images.size()) +
                 " images left after refinement");
   }
-  if (!options_.skip_normalization) {
+  // A model in the pose priors' frame stays there (metric).
+  if (!options_.skip_normalization && !in_prior_frame_) {
     StageTimer stage("normalisation");
     NormalizeReconstruction(options_.normalization, &reconstruction_);
     stage.Finish(log_prefix_, &stages_);
@@ -530,6 +545,7 @@ void GlobalMapperOptions::Check() const {
   if (seed < 0) {
     throw OptionError(&seed, "Mapper.seed", "must be >= 0");
   }
+  pose_priors.Check();
   if (progress < -1 || progress > 1) {
     throw OptionError(&progress, "Mapper.progress",
                       "must be -1 (auto), 0 or 1");
@@ -584,6 +600,8 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.global_positioning.random_seed = seed;
   stages.translation_averaging.random_seed = seed;
   stages.triangulation.random_seed = seed;
+  stages.global_positioning.pose_priors = pose_priors;
+  stages.bundle_adjustment.pose_priors = pose_priors;
   for (SolverOptions* solver :
        {&stages.global_positioning.solver, &stages.translation_averaging.solver,
         &stages.bundle_adjustment.solver}) {

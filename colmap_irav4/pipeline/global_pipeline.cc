@@ -16,6 +16,7 @@
 
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/pipeline/fold_resolution.h"
+#include "colmap_irav4/pipeline/pose_prior_setup.h"
 #include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/atomic_output.h"
@@ -91,6 +92,7 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
       << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
       << ",\n  \"num_folded_models\": " << NumFoldedModels()
+      << ",\n  \"pose_priors\": " << PosePriorsJson(pose_priors)
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
   out << ",\n  \"models\": [";
@@ -114,6 +116,7 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
         << ", \"fold_missing_pairs\": " << c.fold_missing_pairs
         << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
+        << ", \"in_prior_frame\": " << (c.in_prior_frame ? "true" : "false")
         << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
     out << "}";
@@ -272,6 +275,7 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
     report.num_images_in_graph = static_cast<int>(mapper.images().size());
     report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
     report.stages = mapper.stages();
+    report.in_prior_frame = mapper.in_prior_frame();
     const FoldCheckedModel& fold_check = fold_checks.at(&mapper);
     if (fold_check.checked) {
       report.stages.insert(report.stages.end(), fold_check.stages.begin(),
@@ -331,6 +335,13 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
   for (size_t k = 0; k < models.size(); ++k) {
     WriteReconstruction(
         models[k], output->StagingModelPath(static_cast<int>(k)), output_type);
+    // Where a model in the pose priors' frame sits on the map.
+    if (k < summary->components.size() &&
+        summary->components[k].in_prior_frame) {
+      WriteFileAtomically(
+          output->StagingModelPath(static_cast<int>(k)) + "/prior_frame.txt",
+          PriorFrameText(summary->pose_priors));
+    }
   }
   for (const std::string& stale :
        output->StaleModelDirectories(static_cast<int>(models.size()))) {
@@ -378,7 +389,11 @@ GlobalMapperSummary RunGlobalMapperOnDatabase(
   StageTimer stage("database");
   DatabaseReadOptions read_options;
   read_options.reset_invalid_cameras = options.reset_invalid_cameras;
-  const DatabaseContents database = ReadDatabase(database_path, read_options);
+  DatabaseContents database = ReadDatabase(database_path, read_options);
+  summary.pose_priors = LoadPosePriors(options, &database);
+  for (const std::string& warning : summary.pose_priors.Warnings()) {
+    summary.notes.push_back(warning);
+  }
   for (const std::string& warning : database.warnings) {
     summary.notes.push_back(database_path + ": " + warning);
   }

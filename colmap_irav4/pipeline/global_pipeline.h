@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/io/pose_priors.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/atomic_output.h"
@@ -41,6 +42,8 @@ struct ComponentReport {
   int fold_missing_pairs = 0;
   // "clean", "resolved (...)", "split", "folded (...)".
   std::string fold_outcome;
+  // Placed in the pose priors' frame (metric; prior_frame.txt beside it).
+  bool in_prior_frame = false;
   std::vector<StageReport> stages;
 };
 
@@ -57,6 +60,8 @@ struct GlobalMapperSummary {
   // the summary is written.
   double peak_memory_mib = 0;
   std::vector<std::string> notes;  // warnings, skipped stages
+  // The pose priors read (source, frame, counts; not the priors).
+  LocalPosePriors pose_priors;
 
   // Models written although the fold check still flags them (folded).
   int NumFoldedModels() const;

@@ -6,7 +6,10 @@
 //       [--mirror_pair_rate 0.1] [--random_pair_rate 0.02] [--seed 3] ...
 // writes OUT/database.db, OUT/gt/{cameras,images,points3D}.bin and
 // OUT/pairs.txt (one line per written pair: IMAGE_ID1 IMAGE_ID2 KIND
-// NUM_INLIERS, KIND true|mirror|random).
+// NUM_INLIERS, KIND true|mirror|random); with --pose_priors 1 also GPS-like
+// priors and gravity (database_colmap311.db, database_colmap4.db,
+// pose_priors_enu.txt, pose_priors_wgs84.txt, gt_prior: the truth in their
+// frame).
 
 #include <filesystem>
 #include <fstream>

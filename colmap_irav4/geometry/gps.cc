@@ -51,8 +51,9 @@ Wgs84 EcefToWgs84(const Eigen::Vector3d& ecef) {
     const double sin_lat = std::sin(lat);
     const double n =
         kSemiMajorAxis / std::sqrt(1.0 - kEccentricity2 * sin_lat * sin_lat);
-    h = std::abs(std::cos(lat)) > 1e-9 ? p / std::cos(lat) - n
-                                       : std::abs(ecef.z()) - n * (1.0 - kEccentricity2);
+    h = std::abs(std::cos(lat)) > 1e-9
+            ? p / std::cos(lat) - n
+            : std::abs(ecef.z()) - n * (1.0 - kEccentricity2);
     lat = std::atan2(ecef.z(), p * (1.0 - kEccentricity2 * n / (n + h)));
   }
   geodetic.latitude = RadToDegrees(lat);

@@ -39,8 +39,7 @@ struct PositionPriorFromTranslationCost {
                                    const Eigen::Matrix3d& sqrt_information)
       : center_cost_(prior, sqrt_information) {}
   template <typename T>
-  bool operator()(const T* rotation, const T* translation,
-                  T* residuals) const {
+  bool operator()(const T* rotation, const T* translation, T* residuals) const {
     // Ceres' quaternions are w, x, y, z; the inverse rotation is the
     // conjugate.
     const T inverse[4] = {rotation[3], -rotation[0], -rotation[1],

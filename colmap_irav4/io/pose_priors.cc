@@ -9,8 +9,8 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/Dense>
 #include <sqlite3.h>
+#include <Eigen/Dense>
 
 #include "colmap_irav4/util/error.h"
 
@@ -46,7 +46,8 @@ bool Step(const Database& database, sqlite3_stmt* statement) {
 std::set<std::string> Columns(const Database& database,
                               const std::string& table) {
   std::set<std::string> columns;
-  StatementPtr statement = Prepare(database, "PRAGMA table_info(" + table + ")");
+  StatementPtr statement =
+      Prepare(database, "PRAGMA table_info(" + table + ")");
   while (Step(database, statement.get())) {
     columns.insert(
         reinterpret_cast<const char*>(sqlite3_column_text(statement.get(), 1)));
@@ -99,14 +100,14 @@ StoredPosePriors ReadDatabasePosePriors(const Database& database) {
     // COLMAP 3.8/3.9: the feature extractor writes EXIF GPS here (NULL or
     // NaN, which SQLite stores as NULL, without a fix).
     stored.source = "images.prior_tx/ty/tz (COLMAP 3.8/3.9, WGS84)";
-    StatementPtr statement =
-        Prepare(database,
-                "SELECT name, prior_tx, prior_ty, prior_tz FROM images ORDER BY "
-                "image_id");
+    StatementPtr statement = Prepare(
+        database,
+        "SELECT name, prior_tx, prior_ty, prior_tz FROM images ORDER BY "
+        "image_id");
     while (Step(database, statement.get())) {
       StoredPosePrior prior;
-      prior.image_name =
-          reinterpret_cast<const char*>(sqlite3_column_text(statement.get(), 0));
+      prior.image_name = reinterpret_cast<const char*>(
+          sqlite3_column_text(statement.get(), 0));
       bool complete = true;
       for (int k = 0; k < 3; ++k) {
         if (sqlite3_column_type(statement.get(), 1 + k) == SQLITE_NULL) {
@@ -136,12 +137,11 @@ StoredPosePriors ReadDatabasePosePriors(const Database& database) {
   }
   const bool has_covariance = columns.count("position_covariance") > 0;
   const bool has_gravity = columns.count("gravity") > 0;
-  const bool has_sensor =
-      colmap4 && columns.count("corr_sensor_id") && columns.count("corr_sensor_type");
-  stored.source = colmap4 ? "pose_priors table (COLMAP 4.x)"
-                          : has_covariance
-                                ? "pose_priors table (COLMAP 3.11/3.12)"
-                                : "pose_priors table (COLMAP 3.10)";
+  const bool has_sensor = colmap4 && columns.count("corr_sensor_id") &&
+                          columns.count("corr_sensor_type");
+  stored.source = colmap4          ? "pose_priors table (COLMAP 4.x)"
+                  : has_covariance ? "pose_priors table (COLMAP 3.11/3.12)"
+                                   : "pose_priors table (COLMAP 3.10)";
   std::string sql = "SELECT " + id_column + ", position, coordinate_system";
   sql += has_covariance ? ", position_covariance" : ", NULL";
   sql += has_gravity ? ", gravity" : ", NULL";
@@ -161,7 +161,8 @@ StoredPosePriors ReadDatabasePosePriors(const Database& database) {
       ++stored.num_skipped["prior of an image not in the database"];
       continue;
     }
-    if (has_sensor && sqlite3_column_int64(row, 5) != camera_of_image[image_id]) {
+    if (has_sensor &&
+        sqlite3_column_int64(row, 5) != camera_of_image[image_id]) {
       ++stored.num_skipped["prior of another camera than its image's"];
       continue;
     }
@@ -206,15 +207,16 @@ StoredPosePriors ReadPosePriorText(const std::string& path, bool wgs84) {
       char* end = nullptr;
       const double value = std::strtod(token.c_str(), &end);
       if (end == token.c_str() || *end != '\0') {
-        throw InputError(path, "line " + std::to_string(line_number) +
-                                   ": '" + token + "' is not a number");
+        throw InputError(path, "line " + std::to_string(line_number) + ": '" +
+                                   token + "' is not a number");
       }
       values.push_back(value);
     }
     if (values.size() != 3 && values.size() != 6) {
-      throw InputError(path, "line " + std::to_string(line_number) +
-                                 ": expected IMAGE_NAME X Y Z [GX GY GZ], got " +
-                                 std::to_string(values.size()) + " numbers");
+      throw InputError(path,
+                       "line " + std::to_string(line_number) +
+                           ": expected IMAGE_NAME X Y Z [GX GY GZ], got " +
+                           std::to_string(values.size()) + " numbers");
     }
     prior.position = Eigen::Vector3d(values[0], values[1], values[2]);
     if (values.size() == 6) {
@@ -231,8 +233,8 @@ StoredPosePriors ReadPosePriorText(const std::string& path, bool wgs84) {
 std::vector<std::string> LocalPosePriors::Warnings() const {
   std::vector<std::string> warnings;
   for (const auto& [reason, count] : num_skipped) {
-    warnings.push_back("pose priors (" + source + "): " +
-                       std::to_string(count) + " skipped: " + reason);
+    warnings.push_back("pose priors (" + source +
+                       "): " + std::to_string(count) + " skipped: " + reason);
   }
   return warnings;
 }
@@ -276,9 +278,8 @@ LocalPosePriors ConvertPosePriors(
       ++local.num_skipped["no position or a NaN coordinate"];
     } else if ((prior.coordinate_system == PriorCoordinateSystem::kWgs84) !=
                local.is_enu) {
-      ++local.num_skipped[local.is_enu
-                              ? "Cartesian position among WGS84 ones"
-                              : "WGS84 position among Cartesian ones"];
+      ++local.num_skipped[local.is_enu ? "Cartesian position among WGS84 ones"
+                                       : "WGS84 position among Cartesian ones"];
       has_position = false;
     } else if (local.is_enu) {
       const Wgs84 geodetic{prior.position[0], prior.position[1],
@@ -298,8 +299,8 @@ LocalPosePriors ConvertPosePriors(
     kept.push_back({id->second, &prior, has_position});
   }
   if (!latitudes.empty()) {
-    local.enu_origin = Wgs84{Median(latitudes), Median(longitudes),
-                             Median(altitudes)};
+    local.enu_origin =
+        Wgs84{Median(latitudes), Median(longitudes), Median(altitudes)};
   }
   const EnuFrame enu(local.enu_origin);
   for (const Kept& item : kept) {
@@ -317,8 +318,8 @@ LocalPosePriors ConvertPosePriors(
             eigen.eigenvalues().minCoeff() > 0) {
           prior.position_covariance = covariance;
         } else {
-          ++local.num_skipped[
-              "covariance not symmetric positive definite (default used)"];
+          ++local.num_skipped
+                ["covariance not symmetric positive definite (default used)"];
         }
       }
       ++local.num_positions;
@@ -360,8 +361,8 @@ void WritePosePriorsToDatabase(
   std::unique_ptr<sqlite3, int (*)(sqlite3*)> owner(db, sqlite3_close);
   auto fail = [&](const std::string& what) {
     sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
-    throw InputError(path, "cannot write " + what + " (" + sqlite3_errmsg(db) +
-                               ")");
+    throw InputError(path,
+                     "cannot write " + what + " (" + sqlite3_errmsg(db) + ")");
   };
   auto exec = [&](const std::string& sql) {
     if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK)

@@ -102,8 +102,9 @@ PosePriorSchema PosePriorSchemaFromName(const std::string& name);
 // existing database of the images, in one transaction, in COLMAP's layout of
 // `schema` (the table created as COLMAP creates it). For synthetic scenes
 // and tests; throws InputError if the database cannot be written.
-void WritePosePriorsToDatabase(const std::string& path, PosePriorSchema schema,
-                               const std::map<image_t, StoredPosePrior>& priors);
+void WritePosePriorsToDatabase(
+    const std::string& path, PosePriorSchema schema,
+    const std::map<image_t, StoredPosePrior>& priors);
 
 // The small file written beside each model ("prior_frame.txt"): what frame
 // its coordinates are in and, for east-north-up, the WGS84 origin.

@@ -56,9 +56,8 @@ std::string PosePriorsJson(const LocalPosePriors& priors) {
                     : priors.is_enu           ? "ENU"
                                               : "CARTESIAN");
   if (priors.is_enu) {
-    out << ", \"enu_origin_wgs84\": ["
-        << JsonNumber(priors.enu_origin.latitude) << ", "
-        << JsonNumber(priors.enu_origin.longitude) << ", "
+    out << ", \"enu_origin_wgs84\": [" << JsonNumber(priors.enu_origin.latitude)
+        << ", " << JsonNumber(priors.enu_origin.longitude) << ", "
         << JsonNumber(priors.enu_origin.altitude) << "]";
   }
   out << ", \"skipped\": {";

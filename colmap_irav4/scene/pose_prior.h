@@ -27,9 +27,7 @@ struct PosePrior {
   Eigen::Vector3d gravity = Eigen::Vector3d::Constant(kNaN);
 
   bool HasPosition() const { return position.allFinite(); }
-  bool HasPositionCovariance() const {
-    return position_covariance.allFinite();
-  }
+  bool HasPositionCovariance() const { return position_covariance.allFinite(); }
   bool HasGravity() const { return gravity.allFinite(); }
 };
 
@@ -66,8 +64,8 @@ struct PosePriorOptions {
                         "must be in (0, 90) deg");
     }
     if (min_num_positions < 3) {
-      throw OptionError(&min_num_positions,
-                        "Mapper.prior_min_num_positions", "must be >= 3");
+      throw OptionError(&min_num_positions, "Mapper.prior_min_num_positions",
+                        "must be >= 3");
     }
   }
 };

@@ -35,8 +35,8 @@ TEST(Gps, EnuOfKnownOffsets) {
   const EnuFrame equator({0, 0, 0});
   EXPECT_NEAR(equator.ToEnu({0, 0, 0}).norm(), 0, 1e-9);
   // Up is the altitude.
-  EXPECT_NEAR((equator.ToEnu({0, 0, 10}) - Eigen::Vector3d(0, 0, 10)).norm(),
-              0, 1e-9);
+  EXPECT_NEAR((equator.ToEnu({0, 0, 10}) - Eigen::Vector3d(0, 0, 10)).norm(), 0,
+              1e-9);
   // 0.001 deg along the equator: a * pi / 180000 = 111.3195 m east (and
   // the earth's curvature drops it ~1 mm).
   const Eigen::Vector3d east = equator.ToEnu({0, 0.001, 0});

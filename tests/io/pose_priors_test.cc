@@ -51,9 +51,9 @@ TEST(PosePriors, ReadsColmap311Table) {
     writer.Exec(kColmap311PosePriors);
     WriteImages(&writer, false);
     // WGS84 with a covariance; NULL position; a prior of no image.
-    writer.Run("INSERT INTO pose_priors VALUES (1, ?, 0, ?)",
-               {Doubles({47.1, 8.2, 400.0}),
-                Doubles({4, 0, 0, 0, 4, 0, 0, 0, 9})});
+    writer.Run(
+        "INSERT INTO pose_priors VALUES (1, ?, 0, ?)",
+        {Doubles({47.1, 8.2, 400.0}), Doubles({4, 0, 0, 0, 4, 0, 0, 0, 9})});
     writer.Run("INSERT INTO pose_priors VALUES (2, NULL, 0, NULL)", {});
     writer.Run("INSERT INTO pose_priors VALUES (9, ?, 0, NULL)",
                {Doubles({47.1, 8.2, 400.0})});
@@ -88,9 +88,8 @@ TEST(PosePriors, ReadsColmap4Table) {
     writer.Exec(test::Colmap4Schema());
     WriteImages(&writer, true);
     // Cartesian with gravity; an IMU's prior; a prior naming another camera.
-    writer.Run(
-        "INSERT INTO pose_priors VALUES (1, 2, 1, 0, ?, NULL, ?, 1)",
-        {Doubles({1.0, 2.0, 3.0}), Doubles({0.0, 2.0, 0.0})});
+    writer.Run("INSERT INTO pose_priors VALUES (1, 2, 1, 0, ?, NULL, ?, 1)",
+               {Doubles({1.0, 2.0, 3.0}), Doubles({0.0, 2.0, 0.0})});
     writer.Run("INSERT INTO pose_priors VALUES (2, 1, 1, 1, ?, NULL, NULL, 1)",
                {Doubles({5.0, 5.0, 5.0})});
     writer.Run("INSERT INTO pose_priors VALUES (3, 3, 7, 0, ?, NULL, NULL, 1)",
@@ -178,9 +177,8 @@ TEST(PosePriors, TextFile) {
   EXPECT_EQ(local.num_skipped.at("second prior of an image"), 1);
   // b is 0.001 deg north of a (111.2 m at 47 deg); the origin is their
   // median.
-  EXPECT_NEAR(
-      (local.priors.at(2).position - local.priors.at(1).position).y(), 111.2,
-      0.1);
+  EXPECT_NEAR((local.priors.at(2).position - local.priors.at(1).position).y(),
+              111.2, 0.1);
   EXPECT_EQ(local.priors.at(2).gravity, Eigen::Vector3d(0, 1, 0));
   EXPECT_EQ(PriorFrameText(local).find("FRAME ENU") != std::string::npos, true);
 
@@ -233,7 +231,8 @@ TEST(PosePriors, WrittenInEverySchemaReadBackTheSame) {
   std::map<image_t, StoredPosePrior> priors;
   for (image_t id = 1; id <= 3; ++id) {
     StoredPosePrior& prior = priors[id];
-    prior.position = Eigen::Vector3d(47.0 + 1e-4 * id, 8.0 - 2e-4 * id, 400 + id);
+    prior.position =
+        Eigen::Vector3d(47.0 + 1e-4 * id, 8.0 - 2e-4 * id, 400 + id);
     prior.coordinate_system = PriorCoordinateSystem::kWgs84;
     prior.position_covariance = Eigen::Vector3d(9, 9, 25).asDiagonal();
     prior.gravity = Eigen::Vector3d(0, 1, 0.01 * id).normalized();

@@ -10,9 +10,12 @@
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "tests/test_utils/scene_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
+
+using test::MaxUnalignedCenterError;
 
 constexpr image_t kOutlierImage = 7;
 
@@ -25,7 +28,7 @@ struct PriorScene {
 // 15 images on an arc of radius 10; priors with `std` noise, image 7's
 // displaced by `outlier_offset`; exact gravity if `gravity`.
 PriorScene MakeSetup(double std, const Eigen::Vector3d& outlier_offset,
-                bool gravity) {
+                     bool gravity) {
   SyntheticSceneOptions options;
   options.num_images = 15;
   options.num_points = 800;
@@ -37,10 +40,10 @@ PriorScene MakeSetup(double std, const Eigen::Vector3d& outlier_offset,
   for (auto& [image_id, image] : setup.reconstruction.images) {
     image.cam_from_world.translation.setZero();
   }
-  AddTracksToReconstruction(BuildTracks(TrackBuilderOptions(),
-                                        setup.scene.matches,
-                                        setup.reconstruction.images),
-                            &setup.reconstruction);
+  AddTracksToReconstruction(
+      BuildTracks(TrackBuilderOptions(), setup.scene.matches,
+                  setup.reconstruction.images),
+      &setup.reconstruction);
   std::mt19937_64 rng(5);
   std::normal_distribution<double> normal(0.0, std);
   for (const auto& [image_id, image] : setup.scene.truth.images) {
@@ -56,17 +59,6 @@ PriorScene MakeSetup(double std, const Eigen::Vector3d& outlier_offset,
   return setup;
 }
 
-double MaxCenterError(const Reconstruction& estimate,
-                      const Reconstruction& truth) {
-  double error = 0;
-  for (const auto& [image_id, image] : estimate.images) {
-    error = std::max(error, (image.ProjectionCenter() -
-                             truth.images.at(image_id).ProjectionCenter())
-                                .norm());
-  }
-  return error;
-}
-
 TEST(GlobalPositioningPriors, PlacesTheModelInThePriorFrameDespiteAnOutlier) {
   PriorScene setup = MakeSetup(0.05, Eigen::Vector3d(30, -20, 40), false);
   GlobalPositionerSummary summary;
@@ -80,22 +72,25 @@ TEST(GlobalPositioningPriors, PlacesTheModelInThePriorFrameDespiteAnOutlier) {
   // outlier's camera stays where its observations put it, 54 m from its
   // prior (radius 10: positioning, before bundle adjustment, is within
   // ~2% of it).
-  EXPECT_LT(MaxCenterError(setup.reconstruction, setup.scene.truth), 0.3);
+  EXPECT_LT(MaxUnalignedCenterError(setup.reconstruction, setup.scene.truth),
+            0.3);
   for (const auto& [image_id, image] : setup.reconstruction.images) {
-    EXPECT_LT(image.cam_from_world.rotation.angularDistance(
-                  setup.scene.truth.images.at(image_id).cam_from_world.rotation),
-              DegToRad(0.5));
+    EXPECT_LT(
+        image.cam_from_world.rotation.angularDistance(
+            setup.scene.truth.images.at(image_id).cam_from_world.rotation),
+        DegToRad(0.5));
   }
 
   // Least squares on the priors instead (a huge loss scale): the outlier
   // drags the model by metres.
-  PriorScene least_squares = MakeSetup(0.05, Eigen::Vector3d(30, -20, 40), false);
+  PriorScene least_squares =
+      MakeSetup(0.05, Eigen::Vector3d(30, -20, 40), false);
   GlobalPositionerOptions options;
   options.pose_priors.loss_scale = 1e6;
   ASSERT_TRUE(RunGlobalPositioning(options, &least_squares.reconstruction,
                                    &summary, &least_squares.priors));
-  EXPECT_GT(MaxCenterError(least_squares.reconstruction,
-                           least_squares.scene.truth),
+  EXPECT_GT(MaxUnalignedCenterError(least_squares.reconstruction,
+                                    least_squares.scene.truth),
             1.0);
 }
 
@@ -116,8 +111,9 @@ TEST(GlobalPositioningPriors, GravitySetsTheTiltWhenPositionsCannot) {
       const Eigen::Vector3d true_down =
           setup.scene.truth.images.at(image_id).cam_from_world.rotation *
           Eigen::Vector3d(0, 0, -1);
-      max_tilt_deg = std::max(
-          max_tilt_deg, RadToDeg(std::acos(std::min(1.0, down.dot(true_down)))));
+      max_tilt_deg =
+          std::max(max_tilt_deg,
+                   RadToDeg(std::acos(std::min(1.0, down.dot(true_down)))));
     }
     if (gravity) {
       EXPECT_LT(max_tilt_deg, 0.05);
@@ -140,8 +136,9 @@ TEST(GlobalPositioningPriors, TooFewPriorsLeaveTheModelAsWithout) {
   EXPECT_NE(summary.prior_problem.find("2 images with a position prior"),
             std::string::npos);
   // The first image at the origin, as without priors.
-  EXPECT_LT(setup.reconstruction.images.begin()->second.ProjectionCenter().norm(),
-            1e-9);
+  EXPECT_LT(
+      setup.reconstruction.images.begin()->second.ProjectionCenter().norm(),
+      1e-9);
 }
 
 }  // namespace

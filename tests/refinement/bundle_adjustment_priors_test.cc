@@ -8,9 +8,12 @@
 #include "colmap_irav4/eval/synthetic_scene.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
+#include "tests/test_utils/scene_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
+
+using test::MaxUnalignedCenterError;
 
 SyntheticScene Scene() {
   SyntheticSceneOptions options;
@@ -58,16 +61,6 @@ void MoveModel(double angle_deg, const Eigen::Vector3d& shift,
   }
 }
 
-double MaxCenterError(const Reconstruction& a, const Reconstruction& b) {
-  double error = 0;
-  for (const auto& [image_id, image] : a.images) {
-    error = std::max(error, (image.ProjectionCenter() -
-                             b.images.at(image_id).ProjectionCenter())
-                                .norm());
-  }
-  return error;
-}
-
 // The largest angle between a camera's down (0, 0, -1 of the world) in `a`
 // and in `b`.
 double MaxTiltErrorDeg(const Reconstruction& a, const Reconstruction& b) {
@@ -98,7 +91,7 @@ TEST(BundleAdjustmentPriors, PriorsPullAShiftedModelBackAndIgnoreAnOutlier) {
   EXPECT_EQ(summary.num_position_priors, 12);
   // Back in the priors' frame (radius 10, priors 2 cm): the outlier, 50 m
   // off, neither moved its camera nor the model.
-  EXPECT_LT(MaxCenterError(model, scene.truth), 0.03);
+  EXPECT_LT(MaxUnalignedCenterError(model, scene.truth), 0.03);
   EXPECT_LT((model.images.at(4).ProjectionCenter() -
              scene.truth.images.at(4).ProjectionCenter())
                 .norm(),
@@ -108,14 +101,14 @@ TEST(BundleAdjustmentPriors, PriorsPullAShiftedModelBackAndIgnoreAnOutlier) {
   Reconstruction without = scene.truth;
   MoveModel(0.0, Eigen::Vector3d(0.3, -0.2, 0.1), &without);
   ASSERT_TRUE(RunBundleAdjustment(Options(), &without));
-  EXPECT_GT(MaxCenterError(without, scene.truth), 0.3);
+  EXPECT_GT(MaxUnalignedCenterError(without, scene.truth), 0.3);
 
   // Least squares on the priors: the outlier drags the model.
   BundleAdjustmentOptions least_squares = Options();
   least_squares.pose_priors.loss_scale = 1e6;
   Reconstruction dragged = scene.truth;
   ASSERT_TRUE(RunBundleAdjustment(least_squares, &dragged, nullptr, &priors));
-  EXPECT_GT(MaxCenterError(dragged, scene.truth), 1.0);
+  EXPECT_GT(MaxUnalignedCenterError(dragged, scene.truth), 1.0);
 }
 
 TEST(BundleAdjustmentPriors, GravityCorrectsATilt) {

@@ -163,7 +163,37 @@ bool EstimatePriorFrameFromModel(
         "cameras on a line?)";
     return false;
   }
+  // RANSAC's threshold, one distance for all and at most the spread, is
+  // only a start: the inliers are then the priors within 4 of their own
+  // standard deviations (chi-square, 3 degrees of freedom: 99.9%), and the
+  // similarity is fitted to them again, until they no longer change.
   std::vector<Eigen::Vector3d> inlier_src, inlier_dst;
+  for (int iteration = 0; iteration < 5; ++iteration) {
+    std::vector<bool> whitened_inlier(ids.size());
+    for (size_t k = 0; k < ids.size(); ++k) {
+      whitened_inlier[k] =
+          (PositionPriorSqrtInformation(priors.at(ids[k]), options) *
+           (sim * src[k] - dst[k]))
+              .norm() < 4.0;
+    }
+    if (whitened_inlier == is_inlier) break;
+    inlier_src.clear();
+    inlier_dst.clear();
+    for (size_t k = 0; k < ids.size(); ++k) {
+      if (!whitened_inlier[k]) continue;
+      inlier_src.push_back(src[k]);
+      inlier_dst.push_back(dst[k]);
+    }
+    Sim3d refit;
+    if (inlier_src.size() < 3 ||
+        !EstimateSimilarity(inlier_src, inlier_dst, &refit)) {
+      break;
+    }
+    sim = refit;
+    is_inlier = whitened_inlier;
+  }
+  inlier_src.clear();
+  inlier_dst.clear();
   inliers->clear();
   for (size_t k = 0; k < ids.size(); ++k) {
     if (!is_inlier[k]) continue;

@@ -26,12 +26,12 @@ namespace colmap_irav4 {
 // no prior poses are needed.
 //
 // With position priors (GPS) the model is then placed in the priors' frame:
-// a similarity from the centres to the priors (RANSAC, inliers within 3
-// standard deviations; where images have gravity priors the similarity's
-// tilt comes from them, its heading, scale and offset from the positions),
-// then a second solve with every prior as a residual in standard deviations
-// under a Cauchy loss (PosePriorOptions), so that an outlier 50 m off barely
-// pulls, and the result mapped into the priors' frame (metric).
+// a similarity from the centres to the priors (RANSAC, then least squares on
+// the priors within 4 standard deviations; where images have gravity priors the
+// similarity's tilt comes from them, its heading, scale and offset from the
+// positions), then a second solve with every prior as a residual in standard
+// deviations under a Cauchy loss (PosePriorOptions), so that an outlier 50 m
+// off barely pulls, and the result mapped into the priors' frame (metric).
 struct GlobalPositionerOptions {
   // Tracks with fewer observations in the model's images are left out (and
   // their points deleted: retriangulation recovers them later).
@@ -99,12 +99,14 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           const PosePriors* priors = nullptr);
 
 // The similarity mapping camera centres (by image id) onto their position
-// priors: RANSAC (inliers within 3 of their standard deviations), least
-// squares on the inliers; where at least 3 images have gravity priors, the
-// rotation's tilt maps the mean world down of the images (their
-// cam_from_world rotations applied to their gravity) onto -z, and the
-// heading, scale and offset are fitted to the inliers with it. False when
-// fewer than min_num_positions priors or no similarity (collinear centres).
+// priors: RANSAC (inliers within 3 median standard deviations, at most the
+// priors' median spread), then least squares on the priors within 4 of
+// their own standard deviations, repeated until those no longer change; where
+// at least 3 images have gravity priors, the rotation's tilt maps the mean
+// world down of the images (their cam_from_world rotations applied to their
+// gravity) onto -z, and the heading, scale and offset are fitted to the inliers
+// with it. False when fewer than min_num_positions priors or no similarity
+// (collinear centres).
 bool EstimatePriorFrameFromModel(
     const std::map<image_t, Eigen::Vector3d>& centers,
     const std::map<image_t, Eigen::Matrix3d>& cam_from_world_rotations,

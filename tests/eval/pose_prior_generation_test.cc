@@ -38,10 +38,12 @@ TEST(PosePriorGeneration, NoiseOutliersAndFrame) {
     sum_sq_h += error.head<2>().squaredNorm() / 2;
     sum_sq_v += error.z() * error.z();
     // Gravity: 1 deg noise per axis, from the true down.
-    const Eigen::Vector3d down = truth.images.at(image_id).cam_from_world.rotation *
-                                 Eigen::Vector3d(0, 0, -1);
-    EXPECT_LT(std::acos(std::min(1.0, down.dot(priors.wgs84.at(image_id).gravity))),
-              5.0 * M_PI / 180);
+    const Eigen::Vector3d down =
+        truth.images.at(image_id).cam_from_world.rotation *
+        Eigen::Vector3d(0, 0, -1);
+    EXPECT_LT(
+        std::acos(std::min(1.0, down.dot(priors.wgs84.at(image_id).gravity))),
+        5.0 * M_PI / 180);
   }
   EXPECT_EQ(num_far, static_cast<int>(priors.outliers.size()));
   EXPECT_GE(num_far, 1);
@@ -52,13 +54,13 @@ TEST(PosePriorGeneration, NoiseOutliersAndFrame) {
   // ground of the walls' bottoms), metric (same distances as the scene's).
   const auto first = scene.truth.images.begin();
   const auto last = std::prev(scene.truth.images.end());
-  EXPECT_NEAR((truth.images.at(first->first).ProjectionCenter() -
-               truth.images.at(last->first).ProjectionCenter())
-                  .norm(),
-              (first->second.ProjectionCenter() -
-               last->second.ProjectionCenter())
-                  .norm(),
-              1e-6);
+  EXPECT_NEAR(
+      (truth.images.at(first->first).ProjectionCenter() -
+       truth.images.at(last->first).ProjectionCenter())
+          .norm(),
+      (first->second.ProjectionCenter() - last->second.ProjectionCenter())
+          .norm(),
+      1e-6);
   // The scene is the same with or without priors.
   const GeneratedScene again = GenerateScene(SmallScene());
   EXPECT_EQ(again.truth.points3D.size(), scene.truth.points3D.size());
@@ -79,7 +81,8 @@ TEST(PosePriorGeneration, EverySchemaAndTheTextFilesReadTheSame) {
     WriteSceneDatabase(scene, path);
     WritePosePriorsToDatabase(path, PosePriorSchemaFromName(schema),
                               priors.wgs84);
-    read[schema] = ConvertPosePriors(ReadDatabasePosePriors(Database(path)), ids);
+    read[schema] =
+        ConvertPosePriors(ReadDatabasePosePriors(Database(path)), ids);
   }
   WritePosePriorText(scene, priors, true, temp.File("wgs84.txt"));
   WritePosePriorText(scene, priors, false, temp.File("enu.txt"));
@@ -98,7 +101,8 @@ TEST(PosePriorGeneration, EverySchemaAndTheTextFilesReadTheSame) {
   }
   EXPECT_EQ(read.at("colmap4").num_gravity, 40);
   EXPECT_EQ(read.at("colmap311").num_gravity, 0);
-  EXPECT_TRUE(read.at("colmap311").priors.begin()->second.HasPositionCovariance());
+  EXPECT_TRUE(
+      read.at("colmap311").priors.begin()->second.HasPositionCovariance());
 }
 
 }  // namespace

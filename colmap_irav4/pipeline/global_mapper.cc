@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 #include <algorithm>
+#include <filesystem>
 #include <cmath>
 #include <functional>
 #include <numeric>
@@ -630,6 +631,11 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.normalization.Check();
   o.fold.Check();
   o.pose_priors.Check();
+  if (!o.pose_prior_path.empty() &&
+      !std::filesystem::is_regular_file(o.pose_prior_path)) {
+    throw OptionError(&o.pose_prior_path, "Mapper.pose_prior_path",
+                      "no such file: '" + o.pose_prior_path + "'");
+  }
 }
 
 }  // namespace

@@ -2,8 +2,8 @@
 
 #include <unistd.h>
 #include <algorithm>
-#include <filesystem>
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <numeric>
 #include <set>
@@ -369,9 +369,9 @@ bool GlobalMapper::Positioning() {
     if (in_prior_frame_) {
       stage.Add("position priors",
                 static_cast<double>(positioner_summary.num_position_priors));
-      stage.Add("position prior inliers",
-                static_cast<double>(
-                    positioner_summary.num_position_prior_inliers));
+      stage.Add(
+          "position prior inliers",
+          static_cast<double>(positioner_summary.num_position_prior_inliers));
       stage.Add("gravity priors",
                 static_cast<double>(positioner_summary.num_gravity_priors));
     }

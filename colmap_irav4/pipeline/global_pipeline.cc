@@ -1,6 +1,5 @@
 #include "colmap_irav4/pipeline/global_pipeline.h"
 
-#include <sys/resource.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cmath>
@@ -90,6 +89,10 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
       << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
+      << ",\n  \"peak_memory_stage\": " << JsonString(peak_memory_stage)
+      << ",\n  \"peak_bytes_per_observation\": "
+      << JsonNumber(peak_bytes_per_observation)
+      << ",\n  \"peak_bytes_per_pair\": " << JsonNumber(peak_bytes_per_pair)
       << ",\n  \"num_folded_models\": " << NumFoldedModels()
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
@@ -339,14 +342,29 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
   stage.Add("models", static_cast<double>(models.size()));
   stage.Finish("", &summary->stages);
   summary->total_seconds = total_timer.ElapsedSeconds();
-  {
-    struct rusage usage;
-    if (getrusage(RUSAGE_SELF, &usage) == 0) {
-      summary->peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
-    }
+  summary->peak_memory_mib = ReadProcessMemory().peak_mib;
+  std::vector<const std::vector<StageReport>*> stage_lists = {
+      &summary->stages};
+  double num_observations = 0;
+  for (const ComponentReport& component : summary->components) {
+    stage_lists.push_back(&component.stages);
+    num_observations += component.num_observations;
   }
+  summary->peak_memory_stage = PeakMemoryStage(stage_lists);
+  const double peak_bytes = summary->peak_memory_mib * 1024 * 1024;
+  summary->peak_bytes_per_observation =
+      num_observations > 0 ? peak_bytes / num_observations : 0;
+  summary->peak_bytes_per_pair =
+      summary->num_database_pairs > 0
+          ? peak_bytes / summary->num_database_pairs
+          : 0;
   LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
-            << summary->peak_memory_mib << " MiB";
+            << summary->peak_memory_mib << " MiB (in "
+            << (summary->peak_memory_stage.empty() ? "?"
+                                                   : summary->peak_memory_stage)
+            << "; " << std::setprecision(0)
+            << summary->peak_bytes_per_observation << " bytes per observation, "
+            << summary->peak_bytes_per_pair << " per verified pair)";
   WriteFileAtomically(output->StagingFilePath("summary.json"),
                       summary->ToJson());
   output->Commit(static_cast<int>(models.size()), {"summary.json"});

@@ -343,8 +343,7 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
   stage.Finish("", &summary->stages);
   summary->total_seconds = total_timer.ElapsedSeconds();
   summary->peak_memory_mib = ReadProcessMemory().peak_mib;
-  std::vector<const std::vector<StageReport>*> stage_lists = {
-      &summary->stages};
+  std::vector<const std::vector<StageReport>*> stage_lists = {&summary->stages};
   double num_observations = 0;
   for (const ComponentReport& component : summary->components) {
     stage_lists.push_back(&component.stages);
@@ -354,10 +353,9 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
   const double peak_bytes = summary->peak_memory_mib * 1024 * 1024;
   summary->peak_bytes_per_observation =
       num_observations > 0 ? peak_bytes / num_observations : 0;
-  summary->peak_bytes_per_pair =
-      summary->num_database_pairs > 0
-          ? peak_bytes / summary->num_database_pairs
-          : 0;
+  summary->peak_bytes_per_pair = summary->num_database_pairs > 0
+                                     ? peak_bytes / summary->num_database_pairs
+                                     : 0;
   LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
             << summary->peak_memory_mib << " MiB (in "
             << (summary->peak_memory_stage.empty() ? "?"

@@ -59,12 +59,39 @@ struct ReprojectionCost {
   const bool center_;
 };
 
+// ceres::AutoDiffCostFunction with the functor held in place: one
+// allocation per observation instead of two (48 bytes less each; a model's
+// every observation is a residual block). Same derivatives: Ceres' own
+// automatic differentiation, as AutoDiffCostFunction::Evaluate calls it.
+template <int kNumParams>
+class ReprojectionCostFunction final
+    : public ceres::SizedCostFunction<2, 4, 3, 3, kNumParams> {
+ public:
+  using ParameterDims =
+      typename ceres::SizedCostFunction<2, 4, 3, 3, kNumParams>::ParameterDims;
+
+  explicit ReprojectionCostFunction(const ReprojectionCost<kNumParams>& cost)
+      : cost_(cost) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    if (jacobians == nullptr) {
+      return ceres::internal::VariadicEvaluate<ParameterDims>(cost_, parameters,
+                                                              residuals);
+    }
+    return ceres::internal::AutoDifferentiate<2, ParameterDims>(
+        cost_, parameters, 2, residuals, jacobians);
+  }
+
+ private:
+  const ReprojectionCost<kNumParams> cost_;
+};
+
 template <int kNumParams>
 ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy,
                               const double* weight, bool center) {
-  return new ceres::AutoDiffCostFunction<ReprojectionCost<kNumParams>, 2, 4, 3,
-                                         3, kNumParams>(
-      new ReprojectionCost<kNumParams>(model_id, xy, weight, center));
+  return new ReprojectionCostFunction<kNumParams>(
+      ReprojectionCost<kNumParams>(model_id, xy, weight, center));
 }
 
 ceres::CostFunction* CreateReprojectionCost(int model_id,

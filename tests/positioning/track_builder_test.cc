@@ -122,6 +122,44 @@ TEST(TrackBuilder, RecoversSyntheticTracksDeterministically) {
   }
 }
 
+TEST(TrackBuilder, DatabaseMatchesFedPairByPairGiveTheSameTracks) {
+  SyntheticSceneOptions scene_options;
+  scene_options.num_images = 7;
+  scene_options.num_points = 300;
+  scene_options.visibility = 0.6;
+  scene_options.outlier_match_ratio = 0.02;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  TrackBuilderStats stats;
+  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches,
+                                  scene.truth.images, &stats);
+  // The same matches as the database stores them (FeatureMatches), in
+  // another order, with a pair of an image with itself (skipped).
+  TrackBuilder builder(TrackBuilderOptions(), scene.truth.images);
+  builder.AddMatches(1, 1, FeatureMatches(3));
+  for (auto it = scene.matches.rbegin(); it != scene.matches.rend(); ++it) {
+    FeatureMatches matches;
+    for (const auto& [idx1, idx2] : it->matches)
+      matches.push_back({idx1, idx2});
+    builder.AddMatches(it->image_id1, it->image_id2, matches);
+  }
+  TrackBuilderStats fed_stats;
+  const auto fed = builder.Build(&fed_stats);
+  EXPECT_EQ(fed_stats.num_observations, stats.num_observations);
+  EXPECT_EQ(fed_stats.num_inconsistent, stats.num_inconsistent);
+  EXPECT_GT(stats.num_inconsistent, 0u);
+  ASSERT_EQ(fed.size(), tracks.size());
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    ASSERT_EQ(fed[t].size(), tracks[t].size());
+    for (size_t e = 0; e < tracks[t].size(); ++e) {
+      EXPECT_EQ(fed[t][e].image_id, tracks[t][e].image_id);
+      EXPECT_EQ(fed[t][e].point2D_idx, tracks[t][e].point2D_idx);
+      if (e > 0) {
+        EXPECT_LT(fed[t][e - 1].image_id, fed[t][e].image_id);
+      }
+    }
+  }
+}
+
 TEST(TrackBuilder, WrongMatchesBreakOnlySomeTracks) {
   SyntheticSceneOptions scene_options;
   scene_options.num_images = 6;

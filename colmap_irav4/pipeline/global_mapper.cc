@@ -413,11 +413,18 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         stage.Add("keypoint noise px (coarsest scales)",
                   ba_summary.scale_bin_noise_px.back());
       }
+      stage.AddText("linear solver", ba_summary.linear_solver_reason);
+      if (ba_summary.schur_density >= 0) {
+        stage.Add("pairs sharing a point (fraction)", ba_summary.schur_density);
+      }
       // Where its time goes (wall seconds; not figures: they vary by run).
       LOG(INFO) << log_prefix_ << "bundle adjustment "
                 << std::to_string(iteration + 1) << ": "
-                << ba_summary.linear_solver << ", building the problems "
-                << ba_summary.problem_seconds << " s, Ceres' preprocessing "
+                << (ba_summary.linear_solver_reason.empty()
+                        ? ba_summary.linear_solver
+                        : ba_summary.linear_solver_reason)
+                << ", building the problems " << ba_summary.problem_seconds
+                << " s, Ceres' preprocessing "
                 << ba_summary.preprocessor_seconds << " s, linear solves "
                 << ba_summary.linear_solver_seconds << " s of "
                 << ba_summary.seconds << " s";

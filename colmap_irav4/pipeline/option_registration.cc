@@ -273,6 +273,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "
                "(sparse_schur from 50)");
+  manager->Add("BundleAdjustment.iterative_schur_min_density",
+               &ba.iterative_schur_min_density,
+               "linear_solver auto: iterative_schur when this fraction of "
+               "the image pairs share a point (above 1: never)");
   manager->Add("BundleAdjustment.parameterize_centers",
                &ba.parameterize_centers,
                "poses as rotation and projection centre (0: rotation and "

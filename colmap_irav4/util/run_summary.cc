@@ -146,6 +146,9 @@ void AppendStagesJson(const std::vector<StageReport>& stages,
     for (const auto& [name, value] : stage.figures) {
       *out << ", " << JsonString(name) << ": " << JsonNumber(value);
     }
+    for (const auto& [name, text] : stage.texts) {
+      *out << ", " << JsonString(name) << ": " << JsonString(text);
+    }
     *out << "}";
   }
   *out << (stages.empty() ? "" : "\n" + indent) << "]";

@@ -39,8 +39,15 @@ struct StageReport {
   // Named figures in order, e.g. {"pairs", 55}, {"points", 1234}.
   std::vector<std::pair<std::string, double>> figures;
 
+  // Named texts in order (e.g. {"linear solver", "SPARSE_SCHUR: ..."}):
+  // summary.json strings, not in the log line.
+  std::vector<std::pair<std::string, std::string>> texts;
+
   void Add(const std::string& figure, double value) {
     figures.emplace_back(figure, value);
+  }
+  void AddText(const std::string& name, const std::string& text) {
+    texts.emplace_back(name, text);
   }
   // "name: 1.23 s (cpu 0.45 s, peak 120 MiB), pairs 55, ..." (integers
   // without decimals).
@@ -58,6 +65,9 @@ class StageTimer {
   StageReport& report() { return report_; }
   void Add(const std::string& figure, double value) {
     report_.Add(figure, value);
+  }
+  void AddText(const std::string& name, const std::string& text) {
+    report_.AddText(name, text);
   }
 
   // Stops the clocks, logs, appends to *stages (if not null) and returns the

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # One benchmark run, side by side: colmap_irav4's mapper, COLMAP 3.8's
-# incremental mapper and (when a COLMAP >= 4 binary is given or is `colmap` on
+# incremental mapper and (when a COLMAP >= 4 binary is given by
+# --global_mapper or $COLMAP4, is /opt/colmap4/bin/colmap or is `colmap` on
 # the PATH) COLMAP 4's global_mapper, on the Strecha databases and on
 # synthetic scenes with exact ground truth (tools/scene_generator).
 #
@@ -41,7 +42,10 @@ threads=2
 colmap_max_images=300
 run_colmap=1
 run_strecha=1
-global_mapper=""
+# COLMAP 4's binary: --global_mapper, else $COLMAP4, else a build installed
+# under /opt/colmap4, else `colmap` when it has global_mapper.
+global_mapper=${COLMAP4:-}
+[ -z "$global_mapper" ] && [ -x /opt/colmap4/bin/colmap ] && global_mapper=/opt/colmap4/bin/colmap
 global_mapper_max_images=1000
 timeout_seconds=7200
 data_dir=$(cd "$root/.." && pwd)/shared/data
@@ -65,7 +69,7 @@ while [ $# -gt 0 ]; do
     --global_mapper_max_images) global_mapper_max_images=$2; shift 2 ;;
     --timeout) timeout_seconds=$2; shift 2 ;;
     --data_dir) data_dir=$2; shift 2 ;;
-    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
     *) echo "ERROR: unknown option $1 (see $0 --help)" >&2; exit 2 ;;
   esac
 done

@@ -624,6 +624,37 @@ Reconstruction ReadReconstruction(const std::string& path) {
                    "files (.bin or .txt)");
 }
 
+void CheckReconstruction(const std::string& source,
+                         const Reconstruction& reconstruction) {
+  // Record by record against the records checked before, as the readers do.
+  Reconstruction checked;
+  for (const auto& [camera_id, camera] : reconstruction.cameras) {
+    std::string problem = CameraRecordProblem(camera, checked);
+    const int num_params = CameraModelNumParams(camera.model_id);
+    if (problem.empty() &&
+        static_cast<int>(camera.params.size()) != num_params) {
+      problem = "camera " + std::to_string(camera_id) + ": camera model " +
+                CameraModelIdToName(camera.model_id) + " has " +
+                std::to_string(num_params) + " parameters (" +
+                CameraModelParamsInfo(camera.model_id) + "), got " +
+                std::to_string(camera.params.size());
+    }
+    if (!problem.empty()) throw InputError(source, problem);
+    checked.cameras.emplace(camera_id, camera);
+  }
+  for (const auto& [image_id, image] : reconstruction.images) {
+    const std::string problem = ImageRecordProblem(image, checked);
+    if (!problem.empty()) throw InputError(source, problem);
+    checked.images.emplace(image_id, Image());
+  }
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    const std::string problem = PointRecordProblem(point3D_id, checked);
+    if (!problem.empty()) throw InputError(source, problem);
+    checked.points3D.emplace(point3D_id, Point3D());
+  }
+  CheckTracks(source, reconstruction);
+}
+
 // ---------------------------------------------------------------------------
 // Statistics.
 

@@ -302,6 +302,13 @@ void AddNormalizationOptions(OptionManager* manager, NormalizationOptions* o) {
                "extent of the central part of the normalised scene");
 }
 
+void AddComparerOptions(OptionManager* manager,
+                        SimilarityRansacOptions* options) {
+  manager->Add("Comparer.max_relative_error", &options->max_relative_error,
+               "RANSAC inlier threshold, fraction of the reference's median "
+               "centre distance to its centroid");
+}
+
 void AddFoldResolutionOptions(OptionManager* manager,
                               FoldResolutionOptions* options) {
   FoldResolutionOptions& o = *options;

@@ -20,7 +20,9 @@
 // model is not replaced (error before anything is installed).
 //
 // Interrupts: SIGINT/SIGTERM during the run remove the temporary directory's
-// own files (an async-signal-safe walk) before the default action; during
+// own files (an async-signal-safe walk) before the default action (a signal
+// the host program handles itself, as Python does SIGINT, is left to it: it
+// stops the run through util/interrupt.h and the destructor cleans); during
 // the installation (a few renames) the two signals are blocked. Temporary
 // directories of killed runs (their PID no longer alive) are cleaned the
 // same way when a later run starts in the same OUT.

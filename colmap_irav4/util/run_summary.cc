@@ -6,6 +6,8 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/util/interrupt.h"
+
 namespace colmap_irav4 {
 namespace {
 
@@ -32,10 +34,13 @@ std::string StageReport::LogLine() const {
 }
 
 StageTimer::StageTimer(std::string name)
-    : report_(std::move(name)), cpu_start_(std::clock()) {}
+    : report_(std::move(name)), cpu_start_(std::clock()) {
+  ThrowIfInterrupted();  // every stage is a checkpoint (util/interrupt.h)
+}
 
 const StageReport& StageTimer::Finish(const std::string& prefix,
                                       std::vector<StageReport>* stages) {
+  ThrowIfInterrupted();
   report_.seconds = timer_.ElapsedSeconds();
   report_.cpu_seconds =
       static_cast<double>(std::clock() - cpu_start_) / CLOCKS_PER_SEC;

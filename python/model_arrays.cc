@@ -1,7 +1,9 @@
 #include "python/model_arrays.h"
 
 #include <cmath>
+#include <initializer_list>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <pybind11/numpy.h>
@@ -10,6 +12,7 @@
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
+#include "python/arrays.h"
 
 namespace py = pybind11;
 
@@ -17,11 +20,15 @@ namespace colmap_irav4 {
 namespace python {
 namespace {
 
-template <typename T>
-using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
-
 // ---------------------------------------------------------------------------
 // Model -> Python.
+
+py::dict MakeTable(
+    std::initializer_list<std::pair<const char*, py::object>> columns) {
+  py::dict table;
+  for (const auto& [name, column] : columns) table[name] = column;
+  return table;
+}
 
 template <typename T>
 Array<T> NewArray(std::vector<py::ssize_t> shape) {
@@ -44,13 +51,11 @@ py::dict CamerasToPython(const Reconstruction& model) {
                                 camera.params.data()));
     ++row;
   }
-  py::dict table;
-  table["camera_id"] = camera_id;
-  table["model"] = model_names;
-  table["width"] = width;
-  table["height"] = height;
-  table["params"] = params;
-  return table;
+  return MakeTable({{"camera_id", camera_id},
+                    {"model", model_names},
+                    {"width", width},
+                    {"height", height},
+                    {"params", params}});
 }
 
 py::dict ImagesToPython(const Reconstruction& model) {
@@ -89,16 +94,14 @@ py::dict ImagesToPython(const Reconstruction& model) {
     point3D_ids.append(ids);
     ++row;
   }
-  py::dict table;
-  table["image_id"] = image_id;
-  table["name"] = names;
-  table["camera_id"] = camera_id;
-  table["quaternion"] = quaternion;
-  table["rotation"] = rotation;
-  table["translation"] = translation;
-  table["points2D"] = points2D;
-  table["point3D_ids"] = point3D_ids;
-  return table;
+  return MakeTable({{"image_id", image_id},
+                    {"name", names},
+                    {"camera_id", camera_id},
+                    {"quaternion", quaternion},
+                    {"rotation", rotation},
+                    {"translation", translation},
+                    {"points2D", points2D},
+                    {"point3D_ids", point3D_ids}});
 }
 
 py::dict PointsToPython(const Reconstruction& model) {
@@ -125,64 +128,15 @@ py::dict PointsToPython(const Reconstruction& model) {
     tracks.append(track);
     ++row;
   }
-  py::dict table;
-  table["point3D_id"] = point3D_id;
-  table["xyz"] = xyz;
-  table["rgb"] = rgb;
-  table["error"] = error;
-  table["track"] = tracks;
-  return table;
+  return MakeTable({{"point3D_id", point3D_id},
+                    {"xyz", xyz},
+                    {"rgb", rgb},
+                    {"error", error},
+                    {"track", tracks}});
 }
 
 // ---------------------------------------------------------------------------
 // Python -> model, every value checked.
-
-std::string ShapeText(const py::array& array) {
-  std::string text = "(";
-  for (py::ssize_t d = 0; d < array.ndim(); ++d) {
-    text += (d ? ", " : "") + std::to_string(array.shape(d));
-  }
-  return text + (array.ndim() == 1 ? ",)" : ")");
-}
-
-// `value` as an array of T with `shape` (-1: any size). Integers must come
-// from an integer (or bool) array, never rounded from floats.
-template <typename T>
-Array<T> CheckedArray(const py::handle& value, const std::string& name,
-                      const std::vector<py::ssize_t>& shape) {
-  const py::module_ numpy = py::module_::import("numpy");
-  py::array array;
-  try {
-    array = numpy.attr("asarray")(value);
-  } catch (const py::error_already_set& error) {
-    throw InputError(name, std::string("not an array: ") + error.what());
-  }
-  const std::string kind =
-      py::str(array.dtype().attr("kind")).cast<std::string>();
-  if (std::is_integral<T>::value
-          ? (kind != "i" && kind != "u" && kind != "b")
-          : (kind != "i" && kind != "u" && kind != "f" && kind != "b")) {
-    throw InputError(
-        name, std::string("expected ") +
-                  (std::is_integral<T>::value ? "integers" : "numbers") +
-                  ", got dtype " + py::str(array.dtype()).cast<std::string>());
-  }
-  bool ok = array.ndim() == static_cast<py::ssize_t>(shape.size());
-  for (size_t d = 0; ok && d < shape.size(); ++d) {
-    ok = shape[d] < 0 || array.shape(static_cast<py::ssize_t>(d)) == shape[d];
-  }
-  if (!ok) {
-    std::string expected = "(";
-    for (size_t d = 0; d < shape.size(); ++d) {
-      expected += (d ? ", " : "") +
-                  (shape[d] < 0 ? std::string("n") : std::to_string(shape[d]));
-    }
-    expected += shape.size() == 1 ? ",)" : ")";
-    throw InputError(
-        name, "expected shape " + expected + ", got " + ShapeText(array));
-  }
-  return Array<T>::ensure(array);
-}
 
 // An integer column's values within [low, high].
 void CheckRange(const Array<int64_t>& values, const std::string& name,

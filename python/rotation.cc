@@ -20,6 +20,7 @@
 #include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
 #include "colmap_irav4/util/timer.h"
+#include "python/arrays.h"
 #include "python/bindings.h"
 #include "python/host.h"
 #include "python/options.h"
@@ -29,29 +30,6 @@ namespace py = pybind11;
 namespace colmap_irav4 {
 namespace python {
 namespace {
-
-template <typename T>
-using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
-
-// `value` as a NumPy array of `kinds` (dtype kinds, e.g. "iu") and `ndim`.
-py::array CheckedArray(const py::handle& value, const std::string& name,
-                       const std::string& kinds, int ndim) {
-  py::array array = py::module_::import("numpy").attr("asarray")(value);
-  const std::string kind =
-      py::str(array.dtype().attr("kind")).cast<std::string>();
-  if (kinds.find(kind) == std::string::npos) {
-    throw InputError(
-        name, "expected " +
-                  std::string(kinds == "iu" ? "integers" : "numbers") +
-                  ", got dtype " + py::str(array.dtype()).cast<std::string>());
-  }
-  if (array.ndim() != ndim) {
-    throw InputError(
-        name, "expected " + std::to_string(ndim) + " dimensions, got shape " +
-                  py::str(py::tuple(array.attr("shape"))).cast<std::string>());
-  }
-  return array;
-}
 
 py::tuple RotationAveraging(int num_images, const py::object& pairs_argument,
                             const py::object& rotations_argument,
@@ -75,34 +53,16 @@ py::tuple RotationAveraging(int num_images, const py::object& pairs_argument,
                      "must be at least 1, got " + std::to_string(num_images));
   }
   const Array<int64_t> pairs =
-      Array<int64_t>::ensure(CheckedArray(pairs_argument, "pairs", "iu", 2));
-  if (pairs.shape(1) != 2) {
-    throw InputError("pairs", "expected shape (N, 2), got (" +
-                                  std::to_string(pairs.shape(0)) + ", " +
-                                  std::to_string(pairs.shape(1)) + ")");
-  }
+      CheckedArray<int64_t>(pairs_argument, "pairs", {-1, 2});
   const py::ssize_t num_pairs = pairs.shape(0);
   if (num_pairs == 0) throw InputError("pairs", "no pairs");
-  const Array<double> rotations = Array<double>::ensure(
-      CheckedArray(rotations_argument, "relative_rotations", "iuf", 3));
-  if (rotations.shape(0) != num_pairs || rotations.shape(1) != 3 ||
-      rotations.shape(2) != 3) {
-    throw InputError("relative_rotations",
-                     "expected shape (" + std::to_string(num_pairs) +
-                         ", 3, 3) (one per pair), got (" +
-                         std::to_string(rotations.shape(0)) + ", " +
-                         std::to_string(rotations.shape(1)) + ", " +
-                         std::to_string(rotations.shape(2)) + ")");
-  }
+  // One rotation and weight per pair.
+  const Array<double> rotations = CheckedArray<double>(
+      rotations_argument, "relative_rotations", {num_pairs, 3, 3});
   std::vector<double> weights(static_cast<size_t>(num_pairs), 1.0);
   if (!weights_argument.is_none()) {
-    const Array<double> values = Array<double>::ensure(
-        CheckedArray(weights_argument, "weights", "iuf", 1));
-    if (values.shape(0) != num_pairs) {
-      throw InputError("weights", "expected " + std::to_string(num_pairs) +
-                                      " weights (one per pair), got " +
-                                      std::to_string(values.shape(0)));
-    }
+    const Array<double> values =
+        CheckedArray<double>(weights_argument, "weights", {num_pairs});
     for (py::ssize_t k = 0; k < num_pairs; ++k) {
       if (!std::isfinite(values.at(k)) || !(values.at(k) > 0)) {
         throw InputError(

@@ -50,7 +50,8 @@ py::dict ViewGraphOfDatabase(const py::object& database_path_argument,
     pairs.mutable_at(k, 0) = edge.i;
     pairs.mutable_at(k, 1) = edge.j;
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) rotations.mutable_at(k, r, c) = edge.R_ij(r, c);
+      for (int c = 0; c < 3; ++c)
+        rotations.mutable_at(k, r, c) = edge.R_ij(r, c);
     }
     weights.mutable_at(k) = edge.weight;
   }
@@ -66,9 +67,10 @@ py::dict ViewGraphOfDatabase(const py::object& database_path_argument,
 }  // namespace
 
 void DefineViewGraph(py::module_& module) {
-  module.def("view_graph", &ViewGraphOfDatabase, py::arg("database_path"),
-             py::arg("options") = py::none(),
-             R"doc(The verified image pairs of a COLMAP database (read-only) after
+  module.def(
+      "view_graph", &ViewGraphOfDatabase, py::arg("database_path"),
+      py::arg("options") = py::none(),
+      R"doc(The verified image pairs of a COLMAP database (read-only) after
 the view graph's filters, as rotation_averaging takes them: a dict with
 image_names and image_ids (the connected images, in image id order; index =
 vertex), pairs (N, 2) vertex indices, relative_rotations (N, 3, 3)

@@ -95,7 +95,9 @@ e.g. {"Mapper": {"num_threads": 1, "seed": 0}, "output_type": "TXT"}
 ValueError naming the option.
 
 Returns (models, summary): the written models as read_model gives them, and
-summary.json as a dict. Progress goes to the logger 'colmap_irav4'.)doc");
+summary.json as a dict (summary["num_folded_models"] > 0: a model is still
+flagged folded, where the command exits with code 3). Progress goes to the
+logger 'colmap_irav4'.)doc");
 }
 
 }  // namespace python

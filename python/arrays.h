@@ -45,14 +45,16 @@ Array<T> CheckedArray(const pybind11::handle& value, const std::string& name,
   if (std::is_integral<T>::value
           ? (kind != "i" && kind != "u" && kind != "b")
           : (kind != "i" && kind != "u" && kind != "f" && kind != "b")) {
-    throw InputError(
-        name, std::string("expected ") +
-                  (std::is_integral<T>::value ? "integers" : "numbers") +
-                  ", got dtype " + pybind11::str(array.dtype()).cast<std::string>());
+    throw InputError(name,
+                     std::string("expected ") +
+                         (std::is_integral<T>::value ? "integers" : "numbers") +
+                         ", got dtype " +
+                         pybind11::str(array.dtype()).cast<std::string>());
   }
   bool ok = array.ndim() == static_cast<pybind11::ssize_t>(shape.size());
   for (size_t d = 0; ok && d < shape.size(); ++d) {
-    ok = shape[d] < 0 || array.shape(static_cast<pybind11::ssize_t>(d)) == shape[d];
+    ok = shape[d] < 0 ||
+         array.shape(static_cast<pybind11::ssize_t>(d)) == shape[d];
   }
   if (!ok) {
     std::string expected = "(";

@@ -418,6 +418,125 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddFoldResolutionOptions(manager, &o.fold);
 }
 
+const std::vector<Colmap4Flag>& Colmap4GlobalMapperFlags() {
+  constexpr int kUnsupported = -1;
+  static const std::vector<Colmap4Flag> flags = {
+      // The command's general options (COLMAP's BaseOptionManager).
+      {"project_path", "", kUnsupported, "give the options as flags"},
+      {"default_random_seed", "", kUnsupported, "see --Mapper.seed"},
+      {"log_target", "", kUnsupported, "logs go to stderr"},
+      {"log_path", "", kUnsupported, "logs go to stderr"},
+      {"log_level", "", kUnsupported, "logs go to stderr"},
+      {"log_severity", "", kUnsupported, "logs go to stderr"},
+      {"log_color", "", kUnsupported, "logs go to stderr"},
+      // --GlobalMapper.*
+      {"GlobalMapper.image_list_path", "", kUnsupported,
+       "every image of the database is used"},
+      {"GlobalMapper.min_num_matches", "Mapper.min_num_matches", 0,
+       "same default, 15"},
+      {"GlobalMapper.ignore_watermarks", "", 1,
+       "watermark pairs are dropped; --ViewGraph.drop_configs lists the "
+       "dropped configurations"},
+      {"GlobalMapper.num_threads", "Mapper.num_threads", 0, ""},
+      {"GlobalMapper.random_seed", "Mapper.seed", 0,
+       "COLMAP's -1 (a seed from the clock) is not supported: ours defaults "
+       "to 0, every run reproducible"},
+      {"GlobalMapper.decompose_relative_pose", "", 1,
+       "relative poses are always derived from the two-view geometries"},
+      {"GlobalMapper.ba_num_iterations", "Mapper.num_ba_iterations", 0,
+       "COLMAP 3, ours 2"},
+      {"GlobalMapper.skip_rotation_averaging", "", 0,
+       "nothing downstream exists without it"},
+      {"GlobalMapper.skip_track_establishment", "", 0,
+       "nothing downstream exists without it"},
+      {"GlobalMapper.skip_global_positioning", "", 0,
+       "nothing downstream exists without it"},
+      {"GlobalMapper.skip_bundle_adjustment", "Mapper.skip_bundle_adjustment",
+       0, ""},
+      {"GlobalMapper.skip_retriangulation", "Mapper.skip_retriangulation", 0,
+       ""},
+      {"GlobalMapper.track_intra_image_consistency_threshold",
+       "Tracks.max_duplicate_distance", 0, "pixels; COLMAP 10, ours 4"},
+      {"GlobalMapper.track_required_tracks_per_view", "", kUnsupported,
+       "--Mapper.positioning_tracks_per_image selects the tracks of global "
+       "positioning only"},
+      {"GlobalMapper.track_min_num_views_per_track", "Tracks.min_track_length",
+       0, "COLMAP 3, ours 2"},
+      {"GlobalMapper.keep_max_num_tracks", "Mapper.max_num_tracks", 0,
+       "no cap: COLMAP's default 2147483647, ours 0"},
+      {"GlobalMapper.gp_use_gpu", "", 0, "CPU only"},
+      {"GlobalMapper.gp_gpu_index", "", kUnsupported, "CPU only"},
+      {"GlobalMapper.gp_optimize_positions", "", 1,
+       "global positioning always solves for the positions"},
+      {"GlobalMapper.gp_optimize_points", "", 1,
+       "global positioning always solves for the points"},
+      {"GlobalMapper.gp_optimize_scales", "", 1,
+       "global positioning always solves for the scales"},
+      {"GlobalMapper.gp_loss_function_scale", "GlobalPositioning.loss_scale", 0,
+       "same default, 0.1 (ours: of a Cauchy loss)"},
+      {"GlobalMapper.gp_max_num_iterations",
+       "GlobalPositioning.max_num_iterations", 0, ""},
+      {"GlobalMapper.ba_refine_focal_length", "Mapper.ba_refine_focal_length",
+       0, ""},
+      {"GlobalMapper.ba_refine_principal_point",
+       "Mapper.ba_refine_principal_point", 0, ""},
+      {"GlobalMapper.ba_refine_extra_params", "Mapper.ba_refine_extra_params",
+       0, ""},
+      {"GlobalMapper.refine_sensor_from_rig", "", kUnsupported,
+       "no camera rigs"},
+      {"GlobalMapper.ba_refine_rig_from_world", "", 1,
+       "bundle adjustment always refines the poses"},
+      {"GlobalMapper.ba_refine_points3D", "", 1,
+       "bundle adjustment always refines the points"},
+      {"GlobalMapper.ba_min_track_length", "", kUnsupported,
+       "bundle adjustment uses every point"},
+      {"GlobalMapper.ba_ceres_use_gpu", "", 0, "CPU only"},
+      {"GlobalMapper.ba_ceres_gpu_index", "", kUnsupported, "CPU only"},
+      {"GlobalMapper.ba_ceres_loss_function_scale",
+       "BundleAdjustment.loss_scale", 0,
+       "pixels; ours applies it with --BundleAdjustment.loss_function huber "
+       "or cauchy (default trivial)"},
+      {"GlobalMapper.ba_ceres_max_num_iterations",
+       "BundleAdjustment.max_num_iterations", 0, ""},
+      {"GlobalMapper.ba_skip_fixed_rotation_stage", "", 1,
+       "ours has no fixed-rotation stage"},
+      {"GlobalMapper.ba_skip_joint_optimization_stage", "", 0,
+       "ours has no fixed-rotation stage"},
+      {"GlobalMapper.tri_complete_max_reproj_error", "", kUnsupported,
+       "one threshold: --Triangulation.max_reproj_error"},
+      {"GlobalMapper.tri_merge_max_reproj_error", "", kUnsupported,
+       "one threshold: --Triangulation.max_reproj_error"},
+      {"GlobalMapper.tri_min_angle", "Triangulation.min_tri_angle", 0,
+       "degrees; COLMAP 1, ours 1.5"},
+      {"GlobalMapper.ra_use_gravity", "", 0, "no gravity priors"},
+      {"GlobalMapper.ra_use_stratified", "", kUnsupported,
+       "see --Mapper.rotation_method"},
+      {"GlobalMapper.ra_max_rotation_error_deg",
+       "RotationFilter.max_rotation_error_deg", 0, ""},
+      {"GlobalMapper.max_angular_reproj_error_deg",
+       "GlobalPositioning.max_angular_error_deg", 0,
+       "degrees; COLMAP 1, ours 5"},
+      {"GlobalMapper.max_normalized_reproj_error", "", kUnsupported,
+       "ours in pixels: --BundleAdjustment.max_reproj_error, "
+       "--Filter.max_reproj_error"},
+      {"GlobalMapper.min_tri_angle_deg", "Filter.min_tri_angle", 0,
+       "degrees; COLMAP 1, ours 1.5"},
+  };
+  return flags;
+}
+
+void AddColmap4GlobalMapperFlags(OptionManager* manager) {
+  for (const Colmap4Flag& flag : Colmap4GlobalMapperFlags()) {
+    if (!flag.ours.empty()) {
+      manager->AddAlias(flag.colmap4, flag.ours);
+    } else if (flag.fixed >= 0) {
+      manager->AddFixed(flag.colmap4, flag.fixed == 1, flag.note);
+    } else {
+      manager->AddUnsupported(flag.colmap4, flag.note);
+    }
+  }
+}
+
 std::string GlobalMapperOptionsIni(const GlobalMapperOptions& options) {
   GlobalMapperOptions registered = options;
   OptionManager manager("mapper");

@@ -41,7 +41,7 @@ void GlobalPositionerOptions::Check() const {
   }
   if (!(initialization_box > 0)) {
     throw OptionError(&initialization_box,
-                      "GlobalPositioning.initialization_box",
+                      "GlobalPositionerOptions::initialization_box",
                       "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {

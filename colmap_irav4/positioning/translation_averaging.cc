@@ -138,12 +138,12 @@ void TranslationAveragingOptions::Check() const {
                       "must be positive");
   if (!(initialization_box > 0)) {
     throw OptionError(&initialization_box,
-                      "TranslationAveraging.initialization_box",
+                      "TranslationAveragingOptions::initialization_box",
                       "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
     throw OptionError(&max_angular_error_deg,
-                      "TranslationAveraging.max_angular_error_deg",
+                      "TranslationAveragingOptions::max_angular_error_deg",
                       "must be in [0, 180)");
   }
   solver.Check("TranslationAveraging.");

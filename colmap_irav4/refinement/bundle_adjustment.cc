@@ -474,7 +474,7 @@ void BundleAdjustmentOptions::Check() const {
                       "must be at least 1");
   if (!(min_filtered_fraction >= 0 && min_filtered_fraction < 1)) {
     throw OptionError(&min_filtered_fraction,
-                      "BundleAdjustment.min_filtered_fraction",
+                      "BundleAdjustmentOptions::min_filtered_fraction",
                       "must be in [0, 1)");
   }
   if (!(max_reproj_error >= 0)) {

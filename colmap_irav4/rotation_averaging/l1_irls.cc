@@ -40,9 +40,15 @@ void L1IrlsOptions::Check() const {
           "must be auto, cholesky or cg, got '" + linear_solver + "'");
   require(max_cholesky_flops >= 0, &max_cholesky_flops, "max_cholesky_flops",
           "must be >= 0");
-  require(cg_tolerance > 0, &cg_tolerance, "cg_tolerance", "must be > 0");
-  require(cg_max_iterations > 0, &cg_max_iterations, "cg_max_iterations",
-          "must be > 0");
+  // Not registered as flags: named as the members.
+  if (!(cg_tolerance > 0)) {
+    throw OptionError(&cg_tolerance, "L1IrlsOptions::cg_tolerance",
+                      "must be > 0");
+  }
+  if (cg_max_iterations <= 0) {
+    throw OptionError(&cg_max_iterations, "L1IrlsOptions::cg_max_iterations",
+                      "must be > 0");
+  }
 }
 
 namespace {

@@ -51,7 +51,8 @@ void SolverOptions::Check(const std::string& prefix) const {
                       "must be positive");
   }
   if (ceres.num_threads == 0 || ceres.num_threads < -1) {
-    throw OptionError(&ceres.num_threads, prefix + "num_threads",
+    // Set from the command's threads flag: named as the member.
+    throw OptionError(&ceres.num_threads, "SolverOptions::ceres.num_threads",
                       "must be -1 (all cores) or > 0");
   }
 }

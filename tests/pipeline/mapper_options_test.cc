@@ -150,6 +150,31 @@ TEST(MapperOptions, CheckNamesTheFlagWithoutAManager) {
   }
 }
 
+TEST(MapperOptions, UnregisteredSettingsAreNamedAsMembers) {
+  // A setting no command registers is named as its member, never as a flag
+  // that does not exist; a registered one by its flag.
+  GlobalMapperOptions options;
+  options.fold.detection.max_scale_ratio = 0.5;
+  try {
+    options.Check();
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what())
+                  .rfind("FoldDetectionOptions::max_scale_ratio: ", 0),
+              0u)
+        << error.what();
+  }
+  options = GlobalMapperOptions();
+  options.fold.detection.max_fold_score = 2;
+  try {
+    options.Check();
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("--Fold.max_fold_score: ", 0), 0u)
+        << error.what();
+  }
+}
+
 TEST(MapperOptions, IniHoldsEveryFlagWithItsExactValue) {
   GlobalMapperOptions options;
   options.view_graph.min_num_inliers = 30;

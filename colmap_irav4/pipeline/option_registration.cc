@@ -94,7 +94,7 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "IRAv4 clustering: a cluster stops competing at this size "
                "until the fallback pass (0 = no cap)");
   manager->Add("RotationAveraging.reference_method", &options->reference_method,
-               "alignment reference: irav4 | greedy_cds | random_cds");
+               "alignment reference: " + EnumNameList<ReferenceMethod>());
   manager->Add("RotationAveraging.weighted_greedy_cds",
                &options->weighted_greedy_cds,
                "greedy CDS counts neighbours by inlier count");
@@ -103,10 +103,11 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
   manager->Add("RotationAveraging.num_final_rounds", &options->num_final_rounds,
                "rounds of inlier selection + global optimisation at the end");
   manager->Add("RotationAveraging.final_refinement", &options->final_refinement,
-               "IRAv4 after its final optimisation: guarded (default: "
-               "l1_irls kept only if it lowers the Geman-McClure cost, else "
-               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
-               "irls (IRLS only) | none (the paper)");
+               "IRAv4 after its final optimisation: " +
+                   EnumNameList<Irav4FinalRefinement>() +
+                   " (guarded: l1_irls, L1 then Geman-McClure IRLS on all "
+                   "edges, kept only if it lowers the Geman-McClure cost, "
+                   "else irls, IRLS only; none: the paper)");
   manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
                "IRAv4 refinement: re-initialise badly supported "
                "vertices from their best pre-computation, refine again");
@@ -176,7 +177,7 @@ void AddRotationAveragerOptions(OptionManager* options,
                "L1-IRLS (and IRAv4's irls refinement): Geman-McClure scale "
                "(deg)");
   options->Add(p + "linear_solver", &l1->linear_solver,
-               "L1-IRLS: auto, cholesky or cg");
+               "L1-IRLS: " + EnumNameList<L1IrlsLinearSolver>());
   options->Add(p + "max_cholesky_flops", &l1->max_cholesky_flops,
                "L1-IRLS: auto uses Cholesky up to this factorisation cost");
 }
@@ -204,7 +205,7 @@ void AddGlobalPositioningOptions(OptionManager* manager,
   manager->Add("GlobalPositioning.min_track_length", &gp.min_track_length,
                "tracks positioned (shorter: retriangulated later)");
   manager->Add("GlobalPositioning.loss_function", &gp.loss_function,
-               "huber, cauchy or trivial");
+               EnumNameList<LossFunctionType>());
   manager->Add("GlobalPositioning.loss_scale", &gp.loss_scale,
                "robust loss scale");
   manager->Add("GlobalPositioning.max_angular_error_deg",
@@ -216,9 +217,10 @@ void AddGlobalPositioningOptions(OptionManager* manager,
 void AddTranslationAveragingOptions(OptionManager* manager,
                                     TranslationAveragingOptions* o) {
   TranslationAveragingOptions& ta = *o;
-  manager->Add("TranslationAveraging.cost", &ta.cost, "bata or chordal");
+  manager->Add("TranslationAveraging.cost", &ta.cost,
+               EnumNameList<TranslationAveragingCost>());
   manager->Add("TranslationAveraging.loss_function", &ta.loss_function,
-               "huber, cauchy or trivial");
+               EnumNameList<LossFunctionType>());
   manager->Add("TranslationAveraging.loss_scale", &ta.loss_scale,
                "robust loss scale");
   AddSolverOptions(manager, "TranslationAveraging.", &ta.solver);
@@ -260,7 +262,7 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* o) {
   BundleAdjustmentOptions& ba = *o;
   manager->Add("BundleAdjustment.loss_function", &ba.loss_function,
-               "huber, cauchy or trivial");
+               EnumNameList<BundleAdjustmentLoss>());
   manager->Add("BundleAdjustment.loss_scale", &ba.loss_scale,
                "robust loss scale (px)");
   manager->Add("BundleAdjustment.num_rounds", &ba.num_rounds,
@@ -268,7 +270,7 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
   manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
                "observations over this error are removed between rounds (px)");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
-               "auto, sparse_schur, dense_schur or iterative_schur");
+               EnumNameList<BundleAdjustmentLinearSolver>());
   manager->Add("BundleAdjustment.iterative_schur_min_num_images",
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "
@@ -345,7 +347,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   manager->Add("Mapper.rotation_method", &o.rotation_method,
                "rotation averaging: " + RotationAveragerMethodList());
   manager->Add("Mapper.positioning_method", &o.positioning_method,
-               "global_positioning or translation_averaging");
+               EnumNameList<PositioningMethod>());
   // COLMAP's names for the bundle adjustment's intrinsics flags.
   BundleAdjustmentOptions& ba = o.bundle_adjustment;
   manager->Add("Mapper.ba_refine_focal_length", &ba.refine_focal_length,

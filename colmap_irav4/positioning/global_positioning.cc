@@ -30,11 +30,6 @@ void GlobalPositionerOptions::Check() const {
     throw OptionError(&min_track_length, "GlobalPositioning.min_track_length",
                       "must be at least 2");
   }
-  if (!IsLossFunction(loss_function)) {
-    throw OptionError(
-        &loss_function, "GlobalPositioning.loss_function",
-        "must be huber, cauchy or trivial, not '" + loss_function + "'");
-  }
   if (!(loss_scale > 0)) {
     throw OptionError(&loss_scale, "GlobalPositioning.loss_scale",
                       "must be positive");

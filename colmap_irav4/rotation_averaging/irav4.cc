@@ -190,31 +190,28 @@ int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
   return num_placed;
 }
 
-ReferenceMethod ReferenceMethodFromString(const std::string& name) {
-  if (name == "irav4") return ReferenceMethod::kIrav4;
-  if (name == "greedy_cds") return ReferenceMethod::kGreedyCds;
-  if (name == "random_cds") return ReferenceMethod::kRandomCds;
-  throw InputError("--RotationAveraging.reference_method",
-                   "unknown reference method '" + name +
-                       "' (irav4, greedy_cds, random_cds)");
+template <>
+const EnumNames<ReferenceMethod>& NamesOf<ReferenceMethod>() {
+  static const EnumNames<ReferenceMethod> names = {
+      {ReferenceMethod::kIrav4, "irav4"},
+      {ReferenceMethod::kGreedyCds, "greedy_cds"},
+      {ReferenceMethod::kRandomCds, "random_cds"}};
+  return names;
 }
 
-std::string ReferenceMethodToString(ReferenceMethod method) {
-  switch (method) {
-    case ReferenceMethod::kIrav4:
-      return "irav4";
-    case ReferenceMethod::kGreedyCds:
-      return "greedy_cds";
-    case ReferenceMethod::kRandomCds:
-      return "random_cds";
-  }
-  return "?";
+template <>
+const EnumNames<Irav4FinalRefinement>& NamesOf<Irav4FinalRefinement>() {
+  static const EnumNames<Irav4FinalRefinement> names = {
+      {Irav4FinalRefinement::kNone, "none"},
+      {Irav4FinalRefinement::kIrls, "irls"},
+      {Irav4FinalRefinement::kL1Irls, "l1_irls"},
+      {Irav4FinalRefinement::kGuarded, "guarded"}};
+  return names;
 }
 
 void Irav4Options::Check() const {
   engine.Check();
   communities.Check();
-  ReferenceMethodFromString(reference_method);
   if (num_random_cds < 1) {
     throw OptionError(&num_random_cds, "RotationAveraging.num_random_cds",
                       "must be >= 1");
@@ -226,12 +223,6 @@ void Irav4Options::Check() const {
   if (num_final_rounds < 0) {
     throw OptionError(&num_final_rounds, "RotationAveraging.num_final_rounds",
                       "must be >= 0");
-  }
-  if (final_refinement != "none" && final_refinement != "irls" &&
-      final_refinement != "l1_irls" && final_refinement != "guarded") {
-    throw OptionError(&final_refinement, "RotationAveraging.final_refinement",
-                      "must be none, irls, l1_irls or guarded, got '" +
-                          final_refinement + "'");
   }
   if (!(reseed_threshold_deg > 0 && reseed_threshold_deg < 180)) {
     throw OptionError(&reseed_threshold_deg,
@@ -551,8 +542,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   double reference_seconds = 0.0;
   auto build_reference = [&]() {
     Timer reference_timer;
-    reference = BuildAlignmentReference(
-        graph, options_, ReferenceMethodFromString(options_.reference_method));
+    reference =
+        BuildAlignmentReference(graph, options_, options_.reference_method);
     reference_seconds = reference_timer.ElapsedSeconds();
   };
   ParallelFor(std::min(num_threads, 2), 2, [&](size_t task) {
@@ -567,7 +558,7 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   report_.n_ref = static_cast<int>(reference.vertices.size());
   result.stage_seconds.emplace_back("reference", reference_seconds);
   LOG_IF(INFO, options_.log_progress)
-      << "IRAv4: " << options_.reference_method
+      << "IRAv4: " << EnumName(options_.reference_method)
       << " reference n_ref = " << report_.n_ref
       << (reference.is_cds ? " (connected dominating)" : "") << " ("
       << reference_seconds << " s)";
@@ -661,12 +652,13 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   // outlier edges can never come back) and weighs the inliers uniformly
   // (at sigma 5 deg many inliers lie beyond theta = 3 deg); L1 then a
   // smooth redescending loss on all edges fixes both.
-  if (options_.final_refinement != "none" && estimated_vertices.size() >= 2) {
+  if (options_.final_refinement != Irav4FinalRefinement::kNone &&
+      estimated_vertices.size() >= 2) {
     timer.Restart();
     L1IrlsOptions refinement = options_.refinement;
     refinement.log_progress = refinement.log_progress || options_.log_progress;
     const int root = estimated_vertices.front();
-    if (options_.final_refinement == "guarded") {
+    if (options_.final_refinement == Irav4FinalRefinement::kGuarded) {
       // L1 then IRLS from IRAv4's rotations, kept only if it lowers the
       // Geman-McClure cost over all edges below that of IRAv4's own
       // rotations. The L1 stage recovers cameras placed through random
@@ -696,7 +688,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
           << " before, " << cost_after << " after L1 + IRLS: "
           << (report_.refinement_used_l1 ? "kept" : "rejected, IRLS only");
     } else {
-      report_.refinement_used_l1 = options_.final_refinement == "l1_irls";
+      report_.refinement_used_l1 =
+          options_.final_refinement == Irav4FinalRefinement::kL1Irls;
       report_.num_refinement_iterations =
           RefineRotationsIrls(graph, refinement, estimated, root, &rotations,
                               report_.refinement_used_l1);

@@ -76,14 +76,19 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
   return summary;
 }
 
-ceres::LossFunction* CreateLossFunction(const std::string& name, double scale) {
-  if (name == "huber") return new ceres::HuberLoss(scale);
-  if (name == "cauchy") return new ceres::CauchyLoss(scale);
-  return nullptr;
+template <>
+const EnumNames<LossFunctionType>& NamesOf<LossFunctionType>() {
+  static const EnumNames<LossFunctionType> names = {
+      {LossFunctionType::kHuber, "huber"},
+      {LossFunctionType::kCauchy, "cauchy"},
+      {LossFunctionType::kTrivial, "trivial"}};
+  return names;
 }
 
-bool IsLossFunction(const std::string& name) {
-  return name == "huber" || name == "cauchy" || name == "trivial";
+ceres::LossFunction* CreateLossFunction(LossFunctionType type, double scale) {
+  if (type == LossFunctionType::kHuber) return new ceres::HuberLoss(scale);
+  if (type == LossFunctionType::kCauchy) return new ceres::CauchyLoss(scale);
+  return nullptr;
 }
 
 }  // namespace colmap_irav4

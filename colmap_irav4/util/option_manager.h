@@ -3,8 +3,12 @@
 #include <functional>
 #include <ostream>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
+
+#include "colmap_irav4/util/enum_names.h"
+#include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
 
@@ -32,6 +36,20 @@ class OptionManager {
            const std::string& help);
   void AddRequired(const std::string& name, std::string* value,
                    const std::string& help);
+  // A choice (util/enum_names.h): parsed and printed by its names; a value
+  // not among them is refused naming the flag and the allowed names.
+  template <typename Enum, typename = std::enable_if_t<std::is_enum_v<Enum>>>
+  void Add(const std::string& name, Enum* value, const std::string& help) {
+    AddOption(
+        name, help, "choice", EnumName(*value), value,
+        [value](const std::string& flag, const std::string& text) {
+          if (!ParseEnum(text, value)) {
+            throw InputError("--" + flag, "must be " + EnumNameList<Enum>() +
+                                              ", got '" + text + "'");
+          }
+        },
+        [value] { return EnumName(*value); });
+  }
   // Another program's name for the registered flag `name` (COLMAP 4's, e.g.
   // --GlobalMapper.num_threads for --Mapper.num_threads): parses into the
   // same member, and errors about that member name the flag as typed.
@@ -56,8 +74,8 @@ class OptionManager {
   void Check(const std::function<void()>& check) const;
 
   // The registered flags (without "--") and their types (bool, int, double,
-  // string), in registration order; aliases, fixed and unsupported flags
-  // excluded.
+  // string, choice), in registration order; aliases, fixed and unsupported
+  // flags excluded.
   std::vector<std::pair<std::string, std::string>> Options() const;
 
   void PrintHelp(std::ostream& stream) const;

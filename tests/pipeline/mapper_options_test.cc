@@ -18,22 +18,32 @@
 namespace colmap_irav4 {
 namespace {
 
-// Parses `--flag value` into fresh mapper options and checks them. Returns
-// the error message, or "" when the value was accepted.
-std::string TryValue(const std::string& flag, const std::string& value) {
-  GlobalMapperOptions options;
-  OptionManager manager("mapper");
-  AddGlobalMapperOptions(&manager, &options);
-  std::vector<std::string> args = {"mapper", "--" + flag, value};
+// Parses `flags` into fresh mapper options (with COLMAP 4's names of
+// global_mapper too when `colmap4`) and checks them. Returns the error
+// message, or "" and the options in *options when they were accepted.
+std::string Parse(const std::vector<std::string>& flags, bool colmap4,
+                  GlobalMapperOptions* options) {
+  OptionManager manager(colmap4 ? "global_mapper" : "mapper");
+  AddGlobalMapperOptions(&manager, options);
+  if (colmap4) AddColmap4GlobalMapperFlags(&manager);
+  std::vector<std::string> args = {"mapper"};
+  args.insert(args.end(), flags.begin(), flags.end());
   std::vector<char*> argv;
   for (std::string& arg : args) argv.push_back(arg.data());
   try {
     manager.Parse(static_cast<int>(argv.size()), argv.data());
-    manager.Check([&] { options.Check(); });
+    manager.Check([&] { options->Check(); });
   } catch (const InputError& error) {
     return error.what();
   }
   return "";
+}
+
+// Parses `--flag value` into fresh mapper options and checks them. Returns
+// the error message, or "" when the value was accepted.
+std::string TryValue(const std::string& flag, const std::string& value) {
+  GlobalMapperOptions options;
+  return Parse({"--" + flag, value}, /*colmap4=*/false, &options);
 }
 
 TEST(MapperOptions, EveryFlagWithABadValueIsRejectedNamingThatFlag) {
@@ -84,6 +94,19 @@ TEST(MapperOptions, MinNumMatchesIsNamedAsTyped) {
   const std::string message = TryValue("Mapper.min_num_matches", "-1");
   EXPECT_EQ(message.rfind("--Mapper.min_num_matches: ", 0), 0u) << message;
   EXPECT_EQ(message.find("ViewGraph"), std::string::npos) << message;
+}
+
+TEST(MapperOptions, ChoicesAreParsedByNameAndListTheAllowedOnes) {
+  EXPECT_EQ(TryValue("TranslationAveraging.cost", "l2"),
+            "--TranslationAveraging.cost: must be bata or chordal, got 'l2'");
+  EXPECT_EQ(TryValue("BundleAdjustment.loss_function", "cauchy"), "");
+  EXPECT_EQ(TryValue("Mapper.positioning_method", "translation_averaging"), "");
+  // project.ini writes a choice by its name.
+  GlobalMapperOptions options;
+  options.translation_averaging.cost = TranslationAveragingCost::kChordal;
+  EXPECT_NE(GlobalMapperOptionsIni(options).find(
+                "[TranslationAveraging]\ncost=chordal\n"),
+            std::string::npos);
 }
 
 TEST(MapperOptions, EveryMemberRegisteredOnce) {
@@ -200,25 +223,13 @@ TEST(MapperOptions, IniHoldsEveryFlagWithItsExactValue) {
   EXPECT_EQ(num_lines, manager.Options().size() + num_sections + 1);
 }
 
-// Parses `args` into fresh mapper options under the global_mapper command's
+// Parses `flags` into fresh mapper options under the global_mapper command's
 // names (ours and COLMAP 4's) and checks them; the options' project.ini, or
 // the error message prefixed by "ERROR ".
 std::string ParseGlobalMapper(const std::vector<std::string>& flags) {
   GlobalMapperOptions options;
-  OptionManager manager("global_mapper");
-  AddGlobalMapperOptions(&manager, &options);
-  AddColmap4GlobalMapperFlags(&manager);
-  std::vector<std::string> args = {"global_mapper"};
-  args.insert(args.end(), flags.begin(), flags.end());
-  std::vector<char*> argv;
-  for (std::string& arg : args) argv.push_back(arg.data());
-  try {
-    manager.Parse(static_cast<int>(argv.size()), argv.data());
-    manager.Check([&] { options.Check(); });
-  } catch (const InputError& error) {
-    return std::string("ERROR ") + error.what();
-  }
-  return GlobalMapperOptionsIni(options);
+  const std::string error = Parse(flags, /*colmap4=*/true, &options);
+  return error.empty() ? GlobalMapperOptionsIni(options) : "ERROR " + error;
 }
 
 // A valid value other than the default, for every flag COLMAP 4 names.

@@ -155,6 +155,36 @@ class Irav4 : public RotationAverager {
   const Irav4Report& LastReport() const { return report_; }
 
  private:
+  // Estimate's steps, in order (3, the reference, is
+  // BuildAlignmentReference); each fills its part of report_.
+  struct Clusters;
+  // 1. Communities (Eq. 1-4 inside each), one seed triplet each (or one
+  // from the whole graph), and each cluster's potential vertices (IRAv3's
+  // pre-selection). False when nothing could seed.
+  bool SeedClusters(const RotationGraph& graph, int num_threads, Clusters* run);
+  // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
+  // clusters joins, by normalised reward (a cluster's best candidate is
+  // cached until it grows or loses it); a fallback pass lets every cluster
+  // take any adjacent vertex no pre-selected pair reached. Returns the
+  // seconds it took.
+  double GrowClusters(int num_threads, Clusters* run);
+  // 4. Common-vertex-guided alignment of each cluster to the reference (a
+  // second round against the clusters aligned so far); what still fails is
+  // placed vertex by vertex. Releases the clusters' engines.
+  void AlignClusters(const RotationGraph& graph,
+                     const AlignmentReference& reference, Clusters* run,
+                     std::vector<Eigen::Matrix3d>* rotations,
+                     std::vector<bool>* estimated);
+  // 5. The final optimisation over the inlier edges of the whole graph
+  // (Eq. 11-12), num_final_rounds times.
+  void OptimizeOverInlierEdges(const RotationGraph& graph,
+                               const std::vector<int>& estimated_vertices,
+                               std::vector<Eigen::Matrix3d>* rotations);
+  // 6. final_refinement over all edges (`root` held), then re-seeding.
+  void RefineOverAllEdges(const RotationGraph& graph,
+                          const std::vector<bool>& estimated, int root,
+                          std::vector<Eigen::Matrix3d>* rotations);
+
   Irav4Options options_;
   Irav4Report report_;
 };

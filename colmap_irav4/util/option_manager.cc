@@ -349,7 +349,7 @@ void OptionManager::PrintHelp(std::ostream& stream) const {
   for (const Option& option : options_) {
     if (option.target < 0 && !option.foreign) continue;
     if (!foreign_header) {
-      stream << "\nCOLMAP 4's names (same meaning as ours):\n";
+      stream << "\nCOLMAP 4's flags (ours where the meaning is the same):\n";
       foreign_header = true;
     }
     stream << "  --" << option.name << ": ";

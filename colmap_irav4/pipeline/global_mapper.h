@@ -45,6 +45,11 @@ struct RotationFilterOptions {
   void Check() const;  // throws InputError naming the option
 };
 
+// How the camera centres (and points) are found after rotation averaging.
+enum class PositioningMethod { kGlobalPositioning, kTranslationAveraging };
+template <>
+const EnumNames<PositioningMethod>& NamesOf<PositioningMethod>();
+
 struct GlobalMapperOptions {
   // Components of the view graph with fewer images give no model
   // (COLMAP's min_model_size; 3 is the least a global model needs).
@@ -53,7 +58,7 @@ struct GlobalMapperOptions {
   // l1_irls, spanning_tree (see RotationAveragerMethods()).
   std::string rotation_method;
   // global_positioning or translation_averaging.
-  std::string positioning_method = "global_positioning";
+  PositioningMethod positioning_method = PositioningMethod::kGlobalPositioning;
   // Ceres / worker threads of every stage; -1: all cores.
   int num_threads = -1;
   // Seed of every stage's random choices (random initialisation of global
@@ -256,10 +261,5 @@ std::vector<ImagePairGeometry> FilterPairsByRotation(
     const std::vector<ImagePairGeometry>& pairs,
     const std::map<image_t, Eigen::Matrix3d>& rotations,
     double max_rotation_error_deg);
-
-// Connected components of the images of `pairs`, largest first (ties: the
-// component with the smallest image id first); each sorted ascending.
-std::vector<std::vector<image_t>> PairComponents(
-    const std::vector<ImagePairGeometry>& pairs);
 
 }  // namespace colmap_irav4

@@ -159,7 +159,7 @@ std::vector<Reconstruction> GlobalPipeline::Reconstruct(
   // The mapper-wide settings reach every stage's options here, once.
   stage_options_ = options_.ForStages(database.images.size());
   summary_.rotation_method = options_.rotation_method;
-  summary_.positioning_method = options_.positioning_method;
+  summary_.positioning_method = EnumName(options_.positioning_method);
   summary_.num_database_images = static_cast<int>(database.images.size());
   summary_.num_database_pairs =
       static_cast<int>(database.two_view_geometries.size());
@@ -231,10 +231,8 @@ std::vector<ComponentModel> GlobalPipeline::MapComponents(
   for (size_t c = 0; c < components.size(); ++c) {
     if (static_cast<int>(components[c].size()) < options_.min_model_size) break;
     const std::set<image_t> images(components[c].begin(), components[c].end());
-    std::vector<ImagePairGeometry> pairs;
-    for (const ImagePairGeometry& pair : view_graph.pairs) {
-      if (images.count(pair.image_id1)) pairs.push_back(pair);
-    }
+    std::vector<ImagePairGeometry> pairs =
+        PairsWithin(view_graph.pairs, images);
     const std::string prefix =
         components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
     ComponentMapper mapper(stage_options_, database, view_graph.cameras,

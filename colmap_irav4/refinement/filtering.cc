@@ -89,7 +89,8 @@ void FilterOptions::Check() const {
   }
   if (min_num_observations_per_image < 0) {
     throw OptionError(&min_num_observations_per_image,
-                      "Filter.min_num_observations_per_image", "must be >= 0");
+                      "FilterOptions::min_num_observations_per_image",
+                      "must be >= 0");
   }
 }
 
@@ -142,7 +143,7 @@ void NormalizationOptions::Check() const {
     throw OptionError(&extent, "Normalization.extent", "must be positive");
   if (!(min_percentile >= 0 && min_percentile < max_percentile &&
         max_percentile <= 1)) {
-    throw OptionError(&min_percentile, "Normalization.min_percentile",
+    throw OptionError(&min_percentile, "NormalizationOptions::min_percentile",
                       "need 0 <= min_percentile < max_percentile <= 1");
   }
 }

@@ -1,6 +1,8 @@
 // colmap_irav4: a global Structure-from-Motion mapper for COLMAP databases.
 // Sub-commands in COLMAP's style: `colmap_irav4 <command> [--options]`.
 
+#include <signal.h>
+
 #include <exception>
 #include <iostream>
 #include <string>
@@ -40,6 +42,9 @@ void PrintUsage() {
 
 int main(int argc, char** argv) {
   using namespace colmap_irav4;
+  // A closed stdout/stderr (`mapper 2>&1 | head`) must not kill the run and
+  // lose its output: writes to it fail quietly instead.
+  signal(SIGPIPE, SIG_IGN);
   google::InitGoogleLogging(argv[0]);
   FLAGS_logtostderr = true;
   if (argc < 2) {

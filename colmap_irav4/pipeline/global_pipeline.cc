@@ -370,7 +370,10 @@ GlobalMapperSummary RunGlobalMapperOnDatabase(
   // Output writable, OUT/0 replaceable, summary.json not a directory: checked
   // before any work; the models are staged in a temporary directory and
   // installed atomically (util/atomic_output.h).
-  OutputTransaction output(output_path);
+  OutputTransaction output(
+      output_path, {database_path}, [](const std::string& dir, bool binary) {
+        binary ? ReadReconstructionBinary(dir) : ReadReconstructionText(dir);
+      });
 
   Timer total_timer;
   GlobalMapperSummary summary;

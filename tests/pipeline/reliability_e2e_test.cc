@@ -5,6 +5,8 @@
 // absent. Each test prints one "CASE |" line (the table of the issue's note).
 
 #include <signal.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -685,6 +687,172 @@ TEST(Reliability, ModelComparerCases) {
   EXPECT_EQ(run.exit_code, 1) << run.output;
   PrintCase("model_comparer: --Comparer.max_relative_error 5",
             LineWith(run.output, "ERROR"), run.exit_code, true, "n/a");
+}
+
+// Issue 28, item 1: an output path that is an input is refused before any
+// work; the input is unchanged.
+TEST(Reliability, OutputThatIsAnInputIsRefused) {
+  Case c;
+  c.Freeze();
+  const std::string db = c.database;
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"view_graph --output_path DB",
+       "view_graph --database_path " + db + " --output_path " + db},
+      {"rotation_averager --output_path DB",
+       "rotation_averager --database_path " + db + " --output_path " + db},
+      {"rotation_averager --summary_path DB",
+       "rotation_averager --database_path " + db + " --summary_path " + db},
+      {"rotation_averager --summary_path = --output_path",
+       "rotation_averager --database_path " + db + " --output_path " +
+           c.temp.File("r.txt") + " --summary_path " + c.temp.File("r.txt")},
+  };
+  for (const auto& [name, arguments] : commands) {
+    const RunResult run = RunProgram(arguments, c.temp);
+    EXPECT_EQ(run.exit_code, 1) << name << run.output;
+    EXPECT_NE(run.output.find("is the same file as"), std::string::npos)
+        << name << run.output;
+    EXPECT_TRUE(c.Unchanged()) << name;
+    PrintCase(name, LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "input unchanged");
+  }
+  // mapper with the database stored as OUT/summary.json.
+  fs::create_directories(c.sparse);
+  fs::copy_file(db, c.sparse + "/summary.json");
+  const uint64_t hash = HashFile(c.sparse + "/summary.json");
+  const RunResult run =
+      RunProgram("mapper --database_path " + c.sparse +
+                     "/summary.json --output_path " + c.sparse,
+                 c.temp);
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(HashFile(c.sparse + "/summary.json"), hash);
+  EXPECT_FALSE(fs::exists(c.sparse + "/0"));
+  PrintCase("mapper --database_path OUT/summary.json --output_path OUT",
+            LineWith(run.output, "ERROR"), run.exit_code,
+            HashFile(c.sparse + "/summary.json") == hash, "absent");
+}
+
+// Issue 28, item 2: a named pipe or a device as an output is written into,
+// never replaced by a regular file (never a real /dev entry here: a pipe,
+// /dev/fd/1 and, as root, a device node of our own in the test directory).
+TEST(Reliability, SpecialOutputFilesAreWrittenIntoNotReplaced) {
+  Case c;
+  c.Freeze();
+  const std::string fifo = c.temp.File("fifo");
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"view_graph --output_path FIFO",
+       "view_graph --database_path " + c.database + " --output_path " + fifo},
+      {"rotation_averager --output_path FIFO",
+       "rotation_averager --database_path " + c.database + " --output_path " +
+           fifo},
+      {"rotation_averager --summary_path FIFO",
+       "rotation_averager --database_path " + c.database + " --summary_path " +
+           fifo},
+  };
+  for (const auto& [name, arguments] : commands) {
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+    std::string received;
+    std::thread reader([&] { received = ReadText(fifo); });
+    const RunResult run = RunProgram(arguments, c.temp);
+    reader.join();
+    struct stat status;
+    ASSERT_EQ(lstat(fifo.c_str(), &status), 0);
+    EXPECT_TRUE(S_ISFIFO(status.st_mode)) << name;
+    EXPECT_EQ(run.exit_code, 0) << name << run.output;
+    EXPECT_FALSE(received.empty()) << name;
+    PrintCase(name, std::to_string(received.size()) + " bytes read from it",
+              run.exit_code, c.Unchanged(),
+              S_ISFIFO(status.st_mode) ? "still a pipe" : "REPLACED");
+    fs::remove(fifo);
+  }
+  // /dev/fd/1: the relative poses go to the log (stdout).
+  const RunResult run = RunProgram(
+      "view_graph --database_path " + c.database + " --output_path /dev/fd/1",
+      c.temp);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("0000.jpg 0001.jpg"), std::string::npos)
+      << run.output;
+  // A character device node of our own (root only).
+  const std::string device = c.temp.File("null_device");
+  if (mknod(device.c_str(), S_IFCHR | 0600, makedev(1, 3)) == 0) {
+    for (const std::string& arguments :
+         {"view_graph --database_path " + c.database + " --output_path " +
+              device,
+          "rotation_averager --database_path " + c.database +
+              " --summary_path " + device}) {
+      const RunResult device_run = RunProgram(arguments, c.temp);
+      struct stat status;
+      ASSERT_EQ(lstat(device.c_str(), &status), 0);
+      EXPECT_TRUE(S_ISCHR(status.st_mode)) << arguments;
+      EXPECT_EQ(device_run.exit_code, 0) << device_run.output;
+    }
+    PrintCase("view_graph / rotation_averager to a character device", "-", 0,
+              c.Unchanged(), "still a device");
+  }
+}
+
+// Issue 28, item 3: a user's file named like a model file in OUT/0 is never
+// deleted: the run refuses before any work, naming it.
+TEST(Reliability, UserFilesNamedLikeModelFilesAreNotDeleted) {
+  for (const std::string name : {"cameras.txt", "images.bin", "points3D.txt"}) {
+    Case c;
+    c.Freeze();
+    fs::create_directories(c.sparse + "/0");
+    std::ofstream(c.sparse + "/0/" + name) << "junk";
+    std::ofstream(c.sparse + "/0/notes.txt") << "mine";
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_NE(run.output.find(name), std::string::npos) << run.output;
+    EXPECT_EQ(run.output.find("view graph:"), std::string::npos) << run.output;
+    EXPECT_EQ(ReadText(c.sparse + "/0/" + name), "junk");
+    EXPECT_EQ(ReadText(c.sparse + "/0/notes.txt"), "mine");
+    PrintCase("OUT/0/" + name + " of the user's (junk)",
+              LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "user's files untouched");
+  }
+}
+
+// Issue 28, item 5: a closed log stream (`mapper 2>&1 | head`) does not
+// lose the run.
+TEST(Reliability, ClosedLogStreamDoesNotLoseTheRun) {
+  Case c;
+  c.Freeze();
+  const RunResult run = test::RunShell(
+      "bash -c '" + std::string(COLMAP_IRAV4_BINARY) +
+          " mapper --database_path " + c.database + " --output_path " +
+          c.sparse + " --Mapper.num_threads 2 2>&1 | head -n 2; exit " +
+          "${PIPESTATUS[0]}'",
+      c.temp);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(ModelState(c.sparse + "/0", 0), "complete new");
+  EXPECT_TRUE(fs::exists(c.sparse + "/summary.json"));
+  for (const auto& entry : fs::directory_iterator(c.sparse)) {
+    EXPECT_EQ(entry.path().filename().string().find(".colmap_irav4_tmp"),
+              std::string::npos);
+  }
+  PrintCase("mapper 2>&1 | head -n 2", "(log cut after 2 lines)", run.exit_code,
+            c.Unchanged(), ModelState(c.sparse + "/0", 0));
+}
+
+// Issue 28, item 6: a failed run creates no output directory.
+TEST(Reliability, FailedRunCreatesNoOutputDirectory) {
+  TempDir temp;
+  const std::string missing = temp.File("missing.db");
+  for (const std::string& arguments :
+       {"mapper --database_path " + missing + " --output_path " +
+            temp.File("new/sparse"),
+        "view_graph --database_path " + missing + " --output_path " +
+            temp.File("new/poses.txt"),
+        "rotation_averager --database_path " + missing + " --output_path " +
+            temp.File("new/r.txt") + " --summary_path " +
+            temp.File("new/s.json")}) {
+    const RunResult run = RunProgram(arguments, temp);
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_NE(run.output.find(missing), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(temp.File("new"))) << arguments;
+    PrintCase(arguments.substr(0, arguments.find(' ')) + ": missing database",
+              LineWith(run.output, "ERROR"), run.exit_code, true,
+              fs::exists(temp.File("new")) ? "directory CREATED" : "nothing");
+  }
 }
 
 }  // namespace

@@ -258,6 +258,16 @@ bool GlobalMapper::BuildTracks() {
   size_t num_capped = 0;
   const size_t cap = static_cast<size_t>(options_.max_num_tracks);
   if (options_.max_num_tracks > 0 && tracks_.size() > cap) {
+    // Fewer than positioning's tracks cannot tie every camera down: the
+    // model would be wrong (cameras hundreds of metres off), not smaller.
+    if (cap < selected.size()) {
+      throw InputError("--Mapper.max_num_tracks",
+                       std::to_string(cap) + " is below the " +
+                           std::to_string(selected.size()) +
+                           " tracks positioning needs to tie every camera "
+                           "down; raise it to at least " +
+                           std::to_string(selected.size()) + " (0: no cap)");
+    }
     std::vector<char> priority(tracks_.size(), 0);
     for (const size_t k : selected) priority[k] = 1;
     std::vector<size_t> order(tracks_.size());

@@ -267,6 +267,17 @@ std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
                                ": their points are grey");
     }
     Reconstruction& reconstruction = mapper.reconstruction();
+    // Keypoints the database held as NaN or inf are no 2D points of a model
+    // (never observations; the others keep their order).
+    for (const auto& [image_id, count] :
+         RemoveNonFinitePoints2D(&reconstruction)) {
+      summary->notes.push_back(
+          "image " + std::to_string(image_id) + " (" +
+          reconstruction.images.at(image_id).name +
+          "): " + std::to_string(count) +
+          " non-finite keypoints left out of the model's 2D points (the "
+          "others' indices shift down)");
+    }
     ComponentReport report;
     report.index = static_cast<int>(k);
     report.num_images_in_graph = static_cast<int>(mapper.images().size());
@@ -328,6 +339,17 @@ void WriteMapperOutput(const std::vector<Reconstruction>& models,
                        OutputTransaction* output,
                        GlobalMapperSummary* summary) {
   StageTimer stage("writing");
+  // No model with a NaN or inf is written, whatever the options: all are
+  // checked before the first is written.
+  for (size_t k = 0; k < models.size(); ++k) {
+    const std::string problem = NonFiniteValueProblem(models[k]);
+    if (!problem.empty()) {
+      throw InputError(
+          (fs::path(output->OutputPath()) / std::to_string(k)).string(),
+          "no model written: model " + std::to_string(k) + " has " + problem +
+              " (a numerical failure; are options far from their defaults?)");
+    }
+  }
   for (size_t k = 0; k < models.size(); ++k) {
     WriteReconstruction(
         models[k], output->StagingModelPath(static_cast<int>(k)), output_type);

@@ -165,19 +165,42 @@ void DisarmCleanup() {
 
 // The missing directories of `path` created top-down; returns them in that
 // order (absolute). Throws InputError if one cannot be created.
+// The directory `path` names as the system resolves it: the links and
+// ".." of its existing part followed, so that every later operation sees
+// the same directory. A dangling link on the way is an error.
+fs::path ResolvedDirectory(const std::string& path) {
+  std::error_code error;
+  const fs::path raw = fs::absolute(path, error);
+  for (fs::path p = raw; !p.empty(); p = p.parent_path()) {
+    if (fs::is_symlink(fs::symlink_status(p, error)) &&
+        !fs::exists(fs::status(p, error))) {
+      throw InputError(path, p.string() + " is a symbolic link to " +
+                                 fs::read_symlink(p, error).string() +
+                                 ", which does not exist (create it or "
+                                 "remove the link)");
+    }
+    if (p == p.parent_path()) break;
+  }
+  fs::path dir = fs::weakly_canonical(raw, error);
+  if (error) dir = raw.lexically_normal();  // a link loop: fails later
+  if (!dir.empty() && !dir.has_filename()) dir = dir.parent_path();
+  return dir;
+}
+
 std::vector<std::string> CreateDirectories(const std::string& path) {
   std::error_code error;
-  fs::path dir = fs::absolute(path, error).lexically_normal();
-  if (!dir.empty() && !dir.has_filename()) dir = dir.parent_path();
+  const fs::path dir = ResolvedDirectory(path);
   std::vector<fs::path> missing;
-  for (fs::path p = dir; !p.empty() && !fs::exists(fs::symlink_status(p));
-       p = p.parent_path()) {
+  for (fs::path p = dir; !p.empty(); p = p.parent_path()) {
+    if (fs::exists(fs::symlink_status(p, error))) break;
     missing.push_back(p);
     if (p == p.parent_path()) break;
   }
   std::vector<std::string> created;
   for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
-    if (mkdir(it->c_str(), 0777) != 0 && errno != EEXIST) {
+    if (mkdir(it->c_str(), 0777) == 0) {
+      created.push_back(it->string());
+    } else if (errno != EEXIST) {
       const std::string problem = Errno();
       for (auto c = created.rbegin(); c != created.rend(); ++c) {
         rmdir(c->c_str());
@@ -185,9 +208,11 @@ std::vector<std::string> CreateDirectories(const std::string& path) {
       throw InputError(
           path, "cannot create the directory " + it->string() + ": " + problem);
     }
-    created.push_back(it->string());
   }
   if (!fs::is_directory(dir)) {
+    for (auto c = created.rbegin(); c != created.rend(); ++c) {
+      rmdir(c->c_str());
+    }
     throw InputError(path, "cannot create the directory: a file is in the way");
   }
   return created;
@@ -538,10 +563,12 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes) {
 void WriteFilesAtomically(
     const std::string& dir,
     const std::vector<std::pair<std::string, std::string>>& names_and_bytes) {
-  const std::string directory = dir.empty() ? "." : dir;
+  // Links and ".." resolved once: the directories created, the temporary
+  // files and the renames all name the same directory.
+  const std::string directory =
+      ResolvedDirectory(dir.empty() ? "." : dir).string();
   if (IsUnderSystemTree(directory)) {
-    throw InputError(directory,
-                     "is under /dev or /proc; no files are created there");
+    throw InputError(dir, "is under /dev or /proc; no files are created there");
   }
   const std::vector<std::string> created = CreateDirectories(directory);
   try {
@@ -654,6 +681,10 @@ std::string ModelDirectoryProblem(const std::string& dir,
   std::error_code error;
   const fs::file_status status = fs::symlink_status(dir, error);
   if (!fs::exists(status)) return "";
+  if (fs::is_symlink(status)) {
+    return "is a symbolic link (to " + fs::read_symlink(dir, error).string() +
+           "), not a model directory of this program; not replaced";
+  }
   if (!fs::is_directory(status)) {
     return "exists and is not a directory; not replaced";
   }
@@ -713,7 +744,14 @@ OutputTransaction::OutputTransaction(const std::string& output_dir,
                      "created there");
   }
   std::error_code error;
-  const fs::path out = fs::absolute(output_dir, error).lexically_normal();
+  // One spelling for every operation (links and ".." resolved once).
+  const fs::path out = ResolvedDirectory(output_dir);
+  if (IsUnderSystemTree(out.string())) {
+    throw InputError(output_dir,
+                     "leads under /dev or /proc; no model directory is "
+                     "created there");
+  }
+  output_dir_ = out.string();
   const fs::file_status out_status = fs::status(out, error);
   if (fs::exists(out_status) && !fs::is_directory(out_status)) {
     throw InputError(output_dir, "exists and is not a directory");

@@ -285,6 +285,29 @@ TEST(AtomicOutput, UserFilesNamedLikeModelFilesAreKept) {
   EXPECT_EQ(ReadText(out + "/0/images.bin"), "new");
 }
 
+// Found by output_paths_fuzzer: an output spelled through a link and ".."
+// names one directory for every operation (the one the system resolves).
+TEST(AtomicOutput, OutputThroughLinkAndDotDotIsOneDirectory) {
+  TempDir temp;
+  fs::create_directories(temp.File("deep/b"));
+  fs::create_directories(temp.File("a"));
+  fs::create_directory_symlink(temp.File("deep/b"), temp.File("a/link"));
+  const std::string out = temp.File("a/link/../out");
+  {
+    OutputTransaction output(out, {}, CheckWordModel);
+    WriteWordModel(output.StagingModelPath(0), "new");
+    WriteFileAtomically(output.StagingFilePath("summary.json"), "{}");
+    output.Commit(1, {"summary.json"});
+  }
+  EXPECT_EQ(ReadText(temp.File("deep/out/0/images.bin")), "new");
+  EXPECT_EQ(ReadText(temp.File("deep/out/summary.json")), "{}");
+  EXPECT_EQ(std::distance(fs::directory_iterator(temp.File("deep/out")),
+                          fs::directory_iterator()),
+            2);
+  WriteFileAtomically(temp.File("a/link/../new/x/../file.txt"), "text");
+  EXPECT_EQ(ReadText(temp.File("deep/new/file.txt")), "text");
+}
+
 // Issue 28, item 4: a run killed at any step of the installation leaves a
 // state the next run finishes: the new models and summary, the user's file
 // in OUT/0, no temporary directory.

@@ -4,7 +4,7 @@ might, and prints one Markdown table row per case: exit code, the first
 ERROR (else the first warning) line, and what is on disk afterwards (the
 input database unchanged or not, the output's kind and state).
 
-  scripts/hostile_sweep.py BINARY DATABASE [--only PREFIX] > table.md
+  scripts/hostile_sweep.py BINARY DATABASE [--only PREFIX] [--skip N] > table.md
 
 DATABASE is copied into a scratch directory per case (never written).
 Special files are scratch named pipes and, as root, device nodes made in the
@@ -24,6 +24,9 @@ import threading
 
 BINARY, DATABASE = sys.argv[1], sys.argv[2]
 ONLY = sys.argv[sys.argv.index("--only") + 1] if "--only" in sys.argv else ""
+# Resume after the first SKIP cases.
+SKIP = int(sys.argv[sys.argv.index("--skip") + 1]) if "--skip" in sys.argv \
+    else 0
 TIMEOUT = 60
 
 
@@ -65,7 +68,10 @@ def model_state(path):
     if all(os.path.exists(os.path.join(path, n)) for n in
            ("cameras.bin", "images.bin", "points3D.bin")):
         with open(os.path.join(path, "images.bin"), "rb") as f:
-            count = struct.unpack("<Q", f.read(8) or b"\0" * 8)[0]
+            head = f.read(8)
+        if len(head) < 8:
+            return "model-named files (images.bin of %d bytes)" % len(head)
+        count = struct.unpack("<Q", head)[0]
         extra = [n for n in names if not n.endswith(".bin")]
         return "model (%d images)%s" % (count, (" + " + ",".join(extra))
                                          if extra else "")
@@ -88,9 +94,13 @@ def out_state(scratch):
                 sub = sorted(os.listdir(path))
                 temp = [n for n in sub if ".colmap_irav4_tmp." in n]
                 models = [n for n in sub if n.isdigit()]
+                summary_dir = "summary.json" in sub and not os.path.isfile(
+                    os.path.join(path, "summary.json"))
                 desc = ",".join("%s=%s" % (m, model_state(
                     os.path.join(path, m))) for m in models)
-                if "summary.json" in sub:
+                if summary_dir:
+                    desc += " +summary.json/ (a directory)"
+                elif "summary.json" in sub:
                     with open(os.path.join(path, "summary.json"), "rb") as f:
                         head = f.read(16)
                     desc += " +summary" + (" (the SQLite input)"
@@ -520,7 +530,7 @@ def run_case(name, args, setup, stdin, shell_suffix):
 def main():
     print("| case | exit | first ERROR (else warning) line | on disk |")
     print("| --- | --- | --- | --- |")
-    for name, args, setup, stdin, suffix in CASES:
+    for name, args, setup, stdin, suffix in CASES[SKIP:]:
         if ONLY and not name.startswith(ONLY):
             continue
         print(run_case(name, args, setup, stdin, suffix), flush=True)

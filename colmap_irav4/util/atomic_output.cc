@@ -28,6 +28,9 @@ namespace fs = std::filesystem;
 
 const char* const kModelNames[] = {"cameras.bin", "images.bin", "points3D.bin",
                                    "cameras.txt", "images.txt", "points3D.txt"};
+// Written beside every model (the run's options, as COLMAP's project.ini);
+// ours only beside a model.
+constexpr char kProjectName[] = "project.ini";
 constexpr char kSummaryName[] = "summary.json";
 // The install journal of a run's temporary directory (an own name).
 const std::string kJournalName = std::string(kTemporaryMarker) + "journal";
@@ -39,13 +42,18 @@ bool IsModelName(const char* name) {
   return false;
 }
 
+// A file of a model directory this program writes.
+bool IsModelDirectoryName(const char* name) {
+  return IsModelName(name) || std::strcmp(name, kProjectName) == 0;
+}
+
 bool IsTemporaryName(const char* name) {
   return std::strstr(name, kTemporaryMarker) != nullptr;
 }
 
 // Async-signal-safe version of IsOwnOutputFileName (no allocation).
 bool IsOwnName(const char* name) {
-  return IsModelName(name) || std::strcmp(name, kSummaryName) == 0 ||
+  return IsModelDirectoryName(name) || std::strcmp(name, kSummaryName) == 0 ||
          IsTemporaryName(name);
 }
 
@@ -402,7 +410,7 @@ void CarryOverUserFiles(const fs::path& from, const fs::path& to,
   std::vector<fs::path> entries;
   for (const auto& entry : fs::directory_iterator(from, error)) {
     const std::string name = entry.path().filename().string();
-    if (!IsModelName(name.c_str()) && !IsTemporaryName(name.c_str())) {
+    if (!IsModelDirectoryName(name.c_str()) && !IsTemporaryName(name.c_str())) {
       entries.push_back(entry.path());
     }
   }
@@ -699,6 +707,7 @@ std::string ModelDirectoryProblem(const std::string& dir,
       present[name.size() > 4 && name.substr(name.size() - 4) == ".bin"]
           .push_back(name);
     } else if (!IsTemporaryName(name.c_str())) {
+      // A project.ini is ours beside a model only.
       has_other = true;
     }
   }

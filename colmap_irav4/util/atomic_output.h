@@ -21,13 +21,14 @@
 // the installation before anything else, so a user's file never stays in a
 // temporary directory and the models and summary.json end up of one run.
 //
-// What is ours: the model files (cameras/images/points3D .bin/.txt) of an
-// old OUT/<k> that hold a model (complete and readable, checked by the
-// caller's ModelCheck), summary.json at the top of OUT, and names holding
-// ".colmap_irav4_tmp.". An OUT/<k> with model-named files that do not form
-// a readable model (a user's cameras.txt) is not replaced (error before any
-// work). Anything else inside an old OUT/<k> (a user's notes, a database,
-// ...) is moved into the new OUT/<k> with a warning, never deleted.
+// What is ours: the model files (cameras/images/points3D .bin/.txt) and
+// project.ini of an old OUT/<k> that holds a model (complete and readable,
+// checked by the caller's ModelCheck), summary.json at the top of OUT, and
+// names holding ".colmap_irav4_tmp.". An OUT/<k> with model-named files that
+// do not form a readable model (a user's cameras.txt), or with only a
+// project.ini, is not replaced (error before any work). Anything else inside
+// an old OUT/<k> (a user's notes, a database, ...) is moved into the new
+// OUT/<k> with a warning, never deleted.
 //
 // Interrupts: SIGINT/SIGTERM during the run remove the temporary directory's
 // own files (an async-signal-safe walk) and the directories the run created
@@ -48,7 +49,7 @@ namespace colmap_irav4 {
 constexpr char kTemporaryMarker[] = ".colmap_irav4_tmp.";
 
 // Whether `name` (a file name, no directory) is one this program writes:
-// model files, summary.json, or a temporary name.
+// model files, project.ini, summary.json, or a temporary name.
 bool IsOwnOutputFileName(const std::string& name);
 
 // Throws InputError naming `output` if it is the same file as one of

@@ -89,23 +89,32 @@ void PrintCase(const std::string& name, const std::string& says, int exit_code,
             << std::endl;
 }
 
-// A small old model at OUT/0 (one image named "old_marker.jpg") so that
-// "complete old" is recognisable.
-void WriteOldModel(const std::string& model) {
+// A small model: one 100 x 100 SIMPLE_PINHOLE camera (focal `focal`), the
+// images of `names`.
+Reconstruction SmallModel(const std::vector<std::string>& names,
+                          double focal = 100) {
   Reconstruction reconstruction;
   Camera camera;
   camera.camera_id = 1;
   camera.model_id = 0;
   camera.width = 100;
   camera.height = 100;
-  camera.params = {100, 50, 50};
+  camera.params = {focal, 50, 50};
   reconstruction.cameras[1] = camera;
-  Image image;
-  image.image_id = 1;
-  image.camera_id = 1;
-  image.name = "old_marker.jpg";
-  reconstruction.images[1] = image;
-  WriteReconstruction(reconstruction, model, "BIN");
+  for (size_t k = 0; k < names.size(); ++k) {
+    Image image;
+    image.image_id = static_cast<image_t>(k + 1);
+    image.camera_id = 1;
+    image.name = names[k];
+    reconstruction.images[image.image_id] = image;
+  }
+  return reconstruction;
+}
+
+// A small old model at OUT/0 (one image named "old_marker.jpg") so that
+// "complete old" is recognisable.
+void WriteOldModel(const std::string& model) {
+  WriteReconstruction(SmallModel({"old_marker.jpg"}), model, "BIN");
 }
 
 struct Case {
@@ -883,22 +892,11 @@ TEST(Reliability, NonFiniteModelsAreNeitherWrittenNorRead) {
             run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
   // model_converter: a model with a NaN focal length, one with an inf point.
   for (const std::string what : {"NaN focal length", "inf point"}) {
-    Reconstruction model;
-    Camera camera;
-    camera.camera_id = 1;
-    camera.model_id = 0;
-    camera.width = 100;
-    camera.height = 100;
-    camera.params = {what == "NaN focal length" ? NAN : 100.0, 50, 50};
-    model.cameras[1] = camera;
+    Reconstruction model = SmallModel({"1.jpg", "2.jpg"},
+                                      what == "NaN focal length" ? NAN : 100.0);
     for (image_t id : {1, 2}) {
-      Image image;
-      image.image_id = id;
-      image.camera_id = 1;
-      image.name = std::to_string(id) + ".jpg";
-      image.points2D.resize(1);
-      image.points2D[0].xy = Eigen::Vector2d(10, 10);
-      model.images[id] = image;
+      model.images[id].points2D.resize(1);
+      model.images[id].points2D[0].xy = Eigen::Vector2d(10, 10);
     }
     AddPoint3D(Eigen::Vector3d(what == "inf point" ? INFINITY : 0.0, 0, 5),
                {{1, 0}, {2, 0}}, &model);
@@ -1055,7 +1053,7 @@ TEST(Reliability, TrackCapTooSmallToPositionIsAnError) {
   c.Freeze();
   const RunResult run = c.Map("--Mapper.max_num_tracks 1");
   EXPECT_EQ(run.exit_code, 1) << run.output;
-  EXPECT_NE(run.output.find("--Mapper.max_num_tracks: 1 is below the"),
+  EXPECT_NE(run.output.find("--Mapper.max_num_tracks: 1 leaves image"),
             std::string::npos)
       << run.output;
   EXPECT_FALSE(fs::exists(c.sparse));

@@ -273,16 +273,30 @@ TEST(AtomicOutput, UserFilesNamedLikeModelFilesAreKept) {
   WriteWordModel(out + "/0", "old");
   WriteText(out + "/0/cameras.txt", "junk");
   EXPECT_NE(ModelDirectoryProblem(out + "/0", CheckWordModel), "");
-  // summary.json inside a model directory is the user's: carried over.
+  // summary.json inside a model directory is the user's: carried over; the
+  // old model's project.ini goes with it (the new one's replaces it).
   fs::remove(out + "/0/cameras.txt");
   WriteText(out + "/0/summary.json", "mine");
+  WriteText(out + "/0/project.ini", "old options");
+  std::vector<std::string> warnings;
   {
     OutputTransaction output(out, {}, CheckWordModel);
     WriteWordModel(output.StagingModelPath(0), "new");
-    output.Commit(1, {});
+    WriteText(output.StagingModelPath(0) + "/project.ini", "new options");
+    warnings = output.Commit(1, {});
   }
   EXPECT_EQ(ReadText(out + "/0/summary.json"), "mine");
   EXPECT_EQ(ReadText(out + "/0/images.bin"), "new");
+  EXPECT_EQ(ReadText(out + "/0/project.ini"), "new options");
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("summary.json: not a model file"),
+            std::string::npos);
+  // A project.ini alone (COLMAP's GUI project, say) is not ours.
+  TempDir other;
+  WriteText(other.File("sparse/0/project.ini"), "a user's project");
+  EXPECT_THROW(OutputTransaction(other.File("sparse"), {}, CheckWordModel),
+               InputError);
+  EXPECT_EQ(ReadText(other.File("sparse/0/project.ini")), "a user's project");
 }
 
 // Found by output_paths_fuzzer: an output spelled through a link and ".."

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -303,6 +304,7 @@ bool GlobalMapper::BuildTracks() {
   size_t num_capped = 0;
   const size_t cap = static_cast<size_t>(options_.max_num_tracks);
   if (options_.max_num_tracks > 0 && tracks_.size() > cap) {
+    const size_t num_positioning_selected = selected.size();
     std::vector<char> priority(tracks_.size(), 0);
     for (const size_t k : selected) priority[k] = 1;
     std::vector<size_t> order(tracks_.size());
@@ -329,6 +331,31 @@ bool GlobalMapper::BuildTracks() {
                     "the cap or set it to 0 for all)";
     tracks_ = std::move(kept);
     selected = std::move(kept_selected);
+    // A cap that leaves a camera with too few of positioning's observations
+    // cannot place it: the model would be wrong (cameras hundreds of metres
+    // off), not smaller. 5: a camera centre's 3 unknowns with some margin.
+    if (global_positioning) {
+      constexpr int kMinObservations = 5;
+      std::map<image_t, int> observations;
+      for (const size_t k : selected) {
+        for (const TrackElement& element : tracks_[k]) {
+          ++observations[element.image_id];
+        }
+      }
+      for (const image_t image_id : images_) {
+        if (observations[image_id] >= kMinObservations) continue;
+        throw InputError(
+            "--Mapper.max_num_tracks",
+            std::to_string(cap) + " leaves image " + std::to_string(image_id) +
+                " with " + std::to_string(observations[image_id]) +
+                " observation(s) for positioning, at least " +
+                std::to_string(kMinObservations) +
+                " are needed to place a camera; raise it (positioning "
+                "selects " +
+                std::to_string(num_positioning_selected) +
+                " tracks; 0: no cap)");
+      }
+    }
   }
   size_t num_positioning_tracks = 0;
   if (global_positioning) {

@@ -102,7 +102,10 @@ void GlobalPipeline::Run() {
   // Output writable, OUT/0 replaceable, summary.json not a directory: checked
   // before any work; the models are staged in a temporary directory and
   // installed atomically (util/atomic_output.h).
-  OutputTransaction output(output_path_);
+  OutputTransaction output(
+      output_path_, {database_path_}, [](const std::string& dir, bool binary) {
+        binary ? ReadReconstructionBinary(dir) : ReadReconstructionText(dir);
+      });
   Timer total_timer;
   summary_ = GlobalMapperSummary();
   summary_.database_path = database_path_;
@@ -289,6 +292,17 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
                                ": their points are grey");
     }
     Reconstruction& reconstruction = mapper.reconstruction();
+    // Keypoints the database held as NaN or inf are no 2D points of a model
+    // (never observations; the others keep their order).
+    for (const auto& [image_id, count] :
+         RemoveNonFinitePoints2D(&reconstruction)) {
+      summary_.notes.push_back(
+          "image " + std::to_string(image_id) + " (" +
+          reconstruction.images.at(image_id).name +
+          "): " + std::to_string(count) +
+          " non-finite keypoints left out of the model's 2D points (the "
+          "others' indices shift down)");
+    }
     ComponentReport report;
     report.index = static_cast<int>(k);
     report.num_images_in_graph = static_cast<int>(mapper.images().size());
@@ -345,6 +359,17 @@ void GlobalPipeline::Write(const std::vector<Reconstruction>& models,
                            const Timer& total_timer,
                            OutputTransaction* output) {
   StageTimer stage("writing");
+  // No model with a NaN or inf is written, whatever the options: all are
+  // checked before the first is written.
+  for (size_t k = 0; k < models.size(); ++k) {
+    const std::string problem = NonFiniteValueProblem(models[k]);
+    if (!problem.empty()) {
+      throw InputError(
+          (fs::path(output->OutputPath()) / std::to_string(k)).string(),
+          "no model written: model " + std::to_string(k) + " has " + problem +
+              " (a numerical failure; are options far from their defaults?)");
+    }
+  }
   // The options of the run beside every model, as COLMAP's project.ini.
   const std::string options_ini =
       "database_path=" + database_path_ + "\nimage_path=" + image_path_ +

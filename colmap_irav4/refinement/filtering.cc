@@ -139,8 +139,9 @@ void TransformReconstruction(const Sim3d& new_from_old,
 }
 
 void NormalizationOptions::Check() const {
-  if (!(extent > 0))
-    throw OptionError(&extent, "Normalization.extent", "must be positive");
+  if (!(extent > 0 && std::isfinite(extent)))
+    throw OptionError(&extent, "Normalization.extent",
+                      "must be positive and finite");
   if (!(min_percentile >= 0 && min_percentile < max_percentile &&
         max_percentile <= 1)) {
     throw OptionError(&min_percentile, "NormalizationOptions::min_percentile",

@@ -210,6 +210,11 @@ bool OptionManager::Parse(int argc, char** argv) {
       throw InputError("--" + option.name,
                        "required option of '" + command_name_ + "' missing");
     }
+    // A required path given as '' (an unset shell variable) names nothing.
+    if (option.required && option.type == "string" &&
+        static_cast<const std::string*>(option.address)->empty()) {
+      throw InputError("--" + option.name, "is empty");
+    }
   }
   return true;
 }

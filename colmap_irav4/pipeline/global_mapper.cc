@@ -390,7 +390,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.
-    if (!retriangulated_ && !Retriangulation()) return false;
+    if (!retriangulated_ && !(Retriangulation() && TwoViewCheck())) {
+      return false;
+    }
   }
   return true;
 }
@@ -406,6 +408,26 @@ bool GlobalMapper::Retriangulation() {
             static_cast<double>(triangulation.num_points_added));
   stage.Add("observations added",
             static_cast<double>(triangulation.num_observations_added));
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
+
+bool GlobalMapper::TwoViewCheck() {
+  if (!options_.two_view_check.enabled || options_.skip_bundle_adjustment) {
+    return true;
+  }
+  StageTimer stage("two-view check");
+  TwoViewCheckSummary summary;
+  if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
+                          options_.triangulation, &reconstruction_,
+                          &keypoint_noise_, &summary)) {
+    return Fail("bundle adjustment of the two-view check failed");
+  }
+  stage.Add("two-view points checked",
+            static_cast<double>(summary.num_points_checked));
+  stage.Add("two-view points restored",
+            static_cast<double>(summary.num_points_restored));
   AddModelFigures(&stage);
   stage.Finish(log_prefix_, &stages_);
   return true;
@@ -550,6 +572,7 @@ void GlobalMapperOptions::Check() const {
   global_positioning.Check();
   translation_averaging.Check();
   triangulation.Check();
+  two_view_check.Check();
   if (positioning_tracks_per_image < 0) {
     throw OptionError(&positioning_tracks_per_image,
                       "Mapper.positioning_tracks_per_image", "must be >= 0");

@@ -26,6 +26,7 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/refinement/triangulation.h"
+#include "colmap_irav4/refinement/two_view_check.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -113,6 +114,7 @@ struct GlobalMapperOptions {
   GlobalPositionerOptions global_positioning;
   TranslationAveragingOptions translation_averaging;
   TriangulationOptions triangulation;
+  TwoViewCheckOptions two_view_check;
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
@@ -173,6 +175,9 @@ class GlobalMapper {
   // Triangulates every track from the current poses (completes the points of
   // tracks positioning did not use).
   bool Retriangulation();
+  // After retriangulation: the two-view points checked against poses
+  // adjusted without them (refinement/two_view_check.h).
+  bool TwoViewCheck();
   // Final filtering, cameras no image uses removed, normalisation.
   bool Finalize();
   // Keeps only `images` (those of the model among them), their observations

@@ -256,6 +256,20 @@ void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
                "ignore_two_view_tracks)");
 }
 
+void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
+  manager->Add("TwoViewCheck.enabled", &o->enabled,
+               "after retriangulation, check the two-view points against "
+               "poses adjusted without them (repeated structure)");
+  manager->Add("TwoViewCheck.min_multi_view_observations",
+               &o->min_multi_view_observations,
+               "only two-view points between images with at least this many "
+               "observations of points seen 3 times or more are checked");
+  manager->Add("TwoViewCheck.max_reproj_error", &o->max_reproj_error,
+               "a checked two-view point is kept when both its observations "
+               "are within this reprojection error (px, in noise units with "
+               "BundleAdjustment.filter_by_keypoint_noise)");
+}
+
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* o) {
   BundleAdjustmentOptions& ba = *o;
@@ -412,6 +426,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddGlobalPositioningOptions(manager, &o.global_positioning);
   AddTranslationAveragingOptions(manager, &o.translation_averaging);
   AddTriangulationOptions(manager, &o.triangulation);
+  AddTwoViewCheckOptions(manager, &o.two_view_check);
   AddBundleAdjustmentOptions(manager, &o.bundle_adjustment);
   AddFilterOptions(manager, &o.filtering);
   AddNormalizationOptions(manager, &o.normalization);

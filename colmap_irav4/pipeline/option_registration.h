@@ -51,6 +51,8 @@ void AddSolverOptions(OptionManager* manager, const std::string& prefix,
                       SolverOptions* options);
 void AddTriangulationOptions(OptionManager* manager,
                              TriangulationOptions* options);
+void AddTwoViewCheckOptions(OptionManager* manager,
+                            TwoViewCheckOptions* options);
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* options);
 void AddFilterOptions(OptionManager* manager, FilterOptions* options);

@@ -591,6 +591,7 @@ void GlobalMapperOptions::Check() const {
   bundle_adjustment.Check();
   filtering.Check();
   normalization.Check();
+  pose_constraint.Check();
   fold.Check();
 }
 

@@ -25,6 +25,7 @@
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/refinement/keypoint_noise.h"
+#include "colmap_irav4/refinement/pose_constraint.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/two_view_check.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
@@ -118,6 +119,8 @@ struct GlobalMapperOptions {
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Per-image pose constraint of every model (summary.json, warnings).
+  PoseConstraintOptions pose_constraint;
   // Fold check of every model and its resolution (symmetric scenes).
   FoldResolutionOptions fold;
 

@@ -270,6 +270,17 @@ void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
                "BundleAdjustment.filter_by_keypoint_noise)");
 }
 
+void AddPoseConstraintOptions(OptionManager* manager,
+                              PoseConstraintOptions* o) {
+  manager->Add("PoseConstraint.min_track_length", &o->min_track_length,
+               "an image's pose uncertainty is that of a resection on its "
+               "points seen in at least this many images");
+  manager->Add("PoseConstraint.max_relative_uncertainty",
+               &o->max_relative_uncertainty,
+               "images whose rotation uncertainty exceeds this multiple of "
+               "the model's median are reported as poorly constrained");
+}
+
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* o) {
   BundleAdjustmentOptions& ba = *o;
@@ -430,6 +441,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddBundleAdjustmentOptions(manager, &o.bundle_adjustment);
   AddFilterOptions(manager, &o.filtering);
   AddNormalizationOptions(manager, &o.normalization);
+  AddPoseConstraintOptions(manager, &o.pose_constraint);
   AddFoldResolutionOptions(manager, &o.fold);
 }
 

@@ -53,6 +53,8 @@ void AddTriangulationOptions(OptionManager* manager,
                              TriangulationOptions* options);
 void AddTwoViewCheckOptions(OptionManager* manager,
                             TwoViewCheckOptions* options);
+void AddPoseConstraintOptions(OptionManager* manager,
+                              PoseConstraintOptions* options);
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* options);
 void AddFilterOptions(OptionManager* manager, FilterOptions* options);

@@ -49,10 +49,9 @@ bool CheckTwoViewPoints(const TwoViewCheckOptions& options,
   }
   if (set_aside.empty()) return true;
   for (const Track& track : set_aside) {
-    const point3D_t point3D_id =
-        reconstruction->images.at(track[0].image_id)
-            .points2D[track[0].point2D_idx]
-            .point3D_id;
+    const point3D_t point3D_id = reconstruction->images.at(track[0].image_id)
+                                     .points2D[track[0].point2D_idx]
+                                     .point3D_id;
     DeletePoint3D(point3D_id, reconstruction);
   }
   summary->num_points_checked = set_aside.size();

@@ -420,14 +420,18 @@ bool GlobalMapper::TwoViewCheck() {
   StageTimer stage("two-view check");
   TwoViewCheckSummary summary;
   if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
-                          options_.triangulation, &reconstruction_,
-                          &keypoint_noise_, &summary)) {
+                          options_.triangulation, options_.pose_constraint,
+                          &reconstruction_, &keypoint_noise_, &summary)) {
     return Fail("bundle adjustment of the two-view check failed");
   }
   stage.Add("two-view points checked",
             static_cast<double>(summary.num_points_checked));
   stage.Add("two-view points restored",
             static_cast<double>(summary.num_points_restored));
+  stage.Add("images poorly constrained",
+            static_cast<double>(summary.num_images_poorly_constrained));
+  stage.Add("two-view points withheld",
+            static_cast<double>(summary.num_points_withheld));
   AddModelFigures(&stage);
   stage.Finish(log_prefix_, &stages_);
   return true;

@@ -264,6 +264,10 @@ void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
                &o->min_multi_view_observations,
                "only two-view points between images with at least this many "
                "observations of points seen 3 times or more are checked");
+  manager->Add("TwoViewCheck.withhold_poorly_constrained",
+               &o->withhold_poorly_constrained,
+               "two-view points of images their multi-view points hold "
+               "poorly (PoseConstraint.*) do not come back");
   manager->Add("TwoViewCheck.max_reproj_error", &o->max_reproj_error,
                "a checked two-view point is kept when both its observations "
                "are within this reprojection error (px, in noise units with "

@@ -20,8 +20,7 @@ void PoseConstraintOptions::Check() const {
   }
   if (!(max_relative_uncertainty > 1)) {
     throw OptionError(&max_relative_uncertainty,
-                      "PoseConstraint.max_relative_uncertainty",
-                      "must be > 1");
+                      "PoseConstraint.max_relative_uncertainty", "must be > 1");
   }
 }
 
@@ -36,7 +35,8 @@ double LargestStdDev(const Eigen::Matrix3d& covariance) {
 }  // namespace
 
 std::vector<ImagePoseConstraint> ComputePoseConstraints(
-    const PoseConstraintOptions& options, const Reconstruction& reconstruction) {
+    const PoseConstraintOptions& options,
+    const Reconstruction& reconstruction) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   std::vector<ImagePoseConstraint> constraints;
   for (const auto& [image_id, image] : reconstruction.images) {
@@ -81,8 +81,7 @@ std::vector<ImagePoseConstraint> ComputePoseConstraints(
       constraint.rotation_uncertainty_deg =
           RadToDeg(LargestStdDev(covariance.topLeftCorner<3, 3>()));
       constraint.relative_center_uncertainty =
-          LargestStdDev(covariance.bottomRightCorner<3, 3>()) /
-          Median(depths);
+          LargestStdDev(covariance.bottomRightCorner<3, 3>()) / Median(depths);
     }
     constraints.push_back(constraint);
   }
@@ -101,11 +100,11 @@ std::vector<ImagePoseConstraint> ComputePoseConstraints(
     constraint.poorly_constrained =
         !(constraint.relative_uncertainty <= options.max_relative_uncertainty);
   }
-  std::stable_sort(constraints.begin(), constraints.end(),
-                   [](const ImagePoseConstraint& a,
-                      const ImagePoseConstraint& b) {
-                     return a.relative_uncertainty > b.relative_uncertainty;
-                   });
+  std::stable_sort(
+      constraints.begin(), constraints.end(),
+      [](const ImagePoseConstraint& a, const ImagePoseConstraint& b) {
+        return a.relative_uncertainty > b.relative_uncertainty;
+      });
   return constraints;
 }
 

@@ -1,6 +1,8 @@
 #include "colmap_irav4/refinement/two_view_check.h"
 
+#include <algorithm>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "colmap_irav4/scene/reconstruction_utils.h"
@@ -23,6 +25,7 @@ void TwoViewCheckOptions::Check() const {
 bool CheckTwoViewPoints(const TwoViewCheckOptions& options,
                         const BundleAdjustmentOptions& bundle_adjustment,
                         const TriangulationOptions& triangulation,
+                        const PoseConstraintOptions& pose_constraint,
                         Reconstruction* reconstruction,
                         const KeypointScaleNoise* noise,
                         TwoViewCheckSummary* summary) {
@@ -65,6 +68,28 @@ bool CheckTwoViewPoints(const TwoViewCheckOptions& options,
       summary->bundle_adjustment.keypoint_noise.Empty()
           ? noise
           : &summary->bundle_adjustment.keypoint_noise;
+  // An image its multi-view points hold poorly cannot check a two-view
+  // match: the match's error under that pose says little, and the match
+  // would be much of what holds it.
+  if (options.withhold_poorly_constrained) {
+    std::set<image_t> poorly_constrained;
+    for (const ImagePoseConstraint& constraint :
+         ComputePoseConstraints(pose_constraint, *reconstruction)) {
+      if (constraint.poorly_constrained) {
+        poorly_constrained.insert(constraint.image_id);
+      }
+    }
+    const size_t num_before = set_aside.size();
+    set_aside.erase(
+        std::remove_if(set_aside.begin(), set_aside.end(),
+                       [&](const Track& track) {
+                         return poorly_constrained.count(track[0].image_id) ||
+                                poorly_constrained.count(track[1].image_id);
+                       }),
+        set_aside.end());
+    summary->num_points_withheld = num_before - set_aside.size();
+    summary->num_images_poorly_constrained = poorly_constrained.size();
+  }
   TriangulationOptions two_view = triangulation;
   two_view.ignore_two_view_tracks = false;  // they are all two-view
   two_view.max_reproj_error = options.max_reproj_error;

@@ -44,8 +44,8 @@ void Thin(image_t image_id, int keep_every, Reconstruction* model) {
 
 TEST(PoseConstraint, UncertaintyFallsWithTheSquareRootOfTheObservations) {
   Reconstruction model = Model();
-  const double full = Find(ComputePoseConstraints({}, model), 4)
-                          .rotation_uncertainty_deg;
+  const double full =
+      Find(ComputePoseConstraints({}, model), 4).rotation_uncertainty_deg;
   Thin(4, 4, &model);
   const ImagePoseConstraint thinned =
       Find(ComputePoseConstraints({}, model), 4);

@@ -99,17 +99,18 @@ TEST(TwoViewCheck, RemovesWrongTwoViewMatchesThatBentThePoses) {
   // The wrong matches bent the pair and passed the 4 px filter.
   size_t num_wrong_kept = 0;
   for (const auto& [idx1, idx2] : scene.wrong) {
-    num_wrong_kept += scene.model.images.at(kImage1).points2D[idx1].point3D_id !=
-                      kInvalidPoint3DId;
+    num_wrong_kept +=
+        scene.model.images.at(kImage1).points2D[idx1].point3D_id !=
+        kInvalidPoint3DId;
   }
   EXPECT_GT(num_wrong_kept, scene.wrong.size() / 2);
   const double bent = PairRotationError(scene.model, scene.truth);
   EXPECT_GT(bent, 0.05);
 
   TwoViewCheckSummary summary;
-  ASSERT_TRUE(CheckTwoViewPoints(TwoViewCheckOptions(), Adjustment(),
-                                 TriangulationOptions(), &scene.model, nullptr,
-                                 &summary));
+  ASSERT_TRUE(CheckTwoViewPoints(
+      TwoViewCheckOptions(), Adjustment(), TriangulationOptions(),
+      PoseConstraintOptions(), &scene.model, nullptr, &summary));
   EXPECT_EQ(summary.num_points_checked, 60 + num_wrong_kept);
   // The true two-view points come back, the wrong ones do not.
   EXPECT_GE(summary.num_points_restored, 57u);
@@ -132,7 +133,8 @@ TEST(TwoViewCheck, WeakImagesKeepTheirTwoViewPoints) {
   const size_t num_points = scene.model.points3D.size();
   TwoViewCheckSummary summary;
   ASSERT_TRUE(CheckTwoViewPoints(options, Adjustment(), TriangulationOptions(),
-                                 &scene.model, nullptr, &summary));
+                                 PoseConstraintOptions(), &scene.model, nullptr,
+                                 &summary));
   EXPECT_EQ(summary.num_points_checked, 0u);
   EXPECT_EQ(scene.model.points3D.size(), num_points);
 }

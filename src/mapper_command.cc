@@ -1,8 +1,9 @@
 // colmap_irav4 mapper: COLMAP database -> COLMAP sparse models, with the
-// global pipeline of colmap_irav4/pipeline/global_mapper.h:
+// global pipeline of colmap_irav4/pipeline/global_pipeline.h:
 //   colmap_irav4 mapper --database_path DB --image_path IMAGES
 //                       --output_path SPARSE
-// writes SPARSE/0, SPARSE/1, ... (largest first) and SPARSE/summary.json.
+// writes SPARSE/0, SPARSE/1, ... (largest first, each with its
+// project.ini) and SPARSE/summary.json.
 
 #include <iostream>
 
@@ -38,12 +39,14 @@ int RunMapper(int argc, char** argv) {
   manager.Add("output_type", &output_type, "BIN or TXT");
   AddGlobalMapperOptions(&manager, &options);
   if (!manager.Parse(argc, argv)) return 0;
-  manager.Check([&] { options.Check(); });
+  // Checks the options (errors name the flags).
+  GlobalPipeline pipeline(options, database_path, image_path, output_path,
+                          output_type);
   // Before any solve: a BLAS / OpenMP runtime loaded with Ceres would
   // otherwise start one thread per core.
   LimitBlasThreads(options.num_threads);
-  const GlobalMapperSummary summary = RunGlobalMapperOnDatabase(
-      options, database_path, image_path, output_path, output_type);
+  pipeline.Run();
+  const GlobalMapperSummary& summary = pipeline.summary();
   if (summary.components.empty()) return 1;
   return summary.NumFoldedModels() > 0 ? kFoldedExitCode : 0;
 }

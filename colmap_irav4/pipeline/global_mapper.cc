@@ -11,11 +11,11 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/pipeline/fold_resolution.h"
-#include "colmap_irav4/positioning/track_selection.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
 
 namespace colmap_irav4 {
@@ -71,15 +71,16 @@ GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
                            const std::map<camera_t, Camera>& cameras,
                            std::vector<image_t> images,
                            std::vector<ImagePairGeometry> pairs,
-                           std::string log_prefix)
-    : options_(options.ForStages(database.images.size())),
+                           std::string log_prefix, const FoldEvidence* evidence)
+    : options_(options),
       database_(database),
       cameras_(cameras),
       images_(std::move(images)),
       num_component_pairs_(pairs.size()),
       log_prefix_(std::move(log_prefix)),
       pairs_(std::move(pairs)),
-      retriangulated_(options.skip_retriangulation) {}
+      retriangulated_(options.skip_retriangulation),
+      evidence_(evidence) {}
 
 bool GlobalMapper::Fail(const std::string& reason) {
   failure_ = reason;
@@ -123,9 +124,61 @@ void GlobalMapper::AddModelFigures(StageTimer* stage) {
              MeanPointReprojectionError(reconstruction_));
 }
 
-bool GlobalMapper::Run() {
-  return RotationAveraging() && RotationFilter() && BuildTracks() &&
-         Positioning() && IterativeBundleAdjustment() && Finalize();
+bool GlobalMapper::Solve(bool stop_if_folded) {
+  if (state_ == State::kNew) {
+    if (!(RotationAveraging() && RotationFilter() && BuildTracks() &&
+          Positioning())) {
+      state_ = State::kFailed;
+      return false;
+    }
+    state_ = State::kPositioned;
+    if (CheckFold("after positioning") && stop_if_folded) return true;
+  }
+  if (state_ == State::kPositioned) {
+    if (!(IterativeBundleAdjustment() && Finalize())) {
+      state_ = State::kFailed;
+      return false;
+    }
+    state_ = State::kRefined;
+    CheckFold("after refinement");
+  }
+  return state_ == State::kRefined;
+}
+
+bool GlobalMapper::CheckFold(const std::string& when) {
+  if (evidence_ == nullptr || !options_.fold.detect) return false;
+  StageTimer stage("fold check (" + when + ")");
+  // After positioning the model holds only the tracks selected for it: the
+  // predicted overlap is scaled to all the tracks, which the verified
+  // inliers count (DetectFold's `tracks`).
+  fold_ = DetectFold(options_.fold.detection, reconstruction_, *evidence_,
+                     state_ == State::kRefined ? nullptr : &tracks_);
+  fold_checked_ = true;
+  stage.Add("fold score", fold_.fold_score);
+  stage.Add("predicted pairs", static_cast<double>(fold_.num_predicted_pairs));
+  stage.Add("missing pairs", static_cast<double>(fold_.num_missing_pairs));
+  stage.Add("contradicted strong pairs",
+            static_cast<double>(fold_.num_strong_inconsistent_pairs));
+  stage.Add("contradictory tracks",
+            static_cast<double>(fold_.num_contradictory_tracks));
+  stage.Add("suspect pairs", static_cast<double>(fold_.suspect_pairs.size()));
+  stage.Add("weak pairs", static_cast<double>(fold_.num_weak_pairs));
+  stage.Add("weak pairs across their cut",
+            static_cast<double>(fold_.num_weak_cut_pairs));
+  stage.Finish(log_prefix_, &stages_);
+  LOG(INFO) << log_prefix_ << "fold check (" << when
+            << "): " << fold_.Describe();
+  return fold_.folded;
+}
+
+ModelRigidity GlobalMapper::CheckRigidity() {
+  StageTimer stage("rigidity check");
+  const ModelRigidity rigidity = AnalyzeModelRigidity(
+      ModelRigidityOptions(), reconstruction_, options_.min_model_size);
+  stage.Add("blocks", static_cast<double>(rigidity.blocks.size()));
+  stage.Add("large blocks", static_cast<double>(rigidity.num_large_blocks));
+  stage.Finish(log_prefix_, &stages_);
+  return rigidity;
 }
 
 bool GlobalMapper::RotationAveraging() {
@@ -233,12 +286,8 @@ bool GlobalMapper::BuildTracks() {
   // the others are triangulated from the refined poses afterwards.
   std::vector<size_t> selected;
   if (global_positioning) {
-    PositioningTrackSelectionOptions selection;
-    selection.tracks_per_image = options_.skip_retriangulation
-                                     ? 0
-                                     : options_.positioning_tracks_per_image;
-    selection.grid_size = options_.positioning_grid_size;
-    selection.tracks_per_pair = options_.positioning_tracks_per_pair;
+    const PositioningTrackSelectionOptions& selection =
+        options_.positioning_tracks;
     std::vector<std::pair<image_t, image_t>> pair_ids;
     pair_ids.reserve(pairs_.size());
     for (const ImagePairGeometry& pair : pairs_) {
@@ -532,71 +581,78 @@ GlobalMapperOptions::GlobalMapperOptions()
   bundle_adjustment.loss_function = "trivial";
 }
 
-void GlobalMapperOptions::Check() const {
-  if (min_model_size < 3) {
-    throw OptionError(&min_model_size, "Mapper.min_model_size", "must be >= 3");
+namespace {
+
+// Every setting's check; the errors name the flags as written here, which
+// GlobalMapperOptions::Check() replaces by the registered ones.
+void CheckEverySetting(const GlobalMapperOptions& options) {
+  const GlobalMapperOptions& o = options;
+  if (o.min_model_size < 3) {
+    throw OptionError(&o.min_model_size, "Mapper.min_model_size",
+                      "must be >= 3");
   }
   const std::vector<std::string> methods = RotationAveragerMethods();
-  if (std::find(methods.begin(), methods.end(), rotation_method) ==
+  if (std::find(methods.begin(), methods.end(), o.rotation_method) ==
       methods.end()) {
-    throw OptionError(&rotation_method, "Mapper.rotation_method",
-                      "unknown method '" + rotation_method + "' (one of " +
+    throw OptionError(&o.rotation_method, "Mapper.rotation_method",
+                      "unknown method '" + o.rotation_method + "' (one of " +
                           RotationAveragerMethodList() + ")");
   }
-  if (positioning_method != "global_positioning" &&
-      positioning_method != "translation_averaging") {
-    throw OptionError(&positioning_method, "Mapper.positioning_method",
-                      "unknown method '" + positioning_method +
+  if (o.positioning_method != "global_positioning" &&
+      o.positioning_method != "translation_averaging") {
+    throw OptionError(&o.positioning_method, "Mapper.positioning_method",
+                      "unknown method '" + o.positioning_method +
                           "' (global_positioning or translation_averaging)");
   }
-  if (num_threads == 0 || num_threads < -1) {
-    throw OptionError(&num_threads, "Mapper.num_threads",
+  if (o.num_threads == 0 || o.num_threads < -1) {
+    throw OptionError(&o.num_threads, "Mapper.num_threads",
                       "must be -1 (all cores) or > 0");
   }
-  if (seed < 0) {
-    throw OptionError(&seed, "Mapper.seed", "must be >= 0");
+  if (o.seed < 0) {
+    throw OptionError(&o.seed, "Mapper.seed", "must be >= 0");
   }
-  if (progress < -1 || progress > 1) {
-    throw OptionError(&progress, "Mapper.progress",
+  if (o.progress < -1 || o.progress > 1) {
+    throw OptionError(&o.progress, "Mapper.progress",
                       "must be -1 (auto), 0 or 1");
   }
-  if (color_image_downscale != 1 && color_image_downscale != 2 &&
-      color_image_downscale != 4 && color_image_downscale != 8) {
-    throw OptionError(&color_image_downscale, "Mapper.color_image_downscale",
+  if (o.color_image_downscale != 1 && o.color_image_downscale != 2 &&
+      o.color_image_downscale != 4 && o.color_image_downscale != 8) {
+    throw OptionError(&o.color_image_downscale, "Mapper.color_image_downscale",
                       "must be 1, 2, 4 or 8");
   }
-  if (num_ba_iterations < 0) {
-    throw OptionError(&num_ba_iterations, "Mapper.num_ba_iterations",
+  if (o.num_ba_iterations < 0) {
+    throw OptionError(&o.num_ba_iterations, "Mapper.num_ba_iterations",
                       "must be >= 0");
   }
-  view_graph.Check();
-  rotation_averaging.Check();
-  rotation_filter.Check();
-  tracks.Check();
-  global_positioning.Check();
-  translation_averaging.Check();
-  triangulation.Check();
-  two_view_check.Check();
-  if (positioning_tracks_per_image < 0) {
-    throw OptionError(&positioning_tracks_per_image,
-                      "Mapper.positioning_tracks_per_image", "must be >= 0");
+  o.view_graph.Check();
+  o.rotation_averaging.Check();
+  o.rotation_filter.Check();
+  o.tracks.Check();
+  o.global_positioning.Check();
+  o.translation_averaging.Check();
+  o.triangulation.Check();
+  o.two_view_check.Check();
+  o.positioning_tracks.Check();
+  if (o.max_num_tracks < 0) {
+    throw OptionError(&o.max_num_tracks, "Mapper.max_num_tracks",
+                      "must be >= 0");
   }
-  if (positioning_grid_size < 1) {
-    throw OptionError(&positioning_grid_size, "Mapper.positioning_grid_size",
-                      "must be >= 1");
-  }
-  if (max_num_tracks < 0) {
-    throw OptionError(&max_num_tracks, "Mapper.max_num_tracks", "must be >= 0");
-  }
-  if (positioning_tracks_per_pair < 0) {
-    throw OptionError(&positioning_tracks_per_pair,
-                      "Mapper.positioning_tracks_per_pair", "must be >= 0");
-  }
-  bundle_adjustment.Check();
-  filtering.Check();
-  normalization.Check();
-  pose_constraint.Check();
-  fold.Check();
+  o.bundle_adjustment.Check();
+  o.filtering.Check();
+  o.normalization.Check();
+  o.pose_constraint.Check();
+  o.fold.Check();
+}
+
+}  // namespace
+
+void GlobalMapperOptions::Check() const {
+  // Checked on a registered copy: an error about a registered member names
+  // its flag as registered (OptionManager::Check), never a hand-written one.
+  GlobalMapperOptions registered = *this;
+  OptionManager manager("mapper");
+  AddGlobalMapperOptions(&manager, &registered);
+  manager.Check([&registered] { CheckEverySetting(registered); });
 }
 
 GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
@@ -612,6 +668,12 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.global_positioning.random_seed = seed;
   stages.translation_averaging.random_seed = seed;
   stages.triangulation.random_seed = seed;
+  // A pair with fewer inliers than the view graph keeps counts as not
+  // matched for the fold check too.
+  stages.fold.detection.min_num_matches = view_graph.min_num_inliers;
+  // Without retriangulation the tracks positioning leaves out would have no
+  // points: positioning takes them all.
+  if (skip_retriangulation) stages.positioning_tracks.tracks_per_image = 0;
   for (SolverOptions* solver :
        {&stages.global_positioning.solver, &stages.translation_averaging.solver,
         &stages.bundle_adjustment.solver}) {

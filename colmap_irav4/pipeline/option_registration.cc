@@ -1,6 +1,6 @@
 #include "colmap_irav4/pipeline/option_registration.h"
 
-#include "colmap_irav4/pipeline/fold_resolution.h"
+#include <sstream>
 
 namespace colmap_irav4 {
 
@@ -397,11 +397,12 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "images");
   manager->Add("Mapper.num_ba_iterations", &o.num_ba_iterations,
                "rounds of bundle adjustment + filtering");
+  PositioningTrackSelectionOptions& selection = o.positioning_tracks;
   manager->Add("Mapper.positioning_tracks_per_image",
-               &o.positioning_tracks_per_image,
+               &selection.tracks_per_image,
                "global positioning uses the longest tracks until each image "
                "has this many observations (0: all tracks)");
-  manager->Add("Mapper.positioning_grid_size", &o.positioning_grid_size,
+  manager->Add("Mapper.positioning_grid_size", &selection.grid_size,
                "... spread over each image: a grid of this many cells per "
                "side, each cell's share of the quota first (1: the longest "
                "tracks only)");
@@ -409,8 +410,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "at most this many tracks (points): positioning's first, then "
                "the longest; a warning says how many were dropped (0: no "
                "cap)");
-  manager->Add("Mapper.positioning_tracks_per_pair",
-               &o.positioning_tracks_per_pair,
+  manager->Add("Mapper.positioning_tracks_per_pair", &selection.tracks_per_pair,
                "... and every view-graph pair keeps this many of its tracks "
                "(0: no pair quota)");
   manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
@@ -447,6 +447,15 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddNormalizationOptions(manager, &o.normalization);
   AddPoseConstraintOptions(manager, &o.pose_constraint);
   AddFoldResolutionOptions(manager, &o.fold);
+}
+
+std::string GlobalMapperOptionsIni(const GlobalMapperOptions& options) {
+  GlobalMapperOptions registered = options;
+  OptionManager manager("mapper");
+  AddGlobalMapperOptions(&manager, &registered);
+  std::ostringstream ini;
+  manager.Write(ini);
+  return ini.str();
 }
 
 }  // namespace colmap_irav4

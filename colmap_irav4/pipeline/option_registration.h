@@ -66,4 +66,8 @@ void AddFoldResolutionOptions(OptionManager* manager,
 void AddGlobalMapperOptions(OptionManager* manager,
                             GlobalMapperOptions* options);
 
+// The mapper's options as COLMAP's project.ini writes them (OptionManager::
+// Write over AddGlobalMapperOptions): what a run used, beside its models.
+std::string GlobalMapperOptionsIni(const GlobalMapperOptions& options);
+
 }  // namespace colmap_irav4

@@ -156,8 +156,10 @@ void FoldDetectionOptions::Check() const {
   if (max_points_per_image < 1) {
     throw InputError("--Fold.max_points_per_image", "must be >= 1");
   }
-  if (min_num_matches < 1) {
-    throw InputError("--Fold.min_num_matches", "must be >= 1");
+  if (min_num_matches < 0) {
+    // Set from --Mapper.min_num_matches (GlobalMapperOptions::ForStages).
+    throw OptionError(&min_num_matches, "Mapper.min_num_matches",
+                      "must be >= 0");
   }
   if (!(max_fold_score >= 0 && max_fold_score <= 1)) {
     throw InputError("--Fold.max_fold_score", "must be in [0, 1]");

@@ -59,13 +59,10 @@ struct Irav4Options {
   // rotations) or "guarded" (l1_irls, kept only if it lowers the
   // Geman-McClure cost over all edges below that of IRAv4's own rotations,
   // else irls: the global L1 stage may not move a correct IRAv4 solution
-  // into the basin of consistent structured outliers). Default guarded:
-  // measured with tools/rotation_benchmark on the Madrid graph, 3 seeds,
-  // sigma 5, the paper's protocol (30% outliers) and the structured one (50%
-  // of the twin pairs + 30% random outliers), the L1 stage brings the median
-  // to L1-IRLS's (paper protocol 0.406 -> 0.334 deg, structured 0.473 ->
-  // 0.369) and fewer cameras > 30 deg off (23.3 -> 15.3, 51.3 -> 23.0);
-  // guarded gave the same figures at the cost of one O(E) evaluation.
+  // into the basin of consistent structured outliers). Default guarded: the
+  // L1 stage brings IRAv4's median error to L1-IRLS's on both protocols, at
+  // the cost of one O(E) evaluation
+  // (docs/notes/2026-12-01-rotation-averaging.md).
   std::string final_refinement = "guarded";
   // With a final refinement: after it, vertices whose
   // rotation agrees (within reseed_threshold_deg) with fewer than

@@ -23,9 +23,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* const kOwnNames[] = {"cameras.bin", "images.bin", "points3D.bin",
-                                 "cameras.txt", "images.txt", "points3D.txt",
-                                 "summary.json"};
+const char* const kOwnNames[] = {"cameras.bin",  "images.bin", "points3D.bin",
+                                 "cameras.txt",  "images.txt", "points3D.txt",
+                                 "summary.json", "project.ini"};
 
 // Async-signal-safe version of IsOwnOutputFileName (no allocation).
 bool IsOwnName(const char* name) {

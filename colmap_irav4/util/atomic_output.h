@@ -14,10 +14,10 @@
 // up in the temporary directory and its model files are removed there.
 //
 // What is ours: the model files (cameras/images/points3D .bin/.txt),
-// summary.json and names holding ".colmap_irav4_tmp.". Anything else inside
-// an old OUT/<k> (a user's notes, a database, ...) is moved into the new
-// OUT/<k> with a warning, never deleted. An OUT/<k> that holds files but no
-// model is not replaced (error before anything is installed).
+// project.ini, summary.json and names holding ".colmap_irav4_tmp.". Anything
+// else inside an old OUT/<k> (a user's notes, a database, ...) is moved into
+// the new OUT/<k> with a warning, never deleted. An OUT/<k> that holds files
+// but no model is not replaced (error before anything is installed).
 //
 // Interrupts: SIGINT/SIGTERM during the run remove the temporary directory's
 // own files (an async-signal-safe walk) before the default action; during
@@ -35,7 +35,7 @@ namespace colmap_irav4 {
 constexpr char kTemporaryMarker[] = ".colmap_irav4_tmp.";
 
 // Whether `name` (a file name, no directory) is one this program writes:
-// model files, summary.json, or a temporary name.
+// model files, project.ini, summary.json, or a temporary name.
 bool IsOwnOutputFileName(const std::string& name);
 
 // Writes `bytes` to `path` (its directory must exist) through a temporary

@@ -1,5 +1,6 @@
 #include "colmap_irav4/util/option_manager.h"
 
+#include <algorithm>
 #include <iostream>
 #include <sstream>
 
@@ -10,6 +11,20 @@ namespace {
 
 std::string FormatDouble(double value) {
   std::ostringstream stream;
+  stream << value;
+  return stream.str();
+}
+
+// The shortest text that reads back as exactly `value`.
+std::string FormatDoubleExactly(double value) {
+  for (int precision = 6; precision < 17; ++precision) {
+    std::ostringstream stream;
+    stream.precision(precision);
+    stream << value;
+    if (std::stod(stream.str()) == value) return stream.str();
+  }
+  std::ostringstream stream;
+  stream.precision(17);
   stream << value;
   return stream.str();
 }
@@ -35,7 +50,8 @@ OptionManager::OptionManager(std::string command_name, std::string description)
 OptionManager::Option& OptionManager::AddOption(
     const std::string& name, const std::string& help, const std::string& type,
     std::string default_value, const void* address,
-    std::function<void(const std::string&)> assign) {
+    std::function<void(const std::string&)> assign,
+    std::function<std::string()> value) {
   for (const Option& option : options_) {
     if (option.name == name) {
       throw std::logic_error("option --" + name + " registered twice");
@@ -52,68 +68,78 @@ OptionManager::Option& OptionManager::AddOption(
   option.default_value = std::move(default_value);
   option.address = address;
   option.assign = std::move(assign);
+  option.value = std::move(value);
   options_.push_back(std::move(option));
   return options_.back();
 }
 
 void OptionManager::Add(const std::string& name, bool* value,
                         const std::string& help) {
-  AddOption(name, help, "bool", *value ? "1" : "0", value,
-            [name, value](const std::string& text) {
-              if (!ParseBool(text, value)) {
-                throw InputError("--" + name,
-                                 "expected 0/1/true/false, got '" + text + "'");
-              }
-            });
+  AddOption(
+      name, help, "bool", *value ? "1" : "0", value,
+      [name, value](const std::string& text) {
+        if (!ParseBool(text, value)) {
+          throw InputError("--" + name,
+                           "expected 0/1/true/false, got '" + text + "'");
+        }
+      },
+      [value] { return std::string(*value ? "1" : "0"); });
 }
 
 void OptionManager::Add(const std::string& name, int* value,
                         const std::string& help) {
-  AddOption(name, help, "int", std::to_string(*value), value,
-            [name, value](const std::string& text) {
-              size_t end = 0;
-              try {
-                const long parsed = std::stol(text, &end);
-                if (end == text.size() && parsed >= INT32_MIN &&
-                    parsed <= INT32_MAX) {
-                  *value = static_cast<int>(parsed);
-                  return;
-                }
-              } catch (const std::exception&) {
-              }
-              throw InputError("--" + name,
-                               "expected an integer, got '" + text + "'");
-            });
+  AddOption(
+      name, help, "int", std::to_string(*value), value,
+      [name, value](const std::string& text) {
+        size_t end = 0;
+        try {
+          const long parsed = std::stol(text, &end);
+          if (end == text.size() && parsed >= INT32_MIN &&
+              parsed <= INT32_MAX) {
+            *value = static_cast<int>(parsed);
+            return;
+          }
+        } catch (const std::exception&) {
+        }
+        throw InputError("--" + name,
+                         "expected an integer, got '" + text + "'");
+      },
+      [value] { return std::to_string(*value); });
 }
 
 void OptionManager::Add(const std::string& name, double* value,
                         const std::string& help) {
-  AddOption(name, help, "double", FormatDouble(*value), value,
-            [name, value](const std::string& text) {
-              size_t end = 0;
-              try {
-                const double parsed = std::stod(text, &end);
-                if (end == text.size()) {
-                  *value = parsed;
-                  return;
-                }
-              } catch (const std::exception&) {
-              }
-              throw InputError("--" + name,
-                               "expected a number, got '" + text + "'");
-            });
+  AddOption(
+      name, help, "double", FormatDouble(*value), value,
+      [name, value](const std::string& text) {
+        size_t end = 0;
+        try {
+          const double parsed = std::stod(text, &end);
+          if (end == text.size()) {
+            *value = parsed;
+            return;
+          }
+        } catch (const std::exception&) {
+        }
+        throw InputError("--" + name, "expected a number, got '" + text + "'");
+      },
+      [value] { return FormatDoubleExactly(*value); });
 }
 
 void OptionManager::Add(const std::string& name, std::string* value,
                         const std::string& help) {
-  AddOption(name, help, "string", *value, value,
-            [value](const std::string& text) { *value = text; });
+  AddOption(
+      name, help, "string", *value, value,
+      [value](const std::string& text) { *value = text; },
+      [value] { return *value; });
 }
 
 void OptionManager::AddRequired(const std::string& name, std::string* value,
                                 const std::string& help) {
-  AddOption(name, help, "string", *value, value,
-            [value](const std::string& text) { *value = text; })
+  AddOption(
+      name, help, "string", *value, value,
+      [value](const std::string& text) { *value = text; },
+      [value] { return *value; })
       .required = true;
 }
 
@@ -198,6 +224,34 @@ bool OptionManager::IsSet(const std::string& name) const {
     if (option.name == name) return option.set;
   }
   return false;
+}
+
+void OptionManager::Write(std::ostream& stream) const {
+  // Options without a section first, then each section once, in the order
+  // of registration.
+  std::vector<std::string> sections = {""};
+  for (const Option& option : options_) {
+    const size_t dot = option.name.find('.');
+    const std::string section =
+        dot == std::string::npos ? "" : option.name.substr(0, dot);
+    if (std::find(sections.begin(), sections.end(), section) ==
+        sections.end()) {
+      sections.push_back(section);
+    }
+  }
+  for (const std::string& section : sections) {
+    if (!section.empty()) stream << "[" << section << "]\n";
+    for (const Option& option : options_) {
+      const size_t dot = option.name.find('.');
+      if ((dot == std::string::npos ? "" : option.name.substr(0, dot)) !=
+          section) {
+        continue;
+      }
+      stream << (dot == std::string::npos ? option.name
+                                          : option.name.substr(dot + 1))
+             << "=" << option.value() << "\n";
+    }
+  }
 }
 
 void OptionManager::PrintHelp(std::ostream& stream) const {

@@ -48,6 +48,9 @@ class OptionManager {
   std::vector<std::pair<std::string, std::string>> Options() const;
 
   void PrintHelp(std::ostream& stream) const;
+  // The options' current values in COLMAP's project.ini format: name=value
+  // lines, those named Section.name under a [Section] line; doubles exact.
+  void Write(std::ostream& stream) const;
 
  private:
   struct Option {
@@ -59,11 +62,13 @@ class OptionManager {
     bool set = false;
     const void* address = nullptr;
     std::function<void(const std::string&)> assign;
+    std::function<std::string()> value;  // the current value as text
   };
   Option& AddOption(const std::string& name, const std::string& help,
                     const std::string& type, std::string default_value,
                     const void* address,
-                    std::function<void(const std::string&)> assign);
+                    std::function<void(const std::string&)> assign,
+                    std::function<std::string()> value);
 
   std::string command_name_;
   std::string description_;

@@ -113,6 +113,25 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   EXPECT_NE(summary.find("\"fold_outcome\": \"clean\""), std::string::npos)
       << summary;
   EXPECT_EQ(summary.find("\"index\": 1"), std::string::npos) << summary;
+  // The model's stages in the order they ran: the fold checks after
+  // positioning and after refinement, the colours last.
+  const size_t positioning_check =
+      summary.find("fold check (after positioning)");
+  const size_t first_ba = summary.find("bundle adjustment 1");
+  const size_t refinement_check = summary.find("fold check (after refinement)");
+  const size_t colours = summary.find("\"colours");
+  ASSERT_NE(positioning_check, std::string::npos) << summary;
+  ASSERT_NE(refinement_check, std::string::npos) << summary;
+  ASSERT_NE(colours, std::string::npos) << summary;
+  EXPECT_LT(positioning_check, first_ba) << summary;
+  EXPECT_LT(first_ba, refinement_check) << summary;
+  EXPECT_LT(refinement_check, colours) << summary;
+
+  // The options of the run beside the model, as COLMAP's project.ini.
+  const std::string ini = ReadText(sparse + "/0/project.ini");
+  EXPECT_NE(ini.find("\n[Mapper]\n"), std::string::npos) << ini;
+  EXPECT_NE(ini.find("\nmin_num_matches=15\n"), std::string::npos) << ini;
+  EXPECT_NE(ini.find("\n[Fold]\n"), std::string::npos) << ini;
 
   // COLMAP 3.8 reads the model.
   if (fs::exists("/usr/bin/colmap")) {

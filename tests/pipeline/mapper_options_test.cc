@@ -101,5 +101,76 @@ TEST(MapperOptions, DefaultsPass) {
   EXPECT_NO_THROW(manager.Check([&] { options.Check(); }));
 }
 
+TEST(MapperOptions, ForStagesSetsEveryStagesCopyOfASharedSetting) {
+  GlobalMapperOptions options;
+  options.view_graph.min_num_inliers = 30;  // --Mapper.min_num_matches
+  options.num_threads = 3;
+  options.seed = 9;
+  options.skip_retriangulation = true;
+  const GlobalMapperOptions stages = options.ForStages(10);
+  // The fold check counts a pair as matched as the view graph keeps it.
+  EXPECT_EQ(stages.fold.detection.min_num_matches, 30);
+  EXPECT_EQ(stages.view_graph.num_threads, 3);
+  EXPECT_EQ(stages.bundle_adjustment.solver.ceres.num_threads, 3);
+  EXPECT_EQ(stages.rotation_averaging.irav4.seed, 9);
+  // Without retriangulation positioning takes every track.
+  EXPECT_EQ(stages.positioning_tracks.tracks_per_image, 0);
+  EXPECT_EQ(options.positioning_tracks.tracks_per_image, 500);
+  // Applying it again changes nothing.
+  const GlobalMapperOptions again = stages.ForStages(10);
+  EXPECT_EQ(again.fold.detection.min_num_matches, 30);
+  EXPECT_EQ(again.triangulation.random_seed, 9u);
+}
+
+TEST(MapperOptions, CheckNamesTheFlagWithoutAManager) {
+  // Check() alone (the pipeline's one check) names the registered flag.
+  GlobalMapperOptions options;
+  options.view_graph.min_num_inliers = -1;
+  try {
+    options.Check();
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("--Mapper.min_num_matches: ", 0),
+              0u)
+        << error.what();
+  }
+  options = GlobalMapperOptions();
+  options.positioning_tracks.grid_size = 0;
+  try {
+    options.Check();
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(
+        std::string(error.what()).rfind("--Mapper.positioning_grid_size: ", 0),
+        0u)
+        << error.what();
+  }
+}
+
+TEST(MapperOptions, IniHoldsEveryFlagWithItsExactValue) {
+  GlobalMapperOptions options;
+  options.view_graph.min_num_inliers = 30;
+  options.rotation_filter.max_rotation_error_deg = 0.1234567890123;
+  const std::string ini = GlobalMapperOptionsIni(options);
+  EXPECT_EQ(ini.rfind("[Mapper]\nmin_model_size=3\n", 0), 0u) << ini;
+  EXPECT_NE(ini.find("\nmin_num_matches=30\n"), std::string::npos) << ini;
+  EXPECT_NE(ini.find("\n[RotationFilter]\nmax_rotation_error_deg="
+                     "0.1234567890123\n"),
+            std::string::npos)
+      << ini;
+  // One line per flag, plus one per section.
+  OptionManager manager("mapper");
+  GlobalMapperOptions registered;
+  AddGlobalMapperOptions(&manager, &registered);
+  size_t num_lines = 0;
+  size_t num_sections = 0;
+  for (size_t k = 0; k < ini.size(); ++k) {
+    if (ini[k] != '\n') continue;
+    ++num_lines;
+    if (k + 1 < ini.size() && ini[k + 1] == '[') ++num_sections;
+  }
+  EXPECT_EQ(num_lines, manager.Options().size() + num_sections + 1);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

@@ -462,7 +462,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.
-    if (!retriangulated_ && !Retriangulation()) return false;
+    if (!retriangulated_ && !(Retriangulation() && TwoViewCheck())) {
+      return false;
+    }
   }
   return true;
 }
@@ -478,6 +480,30 @@ bool GlobalMapper::Retriangulation() {
             static_cast<double>(triangulation.num_points_added));
   stage.Add("observations added",
             static_cast<double>(triangulation.num_observations_added));
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
+
+bool GlobalMapper::TwoViewCheck() {
+  if (!options_.two_view_check.enabled || options_.skip_bundle_adjustment) {
+    return true;
+  }
+  StageTimer stage("two-view check");
+  TwoViewCheckSummary summary;
+  if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
+                          options_.triangulation, options_.pose_constraint,
+                          &reconstruction_, &keypoint_noise_, &summary)) {
+    return Fail("bundle adjustment of the two-view check failed");
+  }
+  stage.Add("two-view points checked",
+            static_cast<double>(summary.num_points_checked));
+  stage.Add("two-view points restored",
+            static_cast<double>(summary.num_points_restored));
+  stage.Add("images poorly constrained",
+            static_cast<double>(summary.num_images_poorly_constrained));
+  stage.Add("two-view points withheld",
+            static_cast<double>(summary.num_points_withheld));
   AddModelFigures(&stage);
   stage.Finish(log_prefix_, &stages_);
   return true;
@@ -625,6 +651,7 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.global_positioning.Check();
   o.translation_averaging.Check();
   o.triangulation.Check();
+  o.two_view_check.Check();
   o.positioning_tracks.Check();
   if (o.max_num_tracks < 0) {
     throw OptionError(&o.max_num_tracks, "Mapper.max_num_tracks",
@@ -633,6 +660,7 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.bundle_adjustment.Check();
   o.filtering.Check();
   o.normalization.Check();
+  o.pose_constraint.Check();
   o.fold.Check();
 }
 

@@ -29,7 +29,9 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/refinement/model_rigidity.h"
+#include "colmap_irav4/refinement/pose_constraint.h"
 #include "colmap_irav4/refinement/triangulation.h"
+#include "colmap_irav4/refinement/two_view_check.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -106,9 +108,12 @@ struct GlobalMapperOptions {
   GlobalPositionerOptions global_positioning;
   TranslationAveragingOptions translation_averaging;
   TriangulationOptions triangulation;
+  TwoViewCheckOptions two_view_check;
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Per-image pose constraint of every model (summary.json, warnings).
+  PoseConstraintOptions pose_constraint;
   // Fold check of every model and its resolution (symmetric scenes).
   FoldResolutionOptions fold;
 
@@ -183,6 +188,9 @@ class GlobalMapper {
   // Triangulates every track from the current poses (completes the points of
   // tracks positioning did not use).
   bool Retriangulation();
+  // After retriangulation: the two-view points checked against poses
+  // adjusted without them (refinement/two_view_check.h).
+  bool TwoViewCheck();
   // Final filtering, cameras no image uses removed, normalisation.
   virtual bool Finalize();
   // The fold check (refinement/fold_detection.h) of the model as it is;

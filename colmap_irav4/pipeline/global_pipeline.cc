@@ -26,6 +26,32 @@ namespace colmap_irav4 {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// One warning naming the images whose pose their points hold least
+// (`images`: least constrained first), so that a user doubts those cameras.
+void LogPoorlyConstrainedImages(const std::vector<ImagePoseConstraint>& images,
+                                const PoseConstraintOptions& options,
+                                const std::string& prefix) {
+  std::ostringstream list;
+  int count = 0;
+  for (const ImagePoseConstraint& image : images) {
+    if (!image.poorly_constrained) continue;
+    list << (count++ ? ", " : "") << image.name << " ("
+         << image.num_multi_view_observations << " of "
+         << image.num_observations << " observations on points seen 3+ times, "
+         << std::setprecision(2) << image.relative_uncertainty << "x)";
+  }
+  if (count == 0) return;
+  LOG(WARNING) << prefix << count << " image(s) poorly constrained by their "
+               << "points (rotation uncertainty over "
+               << options.max_relative_uncertainty
+               << "x the model's median; summary.json lists every image): "
+               << list.str();
+}
+
+}  // namespace
+
 std::string GlobalMapperSummary::ToJson() const {
   std::ostringstream out;
   out << "{\n  \"database_path\": " << JsonString(database_path)
@@ -61,7 +87,24 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
         << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
-    out << "}";
+    out << ",\n     \"images\": [";
+    for (size_t j = 0; j < c.images.size(); ++j) {
+      const ImagePoseConstraint& image = c.images[j];
+      out << (j ? "," : "") << "\n       {\"image_id\": " << image.image_id
+          << ", \"name\": " << JsonString(image.name)
+          << ", \"num_observations\": " << image.num_observations
+          << ", \"num_multi_view_observations\": "
+          << image.num_multi_view_observations
+          << ", \"rotation_uncertainty_deg\": "
+          << JsonNumber(image.rotation_uncertainty_deg)
+          << ", \"relative_center_uncertainty\": "
+          << JsonNumber(image.relative_center_uncertainty)
+          << ", \"relative_uncertainty\": "
+          << JsonNumber(image.relative_uncertainty)
+          << ", \"poorly_constrained\": "
+          << (image.poorly_constrained ? "true" : "false") << "}";
+    }
+    out << (c.images.empty() ? "" : "\n     ") << "]}";
   }
   out << (components.empty() ? "" : "\n  ") << "],\n  \"notes\": [";
   for (size_t i = 0; i < notes.size(); ++i) {
@@ -324,6 +367,11 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
     report.num_points = static_cast<int>(reconstruction.points3D.size());
     report.num_observations = static_cast<int>(NumObservations(reconstruction));
     report.mean_track_length = MeanTrackLength(reconstruction);
+    report.images = ComputePoseConstraints(mapper.options().pose_constraint,
+                                           reconstruction);
+    LogPoorlyConstrainedImages(
+        report.images, mapper.options().pose_constraint,
+        models.size() > 1 ? "[model " + std::to_string(k) + "] " : "");
     LOG(INFO) << "Model " << k << ": " << report.num_registered_images
               << " registered images (of " << report.num_images_in_graph
               << " in the component), " << report.num_points << " points, "

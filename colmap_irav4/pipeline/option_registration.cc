@@ -258,6 +258,35 @@ void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
                "ignore_two_view_tracks)");
 }
 
+void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
+  manager->Add("TwoViewCheck.enabled", &o->enabled,
+               "after retriangulation, check the two-view points against "
+               "poses adjusted without them (repeated structure)");
+  manager->Add("TwoViewCheck.min_multi_view_observations",
+               &o->min_multi_view_observations,
+               "only two-view points between images with at least this many "
+               "observations of points seen 3 times or more are checked");
+  manager->Add("TwoViewCheck.withhold_poorly_constrained",
+               &o->withhold_poorly_constrained,
+               "two-view points of images their multi-view points hold "
+               "poorly (PoseConstraint.*) do not come back");
+  manager->Add("TwoViewCheck.max_reproj_error", &o->max_reproj_error,
+               "a checked two-view point is kept when both its observations "
+               "are within this reprojection error (px, in noise units with "
+               "BundleAdjustment.filter_by_keypoint_noise)");
+}
+
+void AddPoseConstraintOptions(OptionManager* manager,
+                              PoseConstraintOptions* o) {
+  manager->Add("PoseConstraint.min_track_length", &o->min_track_length,
+               "an image's pose uncertainty is that of a resection on its "
+               "points seen in at least this many images");
+  manager->Add("PoseConstraint.max_relative_uncertainty",
+               &o->max_relative_uncertainty,
+               "images whose rotation uncertainty exceeds this multiple of "
+               "the model's median are reported as poorly constrained");
+}
+
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* o) {
   BundleAdjustmentOptions& ba = *o;
@@ -414,9 +443,11 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddGlobalPositioningOptions(manager, &o.global_positioning);
   AddTranslationAveragingOptions(manager, &o.translation_averaging);
   AddTriangulationOptions(manager, &o.triangulation);
+  AddTwoViewCheckOptions(manager, &o.two_view_check);
   AddBundleAdjustmentOptions(manager, &o.bundle_adjustment);
   AddFilterOptions(manager, &o.filtering);
   AddNormalizationOptions(manager, &o.normalization);
+  AddPoseConstraintOptions(manager, &o.pose_constraint);
   AddFoldResolutionOptions(manager, &o.fold);
 }
 

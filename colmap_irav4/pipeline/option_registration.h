@@ -52,6 +52,10 @@ void AddSolverOptions(OptionManager* manager, const std::string& prefix,
                       SolverOptions* options);
 void AddTriangulationOptions(OptionManager* manager,
                              TriangulationOptions* options);
+void AddTwoViewCheckOptions(OptionManager* manager,
+                            TwoViewCheckOptions* options);
+void AddPoseConstraintOptions(OptionManager* manager,
+                              PoseConstraintOptions* options);
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* options);
 void AddFilterOptions(OptionManager* manager, FilterOptions* options);

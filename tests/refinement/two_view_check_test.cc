@@ -86,7 +86,7 @@ Scene MakeScene(int num_good, int num_wrong) {
 
 BundleAdjustmentOptions Adjustment() {
   BundleAdjustmentOptions options;
-  options.loss_function = "trivial";  // the mapper's
+  options.loss_function = BundleAdjustmentLoss::kTrivial;  // the mapper's
   options.weight_by_keypoint_scale = false;
   options.num_rounds = 1;
   options.max_reproj_error = 4.0;

@@ -39,27 +39,6 @@ void PrintErrors(const std::string& label, const RotationErrors& errors) {
             << " cameras > 30 deg off" << std::endl;
 }
 
-// The run summary (rotation_averaging_summary.h): written to a temporary
-// file and renamed: complete or absent.
-void WriteSummary(const std::string& path,
-                  const RotationAveragingSummary& summary) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary, std::ios::trunc);
-    if (!file) throw InputError(path, "cannot write the summary");
-    file << summary.ToJson();
-    file.close();
-    if (!file) {
-      std::remove(temporary.c_str());
-      throw InputError(path, "cannot write the summary");
-    }
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError(path, "cannot write the summary");
-  }
-}
-
 // The epipolar graph of a COLMAP database as a rotation graph: vertices are
 // the images in image id order, edge weights the inlier counts.
 RotationGraph RotationGraphFromDatabase(
@@ -146,7 +125,19 @@ int RunRotationAverager(int argc, char** argv) {
     builder_options.Check();
     averager_options.Check();
   });
-  if (!output_path.empty()) CheckFileWritable(output_path);  // before work
+  // Before any work; never over an input, nor both outputs in one file.
+  std::vector<std::string> inputs = {relpose_path, database_path, gt_path};
+  if (!eg_path.empty()) {
+    for (const char* name :
+         {"EGs.txt", "list.txt", "cc.txt", "gt_bundle.out"}) {
+      inputs.push_back(eg_path + "/" + name);
+    }
+  }
+  if (!output_path.empty()) CheckFileWritable(output_path, inputs);
+  if (!summary_path.empty()) {
+    inputs.push_back(output_path);
+    CheckFileWritable(summary_path, inputs);
+  }
   if (output_path.empty() && gt_path.empty()) {
     LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "
                     "neither written nor evaluated";
@@ -211,8 +202,11 @@ int RunRotationAverager(int argc, char** argv) {
     std::cout << std::endl;
   }
   if (!summary_path.empty()) {
-    WriteSummary(summary_path, SummarizeRotationAveraging(method, graph, result,
-                                                          seconds, *averager));
+    // Complete or absent (rotation_averaging_summary.h).
+    WriteFileAtomically(summary_path,
+                        SummarizeRotationAveraging(method, graph, result,
+                                                   seconds, *averager)
+                            .ToJson());
     LOG(INFO) << "Wrote " << summary_path;
   }
   if (!output_path.empty()) {

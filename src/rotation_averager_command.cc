@@ -203,10 +203,10 @@ int RunRotationAverager(int argc, char** argv) {
   }
   if (!summary_path.empty()) {
     // Complete or absent (rotation_averaging_summary.h).
-    WriteFileAtomically(summary_path,
-                        SummarizeRotationAveraging(method, graph, result,
-                                                   seconds, *averager)
-                            .ToJson());
+    WriteFileAtomically(
+        summary_path,
+        SummarizeRotationAveraging(method, graph, result, seconds, *averager)
+            .ToJson());
     LOG(INFO) << "Wrote " << summary_path;
   }
   if (!output_path.empty()) {

@@ -91,7 +91,8 @@ TEST_F(InterruptTest, OutputTransactionKeepsTheHostsSigintHandler) {
   fs::remove_all(dir);
   std::string temporary;
   {
-    OutputTransaction output(dir.string());
+    // No old model in the fresh directory: nothing for the check to read.
+    OutputTransaction output(dir.string(), {}, [](const std::string&, bool) {});
     temporary = output.TemporaryPath();
     ASSERT_EQ(sigaction(SIGINT, nullptr, &during), 0);
     EXPECT_EQ(during.sa_handler, &HostHandler);

@@ -46,6 +46,9 @@ struct ComponentReport {
   // "clean", "resolved (...)", "split", "folded (...)".
   std::string fold_outcome;
   std::vector<StageReport> stages;
+  // Each image's observations and pose constraint, least constrained first
+  // (refinement/pose_constraint.h).
+  std::vector<ImagePoseConstraint> images;
 };
 
 struct GlobalMapperSummary {

@@ -129,7 +129,7 @@ class BundleAdjustmentProblem {
                           Reconstruction* reconstruction)
       : options_(options),
         reconstruction_(reconstruction),
-        huber_(options.loss_function == "huber"),
+        huber_(options.loss_function == BundleAdjustmentLoss::kHuber),
         weighted_(huber_ || options.weight_by_keypoint_scale ||
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
@@ -336,11 +336,12 @@ class BundleAdjustmentProblem {
   }
 
   void Build() {
-    if (!huber_ && options_.loss_function != "trivial") {
-      loss_.reset(CreateLossFunction(options_.loss_function == "huber_ceres"
-                                         ? "huber"
-                                         : options_.loss_function,
-                                     options_.loss_scale));
+    if (options_.loss_function == BundleAdjustmentLoss::kHuberCeres) {
+      loss_.reset(
+          CreateLossFunction(LossFunctionType::kHuber, options_.loss_scale));
+    } else if (options_.loss_function == BundleAdjustmentLoss::kCauchy) {
+      loss_.reset(
+          CreateLossFunction(LossFunctionType::kCauchy, options_.loss_scale));
     }
     for (auto& [image_id, image] : reconstruction_->images) {
       image.cam_from_world.rotation.normalize();
@@ -387,7 +388,7 @@ class BundleAdjustmentProblem {
     num_images_ = static_cast<int>(used_images.size());
     if (Empty()) return;
     // Only auto's choice needs it (a pass over the tracks).
-    if (options_.linear_solver == "auto" && num_images_ >= 50) {
+    if (options_.linear_solver == BundleAdjustmentLinearSolver::kAuto && num_images_ >= 50) {
       std::vector<const Track*> tracks;
       tracks.reserve(reconstruction_->points3D.size());
       for (const auto& [point3D_id, point] : reconstruction_->points3D) {
@@ -489,7 +490,8 @@ class BundleAdjustmentProblem {
 std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
                                int num_images, double schur_density,
                                ceres::Solver::Options* ceres_options) {
-  const std::string& name = options.linear_solver;
+  using Solver = BundleAdjustmentLinearSolver;
+  const Solver solver = options.linear_solver;
   std::ostringstream size;
   size << num_images << " images";
   if (schur_density >= 0) {
@@ -497,16 +499,17 @@ std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
          << "% of pairs share a point";
   }
   std::string reason;
-  if (name == "dense_schur" || (name == "auto" && num_images < 50)) {
+  if (solver == Solver::kDenseSchur ||
+      (solver == Solver::kAuto && num_images < 50)) {
     ceres_options->linear_solver_type = ceres::DENSE_SCHUR;
-    reason = name == "auto" ? "fewer than 50 images" : "asked";
-  } else if (name == "iterative_schur" ||
-             (name == "auto" &&
+    reason = solver == Solver::kAuto ? "fewer than 50 images" : "asked";
+  } else if (solver == Solver::kIterativeSchur ||
+             (solver == Solver::kAuto &&
               (num_images >= options.iterative_schur_min_num_images ||
                schur_density >= options.iterative_schur_min_density))) {
     ceres_options->linear_solver_type = ceres::ITERATIVE_SCHUR;
     ceres_options->preconditioner_type = ceres::SCHUR_JACOBI;
-    reason = name != "auto" ? "asked"
+    reason = solver != Solver::kAuto ? "asked"
              : num_images >= options.iterative_schur_min_num_images
                  ? "at least " +
                        std::to_string(options.iterative_schur_min_num_images) +
@@ -514,7 +517,7 @@ std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
                  : "dense reduced camera system";
   } else {
     ceres_options->linear_solver_type = ceres::SPARSE_SCHUR;
-    reason = name == "auto" ? "sparse reduced camera system" : "asked";
+    reason = solver == Solver::kAuto ? "sparse reduced camera system" : "asked";
   }
   return std::string(ceres::LinearSolverTypeToString(
              ceres_options->linear_solver_type)) +
@@ -553,6 +556,27 @@ double SchurDensity(const std::vector<const Track*>& tracks,
   return static_cast<double>(num_shared) / (n * (n - 1) / 2.0);
 }
 
+template <>
+const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>() {
+  static const EnumNames<BundleAdjustmentLoss> names = {
+      {BundleAdjustmentLoss::kHuber, "huber"},
+      {BundleAdjustmentLoss::kHuberCeres, "huber_ceres"},
+      {BundleAdjustmentLoss::kCauchy, "cauchy"},
+      {BundleAdjustmentLoss::kTrivial, "trivial"}};
+  return names;
+}
+
+template <>
+const EnumNames<BundleAdjustmentLinearSolver>&
+NamesOf<BundleAdjustmentLinearSolver>() {
+  static const EnumNames<BundleAdjustmentLinearSolver> names = {
+      {BundleAdjustmentLinearSolver::kAuto, "auto"},
+      {BundleAdjustmentLinearSolver::kSparseSchur, "sparse_schur"},
+      {BundleAdjustmentLinearSolver::kDenseSchur, "dense_schur"},
+      {BundleAdjustmentLinearSolver::kIterativeSchur, "iterative_schur"}};
+  return names;
+}
+
 BundleAdjustmentOptions::BundleAdjustmentOptions() {
   solver.ceres.max_num_iterations = 100;
   solver.ceres.function_tolerance = 1e-5;
@@ -562,11 +586,6 @@ BundleAdjustmentOptions::BundleAdjustmentOptions() {
 }
 
 void BundleAdjustmentOptions::Check() const {
-  if (!IsLossFunction(loss_function) && loss_function != "huber_ceres") {
-    throw OptionError(&loss_function, "BundleAdjustment.loss_function",
-                      "must be huber, huber_ceres, cauchy or trivial, not '" +
-                          loss_function + "'");
-  }
   if (!(loss_scale > 0))
     throw OptionError(&loss_scale, "BundleAdjustment.loss_scale",
                       "must be positive");
@@ -575,18 +594,12 @@ void BundleAdjustmentOptions::Check() const {
                       "must be at least 1");
   if (!(min_filtered_fraction >= 0 && min_filtered_fraction < 1)) {
     throw OptionError(&min_filtered_fraction,
-                      "BundleAdjustment.min_filtered_fraction",
+                      "BundleAdjustmentOptions::min_filtered_fraction",
                       "must be in [0, 1)");
   }
   if (!(max_reproj_error >= 0)) {
     throw OptionError(&max_reproj_error, "BundleAdjustment.max_reproj_error",
                       "must be >= 0");
-  }
-  if (linear_solver != "auto" && linear_solver != "sparse_schur" &&
-      linear_solver != "dense_schur" && linear_solver != "iterative_schur") {
-    throw OptionError(
-        &linear_solver, "BundleAdjustment.linear_solver",
-        "must be auto, sparse_schur, dense_schur or iterative_schur");
   }
   if (!(iterative_schur_min_density > 0)) {
     throw OptionError(&iterative_schur_min_density,
@@ -620,7 +633,8 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     for (int round = 0; round < options.num_rounds && !problem.Empty();
          ++round) {
       // Huber by reweighting: a few solves, each from the last one's errors.
-      const int num_solves = options.loss_function == "huber" ? 3 : 1;
+      const int num_solves =
+          options.loss_function == BundleAdjustmentLoss::kHuber ? 3 : 1;
       ceres::Solver::Summary solver_summary;
       for (int solve = 0; solve < num_solves; ++solve) {
         build_timer.Restart();

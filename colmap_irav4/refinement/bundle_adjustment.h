@@ -21,6 +21,19 @@ namespace colmap_irav4 {
 // Gauge: the first image's pose is held fixed and so is the component of the
 // second image's centre (or translation) most sensitive to scale, as COLMAP
 // does; with refine_poses off only the points (and intrinsics) move.
+enum class BundleAdjustmentLoss { kHuber, kHuberCeres, kCauchy, kTrivial };
+template <>
+const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>();
+enum class BundleAdjustmentLinearSolver {
+  kAuto,
+  kSparseSchur,
+  kDenseSchur,
+  kIterativeSchur
+};
+template <>
+const EnumNames<BundleAdjustmentLinearSolver>&
+NamesOf<BundleAdjustmentLinearSolver>();
+
 struct BundleAdjustmentOptions {
   // Intrinsics to refine (COLMAP's ba_refine_* options).
   bool refine_focal_length = true;
@@ -31,12 +44,12 @@ struct BundleAdjustmentOptions {
   // Hold the gauge (see above); off: LM's damping alone handles the 7
   // degrees of freedom.
   bool fix_gauge = true;
-  // Robust loss on the reprojection error: "huber" (iteratively reweighted:
+  // Robust loss on the reprojection error: huber (iteratively reweighted:
   // weights min(1, loss_scale / error) fixed during each solve, updated by
-  // the rounds; converges like least squares), "huber_ceres" (Ceres'
+  // the rounds; converges like least squares), huber_ceres (Ceres'
   // HuberLoss: Levenberg-Marquardt crawls when many residuals are in its
-  // linear region), "cauchy" (Ceres) or "trivial".
-  std::string loss_function = "huber";
+  // linear region), cauchy (Ceres) or trivial.
+  BundleAdjustmentLoss loss_function = BundleAdjustmentLoss::kHuber;
   double loss_scale = 1.0;  // px
   // Rounds of (solve, filter); observations over max_reproj_error px are
   // removed after each round (0: no filtering, a single round).
@@ -46,18 +59,19 @@ struct BundleAdjustmentOptions {
   // observations (fountain-P11: 1 round instead of 3, 5.5 s -> 3.7 s for the
   // stages after rotation averaging, same accuracy).
   double min_filtered_fraction = 0.01;
-  // "auto": by the size and density of the reduced camera system (the
+  // auto: by the size and density of the reduced camera system (the
   // Schur complement of the points; ChooseLinearSolver): DENSE_SCHUR below
   // 50 images (COLMAP's rule), ITERATIVE_SCHUR (Schur-Jacobi
   // preconditioner) from iterative_schur_min_num_images or when at least
   // iterative_schur_min_density of its image pairs share a point (sparse
   // Cholesky fills a nearly dense system in at a dense one's cost, and its
   // memory grows as the square of the images), SPARSE_SCHUR otherwise; or
-  // "sparse_schur", "dense_schur", "iterative_schur" whatever the size.
+  // sparse_schur, dense_schur, iterative_schur whatever the size.
   // The size threshold lies beyond the sizes measured: ITERATIVE_SCHUR was
   // 7-8x slower at 300-1,000 images of the sparse courtyard
   // (docs/notes/2026-12-01-results-2b39f55.md).
-  std::string linear_solver = "auto";
+  BundleAdjustmentLinearSolver linear_solver =
+      BundleAdjustmentLinearSolver::kAuto;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter

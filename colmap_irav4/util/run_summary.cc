@@ -10,6 +10,8 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/util/interrupt.h"
+
 namespace colmap_irav4 {
 namespace {
 
@@ -59,10 +61,13 @@ std::string StageReport::LogLine() const {
 StageTimer::StageTimer(std::string name)
     : report_(std::move(name)),
       cpu_start_(std::clock()),
-      peak_start_mib_(ReadProcessMemory().peak_mib) {}
+      peak_start_mib_(ReadProcessMemory().peak_mib) {
+  ThrowIfInterrupted();  // every stage is a checkpoint (util/interrupt.h)
+}
 
 const StageReport& StageTimer::Finish(const std::string& prefix,
                                       std::vector<StageReport>* stages) {
+  ThrowIfInterrupted();
   report_.seconds = timer_.ElapsedSeconds();
   report_.cpu_seconds =
       static_cast<double>(std::clock() - cpu_start_) / CLOCKS_PER_SEC;

@@ -388,7 +388,8 @@ class BundleAdjustmentProblem {
     num_images_ = static_cast<int>(used_images.size());
     if (Empty()) return;
     // Only auto's choice needs it (a pass over the tracks).
-    if (options_.linear_solver == BundleAdjustmentLinearSolver::kAuto && num_images_ >= 50) {
+    if (options_.linear_solver == BundleAdjustmentLinearSolver::kAuto &&
+        num_images_ >= 50) {
       std::vector<const Track*> tracks;
       tracks.reserve(reconstruction_->points3D.size());
       for (const auto& [point3D_id, point] : reconstruction_->points3D) {

@@ -8,14 +8,20 @@
 // errors in the reference's units) and each model's points and mean
 // reprojection error are printed.
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <numeric>
+#include <vector>
+
+#include <glog/logging.h>
 
 #include "colmap_irav4/eval/model_alignment.h"
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
@@ -26,14 +32,42 @@ namespace {
 
 void PrintModel(const std::string& label, const std::string& path,
                 Reconstruction* model) {
-  const double error = UpdateReprojectionErrors(model);
+  const ModelFigures figures = ComputeModelFigures(model);
   std::cout << std::left << std::setw(12) << label << std::right << path << ": "
-            << model->images.size() << " registered images, "
-            << model->points3D.size() << " points, mean track length "
-            << std::fixed << std::setprecision(2) << MeanTrackLength(*model)
+            << figures.num_images << " registered images, "
+            << figures.num_points << " points, mean track length " << std::fixed
+            << std::setprecision(2) << figures.mean_track_length
             << ", mean reprojection error per observation "
-            << std::setprecision(3) << error << " px, per point "
-            << MeanPointReprojectionError(*model) << " px\n";
+            << std::setprecision(3)
+            << figures.mean_reprojection_error_per_observation
+            << " px, per point " << figures.mean_reprojection_error_per_point
+            << " px\n";
+}
+
+// One line per common image, worst rotation first (rotation-only alignment:
+// free of the centre alignment's small common rotation; ties: larger centre
+// error first), so that the cameras to doubt stand at the top.
+// `rotation_only_deg`: per common image, in comparison.names' order.
+void PrintPerImage(const PoseComparison& comparison,
+                   const std::vector<double>& rotation_only_deg) {
+  CHECK_EQ(rotation_only_deg.size(), comparison.names.size());
+  std::vector<size_t> order(comparison.names.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (rotation_only_deg[a] != rotation_only_deg[b]) {
+      return rotation_only_deg[a] > rotation_only_deg[b];
+    }
+    return comparison.center_errors[a] > comparison.center_errors[b];
+  });
+  std::cout << "per image, worst first: name, rotation error [deg] "
+               "(rotation-only alignment, similarity alignment), centre "
+               "error\n";
+  for (const size_t k : order) {
+    std::cout << "  " << comparison.names[k] << std::setprecision(4) << " "
+              << rotation_only_deg[k] << " "
+              << comparison.rotation_errors_deg[k] << std::setprecision(6)
+              << " " << comparison.center_errors[k] << "\n";
+  }
 }
 
 int RunModelComparer(int argc, char** argv) {
@@ -41,6 +75,7 @@ int RunModelComparer(int argc, char** argv) {
   std::string input_path2;
   std::string gt_path;
   SimilarityRansacOptions ransac;
+  bool per_image = false;
   OptionManager manager(
       "model_comparer",
       "Aligns model 1 onto model 2 (or onto Strecha gt_cameras) with a robust\n"
@@ -49,9 +84,10 @@ int RunModelComparer(int argc, char** argv) {
   manager.Add("input_path2", &input_path2, "reference model");
   manager.Add("gt_path", &gt_path,
               "reference: directory of Strecha <image>.camera files");
-  manager.Add("Comparer.max_relative_error", &ransac.max_relative_error,
-              "RANSAC inlier threshold, fraction of the reference's median "
-              "centre distance to its centroid");
+  AddComparerOptions(&manager, &ransac);
+  manager.Add("per_image", &per_image,
+              "also print each common image's rotation and centre error, "
+              "worst rotation first");
   std::string alignment = "similarity";
   manager.Add("Comparer.alignment", &alignment,
               "similarity (robust, RANSAC) or none: model 1 is compared in "
@@ -117,22 +153,14 @@ int RunModelComparer(int argc, char** argv) {
             << comparison.center_error_max << " (reference units"
             << (gt_path.empty() ? "" : ": metres") << ")\n";
   // The similarity's rotation comes from the centres alone; nearly collinear
-  // cameras leave it loose. With one rotation fitted to the rotations instead
-  // (robust geodesic L1 mean, as for rotation averaging):
-  std::map<std::string, Eigen::Matrix3d> estimated_rotations,
-      reference_rotations;
-  for (const auto& [name, pose] : PosesByName(model1)) {
-    estimated_rotations[name] = pose.rotation.toRotationMatrix();
-  }
-  for (const auto& [name, pose] : reference) {
-    reference_rotations[name] = pose.rotation.toRotationMatrix();
-  }
+  // cameras leave it loose. With one rotation fitted to the rotations instead:
   const RotationErrors rotation_only =
-      EvaluateRotations(estimated_rotations, reference_rotations);
+      CompareRotationsOnly(PosesByName(model1), reference);
   std::cout << std::setprecision(4)
             << "rotation error, rotation-only alignment [deg]: median "
             << rotation_only.median_deg << ", max " << rotation_only.max_deg
             << "\n";
+  if (per_image) PrintPerImage(comparison, rotation_only.errors_deg);
   return 0;
 }
 

@@ -8,12 +8,14 @@
 // Readers validate everything and throw InputError("<file>: <problem>") on
 // bad input: missing or truncated files, unknown camera models, wrong numbers
 // of parameters, malformed text lines, duplicate ids, images referencing
-// missing cameras, tracks and observations that disagree.
+// missing cameras, tracks and observations that disagree, any NaN or inf
+// value (NonFiniteValueProblem).
 //
 // Writers write records in increasing id order (COLMAP writes its hash-map
 // order, which is not defined). Each file goes to a temporary name in the
 // target directory and is renamed only once all files of the model are
-// complete, so a failure leaves no partial model behind.
+// complete, so a failure leaves no partial model behind. A model with a
+// NaN or inf value is never written (InputError).
 
 #include <string>
 
@@ -27,6 +29,13 @@ namespace colmap_irav4 {
 Reconstruction ReadReconstruction(const std::string& path);
 Reconstruction ReadReconstructionBinary(const std::string& path);
 Reconstruction ReadReconstructionText(const std::string& path);
+
+// Checks a model built in memory (the Python module's write_model) as the
+// readers check files: camera models and their number of parameters, finite
+// poses, the images' cameras, tracks against observations. Throws
+// InputError("<source>: <problem>").
+void CheckReconstruction(const std::string& source,
+                         const Reconstruction& reconstruction);
 
 // Whether `path` holds a binary or text model.
 bool ExistsBinaryModel(const std::string& path);

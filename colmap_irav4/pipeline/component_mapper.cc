@@ -11,18 +11,6 @@
 namespace colmap_irav4 {
 namespace {
 
-std::vector<ImagePairGeometry> PairsWithin(
-    const std::vector<ImagePairGeometry>& pairs,
-    const std::set<image_t>& images) {
-  std::vector<ImagePairGeometry> kept;
-  for (const ImagePairGeometry& pair : pairs) {
-    if (images.count(pair.image_id1) && images.count(pair.image_id2)) {
-      kept.push_back(pair);
-    }
-  }
-  return kept;
-}
-
 // Whether the model's rotations contradict the pair's measured rotation
 // (false when an image is not in the model).
 bool ContradictedByModel(const ImagePairGeometry& pair,
@@ -38,8 +26,7 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
       image1->second.cam_from_world.rotation.toRotationMatrix();
   const Eigen::Matrix3d R2 =
       image2->second.cam_from_world.rotation.toRotationMatrix();
-  return AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
-         max_rotation_error_deg;
+  return RelativeRotationErrorDeg(pair, R1, R2) > max_rotation_error_deg;
 }
 
 }  // namespace

@@ -42,8 +42,9 @@ struct ComponentModel {
 
 class ComponentMapper {
  public:
-  // `options`: with the mapper-wide settings applied (ForStages); `database`
-  // and `cameras` (the view graph's) must outlive the mapper. `log_prefix`
+  // `options`: with the mapper-wide settings applied (ForStages), copied so a
+  // temporary may be passed; `database` and `cameras` (the view graph's) must
+  // outlive the mapper. `log_prefix`
   // starts every log line and note (e.g. "[component 1] ").
   ComponentMapper(const GlobalMapperOptions& options,
                   const DatabaseContents& database,
@@ -107,7 +108,7 @@ class ComponentMapper {
   // Writes a model that is not one rigid piece as its rigid parts.
   std::vector<ComponentModel> SplitIntoRigidParts(ComponentModel model);
 
-  const GlobalMapperOptions& options_;
+  const GlobalMapperOptions options_;
   const DatabaseContents& database_;
   const std::map<camera_t, Camera>& cameras_;
   const std::string prefix_;

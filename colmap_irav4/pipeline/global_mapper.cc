@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -224,11 +225,7 @@ bool GlobalMapper::RotationFilter() {
     kept_images.insert(components[0].begin(), components[0].end());
   }
   const size_t num_consistent = pairs_.size();
-  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
-                              [&](const ImagePairGeometry& pair) {
-                                return !kept_images.count(pair.image_id1);
-                              }),
-               pairs_.end());
+  pairs_ = PairsWithin(pairs_, kept_images);
   for (auto it = rotations_.begin(); it != rotations_.end();) {
     it = kept_images.count(it->first) ? std::next(it) : rotations_.erase(it);
   }
@@ -264,25 +261,17 @@ bool GlobalMapper::BuildTracks() {
     geometries[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
         &geometry;
   }
-  std::vector<ImagePairMatches> matches;
-  matches.reserve(pairs_.size());
+  TrackBuilder track_builder(options_.tracks, reconstruction_.images);
   for (const ImagePairGeometry& pair : pairs_) {
     const TwoViewGeometry& geometry =
         *geometries.at(ImagePairToPairId(pair.image_id1, pair.image_id2));
-    ImagePairMatches pair_matches;
-    pair_matches.image_id1 = geometry.image_id1;
-    pair_matches.image_id2 = geometry.image_id2;
-    pair_matches.matches.reserve(geometry.inlier_matches.size());
-    for (const FeatureMatch& match : geometry.inlier_matches) {
-      pair_matches.matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
-    }
-    matches.push_back(std::move(pair_matches));
+    track_builder.AddMatches(geometry.image_id1, geometry.image_id2,
+                             geometry.inlier_matches);
   }
   TrackBuilderStats track_stats;
-  tracks_ = colmap_irav4::BuildTracks(options_.tracks, matches,
-                                      reconstruction_.images, &track_stats);
+  tracks_ = track_builder.Build(&track_stats);
   const bool global_positioning =
-      options_.positioning_method == "global_positioning";
+      options_.positioning_method == PositioningMethod::kGlobalPositioning;
   // Global positioning needs only enough tracks to tie every camera down;
   // the others are triangulated from the refined poses afterwards.
   std::vector<size_t> selected;
@@ -308,6 +297,7 @@ bool GlobalMapper::BuildTracks() {
   size_t num_capped = 0;
   const size_t cap = static_cast<size_t>(options_.max_num_tracks);
   if (options_.max_num_tracks > 0 && tracks_.size() > cap) {
+    const size_t num_positioning_selected = selected.size();
     std::vector<char> priority(tracks_.size(), 0);
     for (const size_t k : selected) priority[k] = 1;
     std::vector<size_t> order(tracks_.size());
@@ -334,6 +324,31 @@ bool GlobalMapper::BuildTracks() {
                     "the cap or set it to 0 for all)";
     tracks_ = std::move(kept);
     selected = std::move(kept_selected);
+    // A cap that leaves a camera with too few of positioning's observations
+    // cannot place it: the model would be wrong (cameras hundreds of metres
+    // off), not smaller. 5: a camera centre's 3 unknowns with some margin.
+    if (global_positioning) {
+      constexpr int kMinObservations = 5;
+      std::map<image_t, int> observations;
+      for (const size_t k : selected) {
+        for (const TrackElement& element : tracks_[k]) {
+          ++observations[element.image_id];
+        }
+      }
+      for (const image_t image_id : images_) {
+        if (observations[image_id] >= kMinObservations) continue;
+        throw InputError(
+            "--Mapper.max_num_tracks",
+            std::to_string(cap) + " leaves image " + std::to_string(image_id) +
+                " with " + std::to_string(observations[image_id]) +
+                " observation(s) for positioning, at least " +
+                std::to_string(kMinObservations) +
+                " are needed to place a camera; raise it (positioning "
+                "selects " +
+                std::to_string(num_positioning_selected) +
+                " tracks; 0: no cap)");
+      }
+    }
   }
   size_t num_positioning_tracks = 0;
   if (global_positioning) {
@@ -356,8 +371,8 @@ bool GlobalMapper::BuildTracks() {
 }
 
 bool GlobalMapper::Positioning() {
-  StageTimer stage(options_.positioning_method);
-  if (options_.positioning_method == "global_positioning") {
+  StageTimer stage(EnumName(options_.positioning_method));
+  if (options_.positioning_method == PositioningMethod::kGlobalPositioning) {
     GlobalPositionerSummary positioner_summary;
     if (!RunGlobalPositioning(
             options_.global_positioning, &reconstruction_, &positioner_summary,
@@ -436,11 +451,18 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         stage.Add("keypoint noise px (coarsest scales)",
                   ba_summary.scale_bin_noise_px.back());
       }
+      stage.AddText("linear solver", ba_summary.linear_solver_reason);
+      if (ba_summary.schur_density >= 0) {
+        stage.Add("pairs sharing a point (fraction)", ba_summary.schur_density);
+      }
       // Where its time goes (wall seconds; not figures: they vary by run).
       LOG(INFO) << log_prefix_ << "bundle adjustment "
                 << std::to_string(iteration + 1) << ": "
-                << ba_summary.linear_solver << ", building the problems "
-                << ba_summary.problem_seconds << " s, Ceres' preprocessing "
+                << (ba_summary.linear_solver_reason.empty()
+                        ? ba_summary.linear_solver
+                        : ba_summary.linear_solver_reason)
+                << ", building the problems " << ba_summary.problem_seconds
+                << " s, Ceres' preprocessing "
                 << ba_summary.preprocessor_seconds << " s, linear solves "
                 << ba_summary.linear_solver_seconds << " s of "
                 << ba_summary.seconds << " s";
@@ -454,7 +476,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.
-    if (!retriangulated_ && !Retriangulation()) return false;
+    if (!retriangulated_ && !(Retriangulation() && TwoViewCheck())) {
+      return false;
+    }
   }
   return true;
 }
@@ -470,6 +494,30 @@ bool GlobalMapper::Retriangulation() {
             static_cast<double>(triangulation.num_points_added));
   stage.Add("observations added",
             static_cast<double>(triangulation.num_observations_added));
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
+
+bool GlobalMapper::TwoViewCheck() {
+  if (!options_.two_view_check.enabled || options_.skip_bundle_adjustment) {
+    return true;
+  }
+  StageTimer stage("two-view check");
+  TwoViewCheckSummary summary;
+  if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
+                          options_.triangulation, options_.pose_constraint,
+                          &reconstruction_, &keypoint_noise_, &summary)) {
+    return Fail("bundle adjustment of the two-view check failed");
+  }
+  stage.Add("two-view points checked",
+            static_cast<double>(summary.num_points_checked));
+  stage.Add("two-view points restored",
+            static_cast<double>(summary.num_points_restored));
+  stage.Add("images poorly constrained",
+            static_cast<double>(summary.num_images_poorly_constrained));
+  stage.Add("two-view points withheld",
+            static_cast<double>(summary.num_points_withheld));
   AddModelFigures(&stage);
   stage.Finish(log_prefix_, &stages_);
   return true;
@@ -514,12 +562,7 @@ void GlobalMapper::RestrictToImages(const std::set<image_t>& images) {
     DeleteImage(image_id, &reconstruction_);
   }
   RemoveUnusedCameras(&reconstruction_);
-  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
-                              [&](const ImagePairGeometry& pair) {
-                                return !images.count(pair.image_id1) ||
-                                       !images.count(pair.image_id2);
-                              }),
-               pairs_.end());
+  pairs_ = PairsWithin(pairs_, images);
 }
 
 int GlobalMapper::ColorPoints(const std::string& image_path) {
@@ -568,7 +611,15 @@ GlobalMapperOptions::GlobalMapperOptions()
   // Squared loss as COLMAP's bundle adjustment: the filtering between rounds
   // removes the outliers, and plain least squares converges in a few
   // iterations where a robust loss creeps for dozens.
-  bundle_adjustment.loss_function = "trivial";
+  bundle_adjustment.loss_function = BundleAdjustmentLoss::kTrivial;
+}
+
+template <>
+const EnumNames<PositioningMethod>& NamesOf<PositioningMethod>() {
+  static const EnumNames<PositioningMethod> names = {
+      {PositioningMethod::kGlobalPositioning, "global_positioning"},
+      {PositioningMethod::kTranslationAveraging, "translation_averaging"}};
+  return names;
 }
 
 namespace {
@@ -587,12 +638,6 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
     throw OptionError(&o.rotation_method, "Mapper.rotation_method",
                       "unknown method '" + o.rotation_method + "' (one of " +
                           RotationAveragerMethodList() + ")");
-  }
-  if (o.positioning_method != "global_positioning" &&
-      o.positioning_method != "translation_averaging") {
-    throw OptionError(&o.positioning_method, "Mapper.positioning_method",
-                      "unknown method '" + o.positioning_method +
-                          "' (global_positioning or translation_averaging)");
   }
   if (o.num_threads == 0 || o.num_threads < -1) {
     throw OptionError(&o.num_threads, "Mapper.num_threads",
@@ -621,6 +666,7 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.global_positioning.Check();
   o.translation_averaging.Check();
   o.triangulation.Check();
+  o.two_view_check.Check();
   o.positioning_tracks.Check();
   if (o.max_num_tracks < 0) {
     throw OptionError(&o.max_num_tracks, "Mapper.max_num_tracks",
@@ -629,6 +675,7 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.bundle_adjustment.Check();
   o.filtering.Check();
   o.normalization.Check();
+  o.pose_constraint.Check();
   o.fold.Check();
   o.pose_priors.Check();
   if (!o.pose_prior_path.empty() &&
@@ -688,45 +735,12 @@ std::vector<ImagePairGeometry> FilterPairsByRotation(
     const auto r1 = rotations.find(pair.image_id1);
     const auto r2 = rotations.find(pair.image_id2);
     if (r1 == rotations.end() || r2 == rotations.end()) continue;
-    // R_ij = R_j R_i^T.
-    const Eigen::Matrix3d averaged = r2->second * r1->second.transpose();
-    if (AngularDistanceDeg(pair.R, averaged) <= max_rotation_error_deg) {
+    if (RelativeRotationErrorDeg(pair, r1->second, r2->second) <=
+        max_rotation_error_deg) {
       kept.push_back(pair);
     }
   }
   return kept;
-}
-
-std::vector<std::vector<image_t>> PairComponents(
-    const std::vector<ImagePairGeometry>& pairs) {
-  std::map<image_t, image_t> parent;
-  std::function<image_t(image_t)> find = [&](image_t x) {
-    while (parent.at(x) != x) {
-      parent[x] = parent.at(parent.at(x));
-      x = parent.at(x);
-    }
-    return x;
-  };
-  for (const ImagePairGeometry& pair : pairs) {
-    parent.emplace(pair.image_id1, pair.image_id1);
-    parent.emplace(pair.image_id2, pair.image_id2);
-  }
-  for (const ImagePairGeometry& pair : pairs) {
-    const image_t a = find(pair.image_id1);
-    const image_t b = find(pair.image_id2);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-  std::map<image_t, std::vector<image_t>> by_root;
-  for (const auto& [image_id, unused] : parent) {
-    by_root[find(image_id)].push_back(image_id);
-  }
-  std::vector<std::vector<image_t>> components;
-  for (auto& [root, images] : by_root) components.push_back(std::move(images));
-  // Stable: equal sizes keep the order of their smallest image id.
-  std::stable_sort(
-      components.begin(), components.end(),
-      [](const auto& a, const auto& b) { return a.size() > b.size(); });
-  return components;
 }
 
 }  // namespace colmap_irav4

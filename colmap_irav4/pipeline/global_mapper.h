@@ -29,7 +29,9 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/refinement/model_rigidity.h"
+#include "colmap_irav4/refinement/pose_constraint.h"
 #include "colmap_irav4/refinement/triangulation.h"
+#include "colmap_irav4/refinement/two_view_check.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -45,6 +47,11 @@ struct RotationFilterOptions {
   void Check() const;  // throws InputError naming the option
 };
 
+// How the camera centres (and points) are found after rotation averaging.
+enum class PositioningMethod { kGlobalPositioning, kTranslationAveraging };
+template <>
+const EnumNames<PositioningMethod>& NamesOf<PositioningMethod>();
+
 struct GlobalMapperOptions {
   // Components of the view graph with fewer images give no model
   // (COLMAP's min_model_size; 3 is the least a global model needs).
@@ -53,7 +60,7 @@ struct GlobalMapperOptions {
   // l1_irls, spanning_tree (see RotationAveragerMethods()).
   std::string rotation_method;
   // global_positioning or translation_averaging.
-  std::string positioning_method = "global_positioning";
+  PositioningMethod positioning_method = PositioningMethod::kGlobalPositioning;
   // Ceres / worker threads of every stage; -1: all cores.
   int num_threads = -1;
   // Seed of every stage's random choices (random initialisation of global
@@ -112,9 +119,12 @@ struct GlobalMapperOptions {
   GlobalPositionerOptions global_positioning;
   TranslationAveragingOptions translation_averaging;
   TriangulationOptions triangulation;
+  TwoViewCheckOptions two_view_check;
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Per-image pose constraint of every model (summary.json, warnings).
+  PoseConstraintOptions pose_constraint;
   // Fold check of every model and its resolution (symmetric scenes).
   FoldResolutionOptions fold;
 
@@ -189,6 +199,9 @@ class GlobalMapper {
   // Triangulates every track from the current poses (completes the points of
   // tracks positioning did not use).
   bool Retriangulation();
+  // After retriangulation: the two-view points checked against poses
+  // adjusted without them (refinement/two_view_check.h).
+  bool TwoViewCheck();
   // Final filtering, cameras no image uses removed, normalisation.
   virtual bool Finalize();
   // The fold check (refinement/fold_detection.h) of the model as it is;
@@ -270,10 +283,5 @@ std::vector<ImagePairGeometry> FilterPairsByRotation(
     const std::vector<ImagePairGeometry>& pairs,
     const std::map<image_t, Eigen::Matrix3d>& rotations,
     double max_rotation_error_deg);
-
-// Connected components of the images of `pairs`, largest first (ties: the
-// component with the smallest image id first); each sorted ascending.
-std::vector<std::vector<image_t>> PairComponents(
-    const std::vector<ImagePairGeometry>& pairs);
 
 }  // namespace colmap_irav4

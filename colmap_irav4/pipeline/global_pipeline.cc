@@ -1,6 +1,5 @@
 #include "colmap_irav4/pipeline/global_pipeline.h"
 
-#include <sys/resource.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cmath>
@@ -27,6 +26,32 @@ namespace colmap_irav4 {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// One warning naming the images whose pose their points hold least
+// (`images`: least constrained first), so that a user doubts those cameras.
+void LogPoorlyConstrainedImages(const std::vector<ImagePoseConstraint>& images,
+                                const PoseConstraintOptions& options,
+                                const std::string& prefix) {
+  std::ostringstream list;
+  int count = 0;
+  for (const ImagePoseConstraint& image : images) {
+    if (!image.poorly_constrained) continue;
+    list << (count++ ? ", " : "") << image.name << " ("
+         << image.num_multi_view_observations << " of "
+         << image.num_observations << " observations on points seen 3+ times, "
+         << std::setprecision(2) << image.relative_uncertainty << "x)";
+  }
+  if (count == 0) return;
+  LOG(WARNING) << prefix << count << " image(s) poorly constrained by their "
+               << "points (rotation uncertainty over "
+               << options.max_relative_uncertainty
+               << "x the model's median; summary.json lists every image): "
+               << list.str();
+}
+
+}  // namespace
+
 std::string GlobalMapperSummary::ToJson() const {
   std::ostringstream out;
   out << "{\n  \"database_path\": " << JsonString(database_path)
@@ -36,6 +61,10 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
       << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
+      << ",\n  \"peak_memory_stage\": " << JsonString(peak_memory_stage)
+      << ",\n  \"peak_bytes_per_observation\": "
+      << JsonNumber(peak_bytes_per_observation)
+      << ",\n  \"peak_bytes_per_pair\": " << JsonNumber(peak_bytes_per_pair)
       << ",\n  \"num_folded_models\": " << NumFoldedModels()
       << ",\n  \"pose_priors\": " << PosePriorsJson(pose_priors)
       << ",\n  \"stages\": ";
@@ -64,7 +93,24 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"in_prior_frame\": " << (c.in_prior_frame ? "true" : "false")
         << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
-    out << "}";
+    out << ",\n     \"images\": [";
+    for (size_t j = 0; j < c.images.size(); ++j) {
+      const ImagePoseConstraint& image = c.images[j];
+      out << (j ? "," : "") << "\n       {\"image_id\": " << image.image_id
+          << ", \"name\": " << JsonString(image.name)
+          << ", \"num_observations\": " << image.num_observations
+          << ", \"num_multi_view_observations\": "
+          << image.num_multi_view_observations
+          << ", \"rotation_uncertainty_deg\": "
+          << JsonNumber(image.rotation_uncertainty_deg)
+          << ", \"relative_center_uncertainty\": "
+          << JsonNumber(image.relative_center_uncertainty)
+          << ", \"relative_uncertainty\": "
+          << JsonNumber(image.relative_uncertainty)
+          << ", \"poorly_constrained\": "
+          << (image.poorly_constrained ? "true" : "false") << "}";
+    }
+    out << (c.images.empty() ? "" : "\n     ") << "]}";
   }
   out << (components.empty() ? "" : "\n  ") << "],\n  \"notes\": [";
   for (size_t i = 0; i < notes.size(); ++i) {
@@ -72,6 +118,28 @@ std::string GlobalMapperSummary::ToJson() const {
   }
   out << "]\n}\n";
   return out.str();
+}
+
+void GlobalMapperSummary::RecordPeakMemory() {
+  peak_memory_mib = ReadProcessMemory().peak_mib;
+  std::vector<const std::vector<StageReport>*> stage_lists = {&stages};
+  double num_observations = 0;
+  for (const ComponentReport& component : components) {
+    stage_lists.push_back(&component.stages);
+    num_observations += component.num_observations;
+  }
+  peak_memory_stage = PeakMemoryStage(stage_lists);
+  const double peak_bytes = peak_memory_mib * 1024 * 1024;
+  peak_bytes_per_observation =
+      num_observations > 0 ? peak_bytes / num_observations : 0;
+  peak_bytes_per_pair =
+      num_database_pairs > 0 ? peak_bytes / num_database_pairs : 0;
+  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
+            << peak_memory_mib << " MiB (in "
+            << (peak_memory_stage.empty() ? "?" : peak_memory_stage) << "; "
+            << std::setprecision(0) << peak_bytes_per_observation
+            << " bytes per observation, " << peak_bytes_per_pair
+            << " per verified pair)";
 }
 
 int GlobalMapperSummary::NumFoldedModels() const {
@@ -105,7 +173,10 @@ void GlobalPipeline::Run() {
   // Output writable, OUT/0 replaceable, summary.json not a directory: checked
   // before any work; the models are staged in a temporary directory and
   // installed atomically (util/atomic_output.h).
-  OutputTransaction output(output_path_);
+  OutputTransaction output(
+      output_path_, {database_path_}, [](const std::string& dir, bool binary) {
+        binary ? ReadReconstructionBinary(dir) : ReadReconstructionText(dir);
+      });
   Timer total_timer;
   summary_ = GlobalMapperSummary();
   summary_.database_path = database_path_;
@@ -166,7 +237,7 @@ std::vector<Reconstruction> GlobalPipeline::Reconstruct(
   // The mapper-wide settings reach every stage's options here, once.
   stage_options_ = options_.ForStages(database.images.size());
   summary_.rotation_method = options_.rotation_method;
-  summary_.positioning_method = options_.positioning_method;
+  summary_.positioning_method = EnumName(options_.positioning_method);
   summary_.num_database_images = static_cast<int>(database.images.size());
   summary_.num_database_pairs =
       static_cast<int>(database.two_view_geometries.size());
@@ -238,10 +309,8 @@ std::vector<ComponentModel> GlobalPipeline::MapComponents(
   for (size_t c = 0; c < components.size(); ++c) {
     if (static_cast<int>(components[c].size()) < options_.min_model_size) break;
     const std::set<image_t> images(components[c].begin(), components[c].end());
-    std::vector<ImagePairGeometry> pairs;
-    for (const ImagePairGeometry& pair : view_graph.pairs) {
-      if (images.count(pair.image_id1)) pairs.push_back(pair);
-    }
+    std::vector<ImagePairGeometry> pairs =
+        PairsWithin(view_graph.pairs, images);
     const std::string prefix =
         components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
     ComponentMapper mapper(stage_options_, database, view_graph.cameras,
@@ -298,6 +367,17 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
                                ": their points are grey");
     }
     Reconstruction& reconstruction = mapper.reconstruction();
+    // Keypoints the database held as NaN or inf are no 2D points of a model
+    // (never observations; the others keep their order).
+    for (const auto& [image_id, count] :
+         RemoveNonFinitePoints2D(&reconstruction)) {
+      summary_.notes.push_back(
+          "image " + std::to_string(image_id) + " (" +
+          reconstruction.images.at(image_id).name +
+          "): " + std::to_string(count) +
+          " non-finite keypoints left out of the model's 2D points (the "
+          "others' indices shift down)");
+    }
     ComponentReport report;
     report.index = static_cast<int>(k);
     report.num_images_in_graph = static_cast<int>(mapper.images().size());
@@ -320,6 +400,11 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
     report.num_points = static_cast<int>(reconstruction.points3D.size());
     report.num_observations = static_cast<int>(NumObservations(reconstruction));
     report.mean_track_length = MeanTrackLength(reconstruction);
+    report.images = ComputePoseConstraints(mapper.options().pose_constraint,
+                                           reconstruction);
+    LogPoorlyConstrainedImages(
+        report.images, mapper.options().pose_constraint,
+        models.size() > 1 ? "[model " + std::to_string(k) + "] " : "");
     LOG(INFO) << "Model " << k << ": " << report.num_registered_images
               << " registered images (of " << report.num_images_in_graph
               << " in the component), " << report.num_points << " points, "
@@ -355,6 +440,17 @@ void GlobalPipeline::Write(const std::vector<Reconstruction>& models,
                            const Timer& total_timer,
                            OutputTransaction* output) {
   StageTimer stage("writing");
+  // No model with a NaN or inf is written, whatever the options: all are
+  // checked before the first is written.
+  for (size_t k = 0; k < models.size(); ++k) {
+    const std::string problem = NonFiniteValueProblem(models[k]);
+    if (!problem.empty()) {
+      throw InputError(
+          (fs::path(output->OutputPath()) / std::to_string(k)).string(),
+          "no model written: model " + std::to_string(k) + " has " + problem +
+              " (a numerical failure; are options far from their defaults?)");
+    }
+  }
   // The options of the run beside every model, as COLMAP's project.ini.
   const std::string options_ini =
       "database_path=" + database_path_ + "\nimage_path=" + image_path_ +
@@ -377,14 +473,7 @@ void GlobalPipeline::Write(const std::vector<Reconstruction>& models,
   stage.Add("models", static_cast<double>(models.size()));
   stage.Finish("", &summary_.stages);
   summary_.total_seconds = total_timer.ElapsedSeconds();
-  {
-    struct rusage usage;
-    if (getrusage(RUSAGE_SELF, &usage) == 0) {
-      summary_.peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
-    }
-  }
-  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
-            << summary_.peak_memory_mib << " MiB";
+  summary_.RecordPeakMemory();
   WriteFileAtomically(output->StagingFilePath("summary.json"),
                       summary_.ToJson());
   output->Commit(static_cast<int>(models.size()), {"summary.json"});

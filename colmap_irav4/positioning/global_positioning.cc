@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 #include <set>
 #include <unordered_map>
@@ -32,18 +33,13 @@ void GlobalPositionerOptions::Check() const {
     throw OptionError(&min_track_length, "GlobalPositioning.min_track_length",
                       "must be at least 2");
   }
-  if (!IsLossFunction(loss_function)) {
-    throw OptionError(
-        &loss_function, "GlobalPositioning.loss_function",
-        "must be huber, cauchy or trivial, not '" + loss_function + "'");
-  }
   if (!(loss_scale > 0)) {
     throw OptionError(&loss_scale, "GlobalPositioning.loss_scale",
                       "must be positive");
   }
   if (!(initialization_box > 0)) {
     throw OptionError(&initialization_box,
-                      "GlobalPositioning.initialization_box",
+                      "GlobalPositionerOptions::initialization_box",
                       "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
@@ -419,8 +415,12 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                                   normalized.homogeneous().normalized()});
     }
   }
+  // One loss for all residuals (Ceres evaluates it per residual): not one
+  // allocation per observation. Declared first: it outlives the problem.
+  const std::unique_ptr<ceres::LossFunction> loss(
+      CreateLossFunction(options.loss_function, options.loss_scale));
   ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   for (size_t k = 0; k < observations.size(); ++k) {
@@ -429,9 +429,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
     double* point =
         reconstruction->points3D.at(observation.point3D_id).xyz.data();
     problem.AddResidualBlock(
-        ProjectedDirectionCost::Create(observation.direction),
-        CreateLossFunction(options.loss_function, options.loss_scale), center,
-        point);
+        ProjectedDirectionCost::Create(observation.direction), loss.get(),
+        center, point);
     ordering->AddElementToGroup(point, 0);
     ordering->AddElementToGroup(center, 1);
   }

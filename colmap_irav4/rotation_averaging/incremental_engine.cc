@@ -15,6 +15,7 @@
 #include "colmap_irav4/rotation_averaging/cluster_alignment.h"
 #include "colmap_irav4/rotation_averaging/l1_irls.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/interrupt.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -53,8 +54,10 @@ void IncrementalOptions::Check() const {
          "must be >= 1");
   }
   if (!(global_step_tolerance_deg >= 0.0)) {
-    fail(&global_step_tolerance_deg, "global_step_tolerance_deg",
-         "must be >= 0");
+    // Not registered as a flag: named as the member.
+    throw OptionError(&global_step_tolerance_deg,
+                      "IncrementalOptions::global_step_tolerance_deg",
+                      "must be >= 0");
   }
 }
 
@@ -858,6 +861,7 @@ void IncrementalEngine::GlobalOptimizeCeres(
 int IncrementalEngine::Grow(const std::function<bool()>& stop) {
   int num_added = 0;
   while (true) {
+    ThrowIfInterrupted();  // a checkpoint per vertex (util/interrupt.h)
     const Candidate candidate = BestCandidate();
     if (candidate.vertex < 0) break;
     AddVertex(candidate);

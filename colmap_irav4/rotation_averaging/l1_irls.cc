@@ -13,9 +13,19 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/interrupt.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
+
+template <>
+const EnumNames<L1IrlsLinearSolver>& NamesOf<L1IrlsLinearSolver>() {
+  static const EnumNames<L1IrlsLinearSolver> names = {
+      {L1IrlsLinearSolver::kAuto, "auto"},
+      {L1IrlsLinearSolver::kCholesky, "cholesky"},
+      {L1IrlsLinearSolver::kCg, "cg"}};
+  return names;
+}
 
 void L1IrlsOptions::Check() const {
   auto require = [](bool condition, const void* field, const std::string& name,
@@ -34,15 +44,17 @@ void L1IrlsOptions::Check() const {
   require(irls_step_tolerance_deg >= 0, &irls_step_tolerance_deg,
           "irls_step_tolerance_deg", "must be >= 0");
   require(gm_sigma_deg > 0, &gm_sigma_deg, "gm_sigma_deg", "must be > 0");
-  require(linear_solver == "auto" || linear_solver == "cholesky" ||
-              linear_solver == "cg",
-          &linear_solver, "linear_solver",
-          "must be auto, cholesky or cg, got '" + linear_solver + "'");
   require(max_cholesky_flops >= 0, &max_cholesky_flops, "max_cholesky_flops",
           "must be >= 0");
-  require(cg_tolerance > 0, &cg_tolerance, "cg_tolerance", "must be > 0");
-  require(cg_max_iterations > 0, &cg_max_iterations, "cg_max_iterations",
-          "must be > 0");
+  // Not registered as flags: named as the members.
+  if (!(cg_tolerance > 0)) {
+    throw OptionError(&cg_tolerance, "L1IrlsOptions::cg_tolerance",
+                      "must be > 0");
+  }
+  if (cg_max_iterations <= 0) {
+    throw OptionError(&cg_max_iterations, "L1IrlsOptions::cg_max_iterations",
+                      "must be > 0");
+  }
 }
 
 namespace {
@@ -94,11 +106,11 @@ class TangentSystem {
       const int uj = unknown_index_[graph_.Edge(edges_[k]).j];
       slots_[k] = {Slot(ui, ui), Slot(uj, uj), Slot(ui, uj), Slot(uj, ui)};
     }
-    use_cholesky_ = options_.linear_solver != "cg";
+    use_cholesky_ = options_.linear_solver != L1IrlsLinearSolver::kCg;
     if (use_cholesky_) {
       cholesky_ = std::make_unique<AnalyzedLdlt>();
       cholesky_->analyzePattern(matrix_);
-      if (options_.linear_solver == "auto" &&
+      if (options_.linear_solver == L1IrlsLinearSolver::kAuto &&
           cholesky_->FactorizationFlops() > options_.max_cholesky_flops) {
         use_cholesky_ = false;
         cholesky_.reset();
@@ -264,6 +276,7 @@ class TangentProblem {
     if (num_unknowns_ == 0) return 0;
     int num_iterations = 0;
     for (int iteration = 0; iteration < max_iterations; ++iteration) {
+      ThrowIfInterrupted();  // a checkpoint per iteration (util/interrupt.h)
       for (size_t k = 0; k < edges_.size(); ++k) {
         const RelativeRotation& e = graph_.Edge(edges_[k]);
         residuals_[k] = RotationToAngleAxis(rotations_[e.j].transpose() *

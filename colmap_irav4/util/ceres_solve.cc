@@ -3,6 +3,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/interrupt.h"
 #include "colmap_irav4/util/progress_bar.h"
 #include "colmap_irav4/util/threading.h"
 
@@ -17,7 +18,9 @@ class CeresProgressCallback : public ceres::IterationCallback {
   ceres::CallbackReturnType operator()(
       const ceres::IterationSummary& summary) override {
     bar_->Update(summary.iteration);
-    return ceres::SOLVER_CONTINUE;
+    // An interrupt (util/interrupt.h) stops the solve at this iteration;
+    // SolveProblem then throws.
+    return InterruptRequested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
   }
 
  private:
@@ -51,7 +54,8 @@ void SolverOptions::Check(const std::string& prefix) const {
                       "must be positive");
   }
   if (ceres.num_threads == 0 || ceres.num_threads < -1) {
-    throw OptionError(&ceres.num_threads, prefix + "num_threads",
+    // Set from the command's threads flag: named as the member.
+    throw OptionError(&ceres.num_threads, "SolverOptions::ceres.num_threads",
                       "must be -1 (all cores) or > 0");
   }
 }
@@ -67,22 +71,29 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
   ProgressBar bar(label, solver_options.max_num_iterations,
                   options.show_progress_bar);
   CeresProgressCallback callback(&bar);
-  if (options.show_progress_bar) solver_options.callbacks.push_back(&callback);
+  // Always: the callback is also the interrupt's checkpoint.
+  solver_options.callbacks.push_back(&callback);
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, problem, &summary);
+  ThrowIfInterrupted();
   bar.Finish();
   if (print_progress) LOG(INFO) << summary.FullReport();
   return summary;
 }
 
-ceres::LossFunction* CreateLossFunction(const std::string& name, double scale) {
-  if (name == "huber") return new ceres::HuberLoss(scale);
-  if (name == "cauchy") return new ceres::CauchyLoss(scale);
-  return nullptr;
+template <>
+const EnumNames<LossFunctionType>& NamesOf<LossFunctionType>() {
+  static const EnumNames<LossFunctionType> names = {
+      {LossFunctionType::kHuber, "huber"},
+      {LossFunctionType::kCauchy, "cauchy"},
+      {LossFunctionType::kTrivial, "trivial"}};
+  return names;
 }
 
-bool IsLossFunction(const std::string& name) {
-  return name == "huber" || name == "cauchy" || name == "trivial";
+ceres::LossFunction* CreateLossFunction(LossFunctionType type, double scale) {
+  if (type == LossFunctionType::kHuber) return new ceres::HuberLoss(scale);
+  if (type == LossFunctionType::kCauchy) return new ceres::CauchyLoss(scale);
+  return nullptr;
 }
 
 }  // namespace colmap_irav4

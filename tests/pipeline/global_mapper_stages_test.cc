@@ -148,10 +148,11 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   ASSERT_TRUE(mapper.IterativeBundleAdjustment());
   std::vector<std::string> names;
   for (const StageReport& stage : mapper.stages()) names.push_back(stage.name);
-  EXPECT_EQ(names, (std::vector<std::string>{
-                       "rotation averaging (irav4)", "rotation filter",
-                       "tracks", "global_positioning", "bundle adjustment 1",
-                       "retriangulation", "bundle adjustment 2"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{
+                "rotation averaging (irav4)", "rotation filter", "tracks",
+                "global_positioning", "bundle adjustment 1", "retriangulation",
+                "two-view check", "bundle adjustment 2"}));
   // 0.5 px keypoint noise: mean reprojection error near 0.5 * sqrt(pi/2).
   const double error = UpdateReprojectionErrors(&mapper.reconstruction());
   EXPECT_LT(error, 0.8);

@@ -82,6 +82,9 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
               cv::Mat(8, 8, CV_8UC3, cv::Scalar(100, 0, 0)));
   Reconstruction model;
   model.cameras[1].camera_id = 1;
+  // The images' size (another size would be another image: not used).
+  model.cameras[1].width = 8;
+  model.cameras[1].height = 8;
   const std::vector<std::string> names = {"a.png", "b.png", "missing.png"};
   for (image_t id = 1; id <= 3; ++id) {
     Image& image = model.images[id];
@@ -120,6 +123,8 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
   cv::imwrite(temp.File("g.png"), image);
   Reconstruction model;
   model.cameras[1].camera_id = 1;
+  model.cameras[1].width = 16;
+  model.cameras[1].height = 16;
   for (image_t id = 1; id <= 2; ++id) {
     Image& view = model.images[id];
     view.image_id = id;
@@ -155,8 +160,8 @@ TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {
               std::string::npos);
   }
   options = GlobalMapperOptions();
-  options.positioning_method = "magic";
-  EXPECT_THROW(options.Check(), InputError);
+  // An unknown method is not representable; its name is refused.
+  EXPECT_FALSE(ParseEnum("magic", &options.positioning_method));
   options = GlobalMapperOptions();
   options.rotation_filter.max_rotation_error_deg = 0;
   EXPECT_THROW(options.Check(), InputError);

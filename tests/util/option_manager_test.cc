@@ -72,6 +72,13 @@ TEST(OptionManager, RejectsBadInput) {
       Parse(&options, {"test", "--database_path", "a", "--count", "7x"}),
       InputError);
   EXPECT_THROW(Parse(&options, {"test", "--database_path"}), InputError);
+  // A required path given as '' (issue 28: an unset shell variable).
+  try {
+    Parse(&options, {"test", "--database_path", ""});
+    ADD_FAILURE() << "an empty required path was accepted";
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what()), "--database_path: is empty");
+  }
   EXPECT_FALSE(Parse(&options, {"test", "-h"}));
 }
 

@@ -58,7 +58,10 @@ export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 GOTO_NUM_THREADS=1
 # deg against a 0.3 deg bound for the fisheye panorama pair, and refinement
 # 2.65 deg against 0.8 x 2.60 deg. A numerical sensitivity of the tests'
 # margins, not a memory or UB error; no sanitizer reports anything in them.
-EXCLUDE='TwoViewGeometry\.(RelativePoseWithDistortionAndNoise|RefinementImprovesNoisyPoses)'
+# RunSummary.StageTimerRecordsThePeakItRaises measures the resident set:
+# under ASan, freeing its 256 MiB block makes 32 MiB of shadow memory
+# resident (one byte per 8), so the next stage's peak rises; not a defect.
+EXCLUDE='TwoViewGeometry\.(RelativePoseWithDistortionAndNoise|RefinementImprovesNoisyPoses)|RunSummary\.StageTimerRecordsThePeakItRaises'
 echo "== unit tests under ASan+UBSan (ctest -L unit, excluded: $EXCLUDE)"
 start=$(date +%s)
 ctest --test-dir build_asan --output-on-failure -j"$JOBS" -L unit \

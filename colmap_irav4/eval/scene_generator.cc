@@ -16,6 +16,7 @@
 #include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -678,8 +679,8 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         std::round(options.clutter_fraction * image.points2D.size()));
     for (int k = 0; k < num_clutter; ++k) {
       Point2D point2D;
-      point2D.xy =
-          Eigen::Vector2d(unit(rng) * camera.width, unit(rng) * camera.height);
+      point2D.xy = RandomVector<2>(unit, rng).cwiseProduct(
+          Eigen::Vector2d(camera.width, camera.height));
       if (options.keypoint_scales) {
         point2D.scale = static_cast<float>(
             kMinKeypointScale +
@@ -857,12 +858,11 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     const Camera& camera1 = truth.cameras.at(image1.camera_id);
     const Camera& camera2 = truth.cameras.at(image2.camera_id);
     // Random rotation up to 30 deg, random unit translation.
-    const Eigen::Vector3d axis(normal(rng), normal(rng), normal(rng));
+    const Eigen::Vector3d axis = RandomVector<3>(normal, rng);
     Rigid3d pose;
     pose.rotation = Eigen::Quaterniond(
         Eigen::AngleAxisd(DegToRad(30.0) * unit(rng), axis.normalized()));
-    pose.translation =
-        Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    pose.translation = RandomVector<3>(normal, rng).normalized();
     const int target =
         options.min_num_inliers +
         static_cast<int>(unit(rng) * 2 * options.min_num_inliers);
@@ -1202,13 +1202,15 @@ GeneratedPosePriors GeneratePosePriors(
       TransformTruth(scene.truth, EnuFromWorld(), Eigen::Vector3d::Zero());
   const double gravity_std = options.gravity_std_deg * M_PI / 180.0;
   for (const auto& [image_id, image] : truth.images) {
-    Eigen::Vector3d enu = image.ProjectionCenter() +
-                          Eigen::Vector3d(options.horizontal_std * normal(rng),
-                                          options.horizontal_std * normal(rng),
-                                          options.vertical_std * normal(rng));
+    Eigen::Vector3d enu =
+        image.ProjectionCenter() +
+        RandomVector<3>(normal, rng)
+            .cwiseProduct(Eigen::Vector3d(options.horizontal_std,
+                                          options.horizontal_std,
+                                          options.vertical_std));
     if (unit(rng) < options.outlier_fraction) {
       const Eigen::Vector3d direction =
-          Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+          RandomVector<3>(normal, rng).normalized();
       enu += direction * (options.outlier_min_distance +
                           unit(rng) * (options.outlier_max_distance -
                                        options.outlier_min_distance));

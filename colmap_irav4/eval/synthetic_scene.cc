@@ -7,6 +7,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -68,9 +69,8 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
         options.arc_radius * std::sin(angle),
         options.height_jitter * options.arc_radius * uniform(rng),
         -options.arc_radius * std::cos(angle));
-    const Eigen::Vector3d target(0.05 * options.arc_radius * uniform(rng),
-                                 0.05 * options.arc_radius * uniform(rng),
-                                 0.05 * options.arc_radius * uniform(rng));
+    const Eigen::Vector3d target =
+        0.05 * options.arc_radius * RandomVector<3>(uniform, rng);
     Image image;
     image.image_id = i + 1;
     image.name = "image" + std::to_string(i + 1) + ".jpg";
@@ -83,8 +83,7 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
 
   for (int k = 0; k < options.num_points; ++k) {
     const Eigen::Vector3d xyz =
-        options.point_half_extent *
-        Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+        options.point_half_extent * RandomVector<3>(uniform, rng);
     Point3D point;
     point.xyz = xyz;
     std::vector<std::pair<image_t, Eigen::Vector2d>> observations;
@@ -98,7 +97,7 @@ SyntheticScene GenerateSyntheticScene(const SyntheticSceneOptions& options) {
         continue;
       }
       if (unit(rng) >= options.visibility) continue;
-      xy += options.noise_px * Eigen::Vector2d(normal(rng), normal(rng));
+      xy += options.noise_px * RandomVector<2>(normal, rng);
       observations.emplace_back(image_id, xy);
     }
     if (observations.size() < 2) continue;

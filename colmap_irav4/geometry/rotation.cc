@@ -5,6 +5,8 @@
 
 #include <Eigen/SVD>
 
+#include "colmap_irav4/util/random.h"
+
 namespace colmap_irav4 {
 
 double AngularDistance(const Eigen::Matrix3d& R1, const Eigen::Matrix3d& R2) {
@@ -67,16 +69,17 @@ bool IsRotation(const Eigen::Matrix3d& M, double tolerance) {
 
 Eigen::Matrix3d RandomRotation(std::mt19937_64* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Quaterniond q(normal(*rng), normal(*rng), normal(*rng), normal(*rng));
+  const Eigen::Vector4d wxyz = RandomVector<4>(normal, *rng);
+  const Eigen::Quaterniond q(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
   return q.normalized().toRotationMatrix();
 }
 
 Eigen::Matrix3d RandomRotationWithAngle(double angle_rad,
                                         std::mt19937_64* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Vector3d axis(normal(*rng), normal(*rng), normal(*rng));
+  Eigen::Vector3d axis = RandomVector<3>(normal, *rng);
   while (axis.norm() < 1e-12) {
-    axis = Eigen::Vector3d(normal(*rng), normal(*rng), normal(*rng));
+    axis = RandomVector<3>(normal, *rng);
   }
   return Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix();
 }

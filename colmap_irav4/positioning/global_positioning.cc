@@ -17,6 +17,7 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -219,15 +220,13 @@ namespace {
 // The second solve of RunGlobalPositioning with position priors (see the
 // header): places the solved model (centres, points, rotations) in the
 // priors' frame, or leaves it as it is with summary->prior_problem set.
-bool SolveWithPriors(const GlobalPositionerOptions& options,
-                     const PosePriors& priors,
-                     const std::map<image_t, Eigen::Matrix3d>& world_from_cam,
-                     image_t gauge_image_id, const SolverOptions& solver,
-                     ceres::Problem* problem,
-                     std::map<image_t, Eigen::Vector3d>* centers,
-                     Reconstruction* reconstruction,
-                     GlobalPositionerSummary* summary,
-                     Sim3d* prior_from_model) {
+bool SolveWithPriors(
+    const GlobalPositionerOptions& options, const PosePriors& priors,
+    const std::map<image_t, Eigen::Matrix3d>& world_from_cam,
+    image_t gauge_image_id, const SolverOptions& solver,
+    ceres::Problem* problem, std::unique_ptr<ceres::LossFunction>* prior_loss,
+    std::map<image_t, Eigen::Vector3d>* centers, Reconstruction* reconstruction,
+    GlobalPositionerSummary* summary, Sim3d* prior_from_model) {
   std::map<image_t, Eigen::Matrix3d> cam_from_world;
   for (const auto& [image_id, R] : world_from_cam) {
     cam_from_world[image_id] = R.transpose();
@@ -249,6 +248,8 @@ bool SolveWithPriors(const GlobalPositionerOptions& options,
   // Every position prior in the model's frame, x = sim^-1(p): the residual
   // W (sim(c) - p) = s W R (c - x).
   const Eigen::Matrix3d model_R_prior = sim.R.transpose();
+  // The problem does not own its losses: this one lives as long as it does.
+  prior_loss->reset(new ceres::CauchyLoss(options.pose_priors.loss_scale));
   for (auto& [image_id, center] : *centers) {
     const auto it = priors.find(image_id);
     if (it == priors.end() || !it->second.HasPosition()) continue;
@@ -257,9 +258,8 @@ bool SolveWithPriors(const GlobalPositionerOptions& options,
     const Eigen::Matrix3d W =
         sim.scale *
         PositionPriorSqrtInformation(it->second, options.pose_priors) * sim.R;
-    problem->AddResidualBlock(
-        PositionPriorCost::Create(target, W),
-        new ceres::CauchyLoss(options.pose_priors.loss_scale), center.data());
+    problem->AddResidualBlock(PositionPriorCost::Create(target, W),
+                              prior_loss->get(), center.data());
   }
   problem->SetParameterBlockVariable(centers->at(gauge_image_id).data());
   // A fresh elimination ordering: Ceres drops the constant gauge centre from
@@ -376,16 +376,15 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   for (const auto& [image_id, image] : reconstruction->images) {
     world_from_cam[image_id] =
         image.cam_from_world.rotation.toRotationMatrix().transpose();
-    centers[image_id] =
-        options.random_initialization
-            ? Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng))
-            : image.ProjectionCenter();
+    centers[image_id] = options.random_initialization
+                            ? RandomVector<3>(uniform, rng)
+                            : image.ProjectionCenter();
   }
   const image_t gauge_image_id = centers.begin()->first;
   if (options.random_initialization) {
     centers[gauge_image_id].setZero();
     for (auto& [point3D_id, point] : reconstruction->points3D) {
-      point.xyz = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+      point.xyz = RandomVector<3>(uniform, rng);
     }
   }
   // The gauge image's centre is at the origin in the result.
@@ -419,6 +418,7 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   // allocation per observation. Declared first: it outlives the problem.
   const std::unique_ptr<ceres::LossFunction> loss(
       CreateLossFunction(options.loss_function, options.loss_scale));
+  std::unique_ptr<ceres::LossFunction> prior_loss;  // set by SolveWithPriors
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
@@ -465,8 +465,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   const bool place =
       priors != nullptr && !priors->empty() &&
       SolveWithPriors(options, *priors, world_from_cam, gauge_image_id, solver,
-                      &problem, &centers, reconstruction, &local_summary,
-                      &prior_from_model);
+                      &problem, &prior_loss, &centers, reconstruction,
+                      &local_summary, &prior_from_model);
   if (options.max_angular_error_deg > 0) {
     const double min_cos = std::cos(DegToRad(options.max_angular_error_deg));
     for (const Observation& observation : observations) {

@@ -15,6 +15,7 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -202,7 +203,7 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
     std::uniform_real_distribution<double> uniform(-options.initialization_box,
                                                    options.initialization_box);
     for (auto& [image_id, center] : centers) {
-      center = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+      center = RandomVector<3>(uniform, rng);
     }
   }
   const image_t gauge_image_id = centers.begin()->first;

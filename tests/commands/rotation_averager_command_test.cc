@@ -15,6 +15,7 @@
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
+#include "colmap_irav4/util/random.h"
 #include "tests/test_utils/data.h"
 
 namespace colmap_irav4 {
@@ -210,7 +211,7 @@ TEST(RotationAveragerCommand, OneDsfmDirectoryWithBundlerGroundTruth) {
   std::normal_distribution<double> normal(0.0, 1.0);
   for (int k = 0; k < num_images; ++k) {
     R_bundler.push_back(D * RandomRotation(&rng));
-    centers.emplace_back(normal(rng), normal(rng), normal(rng));
+    centers.push_back(RandomVector<3>(normal, rng));
   }
   const fs::path dir = TempDir() / "onedsfm_scene";
   fs::create_directories(dir);

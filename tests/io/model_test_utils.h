@@ -14,6 +14,7 @@
 
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace test {
@@ -125,17 +126,15 @@ inline Reconstruction SyntheticModel(bool name_with_space = true) {
                  std::to_string(image_id) + ".jpg";
     // Writers divide quaternions by their norm (as COLMAP does): use one
     // that the division leaves unchanged, so that round trips are exact.
-    Eigen::Vector4d qvec(uniform(rng), uniform(rng), uniform(rng),
-                         uniform(rng));
+    Eigen::Vector4d qvec = RandomVector<4>(uniform, rng);
     for (int k = 0; k < 10; ++k) qvec /= qvec.norm();
     EXPECT_EQ(qvec / qvec.norm(), qvec);
     image.cam_from_world.rotation =
         Eigen::Quaterniond(qvec(0), qvec(1), qvec(2), qvec(3));
-    image.cam_from_world.translation =
-        Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)) * 10.0;
+    image.cam_from_world.translation = RandomVector<3>(uniform, rng) * 10.0;
     image.points2D.resize(image_id == 5 ? 0 : 40);
     for (Point2D& point2D : image.points2D) {
-      point2D.xy = Eigen::Vector2d(uniform(rng), uniform(rng)) * 300.0;
+      point2D.xy = RandomVector<2>(uniform, rng) * 300.0;
     }
     model.images[image.image_id] = image;
   }
@@ -148,7 +147,7 @@ inline Reconstruction SyntheticModel(bool name_with_space = true) {
         continue;
       }
       Point3D point;
-      point.xyz = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+      point.xyz = RandomVector<3>(uniform, rng);
       point.color << 0, 128, 255;
       point.error = std::abs(uniform(rng));
       // Observed at this index in this image and some others.

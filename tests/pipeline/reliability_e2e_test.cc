@@ -27,6 +27,7 @@
 #include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/random.h"
 #include "tests/test_utils/database_test_utils.h"
 
 namespace colmap_irav4 {
@@ -495,8 +496,8 @@ void WritePanoramaDatabase(const std::string& path, int num_images) {
   K << 500, 0, 320, 0, 500, 240, 0, 0, 1;
   std::vector<Eigen::Vector3d> points(3000);
   for (Eigen::Vector3d& point : points) {
-    const Eigen::Vector3d direction(gaussian(rng), 0.3 * gaussian(rng),
-                                    gaussian(rng));
+    const Eigen::Vector3d direction =
+        RandomVector<3>(gaussian, rng).cwiseProduct(Eigen::Vector3d(1, 0.3, 1));
     point = depth(rng) * direction.normalized();
   }
   std::vector<Eigen::Matrix3d> rotations;
@@ -516,7 +517,7 @@ void WritePanoramaDatabase(const std::string& path, int num_images) {
       const Eigen::Vector3d x = K * (R * points[p]);
       if (x.z() < 0.1) continue;
       const Eigen::Vector2d xy =
-          x.hnormalized() + 0.5 * Eigen::Vector2d(gaussian(rng), gaussian(rng));
+          x.hnormalized() + 0.5 * RandomVector<2>(gaussian, rng);
       if (xy.x() < 1 || xy.y() < 1 || xy.x() > 639 || xy.y() > 479) continue;
       index[i][p] = static_cast<int>(keypoints.size());
       keypoints.push_back(xy.cast<float>());
@@ -540,9 +541,7 @@ void WritePanoramaDatabase(const std::string& path, int num_images) {
       if (geometry.inlier_matches.size() < 30) continue;
       geometry.config = TwoViewGeometry::PLANAR_OR_PANORAMIC;
       const Eigen::Matrix3d R = rotations[j] * rotations[i].transpose();
-      const Eigen::Vector3d t =
-          Eigen::Vector3d(gaussian(rng), gaussian(rng), gaussian(rng))
-              .normalized();
+      const Eigen::Vector3d t = RandomVector<3>(gaussian, rng).normalized();
       Eigen::Matrix3d t_cross;
       t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
       geometry.E = t_cross * R;

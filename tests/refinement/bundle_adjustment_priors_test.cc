@@ -8,6 +8,7 @@
 #include "colmap_irav4/eval/synthetic_scene.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
+#include "colmap_irav4/util/random.h"
 #include "tests/test_utils/scene_test_utils.h"
 
 namespace colmap_irav4 {
@@ -32,8 +33,7 @@ PosePriors Priors(const Reconstruction& truth, double std, bool gravity) {
   PosePriors priors;
   for (const auto& [image_id, image] : truth.images) {
     PosePrior& prior = priors[image_id];
-    prior.position = image.ProjectionCenter() +
-                     Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    prior.position = image.ProjectionCenter() + RandomVector<3>(normal, rng);
     if (image_id == 4) prior.position += Eigen::Vector3d(0, 50, 0);
     prior.position_covariance = std * std * Eigen::Matrix3d::Identity();
     if (gravity) {

@@ -11,6 +11,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -24,8 +25,7 @@ void Perturb(double angle_deg, double center_noise, double point_noise,
   std::normal_distribution<double> normal(0.0, 1.0);
   for (auto& [image_id, image] : reconstruction->images) {
     const Eigen::Vector3d center =
-        image.ProjectionCenter() +
-        center_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+        image.ProjectionCenter() + center_noise * RandomVector<3>(normal, rng);
     image.cam_from_world.rotation =
         Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(angle_deg), &rng)) *
         image.cam_from_world.rotation;
@@ -33,8 +33,7 @@ void Perturb(double angle_deg, double center_noise, double point_noise,
         -(image.cam_from_world.rotation * center);
   }
   for (auto& [point3D_id, point] : reconstruction->points3D) {
-    point.xyz +=
-        point_noise * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    point.xyz += point_noise * RandomVector<3>(normal, rng);
   }
   for (auto& [camera_id, camera] : reconstruction->cameras) {
     for (int idx : CameraModelFocalLengthIdxs(camera.model_id))
@@ -388,8 +387,7 @@ Reconstruction WithScaledNoise(const Reconstruction& truth, uint64_t seed) {
   for (auto& [image_id, image] : noisy.images) {
     for (Point2D& point2D : image.points2D) {
       point2D.scale = static_cast<float>(std::exp(log_scale(rng)));
-      point2D.xy +=
-          0.05 * point2D.scale * Eigen::Vector2d(normal(rng), normal(rng));
+      point2D.xy += 0.05 * point2D.scale * RandomVector<2>(normal, rng);
     }
   }
   return noisy;

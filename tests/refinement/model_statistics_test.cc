@@ -10,6 +10,7 @@
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -165,8 +166,7 @@ TEST(TransferPoses, BundleAdjustmentEndsAtTheSameOptimumFromOtherPoses) {
   std::normal_distribution<double> normal(0.0, 0.05);
   for (auto& [image_id, image] : other.images) {
     const Eigen::Vector3d center =
-        image.ProjectionCenter() +
-        Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+        image.ProjectionCenter() + RandomVector<3>(normal, rng);
     image.cam_from_world.rotation =
         Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(1.0), &rng)) *
         image.cam_from_world.rotation;

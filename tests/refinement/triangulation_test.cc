@@ -10,6 +10,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -18,12 +19,13 @@ TEST(Triangulation, MidpointAndDLTAreExactOnExactRays) {
   std::mt19937_64 rng(1);
   std::uniform_real_distribution<double> uniform(-1, 1);
   for (int trial = 0; trial < 20; ++trial) {
-    const Eigen::Vector3d X(uniform(rng), uniform(rng), 5 + uniform(rng));
+    const Eigen::Vector3d X =
+        RandomVector<3>(uniform, rng) + Eigen::Vector3d(0, 0, 5);
     std::vector<Eigen::Vector3d> centers, directions;
     std::vector<Eigen::Matrix<double, 3, 4>> cams;
     std::vector<Eigen::Vector2d> points;
     for (int i = 0; i < 3; ++i) {
-      const Eigen::Vector3d c(uniform(rng), uniform(rng), uniform(rng));
+      const Eigen::Vector3d c = RandomVector<3>(uniform, rng);
       centers.push_back(c);
       directions.push_back(3.0 * (X - c));
       Eigen::Matrix<double, 3, 4> P;

@@ -12,6 +12,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -69,12 +70,12 @@ Scene MakeScene(int num_good, int num_wrong) {
   std::uniform_real_distribution<double> uniform(-2.0, 2.0);
   std::normal_distribution<double> noise(0.0, 0.3);
   for (int k = 0; k < num_good + num_wrong; ++k) {
-    const Eigen::Vector3d xyz(uniform(rng), uniform(rng), uniform(rng));
+    const Eigen::Vector3d xyz = RandomVector<3>(uniform, rng);
     const bool wrong = k >= num_good;
-    const Eigen::Vector2d xy1 = Project(scene.model, kImage1, xyz) +
-                                Eigen::Vector2d(noise(rng), noise(rng));
+    const Eigen::Vector2d xy1 =
+        Project(scene.model, kImage1, xyz) + RandomVector<2>(noise, rng);
     const Eigen::Vector2d xy2 = Project(scene.model, kImage2, xyz) +
-                                Eigen::Vector2d(noise(rng), noise(rng)) +
+                                RandomVector<2>(noise, rng) +
                                 Eigen::Vector2d(0, wrong ? 8.0 : 0.0);
     const point2D_t idx1 = AddKeypoint(xy1, &scene.model.images.at(kImage1));
     const point2D_t idx2 = AddKeypoint(xy2, &scene.model.images.at(kImage2));

@@ -15,6 +15,7 @@
 #include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/scene/camera.h"
 #include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace test {
@@ -69,8 +70,9 @@ inline SyntheticPair MakeSyntheticPair(const Camera& camera1,
   // Plane n^T X = 1 in camera 1 (depth ~ 5).
   const Eigen::Vector3d n = Eigen::Vector3d(0.05, -0.1, 1).normalized() / 5.0;
   while (static_cast<int>(pair.keypoints1.size()) < num_points) {
-    Eigen::Vector3d X(2 * uniform(*rng), 1.5 * uniform(*rng),
-                      5 + 2 * uniform(*rng));
+    Eigen::Vector3d X = RandomVector<3>(uniform, *rng)
+                            .cwiseProduct(Eigen::Vector3d(2, 1.5, 2)) +
+                        Eigen::Vector3d(0, 0, 5);
     if (planar) X *= 1.0 / n.dot(X);
     const Eigen::Vector3d X2 = R * X + translation;
     if (X.z() < 0.5 || X2.z() < 0.5) continue;
@@ -82,8 +84,8 @@ inline SyntheticPair MakeSyntheticPair(const Camera& camera1,
       continue;
     }
     if (noise_px > 0) {
-      x1 += Eigen::Vector2d(noise(*rng), noise(*rng));
-      x2 += Eigen::Vector2d(noise(*rng), noise(*rng));
+      x1 += RandomVector<2>(noise, *rng);
+      x2 += RandomVector<2>(noise, *rng);
     }
     pair.keypoints1.push_back(x1.cast<float>());
     pair.keypoints2.push_back(x2.cast<float>());

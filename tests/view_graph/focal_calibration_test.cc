@@ -3,6 +3,7 @@
 // focal perturbed (copied to a temporary directory).
 
 #include "colmap_irav4/view_graph/focal_calibration.h"
+#include "colmap_irav4/util/random.h"
 
 #include <cmath>
 #include <cstdio>
@@ -89,8 +90,7 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
   std::normal_distribution<double> noise(0.0, 0.5);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   std::vector<Eigen::Vector3d> points(300);
-  for (auto& p : points)
-    p = Eigen::Vector3d(uniform(*rng), uniform(*rng), uniform(*rng)) * 2.0;
+  for (auto& p : points) p = RandomVector<3>(uniform, *rng) * 2.0;
   const int n = static_cast<int>(camera_of.size());
   std::vector<Eigen::Matrix3d> R(n);
   std::vector<Eigen::Vector3d> t(n);
@@ -102,8 +102,7 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
                                  -8 * std::cos(angle));
     // Aims spread over the scene: optical axes through one common point are
     // a degenerate configuration for focal self-calibration.
-    const Eigen::Vector3d target(2 * uniform(*rng), 2 * uniform(*rng),
-                                 2 * uniform(*rng));
+    const Eigen::Vector3d target = 2 * RandomVector<3>(uniform, *rng);
     const Eigen::Vector3d z = (target - centre).normalized();
     Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
     const Eigen::Vector3d y = z.cross(x);
@@ -126,10 +125,8 @@ std::vector<FocalCalibrationPair> SyntheticPairs(
       for (const auto& p : points) {
         const Eigen::Vector3d a = K1 * (R[i] * p + t[i]);
         const Eigen::Vector3d b = K2 * (R[j] * p + t[j]);
-        x1.push_back(a.hnormalized() +
-                     Eigen::Vector2d(noise(*rng), noise(*rng)));
-        x2.push_back(b.hnormalized() +
-                     Eigen::Vector2d(noise(*rng), noise(*rng)));
+        x1.push_back(a.hnormalized() + RandomVector<2>(noise, *rng));
+        x2.push_back(b.hnormalized() + RandomVector<2>(noise, *rng));
       }
       FocalCalibrationPair pair;
       pair.camera_id1 = camera_of[i];

@@ -126,14 +126,15 @@ SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
   return MapCourtyard(mirror_pair_rate, seed, fold);
 }
 
-// One model of every image, no camera turned, centres right, and the fold
-// check's outcome starting with `outcome` ("clean" or "resolved").
-void ExpectOneCorrectModel(const SymmetricRun& run,
-                           const std::string& outcome) {
+// One model of every image, no camera turned, centres right (median below
+// `max_center_error`, m), and the fold check's outcome starting with
+// `outcome` ("clean" or "resolved").
+void ExpectOneCorrectModel(const SymmetricRun& run, const std::string& outcome,
+                           double max_center_error = 0.01) {
   ASSERT_EQ(run.models.size(), 1u);
   EXPECT_EQ(run.num_registered, run.num_images);
   EXPECT_EQ(run.num_turned, 0);
-  EXPECT_LT(run.center_error_median, 0.01);
+  EXPECT_LT(run.center_error_median, max_center_error);
   ASSERT_EQ(run.summary.components.size(), 1u);
   EXPECT_FALSE(run.summary.components[0].folded);
   EXPECT_EQ(run.summary.components[0].fold_outcome.rfind(outcome, 0), 0u)
@@ -294,17 +295,75 @@ TEST(SymmetricScene, WeakPairsFlagOnlyACut) {
   EXPECT_GE(scattered.num_weak_pairs, options.min_weak_cut_pairs);
   EXPECT_FALSE(scattered.weak_fold) << scattered.Describe();
   EXPECT_FALSE(scattered.folded);
-  // Every pair across blocks of five images (1-5, 11-15, ... against 6-10,
-  // 16-20, ...) thinned: a cut.
+  // Every pair across blocks of ten images (1-10, 21-30 against 11-20,
+  // 31-40) thinned: a cut. (Blocks of five made every pair more than four
+  // images apart weak: the rate model takes that for wide angles matching
+  // less, as they do.)
   const FoldReport cut = DetectFold(
       options, scene.truth, evidence_with([](const GeneratedPair& pair) {
-        return ((pair.image_id1 - 1) / 5) % 2 != ((pair.image_id2 - 1) / 5) % 2;
+        return ((pair.image_id1 - 1) / 10) % 2 !=
+               ((pair.image_id2 - 1) / 10) % 2;
       }));
   EXPECT_GE(cut.num_weak_cut_pairs, options.min_weak_cut_pairs)
       << cut.Describe();
   EXPECT_TRUE(cut.weak_fold);
   EXPECT_TRUE(cut.folded);
   EXPECT_GT(cut.fold_score, 0.0);
+}
+
+// Match counts that vary as on real captures (each image keeps at most 600
+// keypoints of the points it sees, a pair's matches fall with its view angle,
+// distance and a per-pair factor; 2% random false pairs): with one typical
+// inliers-per-point ratio for the whole model, the images that keep few of
+// their points and the wide-angle pairs looked weak and missing, and this
+// correct 100-image courtyard was flagged folded and split into 13 models
+// (exit 3, main 766c5e0). Judged against the images' own rates and the
+// pair's view angle (the default), it is one clean model.
+SceneGeneratorOptions VaryingRatesOptions(int num_images, uint64_t seed,
+                                          double mirror_pair_rate) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kCourtyard;
+  options.num_images = num_images;
+  options.random_pair_rate = mirror_pair_rate > 0 ? 0 : 0.02;
+  options.mirror_pair_rate = mirror_pair_rate;
+  options.max_keypoints_per_image = 600;
+  options.match_angle_falloff_deg = 20;
+  options.match_distance_falloff = 15;
+  options.match_rate_sigma = 0.5;
+  options.seed = seed;
+  return options;
+}
+
+TEST(SymmetricScene, VaryingMatchRatesGiveOneCleanModel) {
+  const SymmetricRun run =
+      MapScene(VaryingRatesOptions(100, 3, 0.0), FoldResolutionOptions());
+  // (600 keypoints an image: centres within 12 mm, not the 10 mm of the
+  // denser scenes.)
+  ExpectOneCorrectModel(run, "clean", 0.02);
+  EXPECT_EQ(run.summary.components[0].fold_outcome, "clean");
+  FoldResolutionOptions one_ratio;
+  one_ratio.detection.weak_pair_rate_model = false;
+  const SymmetricRun alarm =
+      MapScene(VaryingRatesOptions(100, 3, 0.0), one_ratio);
+  EXPECT_GT(alarm.models.size(), 1u);
+}
+
+// A fold under the same variation is still caught: 20% mirror pairs, not
+// resolved, written flagged folded; resolved, no camera turned (but the
+// resolution leaves 91 of the 100 images in 6 models: not asserted).
+TEST(SymmetricScene, FoldWithVaryingMatchRatesIsStillCaught) {
+  FoldResolutionOptions detect_only;
+  detect_only.resolve = false;
+  const SymmetricRun folded =
+      MapScene(VaryingRatesOptions(100, 1, 0.2), detect_only);
+  ASSERT_EQ(folded.models.size(), 1u);
+  EXPECT_GE(folded.num_turned, 10);
+  ASSERT_EQ(folded.summary.components.size(), 1u);
+  EXPECT_TRUE(folded.summary.components[0].folded);
+  const SymmetricRun resolved =
+      MapScene(VaryingRatesOptions(100, 1, 0.2), FoldResolutionOptions());
+  EXPECT_EQ(resolved.num_turned, 0);
+  EXPECT_GT(resolved.num_registered, resolved.num_images / 2);
 }
 
 // A street without false pairs (two facades, so two components) has no fold.

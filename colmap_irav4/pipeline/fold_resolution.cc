@@ -91,6 +91,7 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
       continue;
     }
     PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.verified = true;
     // Failed verifications are stored with no inliers (config UNDEFINED).
     pair.num_inliers = geometry.config == TwoViewGeometry::UNDEFINED
                            ? 0
@@ -102,6 +103,7 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
       continue;
     }
     PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.verified = true;
     pair.has_rotation = true;
     // Oriented image_id1 -> image_id2 of the evidence (smaller id first).
     pair.R = geometry.image_id1 == pair.image_id1
@@ -468,6 +470,21 @@ std::vector<FoldCheckedModel> MapComponentWithFoldCheck(
                        std::to_string(models.size()) + " models");
       return models;
     }
+  }
+  // Flagged after positioning from weak pairs alone and nothing removed: that
+  // check sees only the tracks selected for positioning; the check after
+  // refinement (every track, adjusted) decides.
+  if (num_removed == 0 && !best.model.fold.missing_fold &&
+      refine(&best, prefix) && !best.model.fold.folded) {
+    LOG(INFO) << prefix
+              << "no fold after refinement (the check after positioning "
+                 "flagged weak pairs alone): "
+              << best.model.fold.Describe();
+    notes->push_back(prefix +
+                     "weak pairs flagged after positioning, clean after "
+                     "refinement");
+    finish(&best, "clean after refinement", &models);
+    return models;
   }
   LOG(WARNING) << prefix
                << "fold not resolved and no cut found: the model is written "

@@ -23,11 +23,15 @@ int ColorPointsFromImages(const std::string& image_path,
   CHECK(downscale == 1 || downscale == 2 || downscale == 4 || downscale == 8)
       << downscale;
   // JPEG decoders scale by 2, 4 or 8 inside the DCT: much faster, and the
-  // colour of a point (a mean over its track) barely changes.
-  const int flags = downscale == 1   ? cv::IMREAD_COLOR
-                    : downscale == 2 ? cv::IMREAD_REDUCED_COLOR_2
-                    : downscale == 4 ? cv::IMREAD_REDUCED_COLOR_4
-                                     : cv::IMREAD_REDUCED_COLOR_8;
+  // colour of a point (a mean over its track) barely changes. The pixels as
+  // stored, as COLMAP's feature extractor reads them: OpenCV would turn a
+  // photo by its EXIF orientation tag (phones store portrait shots turned),
+  // and the keypoints would then sample the wrong pixels.
+  const int flags = (downscale == 1   ? cv::IMREAD_COLOR
+                     : downscale == 2 ? cv::IMREAD_REDUCED_COLOR_2
+                     : downscale == 4 ? cv::IMREAD_REDUCED_COLOR_4
+                                      : cv::IMREAD_REDUCED_COLOR_8) |
+                    cv::IMREAD_IGNORE_ORIENTATION;
   // Per image, the colour at each observation (read in parallel, summed
   // serially so that the result does not depend on the thread count).
   std::vector<const Image*> images;

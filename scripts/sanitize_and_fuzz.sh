@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CI's sanitizer and fuzzing stage (issue 10), run by .ci/run after the
+# CI's sanitizer and fuzzing stage, run by .ci/run after the
 # Release build and tests:
 #  1. one clang build in build_asan with AddressSanitizer + UndefinedBehavior-
 #     Sanitizer (UB is fatal), the library also instrumented for libFuzzer

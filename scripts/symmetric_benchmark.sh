@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The symmetric-scene benchmark (issue 9): synthetic scenes whose opposite
+# The symmetric-scene benchmark: synthetic scenes whose opposite
 # walls look alike (scene_generator), with a rate of mirror-twin false pairs;
 # colmap_irav4's mapper and COLMAP 3.8's incremental mapper (on a copy of the
 # database) on the same scenes in the same run. Per run: models written,

@@ -1,6 +1,8 @@
 // colmap_irav4: a global Structure-from-Motion mapper for COLMAP databases.
 // Sub-commands in COLMAP's style: `colmap_irav4 <command> [--options]`.
 
+#include <signal.h>
+
 #include <exception>
 #include <iostream>
 #include <string>
@@ -35,11 +37,35 @@ void PrintUsage() {
   }
 }
 
+// The message on one line: control characters (a newline in an image name
+// or a path) escaped.
+std::string OneLine(const std::string& message) {
+  std::string line;
+  for (const char c : message) {
+    if (c == '\n') {
+      line += "\\n";
+    } else if (c == '\r') {
+      line += "\\r";
+    } else if (c == '\t') {
+      line += "\\t";
+    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      const char* digits = "0123456789abcdef";
+      line += std::string("\\x") + digits[(c >> 4) & 0xf] + digits[c & 0xf];
+    } else {
+      line += c;
+    }
+  }
+  return line;
+}
+
 }  // namespace
 }  // namespace colmap_irav4
 
 int main(int argc, char** argv) {
   using namespace colmap_irav4;
+  // A closed stdout/stderr (`mapper 2>&1 | head`) must not kill the run and
+  // lose its output: writes to it fail quietly instead.
+  signal(SIGPIPE, SIG_IGN);
   google::InitGoogleLogging(argv[0]);
   FLAGS_logtostderr = true;
   if (argc < 2) {
@@ -70,10 +96,11 @@ int main(int argc, char** argv) {
     }
     return it->second.function(argc - 1, argv + 1);
   } catch (const InputError& error) {
-    std::cerr << "ERROR: " << error.what() << std::endl;
+    std::cerr << "ERROR: " << OneLine(error.what()) << std::endl;
     return 1;
   } catch (const std::exception& error) {
-    std::cerr << "ERROR: " << command << ": " << error.what() << std::endl;
+    std::cerr << "ERROR: " << command << ": " << OneLine(error.what())
+              << std::endl;
     return 1;
   }
 }

@@ -1,10 +1,14 @@
 // colmap_irav4 mapper: COLMAP database -> COLMAP sparse models, with the
-// global pipeline of colmap_irav4/pipeline/global_mapper.h:
+// global pipeline of colmap_irav4/pipeline/global_pipeline.h:
 //   colmap_irav4 mapper --database_path DB --image_path IMAGES
 //                       --output_path SPARSE
-// writes SPARSE/0, SPARSE/1, ... (largest first) and SPARSE/summary.json.
+// writes SPARSE/0, SPARSE/1, ... (largest first, each with its
+// project.ini) and SPARSE/summary.json. `colmap_irav4 global_mapper` is the
+// same command accepting COLMAP 4's flags of its global_mapper as well
+// (AddColmap4GlobalMapperFlags).
 
 #include <iostream>
+#include <optional>
 
 #include "colmap_irav4/pipeline/global_pipeline.h"
 #include "colmap_irav4/pipeline/option_registration.h"
@@ -15,14 +19,14 @@
 namespace colmap_irav4 {
 namespace {
 
-int RunMapper(int argc, char** argv) {
+int RunMapper(int argc, char** argv, bool colmap4_names) {
   std::string database_path;
   std::string image_path;
   std::string output_path;
   std::string output_type = "BIN";
   GlobalMapperOptions options;
   OptionManager manager(
-      "mapper",
+      colmap4_names ? "global_mapper" : "mapper",
       "Global Structure-from-Motion: reads a COLMAP database (read-only) and\n"
       "writes one COLMAP sparse model per connected component of at least\n"
       "--Mapper.min_model_size images into OUTPUT/0, OUTPUT/1, ... (largest\n"
@@ -37,13 +41,20 @@ int RunMapper(int argc, char** argv) {
                       "output directory (created if missing)");
   manager.Add("output_type", &output_type, "BIN or TXT");
   AddGlobalMapperOptions(&manager, &options);
+  if (colmap4_names) AddColmap4GlobalMapperFlags(&manager);
   if (!manager.Parse(argc, argv)) return 0;
-  manager.Check([&] { options.Check(); });
+  // The pipeline checks the options; the manager names a flag as typed.
+  std::optional<GlobalPipeline> optional_pipeline;
+  manager.Check([&] {
+    optional_pipeline.emplace(options, database_path, image_path, output_path,
+                              output_type);
+  });
+  GlobalPipeline& pipeline = *optional_pipeline;
   // Before any solve: a BLAS / OpenMP runtime loaded with Ceres would
   // otherwise start one thread per core.
   LimitBlasThreads(options.num_threads);
-  const GlobalMapperSummary summary = RunGlobalMapperOnDatabase(
-      options, database_path, image_path, output_path, output_type);
+  pipeline.Run();
+  const GlobalMapperSummary& summary = pipeline.summary();
   if (summary.components.empty()) return 1;
   return summary.NumFoldedModels() > 0 ? kFoldedExitCode : 0;
 }
@@ -51,7 +62,11 @@ int RunMapper(int argc, char** argv) {
 static CommandRegistrar registrar(
     "mapper",
     "Global SfM: COLMAP database -> COLMAP sparse models (IRAv4 rotations)",
-    RunMapper);
+    [](int argc, char** argv) { return RunMapper(argc, argv, false); });
+static CommandRegistrar global_mapper_registrar(
+    "global_mapper",
+    "mapper under COLMAP 4's name, accepting its --GlobalMapper.* flags",
+    [](int argc, char** argv) { return RunMapper(argc, argv, true); });
 
 }  // namespace
 }  // namespace colmap_irav4

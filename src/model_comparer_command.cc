@@ -8,9 +8,14 @@
 // errors in the reference's units) and each model's points and mean
 // reprojection error are printed.
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <numeric>
+#include <vector>
+
+#include <glog/logging.h>
 
 #include "colmap_irav4/eval/model_alignment.h"
 #include "colmap_irav4/eval/rotation_eval.h"
@@ -36,11 +41,38 @@ void PrintModel(const std::string& label, const std::string& path,
             << MeanPointReprojectionError(*model) << " px\n";
 }
 
+// One line per common image, worst rotation first (rotation-only alignment:
+// free of the centre alignment's small common rotation; ties: larger centre
+// error first), so that the cameras to doubt stand at the top.
+// `rotation_only_deg`: per common image, in comparison.names' order.
+void PrintPerImage(const PoseComparison& comparison,
+                   const std::vector<double>& rotation_only_deg) {
+  CHECK_EQ(rotation_only_deg.size(), comparison.names.size());
+  std::vector<size_t> order(comparison.names.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (rotation_only_deg[a] != rotation_only_deg[b]) {
+      return rotation_only_deg[a] > rotation_only_deg[b];
+    }
+    return comparison.center_errors[a] > comparison.center_errors[b];
+  });
+  std::cout << "per image, worst first: name, rotation error [deg] "
+               "(rotation-only alignment, similarity alignment), centre "
+               "error\n";
+  for (const size_t k : order) {
+    std::cout << "  " << comparison.names[k] << std::setprecision(4) << " "
+              << rotation_only_deg[k] << " "
+              << comparison.rotation_errors_deg[k] << std::setprecision(6)
+              << " " << comparison.center_errors[k] << "\n";
+  }
+}
+
 int RunModelComparer(int argc, char** argv) {
   std::string input_path1;
   std::string input_path2;
   std::string gt_path;
   SimilarityRansacOptions ransac;
+  bool per_image = false;
   OptionManager manager(
       "model_comparer",
       "Aligns model 1 onto model 2 (or onto Strecha gt_cameras) with a robust\n"
@@ -52,6 +84,9 @@ int RunModelComparer(int argc, char** argv) {
   manager.Add("Comparer.max_relative_error", &ransac.max_relative_error,
               "RANSAC inlier threshold, fraction of the reference's median "
               "centre distance to its centroid");
+  manager.Add("per_image", &per_image,
+              "also print each common image's rotation and centre error, "
+              "worst rotation first");
   if (!manager.Parse(argc, argv)) return 0;
   if (input_path2.empty() == gt_path.empty()) {
     throw InputError("--input_path2/--gt_path", "give exactly one of them");
@@ -126,6 +161,7 @@ int RunModelComparer(int argc, char** argv) {
             << "rotation error, rotation-only alignment [deg]: median "
             << rotation_only.median_deg << ", max " << rotation_only.max_deg
             << "\n";
+  if (per_image) PrintPerImage(comparison, rotation_only.errors_deg);
   return 0;
 }
 

@@ -4,12 +4,15 @@
 
 #include <filesystem>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include <glog/logging.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "colmap_irav4/eval/model_render.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
 #include "src/command.h"
@@ -43,25 +46,28 @@ int RunModelViewer(int argc, char** argv) {
   if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
     throw InputError(output_path, "output must end in .png, .jpg or .jpeg");
   }
+  std::vector<std::string> inputs;
+  for (const char* name : {"cameras", "images", "points3D"}) {
+    for (const char* extension : {".bin", ".txt"}) {
+      inputs.push_back(input_path + "/" + name + extension);
+    }
+  }
+  CheckFileWritable(output_path, inputs);  // before any work
   const Reconstruction model = ReadReconstruction(input_path);
   if (model.images.empty()) throw InputError(input_path, "model has no images");
   const cv::Mat picture = RenderModel(model, options);
-  // Written under a temporary name (same extension), renamed when complete.
-  const std::filesystem::path final_path(output_path);
-  const std::filesystem::path temp_path =
-      final_path.parent_path() / (".tmp_" + final_path.filename().string());
-  bool written = false;
+  // Encoded in memory, then written as every output file is (complete or
+  // absent; a pipe or device written into, never replaced).
+  std::vector<uchar> bytes;
+  bool encoded = false;
   try {
-    written = cv::imwrite(temp_path.string(), picture);
+    encoded =
+        cv::imencode(extension == ".png" ? ".png" : ".jpg", picture, bytes);
   } catch (const cv::Exception& error) {
-    written = false;
+    encoded = false;
   }
-  if (!written) {
-    std::error_code ignored;
-    std::filesystem::remove(temp_path, ignored);
-    throw InputError(output_path, "cannot write the image");
-  }
-  std::filesystem::rename(temp_path, final_path);
+  if (!encoded) throw InputError(output_path, "cannot encode the image");
+  WriteFileAtomically(output_path, std::string(bytes.begin(), bytes.end()));
   LOG(INFO) << "Wrote " << output_path << " (" << picture.cols << "x"
             << picture.rows << "): " << model.images.size() << " cameras, "
             << model.points3D.size() << " points";

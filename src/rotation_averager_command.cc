@@ -91,21 +91,7 @@ void WriteSummary(const std::string& path, const std::string& method,
     }
   }
   json << "]\n}\n";
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream file(temporary, std::ios::trunc);
-    if (!file) throw InputError(path, "cannot write the summary");
-    file << json.str();
-    file.close();
-    if (!file) {
-      std::remove(temporary.c_str());
-      throw InputError(path, "cannot write the summary");
-    }
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError(path, "cannot write the summary");
-  }
+  WriteFileAtomically(path, json.str());
 }
 
 // The epipolar graph of a COLMAP database as a rotation graph: vertices are
@@ -194,7 +180,19 @@ int RunRotationAverager(int argc, char** argv) {
     builder_options.Check();
     averager_options.Check();
   });
-  if (!output_path.empty()) CheckFileWritable(output_path);  // before work
+  // Before any work; never over an input, nor both outputs in one file.
+  std::vector<std::string> inputs = {relpose_path, database_path, gt_path};
+  if (!eg_path.empty()) {
+    for (const char* name :
+         {"EGs.txt", "list.txt", "cc.txt", "gt_bundle.out"}) {
+      inputs.push_back(eg_path + "/" + name);
+    }
+  }
+  if (!output_path.empty()) CheckFileWritable(output_path, inputs);
+  if (!summary_path.empty()) {
+    inputs.push_back(output_path);
+    CheckFileWritable(summary_path, inputs);
+  }
   if (output_path.empty() && gt_path.empty()) {
     LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "
                     "neither written nor evaluated";

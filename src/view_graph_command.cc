@@ -53,7 +53,7 @@ int RunViewGraph(int argc, char** argv) {
   AddViewGraphOptions(&manager, &options);
   if (!manager.Parse(argc, argv)) return 0;
   manager.Check([&] { options.Check(); });
-  CheckFileWritable(output_path);  // before any work
+  CheckFileWritable(output_path, {database_path});  // before any work
 
   Timer timer;
   const DatabaseContents database = ReadDatabase(database_path);

@@ -16,7 +16,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/pipeline/fold_resolution.h"
+#include "colmap_irav4/pipeline/component_mapper.h"
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
 

@@ -46,7 +46,8 @@ void SimilarityRansacOptions::Check() const {
                       "must be in (0, 1)");
   }
   if (num_trials < 1) {
-    throw OptionError(&num_trials, "Comparer.num_trials", "must be >= 1");
+    throw OptionError(&num_trials, "SimilarityRansacOptions::num_trials",
+                      "must be >= 1");
   }
 }
 

@@ -790,25 +790,19 @@ RelativePose EstimateRelativePoseNormalized(
 
 namespace {
 
-RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
-                                         const Camera& camera1,
-                                         const Camera& camera2,
-                                         const Correspondences& corrs,
-                                         const RelativePoseOptions& options) {
-  RelativePose result;
-  if (corrs.x1.size() < 5) {
-    result.failure = "fewer than 5 inlier matches";
-    return result;
-  }
-  const double focal =
-      0.5 * (CameraMeanFocalLength(camera1) + CameraMeanFocalLength(camera2));
-
+// The candidate poses of the stored geometry, each group scored together
+// later (a decomposition's twins): the stored pose, E's, F's (normalised by
+// K1, K2), H's decompositions (both signs) and the rotation nearest to H.
+// `*num_groups` counts the groups.
+std::vector<Candidate> StoredGeometryCandidates(const TwoViewGeometry& geometry,
+                                                const Eigen::Matrix3d& K1,
+                                                const Eigen::Matrix3d& K2,
+                                                int* num_groups) {
   std::vector<Candidate> candidates;
-  int num_groups = 0;
   if (geometry.has_pose) {
     Candidate stored;
     stored.source = RelativePoseSource::kStored;
-    stored.group = num_groups++;
+    stored.group = (*num_groups)++;
     stored.R = QuaternionToRotation(geometry.qvec);
     const double norm = geometry.tvec.norm();
     stored.pure_rotation = !(norm > 0);
@@ -817,10 +811,8 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
   }
   if (!IsZero(geometry.E)) {
     AddEssentialCandidates(geometry.E, RelativePoseSource::kEssential,
-                           num_groups++, &candidates);
+                           (*num_groups)++, &candidates);
   }
-  const Eigen::Matrix3d K1 = CameraCalibrationMatrix(camera1);
-  const Eigen::Matrix3d K2 = CameraCalibrationMatrix(camera2);
   if (!IsZero(geometry.F)) {
     const Eigen::Matrix3d E_from_F = K2.transpose() * geometry.F * K1;
     // Where F is the stored E in pixels (a matcher that derived one from the
@@ -828,7 +820,7 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
     // are preferred at equal cost: scoring them would change nothing.
     if (IsZero(geometry.E) || !SameUpToScale(E_from_F, geometry.E)) {
       AddEssentialCandidates(E_from_F, RelativePoseSource::kFundamental,
-                             num_groups++, &candidates);
+                             (*num_groups)++, &candidates);
     }
   }
   if (!IsZero(geometry.H)) {
@@ -838,13 +830,13 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
       std::vector<Eigen::Matrix3d> Rs;
       std::vector<Eigen::Vector3d> ts, ns;
       DecomposeHomographyMatrix(sign * Hn, &Rs, &ts, &ns);
-      const int first_group = num_groups;
+      const int first_group = *num_groups;
       for (size_t i = 0; i < Rs.size(); ++i) {
         if (!IsRotation(Rs[i], 1e-6)) continue;
         Candidate candidate;
         // Solutions come as (R, t), (R, -t).
         candidate.group = first_group + static_cast<int>(i / 2);
-        num_groups = candidate.group + 1;
+        *num_groups = candidate.group + 1;
         candidate.source = RelativePoseSource::kHomography;
         candidate.R = Rs[i];
         candidate.t = ts[i].norm() > 0 ? Eigen::Vector3d(ts[i].normalized())
@@ -862,35 +854,36 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
     rotation.source = RelativePoseSource::kRotation;
     rotation.R = ProjectToRotation(Hr);
     rotation.pure_rotation = true;
-    rotation.group = num_groups++;
+    rotation.group = (*num_groups)++;
     candidates.push_back(rotation);
   }
-  auto score_from = [&](size_t first) {
-    for (size_t begin = first, end = first; begin < candidates.size();
-         begin = end) {
-      end = begin + 1;
-      while (end < candidates.size() &&
-             candidates[end].group == candidates[begin].group) {
-        ++end;
-      }
-      ScoreGroup(corrs, focal, options.max_error_px, &candidates[begin],
-                 candidates.data() + end);
-    }
-  };
-  score_from(0);
-  int max_support = 0;
-  for (const Candidate& candidate : candidates) {
-    max_support = std::max(max_support, candidate.support);
-  }
-  const size_t num_stored_candidates = candidates.size();
-  Eigen::Matrix3d E8;
-  if (max_support < options.skip_eight_point_min_support * corrs.x1.size() &&
-      EstimateEssentialEightPoint(corrs.x1, corrs.x2, &E8)) {
-    AddEssentialCandidates(E8, RelativePoseSource::kEightPoint, num_groups++,
-                           &candidates);
-    score_from(num_stored_candidates);
-  }
+  return candidates;
+}
 
+// Scores the candidates from index `first` on, group by group.
+void ScoreCandidatesFrom(const Correspondences& corrs, double focal,
+                         double max_error_px, size_t first,
+                         std::vector<Candidate>* candidates) {
+  for (size_t begin = first, end = first; begin < candidates->size();
+       begin = end) {
+    end = begin + 1;
+    while (end < candidates->size() &&
+           (*candidates)[end].group == (*candidates)[begin].group) {
+      ++end;
+    }
+    ScoreGroup(corrs, focal, max_error_px, &(*candidates)[begin],
+               candidates->data() + end);
+  }
+}
+
+// The index of the scored candidate to keep (-1: none): the best derived
+// one by source preference and cost, or the stored pose (candidates[0])
+// when it has min_stored_pose_support of that one's support.
+int ChooseCandidate(const TwoViewGeometry& geometry,
+                    const Correspondences& corrs, double focal,
+                    const Eigen::Matrix3d& K1, const Eigen::Matrix3d& K2,
+                    const RelativePoseOptions& options,
+                    const std::vector<Candidate>& candidates) {
   // Sources in order of preference. A planar scene fits the true pose and
   // the homography's twin solution equally well (both pass cheirality), so the
   // truncated cost alone cannot tell them apart: the preferred source wins
@@ -936,13 +929,49 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
     }
     if (best_derived >= 0) break;
   }
-  int best = best_derived;
   const bool use_stored =
       geometry.has_pose && candidates[0].support > 0 &&
       (best_derived < 0 ||
        candidates[0].support >=
            options.min_stored_pose_support * candidates[best_derived].support);
-  if (use_stored) best = 0;
+  return use_stored ? 0 : best_derived;
+}
+
+RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
+                                         const Camera& camera1,
+                                         const Camera& camera2,
+                                         const Correspondences& corrs,
+                                         const RelativePoseOptions& options) {
+  RelativePose result;
+  if (corrs.x1.size() < 5) {
+    result.failure = "fewer than 5 inlier matches";
+    return result;
+  }
+  const double focal =
+      0.5 * (CameraMeanFocalLength(camera1) + CameraMeanFocalLength(camera2));
+  const Eigen::Matrix3d K1 = CameraCalibrationMatrix(camera1);
+  const Eigen::Matrix3d K2 = CameraCalibrationMatrix(camera2);
+
+  int num_groups = 0;
+  std::vector<Candidate> candidates =
+      StoredGeometryCandidates(geometry, K1, K2, &num_groups);
+  ScoreCandidatesFrom(corrs, focal, options.max_error_px, 0, &candidates);
+  int max_support = 0;
+  for (const Candidate& candidate : candidates) {
+    max_support = std::max(max_support, candidate.support);
+  }
+  const size_t num_stored_candidates = candidates.size();
+  Eigen::Matrix3d E8;
+  if (max_support < options.skip_eight_point_min_support * corrs.x1.size() &&
+      EstimateEssentialEightPoint(corrs.x1, corrs.x2, &E8)) {
+    AddEssentialCandidates(E8, RelativePoseSource::kEightPoint, num_groups++,
+                           &candidates);
+    ScoreCandidatesFrom(corrs, focal, options.max_error_px,
+                        num_stored_candidates, &candidates);
+  }
+
+  const int best =
+      ChooseCandidate(geometry, corrs, focal, K1, K2, options, candidates);
   if (best < 0 || candidates[best].support < 5) {
     result.failure = "no candidate pose is supported by 5 inlier matches";
     return result;

@@ -1,6 +1,8 @@
 #include "colmap_irav4/io/database.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -39,6 +41,22 @@ bool FileExists(const std::string& path) {
   return stat(path.c_str(), &info) == 0;
 }
 
+// The process holding an SQLite lock on the file (its lock bytes at 1 GiB),
+// else 0: a writer in exclusive locking mode keeps it while it runs.
+long LockHolder(const std::string& path) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return 0;
+  struct flock lock;
+  std::memset(&lock, 0, sizeof(lock));
+  lock.l_type = F_WRLCK;
+  lock.l_whence = SEEK_SET;
+  lock.l_start = 0x40000000;
+  lock.l_len = 512;
+  const bool held = fcntl(fd, F_GETLK, &lock) == 0 && lock.l_type != F_UNLCK;
+  close(fd);
+  return held ? static_cast<long>(lock.l_pid) : 0;
+}
+
 int64_t FileSize(const std::string& path) {
   struct stat info;
   return stat(path.c_str(), &info) == 0 ? static_cast<int64_t>(info.st_size)
@@ -62,6 +80,10 @@ bool IsWalModeFile(const std::string& path) {
 
 // A message for SQLite's result code (busy/locked get the waiting context).
 std::string SqliteProblem(sqlite3* db, int rc, int busy_timeout_ms) {
+  // The extended code tells a hot journal from other read-only refusals.
+  if (db != nullptr && (rc & 0xff) == (sqlite3_extended_errcode(db) & 0xff)) {
+    rc = sqlite3_extended_errcode(db);
+  }
   const int primary = rc & 0xff;
   if (primary == SQLITE_BUSY || primary == SQLITE_LOCKED) {
     return "database is locked by another process (waited " +
@@ -70,9 +92,12 @@ std::string SqliteProblem(sqlite3* db, int rc, int busy_timeout_ms) {
            "finished";
   }
   if (rc == SQLITE_READONLY_ROLLBACK || rc == SQLITE_READONLY_RECOVERY) {
-    return "has a hot journal from an interrupted writer that a read-only "
-           "reader may not roll back; open it once with COLMAP or sqlite3 "
-           "to recover it, then retry";
+    return "a writer that crashed or was killed left a journal (the "
+           "-journal or -wal file next to it) that must be recovered before "
+           "the database can be read; this program only reads. Recover it "
+           "by opening the database read-write once, e.g. `sqlite3 DATABASE "
+           "'PRAGMA integrity_check;'` or any COLMAP command on it, then "
+           "retry";
   }
   return std::string("SQLite error: ") +
          (db != nullptr ? sqlite3_errmsg(db) : sqlite3_errstr(rc));
@@ -114,10 +139,31 @@ struct Database::Statement {
   bool IsNull(int column) const {
     return sqlite3_column_type(stmt, column) == SQLITE_NULL;
   }
+  // "" if the column holds an integer, else what it holds ("NULL", "the
+  // text 'PINHOLE'", ...): an id read as an integer would silently be 0.
+  std::string NotInteger(int column) const {
+    switch (sqlite3_column_type(stmt, column)) {
+      case SQLITE_INTEGER:
+        return "";
+      case SQLITE_NULL:
+        return "NULL";
+      case SQLITE_TEXT:
+        return "the text '" + Text(column) + "'";
+      case SQLITE_FLOAT:
+        return "the real number " +
+               std::to_string(sqlite3_column_double(stmt, column));
+      default:
+        return "a blob";
+    }
+  }
   std::string Text(int column) const {
     const unsigned char* text = sqlite3_column_text(stmt, column);
-    return text == nullptr ? std::string()
-                           : std::string(reinterpret_cast<const char*>(text));
+    // All bytes: a NUL inside must be seen by the checks, not cut the text.
+    return text == nullptr
+               ? std::string()
+               : std::string(
+                     reinterpret_cast<const char*>(text),
+                     static_cast<size_t>(sqlite3_column_bytes(stmt, column)));
   }
   const void* Blob(int column) const {
     return sqlite3_column_blob(stmt, column);
@@ -158,6 +204,13 @@ Database::Database(const std::string& path, const DatabaseReadOptions& options)
     if (wal_size <= 0) {
       open_mode_ = DatabaseOpenMode::kImmutable;
     } else if (!FileExists(path + "-shm")) {
+      const long holder = LockHolder(path);
+      if (holder != 0) {
+        Fail("WAL-mode database held by process " + std::to_string(holder) +
+             " (a writer in exclusive locking mode: no -shm file): its "
+             "changes are in the -wal file, which cannot be read while it "
+             "holds the database; retry when it has finished");
+      }
       Fail(
           "WAL-mode database with committed changes in its -wal file but "
           "no -shm file: reading it would create a -shm file next to it. "
@@ -299,8 +352,16 @@ std::vector<Camera> Database::ReadAllCameras() const {
                  " FROM cameras ORDER BY camera_id");
   while (statement.Step()) {
     Camera camera;
+    if (!statement.NotInteger(0).empty()) {
+      Fail("a row of the cameras table has camera_id " +
+           statement.NotInteger(0) + " (not an integer id)");
+    }
     const int64_t camera_id = statement.Int(0);
     const std::string what = "camera " + std::to_string(camera_id);
+    if (!statement.NotInteger(1).empty()) {
+      Fail(what + ": model is " + statement.NotInteger(1) +
+           ", not COLMAP's integer model id (e.g. 1 for PINHOLE)");
+    }
     if (camera_id < 0 || camera_id >= kInvalidCameraId) {
       Fail(what + ": camera_id out of range");
     }
@@ -348,7 +409,15 @@ std::vector<DatabaseImage> Database::ReadAllImages() const {
   std::map<image_t, size_t> index;
   while (statement.Step()) {
     DatabaseImage image;
+    if (!statement.NotInteger(0).empty()) {
+      Fail("a row of the images table has image_id " + statement.NotInteger(0) +
+           " (not an integer id)");
+    }
     const int64_t image_id = statement.Int(0);
+    if (!statement.NotInteger(2).empty()) {
+      Fail("image " + std::to_string(image_id) + ": camera_id is " +
+           statement.NotInteger(2) + " (not an integer id)");
+    }
     if (image_id < 0 || image_id >= static_cast<int64_t>(kMaxNumImages)) {
       Fail("image " + std::to_string(image_id) + ": image_id out of range");
     }
@@ -653,15 +722,24 @@ std::string CameraIntrinsicsProblem(const Camera& camera) {
              CameraModelParamsInfo(camera.model_id) + ") is not finite";
     }
   }
-  for (const int k : CameraModelFocalLengthIdxs(camera.model_id)) {
-    if (!(camera.params[k] > 0)) {
-      std::ostringstream value;
-      value << camera.params[k];
-      return "focal length " + value.str() + " is not positive";
-    }
-  }
   const double width = static_cast<double>(camera.width);
   const double height = static_cast<double>(camera.height);
+  for (const int k : CameraModelFocalLengthIdxs(camera.model_id)) {
+    std::ostringstream value;
+    value << camera.params[k];
+    if (!(camera.params[k] > 0)) {
+      return "focal length " + value.str() + " is not positive";
+    }
+    // Beyond these no pose can be estimated (a field of view of almost 180
+    // degrees or of a micro-degree); the solvers would fail with no hint.
+    const double ratio = camera.params[k] / std::max(width, height);
+    if (ratio < 1e-3 || ratio > 1e5) {
+      return "focal length " + value.str() + " px is implausible for a " +
+             std::to_string(camera.width) + " x " +
+             std::to_string(camera.height) +
+             " image (expected 0.001 to 100000 times its larger side)";
+    }
+  }
   const std::vector<int> pp = CameraModelPrincipalPointIdxs(camera.model_id);
   const double cx = camera.params[pp[0]];
   const double cy = camera.params[pp[1]];
@@ -740,7 +818,25 @@ DatabaseContents ReadDatabase(const std::string& path,
     contents.cameras[camera.camera_id] = std::move(camera);
   }
   std::set<camera_t> used_cameras;
+  // Names identify images in the model (and in COLMAP): unique, non-empty,
+  // without a NUL byte (it ends a name in images.bin).
+  std::map<std::string, image_t> names;
   for (DatabaseImage& image : database.ReadAllImages()) {
+    const std::string id = "image " + std::to_string(image.image_id);
+    if (image.name.empty()) {
+      throw InputError(path, id + " has no name (NULL or empty)");
+    }
+    if (image.name.find('\0') != std::string::npos) {
+      throw InputError(path, id + "'s name contains a NUL byte");
+    }
+    const auto [named, inserted] = names.emplace(image.name, image.image_id);
+    if (!inserted) {
+      throw InputError(path, "images " + std::to_string(named->second) +
+                                 " and " + std::to_string(image.image_id) +
+                                 " have the same name '" + image.name +
+                                 "' (the images table's UNIQUE constraint "
+                                 "on name is missing?)");
+    }
     if (contents.cameras.count(image.camera_id) == 0) {
       throw InputError(path, "image " + std::to_string(image.image_id) + " '" +
                                  image.name + "' refers to camera " +

@@ -597,11 +597,24 @@ bool ExistsTextModel(const std::string& path) {
          fs::is_regular_file(JoinPath(path, "points3D.txt"));
 }
 
+namespace {
+
+// A model with a NaN or inf anywhere is refused, read or written.
+void ThrowIfNonFinite(const std::string& path,
+                      const Reconstruction& reconstruction,
+                      const std::string& consequence) {
+  const std::string problem = NonFiniteValueProblem(reconstruction);
+  if (!problem.empty()) throw InputError(path, problem + consequence);
+}
+
+}  // namespace
+
 Reconstruction ReadReconstructionBinary(const std::string& path) {
   Reconstruction reconstruction;
   ReadCamerasBinary(JoinPath(path, "cameras.bin"), &reconstruction);
   ReadImagesBinary(JoinPath(path, "images.bin"), &reconstruction);
   ReadPoints3DBinary(JoinPath(path, "points3D.bin"), &reconstruction);
+  ThrowIfNonFinite(path, reconstruction, " (a damaged model)");
   return reconstruction;
 }
 
@@ -610,6 +623,7 @@ Reconstruction ReadReconstructionText(const std::string& path) {
   ReadCamerasText(JoinPath(path, "cameras.txt"), &reconstruction);
   ReadImagesText(JoinPath(path, "images.txt"), &reconstruction);
   ReadPoints3DText(JoinPath(path, "points3D.txt"), &reconstruction);
+  ThrowIfNonFinite(path, reconstruction, " (a damaged model)");
   return reconstruction;
 }
 
@@ -783,6 +797,7 @@ std::string TextImageNameProblem(const std::string& name) {
 
 void WriteReconstructionBinary(const Reconstruction& reconstruction,
                                const std::string& path) {
+  ThrowIfNonFinite(path, reconstruction, "; not written");
   WriteFilesAtomically(path,
                        {{"cameras.bin", CamerasBinaryBytes(reconstruction)},
                         {"images.bin", ImagesBinaryBytes(reconstruction)},
@@ -791,6 +806,7 @@ void WriteReconstructionBinary(const Reconstruction& reconstruction,
 
 void WriteReconstructionText(const Reconstruction& reconstruction,
                              const std::string& path) {
+  ThrowIfNonFinite(path, reconstruction, "; not written");
   WriteFilesAtomically(path,
                        {{"cameras.txt", CamerasTextBytes(reconstruction)},
                         {"images.txt", ImagesTextBytes(reconstruction)},

@@ -8,12 +8,14 @@
 // Readers validate everything and throw InputError("<file>: <problem>") on
 // bad input: missing or truncated files, unknown camera models, wrong numbers
 // of parameters, malformed text lines, duplicate ids, images referencing
-// missing cameras, tracks and observations that disagree.
+// missing cameras, tracks and observations that disagree, any NaN or inf
+// value (NonFiniteValueProblem).
 //
 // Writers write records in increasing id order (COLMAP writes its hash-map
 // order, which is not defined). Each file goes to a temporary name in the
 // target directory and is renamed only once all files of the model are
-// complete, so a failure leaves no partial model behind.
+// complete, so a failure leaves no partial model behind. A model with a
+// NaN or inf value is never written (InputError).
 
 #include <string>
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -11,11 +12,11 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
-#include "colmap_irav4/pipeline/fold_resolution.h"
-#include "colmap_irav4/positioning/track_selection.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/option_manager.h"
 #include "colmap_irav4/util/threading.h"
 
 namespace colmap_irav4 {
@@ -71,15 +72,16 @@ GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
                            const std::map<camera_t, Camera>& cameras,
                            std::vector<image_t> images,
                            std::vector<ImagePairGeometry> pairs,
-                           std::string log_prefix)
-    : options_(options.ForStages(database.images.size())),
+                           std::string log_prefix, const FoldEvidence* evidence)
+    : options_(options),
       database_(database),
       cameras_(cameras),
       images_(std::move(images)),
       num_component_pairs_(pairs.size()),
       log_prefix_(std::move(log_prefix)),
       pairs_(std::move(pairs)),
-      retriangulated_(options.skip_retriangulation) {}
+      retriangulated_(options.skip_retriangulation),
+      evidence_(evidence) {}
 
 bool GlobalMapper::Fail(const std::string& reason) {
   failure_ = reason;
@@ -123,9 +125,61 @@ void GlobalMapper::AddModelFigures(StageTimer* stage) {
              MeanPointReprojectionError(reconstruction_));
 }
 
-bool GlobalMapper::Run() {
-  return RotationAveraging() && RotationFilter() && BuildTracks() &&
-         Positioning() && IterativeBundleAdjustment() && Finalize();
+bool GlobalMapper::Solve(bool stop_if_folded) {
+  if (state_ == State::kNew) {
+    if (!(RotationAveraging() && RotationFilter() && BuildTracks() &&
+          Positioning())) {
+      state_ = State::kFailed;
+      return false;
+    }
+    state_ = State::kPositioned;
+    if (CheckFold("after positioning") && stop_if_folded) return true;
+  }
+  if (state_ == State::kPositioned) {
+    if (!(IterativeBundleAdjustment() && Finalize())) {
+      state_ = State::kFailed;
+      return false;
+    }
+    state_ = State::kRefined;
+    CheckFold("after refinement");
+  }
+  return state_ == State::kRefined;
+}
+
+bool GlobalMapper::CheckFold(const std::string& when) {
+  if (evidence_ == nullptr || !options_.fold.detect) return false;
+  StageTimer stage("fold check (" + when + ")");
+  // After positioning the model holds only the tracks selected for it: the
+  // predicted overlap is scaled to all the tracks, which the verified
+  // inliers count (DetectFold's `tracks`).
+  fold_ = DetectFold(options_.fold.detection, reconstruction_, *evidence_,
+                     state_ == State::kRefined ? nullptr : &tracks_);
+  fold_checked_ = true;
+  stage.Add("fold score", fold_.fold_score);
+  stage.Add("predicted pairs", static_cast<double>(fold_.num_predicted_pairs));
+  stage.Add("missing pairs", static_cast<double>(fold_.num_missing_pairs));
+  stage.Add("contradicted strong pairs",
+            static_cast<double>(fold_.num_strong_inconsistent_pairs));
+  stage.Add("contradictory tracks",
+            static_cast<double>(fold_.num_contradictory_tracks));
+  stage.Add("suspect pairs", static_cast<double>(fold_.suspect_pairs.size()));
+  stage.Add("weak pairs", static_cast<double>(fold_.num_weak_pairs));
+  stage.Add("weak pairs across their cut",
+            static_cast<double>(fold_.num_weak_cut_pairs));
+  stage.Finish(log_prefix_, &stages_);
+  LOG(INFO) << log_prefix_ << "fold check (" << when
+            << "): " << fold_.Describe();
+  return fold_.folded;
+}
+
+ModelRigidity GlobalMapper::CheckRigidity() {
+  StageTimer stage("rigidity check");
+  const ModelRigidity rigidity = AnalyzeModelRigidity(
+      ModelRigidityOptions(), reconstruction_, options_.min_model_size);
+  stage.Add("blocks", static_cast<double>(rigidity.blocks.size()));
+  stage.Add("large blocks", static_cast<double>(rigidity.num_large_blocks));
+  stage.Finish(log_prefix_, &stages_);
+  return rigidity;
 }
 
 bool GlobalMapper::RotationAveraging() {
@@ -170,11 +224,7 @@ bool GlobalMapper::RotationFilter() {
     kept_images.insert(components[0].begin(), components[0].end());
   }
   const size_t num_consistent = pairs_.size();
-  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
-                              [&](const ImagePairGeometry& pair) {
-                                return !kept_images.count(pair.image_id1);
-                              }),
-               pairs_.end());
+  pairs_ = PairsWithin(pairs_, kept_images);
   for (auto it = rotations_.begin(); it != rotations_.end();) {
     it = kept_images.count(it->first) ? std::next(it) : rotations_.erase(it);
   }
@@ -228,17 +278,13 @@ bool GlobalMapper::BuildTracks() {
   tracks_ = colmap_irav4::BuildTracks(options_.tracks, matches,
                                       reconstruction_.images, &track_stats);
   const bool global_positioning =
-      options_.positioning_method == "global_positioning";
+      options_.positioning_method == PositioningMethod::kGlobalPositioning;
   // Global positioning needs only enough tracks to tie every camera down;
   // the others are triangulated from the refined poses afterwards.
   std::vector<size_t> selected;
   if (global_positioning) {
-    PositioningTrackSelectionOptions selection;
-    selection.tracks_per_image = options_.skip_retriangulation
-                                     ? 0
-                                     : options_.positioning_tracks_per_image;
-    selection.grid_size = options_.positioning_grid_size;
-    selection.tracks_per_pair = options_.positioning_tracks_per_pair;
+    const PositioningTrackSelectionOptions& selection =
+        options_.positioning_tracks;
     std::vector<std::pair<image_t, image_t>> pair_ids;
     pair_ids.reserve(pairs_.size());
     for (const ImagePairGeometry& pair : pairs_) {
@@ -258,6 +304,7 @@ bool GlobalMapper::BuildTracks() {
   size_t num_capped = 0;
   const size_t cap = static_cast<size_t>(options_.max_num_tracks);
   if (options_.max_num_tracks > 0 && tracks_.size() > cap) {
+    const size_t num_positioning_selected = selected.size();
     std::vector<char> priority(tracks_.size(), 0);
     for (const size_t k : selected) priority[k] = 1;
     std::vector<size_t> order(tracks_.size());
@@ -284,6 +331,31 @@ bool GlobalMapper::BuildTracks() {
                     "the cap or set it to 0 for all)";
     tracks_ = std::move(kept);
     selected = std::move(kept_selected);
+    // A cap that leaves a camera with too few of positioning's observations
+    // cannot place it: the model would be wrong (cameras hundreds of metres
+    // off), not smaller. 5: a camera centre's 3 unknowns with some margin.
+    if (global_positioning) {
+      constexpr int kMinObservations = 5;
+      std::map<image_t, int> observations;
+      for (const size_t k : selected) {
+        for (const TrackElement& element : tracks_[k]) {
+          ++observations[element.image_id];
+        }
+      }
+      for (const image_t image_id : images_) {
+        if (observations[image_id] >= kMinObservations) continue;
+        throw InputError(
+            "--Mapper.max_num_tracks",
+            std::to_string(cap) + " leaves image " + std::to_string(image_id) +
+                " with " + std::to_string(observations[image_id]) +
+                " observation(s) for positioning, at least " +
+                std::to_string(kMinObservations) +
+                " are needed to place a camera; raise it (positioning "
+                "selects " +
+                std::to_string(num_positioning_selected) +
+                " tracks; 0: no cap)");
+      }
+    }
   }
   size_t num_positioning_tracks = 0;
   if (global_positioning) {
@@ -306,8 +378,8 @@ bool GlobalMapper::BuildTracks() {
 }
 
 bool GlobalMapper::Positioning() {
-  StageTimer stage(options_.positioning_method);
-  if (options_.positioning_method == "global_positioning") {
+  StageTimer stage(EnumName(options_.positioning_method));
+  if (options_.positioning_method == PositioningMethod::kGlobalPositioning) {
     GlobalPositionerSummary positioner_summary;
     if (!RunGlobalPositioning(options_.global_positioning, &reconstruction_,
                               &positioner_summary)) {
@@ -390,7 +462,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.
-    if (!retriangulated_ && !Retriangulation()) return false;
+    if (!retriangulated_ && !(Retriangulation() && TwoViewCheck())) {
+      return false;
+    }
   }
   return true;
 }
@@ -406,6 +480,30 @@ bool GlobalMapper::Retriangulation() {
             static_cast<double>(triangulation.num_points_added));
   stage.Add("observations added",
             static_cast<double>(triangulation.num_observations_added));
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
+  return true;
+}
+
+bool GlobalMapper::TwoViewCheck() {
+  if (!options_.two_view_check.enabled || options_.skip_bundle_adjustment) {
+    return true;
+  }
+  StageTimer stage("two-view check");
+  TwoViewCheckSummary summary;
+  if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
+                          options_.triangulation, options_.pose_constraint,
+                          &reconstruction_, &keypoint_noise_, &summary)) {
+    return Fail("bundle adjustment of the two-view check failed");
+  }
+  stage.Add("two-view points checked",
+            static_cast<double>(summary.num_points_checked));
+  stage.Add("two-view points restored",
+            static_cast<double>(summary.num_points_restored));
+  stage.Add("images poorly constrained",
+            static_cast<double>(summary.num_images_poorly_constrained));
+  stage.Add("two-view points withheld",
+            static_cast<double>(summary.num_points_withheld));
   AddModelFigures(&stage);
   stage.Finish(log_prefix_, &stages_);
   return true;
@@ -449,12 +547,7 @@ void GlobalMapper::RestrictToImages(const std::set<image_t>& images) {
     DeleteImage(image_id, &reconstruction_);
   }
   RemoveUnusedCameras(&reconstruction_);
-  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
-                              [&](const ImagePairGeometry& pair) {
-                                return !images.count(pair.image_id1) ||
-                                       !images.count(pair.image_id2);
-                              }),
-               pairs_.end());
+  pairs_ = PairsWithin(pairs_, images);
 }
 
 int GlobalMapper::ColorPoints(const std::string& image_path) {
@@ -503,72 +596,83 @@ GlobalMapperOptions::GlobalMapperOptions()
   // Squared loss as COLMAP's bundle adjustment: the filtering between rounds
   // removes the outliers, and plain least squares converges in a few
   // iterations where a robust loss creeps for dozens.
-  bundle_adjustment.loss_function = "trivial";
+  bundle_adjustment.loss_function = BundleAdjustmentLoss::kTrivial;
 }
 
-void GlobalMapperOptions::Check() const {
-  if (min_model_size < 3) {
-    throw OptionError(&min_model_size, "Mapper.min_model_size", "must be >= 3");
+template <>
+const EnumNames<PositioningMethod>& NamesOf<PositioningMethod>() {
+  static const EnumNames<PositioningMethod> names = {
+      {PositioningMethod::kGlobalPositioning, "global_positioning"},
+      {PositioningMethod::kTranslationAveraging, "translation_averaging"}};
+  return names;
+}
+
+namespace {
+
+// Every setting's check; the errors name the flags as written here, which
+// GlobalMapperOptions::Check() replaces by the registered ones.
+void CheckEverySetting(const GlobalMapperOptions& options) {
+  const GlobalMapperOptions& o = options;
+  if (o.min_model_size < 3) {
+    throw OptionError(&o.min_model_size, "Mapper.min_model_size",
+                      "must be >= 3");
   }
   const std::vector<std::string> methods = RotationAveragerMethods();
-  if (std::find(methods.begin(), methods.end(), rotation_method) ==
+  if (std::find(methods.begin(), methods.end(), o.rotation_method) ==
       methods.end()) {
-    throw OptionError(&rotation_method, "Mapper.rotation_method",
-                      "unknown method '" + rotation_method + "' (one of " +
+    throw OptionError(&o.rotation_method, "Mapper.rotation_method",
+                      "unknown method '" + o.rotation_method + "' (one of " +
                           RotationAveragerMethodList() + ")");
   }
-  if (positioning_method != "global_positioning" &&
-      positioning_method != "translation_averaging") {
-    throw OptionError(&positioning_method, "Mapper.positioning_method",
-                      "unknown method '" + positioning_method +
-                          "' (global_positioning or translation_averaging)");
-  }
-  if (num_threads == 0 || num_threads < -1) {
-    throw OptionError(&num_threads, "Mapper.num_threads",
+  if (o.num_threads == 0 || o.num_threads < -1) {
+    throw OptionError(&o.num_threads, "Mapper.num_threads",
                       "must be -1 (all cores) or > 0");
   }
-  if (seed < 0) {
-    throw OptionError(&seed, "Mapper.seed", "must be >= 0");
+  if (o.seed < 0) {
+    throw OptionError(&o.seed, "Mapper.seed", "must be >= 0");
   }
-  if (progress < -1 || progress > 1) {
-    throw OptionError(&progress, "Mapper.progress",
+  if (o.progress < -1 || o.progress > 1) {
+    throw OptionError(&o.progress, "Mapper.progress",
                       "must be -1 (auto), 0 or 1");
   }
-  if (color_image_downscale != 1 && color_image_downscale != 2 &&
-      color_image_downscale != 4 && color_image_downscale != 8) {
-    throw OptionError(&color_image_downscale, "Mapper.color_image_downscale",
+  if (o.color_image_downscale != 1 && o.color_image_downscale != 2 &&
+      o.color_image_downscale != 4 && o.color_image_downscale != 8) {
+    throw OptionError(&o.color_image_downscale, "Mapper.color_image_downscale",
                       "must be 1, 2, 4 or 8");
   }
-  if (num_ba_iterations < 0) {
-    throw OptionError(&num_ba_iterations, "Mapper.num_ba_iterations",
+  if (o.num_ba_iterations < 0) {
+    throw OptionError(&o.num_ba_iterations, "Mapper.num_ba_iterations",
                       "must be >= 0");
   }
-  view_graph.Check();
-  rotation_averaging.Check();
-  rotation_filter.Check();
-  tracks.Check();
-  global_positioning.Check();
-  translation_averaging.Check();
-  triangulation.Check();
-  if (positioning_tracks_per_image < 0) {
-    throw OptionError(&positioning_tracks_per_image,
-                      "Mapper.positioning_tracks_per_image", "must be >= 0");
+  o.view_graph.Check();
+  o.rotation_averaging.Check();
+  o.rotation_filter.Check();
+  o.tracks.Check();
+  o.global_positioning.Check();
+  o.translation_averaging.Check();
+  o.triangulation.Check();
+  o.two_view_check.Check();
+  o.positioning_tracks.Check();
+  if (o.max_num_tracks < 0) {
+    throw OptionError(&o.max_num_tracks, "Mapper.max_num_tracks",
+                      "must be >= 0");
   }
-  if (positioning_grid_size < 1) {
-    throw OptionError(&positioning_grid_size, "Mapper.positioning_grid_size",
-                      "must be >= 1");
-  }
-  if (max_num_tracks < 0) {
-    throw OptionError(&max_num_tracks, "Mapper.max_num_tracks", "must be >= 0");
-  }
-  if (positioning_tracks_per_pair < 0) {
-    throw OptionError(&positioning_tracks_per_pair,
-                      "Mapper.positioning_tracks_per_pair", "must be >= 0");
-  }
-  bundle_adjustment.Check();
-  filtering.Check();
-  normalization.Check();
-  fold.Check();
+  o.bundle_adjustment.Check();
+  o.filtering.Check();
+  o.normalization.Check();
+  o.pose_constraint.Check();
+  o.fold.Check();
+}
+
+}  // namespace
+
+void GlobalMapperOptions::Check() const {
+  // Checked on a registered copy: an error about a registered member names
+  // its flag as registered (OptionManager::Check), never a hand-written one.
+  GlobalMapperOptions registered = *this;
+  OptionManager manager("mapper");
+  AddGlobalMapperOptions(&manager, &registered);
+  manager.Check([&registered] { CheckEverySetting(registered); });
 }
 
 GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
@@ -584,6 +688,12 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.global_positioning.random_seed = seed;
   stages.translation_averaging.random_seed = seed;
   stages.triangulation.random_seed = seed;
+  // A pair with fewer inliers than the view graph keeps counts as not
+  // matched for the fold check too.
+  stages.fold.detection.min_num_matches = view_graph.min_num_inliers;
+  // Without retriangulation the tracks positioning leaves out would have no
+  // points: positioning takes them all.
+  if (skip_retriangulation) stages.positioning_tracks.tracks_per_image = 0;
   for (SolverOptions* solver :
        {&stages.global_positioning.solver, &stages.translation_averaging.solver,
         &stages.bundle_adjustment.solver}) {
@@ -602,45 +712,12 @@ std::vector<ImagePairGeometry> FilterPairsByRotation(
     const auto r1 = rotations.find(pair.image_id1);
     const auto r2 = rotations.find(pair.image_id2);
     if (r1 == rotations.end() || r2 == rotations.end()) continue;
-    // R_ij = R_j R_i^T.
-    const Eigen::Matrix3d averaged = r2->second * r1->second.transpose();
-    if (AngularDistanceDeg(pair.R, averaged) <= max_rotation_error_deg) {
+    if (RelativeRotationErrorDeg(pair, r1->second, r2->second) <=
+        max_rotation_error_deg) {
       kept.push_back(pair);
     }
   }
   return kept;
-}
-
-std::vector<std::vector<image_t>> PairComponents(
-    const std::vector<ImagePairGeometry>& pairs) {
-  std::map<image_t, image_t> parent;
-  std::function<image_t(image_t)> find = [&](image_t x) {
-    while (parent.at(x) != x) {
-      parent[x] = parent.at(parent.at(x));
-      x = parent.at(x);
-    }
-    return x;
-  };
-  for (const ImagePairGeometry& pair : pairs) {
-    parent.emplace(pair.image_id1, pair.image_id1);
-    parent.emplace(pair.image_id2, pair.image_id2);
-  }
-  for (const ImagePairGeometry& pair : pairs) {
-    const image_t a = find(pair.image_id1);
-    const image_t b = find(pair.image_id2);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-  std::map<image_t, std::vector<image_t>> by_root;
-  for (const auto& [image_id, unused] : parent) {
-    by_root[find(image_id)].push_back(image_id);
-  }
-  std::vector<std::vector<image_t>> components;
-  for (auto& [root, images] : by_root) components.push_back(std::move(images));
-  // Stable: equal sizes keep the order of their smallest image id.
-  std::stable_sort(
-      components.begin(), components.end(),
-      [](const auto& a, const auto& b) { return a.size() > b.size(); });
-  return components;
 }
 
 }  // namespace colmap_irav4

@@ -1,15 +1,17 @@
 #pragma once
 
-// The global mapper of one connected component (COLMAP's sfm/global_mapper):
+// The global mapper of one connected component (COLMAP's sfm/global_mapper).
+// Solve() runs the stages in their order (the one place it is written):
 //   rotation averaging -> rotation-consistency filter
-//   -> tracks from the inlier matches -> global positioning
+//   -> tracks from the inlier matches -> global positioning -> fold check
 //   -> bundle adjustment rounds with filtering, retriangulation after the
-//      first -> final filtering and normalisation -> point colours.
+//      first -> final filtering and normalisation -> fold check.
 // One public method per stage, callable (and testable) one by one; every
 // stage's algorithm lives in its own folder, this class holds the state
-// between them. Reading the database, building the view graph, looping over
-// its components and writing the models is the pipeline's
-// (pipeline/global_pipeline.h).
+// between them. Resolving a fold is the component mapper's
+// (pipeline/component_mapper.h); reading the database, building the view
+// graph, looping over its components, colouring and writing the models is
+// the pipeline's (pipeline/global_pipeline.h).
 
 #include <map>
 #include <set>
@@ -20,12 +22,16 @@
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
+#include "colmap_irav4/positioning/track_selection.h"
 #include "colmap_irav4/positioning/translation_averaging.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/refinement/keypoint_noise.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
+#include "colmap_irav4/refinement/pose_constraint.h"
 #include "colmap_irav4/refinement/triangulation.h"
+#include "colmap_irav4/refinement/two_view_check.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/run_summary.h"
@@ -41,6 +47,11 @@ struct RotationFilterOptions {
   void Check() const;  // throws InputError naming the option
 };
 
+// How the camera centres (and points) are found after rotation averaging.
+enum class PositioningMethod { kGlobalPositioning, kTranslationAveraging };
+template <>
+const EnumNames<PositioningMethod>& NamesOf<PositioningMethod>();
+
 struct GlobalMapperOptions {
   // Components of the view graph with fewer images give no model
   // (COLMAP's min_model_size; 3 is the least a global model needs).
@@ -49,7 +60,7 @@ struct GlobalMapperOptions {
   // l1_irls, spanning_tree (see RotationAveragerMethods()).
   std::string rotation_method;
   // global_positioning or translation_averaging.
-  std::string positioning_method = "global_positioning";
+  PositioningMethod positioning_method = PositioningMethod::kGlobalPositioning;
   // Ceres / worker threads of every stage; -1: all cores.
   int num_threads = -1;
   // Seed of every stage's random choices (random initialisation of global
@@ -63,26 +74,10 @@ struct GlobalMapperOptions {
   // Rounds of (bundle adjustment, filtering) before retriangulation; each
   // bundle adjustment itself filters by reprojection error between its solves.
   int num_ba_iterations = 2;
-  // Global positioning uses the longest tracks until every image has this
-  // many observations (0: all tracks); the rest are triangulated after the
-  // first bundle adjustment. Fewer unknowns, same poses, much faster.
-  int positioning_tracks_per_image = 500;
-  // ... spread over each image: a grid of this many cells per side, each
-  // cell's share of the quota filled first (1: the longest tracks only, as
-  // before the grid). 4 x 4 cells, 250 per image: 300-image synthetic
-  // courtyard 17,442 tracks instead of 22,008 and centres 3.90 mm instead
-  // of 3.99, but at 1,000 images 53,352 instead of 60,324 and centres
-  // 11.9 mm instead of 10.8: off by default. At 300 images (default 500
-  // per image) the grid's gain is not the selection's: its final model
-  // differs from the default's by 32 observations near the 4 px filter, and
-  // the exact model restricted to either observation set gives either
-  // figure (refinement_benchmark final_ba, docs/BENCHMARKS.md).
-  int positioning_grid_size = 1;
-  // ... and every view-graph pair keeps at least this many of its tracks
-  // (0: no pair quota): a pair that alone ties two parts of the graph
-  // together must not lose its tracks to the per-image quota (see
-  // positioning/track_selection.h).
-  int positioning_tracks_per_pair = 10;
+  // The tracks global positioning solves for (--Mapper.positioning_*); the
+  // rest are triangulated after the first bundle adjustment. Fewer
+  // unknowns, same poses, much faster (measurements: docs/BENCHMARKS.md).
+  PositioningTrackSelectionOptions positioning_tracks;
   // Memory bound: at most this many tracks (points) enter the model, those
   // positioning uses first, then the longest; a warning says how many were
   // dropped (0: no cap).
@@ -113,21 +108,27 @@ struct GlobalMapperOptions {
   GlobalPositionerOptions global_positioning;
   TranslationAveragingOptions translation_averaging;
   TriangulationOptions triangulation;
+  TwoViewCheckOptions two_view_check;
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
+  // Per-image pose constraint of every model (summary.json, warnings).
+  PoseConstraintOptions pose_constraint;
   // Fold check of every model and its resolution (symmetric scenes).
   FoldResolutionOptions fold;
 
   GlobalMapperOptions();
-  // Throws InputError naming the offending option.
+  // Throws InputError naming the offending option by the flag it is
+  // registered under (AddGlobalMapperOptions), for every stage's struct.
   void Check() const;
 
-  // A copy whose stage options carry the mapper-wide settings (num_threads:
-  // view graph, rotation averaging, Ceres solves, colours; seed: rotation
-  // averaging, positioning, triangulation; progress bars and progress lines),
-  // for a run on `num_images` images (progress -1: on from 100 images or on a
-  // terminal).
+  // A copy whose stage options carry the mapper-wide settings, every stage's
+  // copy of them (num_threads: view graph, rotation averaging, Ceres solves,
+  // colours; seed: rotation averaging, positioning, triangulation; progress
+  // bars and progress lines; min_num_matches: the fold check's;
+  // skip_retriangulation: positioning uses every track), for a run on
+  // `num_images` images (progress -1: on from 100 images or on a terminal).
+  // The pipeline applies it once per run; GlobalMapper takes its result.
   GlobalMapperOptions ForStages(size_t num_images) const;
 };
 
@@ -136,45 +137,68 @@ struct GlobalMapperOptions {
 std::string DefaultRotationMethod();
 
 // Maps one connected component of the view graph. Stages run in the order of
-// Run(); each returns false (with failure() saying why) when no model of
+// Solve(); each returns false (with failure() saying why) when no model of
 // min_model_size images can result, and appends its figures to stages().
+// The stages that make the model are virtual: the test seam of the fold
+// resolution (a stand-in maps by copying a given model).
 class GlobalMapper {
  public:
+  // `options`: with the mapper-wide settings applied (ForStages).
   // `database` (keypoints, inlier matches, image names) and `cameras` (the
   // view graph's, possibly self-calibrated) must outlive the mapper. `images`
   // and `pairs`: the component. `log_prefix` starts every log line (e.g.
-  // "[component 1] ").
+  // "[component 1] "). `evidence`: the database's evidence about the
+  // component's pairs for the fold checks (null: no fold check; must outlive
+  // the mapper).
   GlobalMapper(const GlobalMapperOptions& options,
                const DatabaseContents& database,
                const std::map<camera_t, Camera>& cameras,
                std::vector<image_t> images,
                std::vector<ImagePairGeometry> pairs,
-               std::string log_prefix = "");
+               std::string log_prefix = "",
+               const FoldEvidence* evidence = nullptr);
+  GlobalMapper(const GlobalMapper&) = default;
+  virtual ~GlobalMapper() = default;
 
-  // Every stage below in order; false when a stage gave up.
-  bool Run();
+  // The stages in order (see the top of this file); false when a stage gave
+  // up. With `stop_if_folded`, returns true after the fold check after
+  // positioning when that check finds a fold (refining a folded model is
+  // wasted time); a later Solve() continues with the refinement. Once
+  // refined (or failed), Solve() returns the same answer without work.
+  bool Solve(bool stop_if_folded = false);
+  // Whether Solve() has run the refinement.
+  bool refined() const { return state_ == State::kRefined; }
 
   // Absolute rotations of the component's images (those the method
   // estimated) -> rotations().
-  bool RotationAveraging();
+  virtual bool RotationAveraging();
   // Drops the pairs disagreeing with the rotations (all pairs kept with
   // skip_rotation_filter), then keeps the largest connected part.
-  bool RotationFilter();
+  virtual bool RotationFilter();
   // The model's images (rotations, keypoints) and the tracks of the inlier
   // matches of the kept pairs; with global positioning, the tracks it uses
   // become the model's points.
-  bool BuildTracks();
+  virtual bool BuildTracks();
   // Camera centres (and points): global positioning, or translation
   // averaging followed by triangulation of every track.
-  bool Positioning();
+  virtual bool Positioning();
   // num_ba_iterations rounds of bundle adjustment followed by filtering;
   // retriangulation after the first (or alone when there is none).
-  bool IterativeBundleAdjustment();
+  virtual bool IterativeBundleAdjustment();
   // Triangulates every track from the current poses (completes the points of
   // tracks positioning did not use).
   bool Retriangulation();
+  // After retriangulation: the two-view points checked against poses
+  // adjusted without them (refinement/two_view_check.h).
+  bool TwoViewCheck();
   // Final filtering, cameras no image uses removed, normalisation.
-  bool Finalize();
+  virtual bool Finalize();
+  // The fold check (refinement/fold_detection.h) of the model as it is;
+  // `when`: "after positioning" or "after refinement". Nothing without
+  // evidence or with fold.detect off. Returns whether it found a fold.
+  bool CheckFold(const std::string& when);
+  // Whether the model is one rigid piece (refinement/model_rigidity.h).
+  ModelRigidity CheckRigidity();
   // Keeps only `images` (those of the model among them), their observations
   // and the points still seen twice: a model that is not one rigid piece is
   // written as its parts.
@@ -197,6 +221,9 @@ class GlobalMapper {
   const Reconstruction& reconstruction() const { return reconstruction_; }
   const std::vector<StageReport>& stages() const { return stages_; }
   const std::string& failure() const { return failure_; }
+  // The last fold check's report; fold_checked() false: none ran.
+  const FoldReport& fold() const { return fold_; }
+  bool fold_checked() const { return fold_checked_; }
   void set_log_prefix(const std::string& prefix) { log_prefix_ = prefix; }
 
  private:
@@ -208,6 +235,8 @@ class GlobalMapper {
   // Adds the model's registered images, points and reprojection errors to
   // the stage's figures.
   void AddModelFigures(StageTimer* stage);
+
+  enum class State { kNew, kPositioned, kRefined, kFailed };
 
   const GlobalMapperOptions options_;  // with the mapper-wide settings applied
   const DatabaseContents& database_;
@@ -227,6 +256,10 @@ class GlobalMapper {
   KeypointScaleNoise keypoint_noise_;
   std::vector<StageReport> stages_;
   std::string failure_;
+  const FoldEvidence* evidence_;
+  FoldReport fold_;
+  bool fold_checked_ = false;
+  State state_ = State::kNew;
 };
 
 // Drops pairs whose rotation disagrees with the averaged rotations by more
@@ -236,10 +269,5 @@ std::vector<ImagePairGeometry> FilterPairsByRotation(
     const std::vector<ImagePairGeometry>& pairs,
     const std::map<image_t, Eigen::Matrix3d>& rotations,
     double max_rotation_error_deg);
-
-// Connected components of the images of `pairs`, largest first (ties: the
-// component with the smallest image id first); each sorted ascending.
-std::vector<std::vector<image_t>> PairComponents(
-    const std::vector<ImagePairGeometry>& pairs);
 
 }  // namespace colmap_irav4

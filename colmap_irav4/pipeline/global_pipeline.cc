@@ -15,8 +15,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/io/model_io.h"
-#include "colmap_irav4/pipeline/fold_resolution.h"
-#include "colmap_irav4/refinement/model_rigidity.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
@@ -29,54 +28,26 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The model as it is when it is one rigid piece, else its rigid parts of
-// min_model_size images or more, each as a model of its own (see
-// refinement/model_rigidity.h), with a warning: never one model whose parts
-// sit at an arbitrary relative offset or scale.
-std::vector<FoldCheckedModel> SplitIntoRigidParts(
-    int min_model_size, const std::string& prefix, FoldCheckedModel model,
-    std::vector<std::string>* notes) {
-  StageTimer stage("rigidity check");
-  const ModelRigidity rigidity = AnalyzeModelRigidity(
-      ModelRigidityOptions(), model.mapper->reconstruction(), min_model_size);
-  stage.Add("blocks", static_cast<double>(rigidity.blocks.size()));
-  stage.Add("large blocks", static_cast<double>(rigidity.num_large_blocks));
-  stage.Finish(prefix, &model.stages);
-  std::vector<FoldCheckedModel> parts;
-  if (rigidity.num_large_blocks <= 1) {
-    parts.push_back(std::move(model));
-    return parts;
+// One warning naming the images whose pose their points hold least
+// (`images`: least constrained first), so that a user doubts those cameras.
+void LogPoorlyConstrainedImages(const std::vector<ImagePoseConstraint>& images,
+                                const PoseConstraintOptions& options,
+                                const std::string& prefix) {
+  std::ostringstream list;
+  int count = 0;
+  for (const ImagePoseConstraint& image : images) {
+    if (!image.poorly_constrained) continue;
+    list << (count++ ? ", " : "") << image.name << " ("
+         << image.num_multi_view_observations << " of "
+         << image.num_observations << " observations on points seen 3+ times, "
+         << std::setprecision(2) << image.relative_uncertainty << "x)";
   }
-  std::string sizes;
-  for (const std::vector<image_t>& block : rigidity.blocks) {
-    if (static_cast<int>(block.size()) < min_model_size) break;
-    sizes += (sizes.empty() ? "" : ", ") + std::to_string(block.size());
-  }
-  const std::string message =
-      "the model of " +
-      std::to_string(model.mapper->reconstruction().images.size()) +
-      " images is not one rigid piece: its parts of " + sizes +
-      " images are joined through single images only (fewer than " +
-      std::to_string(ModelRigidityOptions().min_shared_points) +
-      " common points otherwise), so their relative position and scale are "
-      "not determined; writing the parts as separate models";
-  LOG(WARNING) << prefix << message;
-  notes->push_back(prefix + message);
-  for (const std::vector<image_t>& block : rigidity.blocks) {
-    if (static_cast<int>(block.size()) < min_model_size) break;
-    FoldCheckedModel part;
-    part.mapper = std::make_unique<GlobalMapper>(*model.mapper);
-    part.mapper->RestrictToImages(
-        std::set<image_t>(block.begin(), block.end()));
-    part.checked = model.checked;
-    part.fold = model.fold;
-    part.outcome = model.outcome.empty() || model.outcome == "clean"
-                       ? "split (not rigid)"
-                       : model.outcome + ", split (not rigid)";
-    part.stages = model.stages;
-    parts.push_back(std::move(part));
-  }
-  return parts;
+  if (count == 0) return;
+  LOG(WARNING) << prefix << count << " image(s) poorly constrained by their "
+               << "points (rotation uncertainty over "
+               << options.max_relative_uncertainty
+               << "x the model's median; summary.json lists every image): "
+               << list.str();
 }
 
 }  // namespace
@@ -116,7 +87,24 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
         << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
-    out << "}";
+    out << ",\n     \"images\": [";
+    for (size_t j = 0; j < c.images.size(); ++j) {
+      const ImagePoseConstraint& image = c.images[j];
+      out << (j ? "," : "") << "\n       {\"image_id\": " << image.image_id
+          << ", \"name\": " << JsonString(image.name)
+          << ", \"num_observations\": " << image.num_observations
+          << ", \"num_multi_view_observations\": "
+          << image.num_multi_view_observations
+          << ", \"rotation_uncertainty_deg\": "
+          << JsonNumber(image.rotation_uncertainty_deg)
+          << ", \"relative_center_uncertainty\": "
+          << JsonNumber(image.relative_center_uncertainty)
+          << ", \"relative_uncertainty\": "
+          << JsonNumber(image.relative_uncertainty)
+          << ", \"poorly_constrained\": "
+          << (image.poorly_constrained ? "true" : "false") << "}";
+    }
+    out << (c.images.empty() ? "" : "\n     ") << "]}";
   }
   out << (components.empty() ? "" : "\n  ") << "],\n  \"notes\": [";
   for (size_t i = 0; i < notes.size(); ++i) {
@@ -134,262 +122,58 @@ int GlobalMapperSummary::NumFoldedModels() const {
   return count;
 }
 
-std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
-                                            const DatabaseContents& database,
-                                            const std::string& image_path,
-                                            GlobalMapperSummary* summary) {
-  options.Check();
-  Timer total_timer;
-  const GlobalMapperOptions stage_options =
-      options.ForStages(database.images.size());
-  summary->rotation_method = options.rotation_method;
-  summary->positioning_method = options.positioning_method;
-  summary->num_database_images = static_cast<int>(database.images.size());
-  summary->num_database_pairs =
-      static_cast<int>(database.two_view_geometries.size());
-  if (options.skip_retriangulation) {
-    summary->notes.push_back("retriangulation skipped");
-  }
-
-  StageTimer stage("view graph");
-  ViewGraphSummary view_graph_summary;
-  const ViewGraph view_graph =
-      BuildViewGraph(database, stage_options.view_graph, &view_graph_summary);
-  const std::vector<std::vector<image_t>> components =
-      PairComponents(view_graph.pairs);
-  int num_dropped = 0;
-  for (const auto& [reason, count] : view_graph_summary.num_dropped) {
-    num_dropped += count;
-  }
-  stage.Add("pairs read",
-            static_cast<double>(view_graph_summary.num_pairs_read));
-  stage.Add("pairs kept", static_cast<double>(view_graph.pairs.size()));
-  stage.Add("pairs dropped", static_cast<double>(num_dropped));
-  stage.Add("connected images",
-            static_cast<double>(view_graph.image_names.size()));
-  stage.Add("components", static_cast<double>(components.size()));
-  stage.Add(
-      "largest component",
-      components.empty() ? 0.0 : static_cast<double>(components[0].size()));
-  stage.Finish("", &summary->stages);
-
-  if (components.empty() ||
-      static_cast<int>(components[0].size()) < options.min_model_size) {
-    // Say what was dropped and why: "run a matcher" is wrong advice when the
-    // pairs are there but a filter or their configuration removed them.
-    std::string dropped;
-    for (const auto& [reason, count] : view_graph_summary.num_dropped) {
-      dropped +=
-          (dropped.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
-    }
-    throw InputError(
-        database.path,
-        "no model: the largest connected group of images has " +
-            std::to_string(components.empty() ? 0 : components[0].size()) +
-            " image(s), at least " + std::to_string(options.min_model_size) +
-            " are needed (" + std::to_string(view_graph.pairs.size()) +
-            " usable verified pairs of " +
-            std::to_string(view_graph_summary.num_pairs_read) +
-            (dropped.empty() ? "" : "; dropped: " + dropped) +
-            (view_graph_summary.num_pairs_read == 0
-                 ? "; run a matcher"
-                 : "; see --ViewGraph.drop_configs, --Mapper.min_num_matches") +
-            ")");
-  }
-
-  // One mapper per component (more where a folded component is split); the
-  // finished ones keep their model, stages and fold check.
-  std::vector<std::unique_ptr<GlobalMapper>> mappers;
-  std::map<const GlobalMapper*, FoldCheckedModel> fold_checks;
-  const ComponentStages component_stages =
-      GlobalMapperStages(options, database, view_graph.cameras);
-  // Why each component gave no model, for the error if none did.
-  std::vector<std::string> failures;
-  for (size_t c = 0; c < components.size(); ++c) {
-    if (static_cast<int>(components[c].size()) < options.min_model_size) break;
-    const std::set<image_t> images(components[c].begin(), components[c].end());
-    std::vector<ImagePairGeometry> pairs;
-    for (const ImagePairGeometry& pair : view_graph.pairs) {
-      if (images.count(pair.image_id1)) pairs.push_back(pair);
-    }
-    const std::string prefix =
-        components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
-    std::string failure;
-    std::vector<FoldCheckedModel> checked = MapComponentWithFoldCheck(
-        options.fold, options.min_model_size,
-        BuildFoldEvidence(database, pairs, images), components[c], pairs,
-        prefix, component_stages, &summary->notes, &failure);
-    if (checked.empty()) {
-      LOG(WARNING) << prefix << "no model for the component of "
-                   << components[c].size() << " images: " << failure;
-      summary->notes.push_back("component of " +
-                               std::to_string(components[c].size()) +
-                               " images gave no model: " + failure);
-      failures.push_back("the component of " +
-                         std::to_string(components[c].size()) +
-                         " images: " + failure);
-      continue;
-    }
-    for (FoldCheckedModel& model : checked) {
-      for (FoldCheckedModel& part :
-           SplitIntoRigidParts(options.min_model_size, prefix, std::move(model),
-                               &summary->notes)) {
-        mappers.push_back(std::move(part.mapper));
-        fold_checks[mappers.back().get()] = std::move(part);
-      }
-    }
-  }
-  if (mappers.empty()) {
-    std::string reasons;
-    for (const std::string& failure : failures) {
-      reasons += (reasons.empty() ? "" : "; ") + failure;
-    }
-    throw InputError(
-        database.path,
-        "no model: no component could be reconstructed (" + reasons + ")");
-  }
-  // Largest first, by registered images (stable: graph order on ties).
-  std::stable_sort(mappers.begin(), mappers.end(),
-                   [](const auto& a, const auto& b) {
-                     return a->reconstruction().images.size() >
-                            b->reconstruction().images.size();
-                   });
-
-  std::vector<Reconstruction> reconstructions;
-  for (size_t k = 0; k < mappers.size(); ++k) {
-    GlobalMapper& mapper = *mappers[k];
-    mapper.set_log_prefix(
-        mappers.size() > 1 ? "[model " + std::to_string(k) + "] " : "");
-    const int num_missing = mapper.ColorPoints(image_path);
-    if (num_missing > 0) {
-      summary->notes.push_back(std::to_string(num_missing) +
-                               " image(s) missing under " + image_path +
-                               ": their points are grey");
-    }
-    Reconstruction& reconstruction = mapper.reconstruction();
-    ComponentReport report;
-    report.index = static_cast<int>(k);
-    report.num_images_in_graph = static_cast<int>(mapper.images().size());
-    report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
-    report.stages = mapper.stages();
-    const FoldCheckedModel& fold_check = fold_checks.at(&mapper);
-    if (fold_check.checked) {
-      report.stages.insert(report.stages.end(), fold_check.stages.begin(),
-                           fold_check.stages.end());
-      report.fold_score = fold_check.fold.fold_score;
-      report.folded = fold_check.fold.folded;
-      report.fold_predicted_pairs = fold_check.fold.num_predicted_pairs;
-      report.fold_missing_pairs = fold_check.fold.num_missing_pairs;
-      report.fold_outcome = fold_check.outcome;
-    }
-    report.mean_reprojection_error_per_observation =
-        UpdateReprojectionErrors(&reconstruction);
-    report.mean_reprojection_error_per_point =
-        MeanPointReprojectionError(reconstruction);
-    report.num_registered_images =
-        static_cast<int>(reconstruction.images.size());
-    report.num_points = static_cast<int>(reconstruction.points3D.size());
-    report.num_observations = static_cast<int>(NumObservations(reconstruction));
-    report.mean_track_length = MeanTrackLength(reconstruction);
-    LOG(INFO) << "Model " << k << ": " << report.num_registered_images
-              << " registered images (of " << report.num_images_in_graph
-              << " in the component), " << report.num_points << " points, "
-              << report.num_observations << " observations, mean track length "
-              << std::fixed << std::setprecision(2) << report.mean_track_length
-              << ", mean reprojection error per observation "
-              << std::setprecision(3)
-              << report.mean_reprojection_error_per_observation
-              << " px, per point " << report.mean_reprojection_error_per_point
-              << " px (COLMAP model_analyzer's figure)";
-    summary->components.push_back(report);
-    reconstructions.push_back(std::move(reconstruction));
-  }
-  // A model the fold check still flags is written (the user may know
-  // better), but never silently: the last warning names it, summary.json
-  // counts it and the mapper command exits with kFoldedExitCode.
-  for (const ComponentReport& report : summary->components) {
-    if (!report.folded) continue;
-    LOG(WARNING) << "Model " << report.index << " ("
-                 << report.num_registered_images
-                 << " images) is likely FOLDED: fold score " << std::fixed
-                 << std::setprecision(3) << report.fold_score << " ("
-                 << report.fold_missing_pairs << " of "
-                 << report.fold_predicted_pairs
-                 << " predicted overlapping pairs have no matches), outcome \""
-                 << report.fold_outcome
-                 << "\"; some cameras may sit at their mirrored twin's place";
-  }
-  summary->total_seconds += total_timer.ElapsedSeconds();
-  return reconstructions;
-}
-
-void WriteMapperOutput(const std::vector<Reconstruction>& models,
-                       const std::string& output_type, const Timer& total_timer,
-                       OutputTransaction* output,
-                       GlobalMapperSummary* summary) {
-  StageTimer stage("writing");
-  for (size_t k = 0; k < models.size(); ++k) {
-    WriteReconstruction(
-        models[k], output->StagingModelPath(static_cast<int>(k)), output_type);
-  }
-  for (const std::string& stale :
-       output->StaleModelDirectories(static_cast<int>(models.size()))) {
-    summary->notes.push_back(stale + " is left over from an earlier run");
-  }
-  stage.Add("models", static_cast<double>(models.size()));
-  stage.Finish("", &summary->stages);
-  summary->total_seconds = total_timer.ElapsedSeconds();
-  {
-    struct rusage usage;
-    if (getrusage(RUSAGE_SELF, &usage) == 0) {
-      summary->peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
-    }
-  }
-  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
-            << summary->peak_memory_mib << " MiB";
-  WriteFileAtomically(output->StagingFilePath("summary.json"),
-                      summary->ToJson());
-  output->Commit(static_cast<int>(models.size()), {"summary.json"});
-  LOG(INFO) << "Wrote " << models.size() << " model(s) and summary.json to "
-            << output->OutputPath() << " in " << std::fixed
-            << std::setprecision(2) << summary->total_seconds << " s total";
-}
-
-GlobalMapperSummary RunGlobalMapperOnDatabase(
-    const GlobalMapperOptions& options, const std::string& database_path,
-    const std::string& image_path, const std::string& output_path,
-    const std::string& output_type) {
-  options.Check();
-  if (output_type != "BIN" && output_type != "TXT" && output_type != "bin" &&
-      output_type != "txt") {
+GlobalPipeline::GlobalPipeline(const GlobalMapperOptions& options,
+                               std::string database_path,
+                               std::string image_path, std::string output_path,
+                               std::string output_type)
+    : options_(options),
+      database_path_(std::move(database_path)),
+      image_path_(std::move(image_path)),
+      output_path_(std::move(output_path)),
+      output_type_(std::move(output_type)) {
+  options_.Check();
+  if (output_type_ != "BIN" && output_type_ != "TXT" && output_type_ != "bin" &&
+      output_type_ != "txt") {
     throw InputError("--output_type", "must be BIN or TXT");
   }
-  if (!image_path.empty() && !fs::is_directory(image_path)) {
-    throw InputError(image_path, "image directory does not exist");
+  if (!image_path_.empty() && !fs::is_directory(image_path_)) {
+    throw InputError(image_path_, "image directory does not exist");
   }
+}
+
+void GlobalPipeline::Run() {
   // Output writable, OUT/0 replaceable, summary.json not a directory: checked
   // before any work; the models are staged in a temporary directory and
   // installed atomically (util/atomic_output.h).
-  OutputTransaction output(output_path);
-
+  OutputTransaction output(
+      output_path_, {database_path_}, [](const std::string& dir, bool binary) {
+        binary ? ReadReconstructionBinary(dir) : ReadReconstructionText(dir);
+      });
   Timer total_timer;
-  GlobalMapperSummary summary;
-  summary.database_path = database_path;
+  summary_ = GlobalMapperSummary();
+  summary_.database_path = database_path_;
+  const DatabaseContents database = ReadDatabase();
+  const std::vector<Reconstruction> models = Reconstruct(database);
+  Write(models, total_timer, &output);
+}
+
+DatabaseContents GlobalPipeline::ReadDatabase() {
   StageTimer stage("database");
   DatabaseReadOptions read_options;
-  read_options.reset_invalid_cameras = options.reset_invalid_cameras;
-  const DatabaseContents database = ReadDatabase(database_path, read_options);
+  read_options.reset_invalid_cameras = options_.reset_invalid_cameras;
+  DatabaseContents database =
+      colmap_irav4::ReadDatabase(database_path_, read_options);
   for (const std::string& warning : database.warnings) {
-    summary.notes.push_back(database_path + ": " + warning);
+    summary_.notes.push_back(database_path_ + ": " + warning);
   }
   // Names images.txt cannot hold fail now, not after the reconstruction.
-  if (output_type == "TXT" || output_type == "txt") {
+  if (output_type_ == "TXT" || output_type_ == "txt") {
     for (const auto& [image_id, image] : database.images) {
       const std::string problem = TextImageNameProblem(image.name);
       if (!problem.empty()) {
-        throw InputError(database_path, "image " + std::to_string(image_id) +
-                                            ": " + problem +
-                                            "; use --output_type BIN");
+        throw InputError(database_path_, "image " + std::to_string(image_id) +
+                                             ": " + problem +
+                                             "; use --output_type BIN");
       }
     }
   }
@@ -411,13 +195,279 @@ GlobalMapperSummary RunGlobalMapperOnDatabase(
         "inlier matches dropped (invalid keypoint)",
         static_cast<double>(database.num_matches_dropped_invalid_keypoint));
   }
-  stage.Finish("", &summary.stages);
+  stage.Finish("", &summary_.stages);
+  return database;
+}
 
+std::vector<Reconstruction> GlobalPipeline::Reconstruct(
+    const DatabaseContents& database) {
+  Timer total_timer;
+  // The mapper-wide settings reach every stage's options here, once.
+  stage_options_ = options_.ForStages(database.images.size());
+  summary_.rotation_method = options_.rotation_method;
+  summary_.positioning_method = EnumName(options_.positioning_method);
+  summary_.num_database_images = static_cast<int>(database.images.size());
+  summary_.num_database_pairs =
+      static_cast<int>(database.two_view_geometries.size());
+  if (options_.skip_retriangulation) {
+    summary_.notes.push_back("retriangulation skipped");
+  }
+  std::vector<std::vector<image_t>> components;
+  const ViewGraph view_graph = BuildViewGraph(database, &components);
   std::vector<Reconstruction> models =
-      RunGlobalMapper(options, database, image_path, &summary);
+      FinishModels(MapComponents(database, view_graph, components));
+  summary_.total_seconds += total_timer.ElapsedSeconds();
+  return models;
+}
 
-  WriteMapperOutput(models, output_type, total_timer, &output, &summary);
-  return summary;
+ViewGraph GlobalPipeline::BuildViewGraph(
+    const DatabaseContents& database,
+    std::vector<std::vector<image_t>>* components) {
+  StageTimer stage("view graph");
+  ViewGraphSummary view_graph_summary;
+  ViewGraph view_graph = colmap_irav4::BuildViewGraph(
+      database, stage_options_.view_graph, &view_graph_summary);
+  *components = PairComponents(view_graph.pairs);
+  int num_dropped = 0;
+  for (const auto& [reason, count] : view_graph_summary.num_dropped) {
+    num_dropped += count;
+  }
+  const size_t largest = components->empty() ? 0 : (*components)[0].size();
+  stage.Add("pairs read",
+            static_cast<double>(view_graph_summary.num_pairs_read));
+  stage.Add("pairs kept", static_cast<double>(view_graph.pairs.size()));
+  stage.Add("pairs dropped", static_cast<double>(num_dropped));
+  stage.Add("connected images",
+            static_cast<double>(view_graph.image_names.size()));
+  stage.Add("components", static_cast<double>(components->size()));
+  stage.Add("largest component", static_cast<double>(largest));
+  stage.Finish("", &summary_.stages);
+
+  if (static_cast<int>(largest) < options_.min_model_size) {
+    // Say what was dropped and why: "run a matcher" is wrong advice when the
+    // pairs are there but a filter or their configuration removed them.
+    std::string dropped;
+    for (const auto& [reason, count] : view_graph_summary.num_dropped) {
+      dropped +=
+          (dropped.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
+    }
+    throw InputError(
+        database.path,
+        "no model: the largest connected group of images has " +
+            std::to_string(largest) + " image(s), at least " +
+            std::to_string(options_.min_model_size) + " are needed (" +
+            std::to_string(view_graph.pairs.size()) +
+            " usable verified pairs of " +
+            std::to_string(view_graph_summary.num_pairs_read) +
+            (dropped.empty() ? "" : "; dropped: " + dropped) +
+            (view_graph_summary.num_pairs_read == 0
+                 ? "; run a matcher"
+                 : "; see --ViewGraph.drop_configs, --Mapper.min_num_matches") +
+            ")");
+  }
+  return view_graph;
+}
+
+std::vector<ComponentModel> GlobalPipeline::MapComponents(
+    const DatabaseContents& database, const ViewGraph& view_graph,
+    const std::vector<std::vector<image_t>>& components) {
+  std::vector<ComponentModel> models;
+  // Why each component gave no model, for the error if none did.
+  std::vector<std::string> failures;
+  for (size_t c = 0; c < components.size(); ++c) {
+    if (static_cast<int>(components[c].size()) < options_.min_model_size) break;
+    const std::set<image_t> images(components[c].begin(), components[c].end());
+    std::vector<ImagePairGeometry> pairs =
+        PairsWithin(view_graph.pairs, images);
+    const std::string prefix =
+        components.size() > 1 ? "[component " + std::to_string(c) + "] " : "";
+    ComponentMapper mapper(stage_options_, database, view_graph.cameras,
+                           prefix);
+    const FoldEvidence evidence = BuildFoldEvidence(database, pairs, images);
+    std::vector<ComponentModel> component_models =
+        mapper.Map(evidence, components[c], pairs);
+    summary_.notes.insert(summary_.notes.end(), mapper.notes().begin(),
+                          mapper.notes().end());
+    if (component_models.empty()) {
+      LOG(WARNING) << prefix << "no model for the component of "
+                   << components[c].size() << " images: " << mapper.failure();
+      summary_.notes.push_back("component of " +
+                               std::to_string(components[c].size()) +
+                               " images gave no model: " + mapper.failure());
+      failures.push_back("the component of " +
+                         std::to_string(components[c].size()) +
+                         " images: " + mapper.failure());
+      continue;
+    }
+    for (ComponentModel& model : component_models) {
+      models.push_back(std::move(model));
+    }
+  }
+  if (models.empty()) {
+    std::string reasons;
+    for (const std::string& failure : failures) {
+      reasons += (reasons.empty() ? "" : "; ") + failure;
+    }
+    throw InputError(
+        database.path,
+        "no model: no component could be reconstructed (" + reasons + ")");
+  }
+  // Largest first, by registered images (stable: graph order on ties).
+  std::stable_sort(models.begin(), models.end(),
+                   [](const ComponentModel& a, const ComponentModel& b) {
+                     return a.mapper->reconstruction().images.size() >
+                            b.mapper->reconstruction().images.size();
+                   });
+  return models;
+}
+
+std::vector<Reconstruction> GlobalPipeline::FinishModels(
+    std::vector<ComponentModel> models) {
+  std::vector<Reconstruction> reconstructions;
+  for (size_t k = 0; k < models.size(); ++k) {
+    GlobalMapper& mapper = *models[k].mapper;
+    mapper.set_log_prefix(
+        models.size() > 1 ? "[model " + std::to_string(k) + "] " : "");
+    const int num_missing = mapper.ColorPoints(image_path_);
+    if (num_missing > 0) {
+      summary_.notes.push_back(std::to_string(num_missing) +
+                               " image(s) missing under " + image_path_ +
+                               ": their points are grey");
+    }
+    Reconstruction& reconstruction = mapper.reconstruction();
+    // Keypoints the database held as NaN or inf are no 2D points of a model
+    // (never observations; the others keep their order).
+    for (const auto& [image_id, count] :
+         RemoveNonFinitePoints2D(&reconstruction)) {
+      summary_.notes.push_back(
+          "image " + std::to_string(image_id) + " (" +
+          reconstruction.images.at(image_id).name +
+          "): " + std::to_string(count) +
+          " non-finite keypoints left out of the model's 2D points (the "
+          "others' indices shift down)");
+    }
+    ComponentReport report;
+    report.index = static_cast<int>(k);
+    report.num_images_in_graph = static_cast<int>(mapper.images().size());
+    report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
+    report.stages = mapper.stages();
+    if (mapper.fold_checked()) {
+      report.fold_score = mapper.fold().fold_score;
+      report.folded = models[k].folded;
+      report.fold_predicted_pairs = mapper.fold().num_predicted_pairs;
+      report.fold_missing_pairs = mapper.fold().num_missing_pairs;
+      report.fold_outcome = models[k].fold_outcome;
+    }
+    report.mean_reprojection_error_per_observation =
+        UpdateReprojectionErrors(&reconstruction);
+    report.mean_reprojection_error_per_point =
+        MeanPointReprojectionError(reconstruction);
+    report.num_registered_images =
+        static_cast<int>(reconstruction.images.size());
+    report.num_points = static_cast<int>(reconstruction.points3D.size());
+    report.num_observations = static_cast<int>(NumObservations(reconstruction));
+    report.mean_track_length = MeanTrackLength(reconstruction);
+    report.images = ComputePoseConstraints(mapper.options().pose_constraint,
+                                           reconstruction);
+    LogPoorlyConstrainedImages(
+        report.images, mapper.options().pose_constraint,
+        models.size() > 1 ? "[model " + std::to_string(k) + "] " : "");
+    LOG(INFO) << "Model " << k << ": " << report.num_registered_images
+              << " registered images (of " << report.num_images_in_graph
+              << " in the component), " << report.num_points << " points, "
+              << report.num_observations << " observations, mean track length "
+              << std::fixed << std::setprecision(2) << report.mean_track_length
+              << ", mean reprojection error per observation "
+              << std::setprecision(3)
+              << report.mean_reprojection_error_per_observation
+              << " px, per point " << report.mean_reprojection_error_per_point
+              << " px (COLMAP model_analyzer's figure)";
+    summary_.components.push_back(report);
+    reconstructions.push_back(std::move(reconstruction));
+  }
+  // A model the fold check still flags is written (the user may know
+  // better), but never silently: the last warning names it, summary.json
+  // counts it and the mapper command exits with kFoldedExitCode.
+  for (const ComponentReport& report : summary_.components) {
+    if (!report.folded) continue;
+    LOG(WARNING) << "Model " << report.index << " ("
+                 << report.num_registered_images
+                 << " images) is likely FOLDED: fold score " << std::fixed
+                 << std::setprecision(3) << report.fold_score << " ("
+                 << report.fold_missing_pairs << " of "
+                 << report.fold_predicted_pairs
+                 << " predicted overlapping pairs have no matches), outcome \""
+                 << report.fold_outcome
+                 << "\"; some cameras may sit at their mirrored twin's place";
+  }
+  return reconstructions;
+}
+
+void GlobalPipeline::Write(const std::vector<Reconstruction>& models,
+                           const Timer& total_timer,
+                           OutputTransaction* output) {
+  StageTimer stage("writing");
+  // No model with a NaN or inf is written, whatever the options: all are
+  // checked before the first is written.
+  for (size_t k = 0; k < models.size(); ++k) {
+    const std::string problem = NonFiniteValueProblem(models[k]);
+    if (!problem.empty()) {
+      throw InputError(
+          (fs::path(output->OutputPath()) / std::to_string(k)).string(),
+          "no model written: model " + std::to_string(k) + " has " + problem +
+              " (a numerical failure; are options far from their defaults?)");
+    }
+  }
+  // The options of the run beside every model, as COLMAP's project.ini.
+  const std::string options_ini =
+      "database_path=" + database_path_ + "\nimage_path=" + image_path_ +
+      "\noutput_type=" + output_type_ + "\n" + GlobalMapperOptionsIni(options_);
+  for (size_t k = 0; k < models.size(); ++k) {
+    const std::string path = output->StagingModelPath(static_cast<int>(k));
+    WriteReconstruction(models[k], path, output_type_);
+    WriteFileAtomically(path + "/project.ini", options_ini);
+  }
+  for (const std::string& stale :
+       output->StaleModelDirectories(static_cast<int>(models.size()))) {
+    summary_.notes.push_back(stale + " is left over from an earlier run");
+  }
+  stage.Add("models", static_cast<double>(models.size()));
+  stage.Finish("", &summary_.stages);
+  summary_.total_seconds = total_timer.ElapsedSeconds();
+  {
+    struct rusage usage;
+    if (getrusage(RUSAGE_SELF, &usage) == 0) {
+      summary_.peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
+    }
+  }
+  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
+            << summary_.peak_memory_mib << " MiB";
+  WriteFileAtomically(output->StagingFilePath("summary.json"),
+                      summary_.ToJson());
+  output->Commit(static_cast<int>(models.size()), {"summary.json"});
+  LOG(INFO) << "Wrote " << models.size() << " model(s) and summary.json to "
+            << output->OutputPath() << " in " << std::fixed
+            << std::setprecision(2) << summary_.total_seconds << " s total";
+}
+
+GlobalMapperSummary RunGlobalMapperOnDatabase(
+    const GlobalMapperOptions& options, const std::string& database_path,
+    const std::string& image_path, const std::string& output_path,
+    const std::string& output_type) {
+  GlobalPipeline pipeline(options, database_path, image_path, output_path,
+                          output_type);
+  pipeline.Run();
+  return pipeline.summary();
+}
+
+std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
+                                            const DatabaseContents& database,
+                                            const std::string& image_path,
+                                            GlobalMapperSummary* summary) {
+  GlobalPipeline pipeline(options, database.path, image_path, "");
+  std::vector<Reconstruction> models = pipeline.Reconstruct(database);
+  *summary = pipeline.summary();
+  return models;
 }
 
 }  // namespace colmap_irav4

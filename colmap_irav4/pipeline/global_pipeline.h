@@ -2,18 +2,22 @@
 
 // The global mapping pipeline (COLMAP's controllers/global_pipeline): reads a
 // COLMAP database (read-only), builds the view graph (filters, relative
-// poses, connected components), maps every large enough component with a
-// GlobalMapper, colours the points, and writes one COLMAP sparse model per
-// component and summary.json.
+// poses, connected components), maps every large enough component
+// (pipeline/component_mapper.h, pipeline/global_mapper.h), colours the
+// points, and writes one COLMAP sparse model per model with the options of
+// the run (project.ini), and summary.json.
 
 #include <string>
 #include <vector>
 
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/pipeline/component_mapper.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/run_summary.h"
+#include "colmap_irav4/util/timer.h"
+#include "colmap_irav4/view_graph/view_graph.h"
 
 namespace colmap_irav4 {
 
@@ -42,6 +46,9 @@ struct ComponentReport {
   // "clean", "resolved (...)", "split", "folded (...)".
   std::string fold_outcome;
   std::vector<StageReport> stages;
+  // Each image's observations and pose constraint, least constrained first
+  // (refinement/pose_constraint.h).
+  std::vector<ImagePoseConstraint> images;
 };
 
 struct GlobalMapperSummary {
@@ -67,28 +74,71 @@ struct GlobalMapperSummary {
 // of them is still flagged folded (summary.json: num_folded_models > 0).
 constexpr int kFoldedExitCode = 3;
 
-// Maps every component with >= min_model_size images into its own model,
-// largest first. `image_path` (may be empty) is where point colours are read
-// from. Throws InputError when no component is large enough.
-std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
-                                            const DatabaseContents& database,
-                                            const std::string& image_path,
-                                            GlobalMapperSummary* summary);
+// The run of the mapper command (COLMAP's GlobalPipeline): Run() reads the
+// database, builds the view graph, maps every component of at least
+// min_model_size images (ComponentMapper: GlobalMapper::Solve with the fold
+// check and resolution), colours the points and writes the models, their
+// options and summary.json.
+class GlobalPipeline {
+ public:
+  // Checks the options (the run's one check: errors name the flags) and the
+  // output arguments; throws InputError. `image_path` (may be empty) is where
+  // point colours are read from; `output_type` BIN or TXT.
+  GlobalPipeline(const GlobalMapperOptions& options, std::string database_path,
+                 std::string image_path, std::string output_path,
+                 std::string output_type = "BIN");
 
-// Writes OUTPUT/<k>/{cameras,images,points3D}.<bin|txt> for every model and
-// OUTPUT/summary.json into the transaction's temporary directory, then
-// installs them (util/atomic_output.h: each OUTPUT/<k> is swapped atomically,
-// the user's files in an old OUTPUT/<k> are kept, stale OUTPUT/<k> warned
-// about). Appends the "writing" stage to the summary.
-void WriteMapperOutput(const std::vector<Reconstruction>& models,
-                       const std::string& output_type, const Timer& total_timer,
-                       OutputTransaction* output, GlobalMapperSummary* summary);
+  // Reads the database (read-only), Reconstruct()s and writes
+  // OUTPUT/<k>/{cameras,images,points3D}.<bin|txt> and project.ini (the
+  // options of the run) for every model, largest first, and
+  // OUTPUT/summary.json, installed atomically (util/atomic_output.h: each
+  // OUTPUT/<k> is swapped atomically, the user's files in an old OUTPUT/<k>
+  // are kept, stale OUTPUT/<k> warned about). Throws InputError when the
+  // database gives no model.
+  void Run();
 
-// The whole command: reads the database read-only, maps, writes the output
-// with WriteMapperOutput.
+  // Run's mapping on a database already read: the view graph, the models of
+  // its components (largest first), coloured from image_path. Throws
+  // InputError when no component gives a model.
+  std::vector<Reconstruction> Reconstruct(const DatabaseContents& database);
+
+  const GlobalMapperSummary& summary() const { return summary_; }
+
+ private:
+  DatabaseContents ReadDatabase();
+  // The view graph and its connected components, largest first.
+  ViewGraph BuildViewGraph(const DatabaseContents& database,
+                           std::vector<std::vector<image_t>>* components);
+  // The models of every large enough component.
+  std::vector<ComponentModel> MapComponents(
+      const DatabaseContents& database, const ViewGraph& view_graph,
+      const std::vector<std::vector<image_t>>& components);
+  // Colours the models' points and reports them (summary_.components).
+  std::vector<Reconstruction> FinishModels(std::vector<ComponentModel> models);
+  void Write(const std::vector<Reconstruction>& models,
+             const Timer& total_timer, OutputTransaction* output);
+
+  const GlobalMapperOptions options_;
+  GlobalMapperOptions stage_options_;  // options_.ForStages, once per run
+  const std::string database_path_;
+  const std::string image_path_;
+  const std::string output_path_;
+  const std::string output_type_;
+  GlobalMapperSummary summary_;
+};
+
+// The whole command in one call (for bindings):
+// GlobalPipeline(...).Run(), returning its summary.
 GlobalMapperSummary RunGlobalMapperOnDatabase(
     const GlobalMapperOptions& options, const std::string& database_path,
     const std::string& image_path, const std::string& output_path,
     const std::string& output_type = "BIN");
+
+// The mapping of a database already read (GlobalPipeline::Reconstruct),
+// without output; *summary gets its figures.
+std::vector<Reconstruction> RunGlobalMapper(const GlobalMapperOptions& options,
+                                            const DatabaseContents& database,
+                                            const std::string& image_path,
+                                            GlobalMapperSummary* summary);
 
 }  // namespace colmap_irav4

@@ -1,6 +1,6 @@
 #include "colmap_irav4/pipeline/option_registration.h"
 
-#include "colmap_irav4/pipeline/fold_resolution.h"
+#include <sstream>
 
 namespace colmap_irav4 {
 
@@ -94,7 +94,7 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "IRAv4 clustering: a cluster stops competing at this size "
                "until the fallback pass (0 = no cap)");
   manager->Add("RotationAveraging.reference_method", &options->reference_method,
-               "alignment reference: irav4 | greedy_cds | random_cds");
+               "alignment reference: " + EnumNameList<ReferenceMethod>());
   manager->Add("RotationAveraging.weighted_greedy_cds",
                &options->weighted_greedy_cds,
                "greedy CDS counts neighbours by inlier count");
@@ -103,10 +103,11 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
   manager->Add("RotationAveraging.num_final_rounds", &options->num_final_rounds,
                "rounds of inlier selection + global optimisation at the end");
   manager->Add("RotationAveraging.final_refinement", &options->final_refinement,
-               "IRAv4 after its final optimisation: guarded (default: "
-               "l1_irls kept only if it lowers the Geman-McClure cost, else "
-               "irls) | l1_irls (L1 then Geman-McClure IRLS on all edges) | "
-               "irls (IRLS only) | none (the paper)");
+               "IRAv4 after its final optimisation: " +
+                   EnumNameList<Irav4FinalRefinement>() +
+                   " (guarded: l1_irls, L1 then Geman-McClure IRLS on all "
+                   "edges, kept only if it lowers the Geman-McClure cost, "
+                   "else irls, IRLS only; none: the paper)");
   manager->Add("RotationAveraging.reseed_vertices", &options->reseed_vertices,
                "IRAv4 refinement: re-initialise badly supported "
                "vertices from their best pre-computation, refine again");
@@ -176,7 +177,7 @@ void AddRotationAveragerOptions(OptionManager* options,
                "L1-IRLS (and IRAv4's irls refinement): Geman-McClure scale "
                "(deg)");
   options->Add(p + "linear_solver", &l1->linear_solver,
-               "L1-IRLS: auto, cholesky or cg");
+               "L1-IRLS: " + EnumNameList<L1IrlsLinearSolver>());
   options->Add(p + "max_cholesky_flops", &l1->max_cholesky_flops,
                "L1-IRLS: auto uses Cholesky up to this factorisation cost");
 }
@@ -204,7 +205,7 @@ void AddGlobalPositioningOptions(OptionManager* manager,
   manager->Add("GlobalPositioning.min_track_length", &gp.min_track_length,
                "tracks positioned (shorter: retriangulated later)");
   manager->Add("GlobalPositioning.loss_function", &gp.loss_function,
-               "huber, cauchy or trivial");
+               EnumNameList<LossFunctionType>());
   manager->Add("GlobalPositioning.loss_scale", &gp.loss_scale,
                "robust loss scale");
   manager->Add("GlobalPositioning.max_angular_error_deg",
@@ -216,9 +217,10 @@ void AddGlobalPositioningOptions(OptionManager* manager,
 void AddTranslationAveragingOptions(OptionManager* manager,
                                     TranslationAveragingOptions* o) {
   TranslationAveragingOptions& ta = *o;
-  manager->Add("TranslationAveraging.cost", &ta.cost, "bata or chordal");
+  manager->Add("TranslationAveraging.cost", &ta.cost,
+               EnumNameList<TranslationAveragingCost>());
   manager->Add("TranslationAveraging.loss_function", &ta.loss_function,
-               "huber, cauchy or trivial");
+               EnumNameList<LossFunctionType>());
   manager->Add("TranslationAveraging.loss_scale", &ta.loss_scale,
                "robust loss scale");
   AddSolverOptions(manager, "TranslationAveraging.", &ta.solver);
@@ -256,11 +258,40 @@ void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
                "ignore_two_view_tracks)");
 }
 
+void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
+  manager->Add("TwoViewCheck.enabled", &o->enabled,
+               "after retriangulation, check the two-view points against "
+               "poses adjusted without them (repeated structure)");
+  manager->Add("TwoViewCheck.min_multi_view_observations",
+               &o->min_multi_view_observations,
+               "only two-view points between images with at least this many "
+               "observations of points seen 3 times or more are checked");
+  manager->Add("TwoViewCheck.withhold_poorly_constrained",
+               &o->withhold_poorly_constrained,
+               "two-view points of images their multi-view points hold "
+               "poorly (PoseConstraint.*) do not come back");
+  manager->Add("TwoViewCheck.max_reproj_error", &o->max_reproj_error,
+               "a checked two-view point is kept when both its observations "
+               "are within this reprojection error (px, in noise units with "
+               "BundleAdjustment.filter_by_keypoint_noise)");
+}
+
+void AddPoseConstraintOptions(OptionManager* manager,
+                              PoseConstraintOptions* o) {
+  manager->Add("PoseConstraint.min_track_length", &o->min_track_length,
+               "an image's pose uncertainty is that of a resection on its "
+               "points seen in at least this many images");
+  manager->Add("PoseConstraint.max_relative_uncertainty",
+               &o->max_relative_uncertainty,
+               "images whose rotation uncertainty exceeds this multiple of "
+               "the model's median are reported as poorly constrained");
+}
+
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* o) {
   BundleAdjustmentOptions& ba = *o;
   manager->Add("BundleAdjustment.loss_function", &ba.loss_function,
-               "huber, cauchy or trivial");
+               EnumNameList<BundleAdjustmentLoss>());
   manager->Add("BundleAdjustment.loss_scale", &ba.loss_scale,
                "robust loss scale (px)");
   manager->Add("BundleAdjustment.num_rounds", &ba.num_rounds,
@@ -268,7 +299,7 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
   manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
                "observations over this error are removed between rounds (px)");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
-               "auto, sparse_schur, dense_schur or iterative_schur");
+               EnumNameList<BundleAdjustmentLinearSolver>());
   manager->Add("BundleAdjustment.iterative_schur_min_num_images",
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "
@@ -351,7 +382,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   manager->Add("Mapper.rotation_method", &o.rotation_method,
                "rotation averaging: " + RotationAveragerMethodList());
   manager->Add("Mapper.positioning_method", &o.positioning_method,
-               "global_positioning or translation_averaging");
+               EnumNameList<PositioningMethod>());
   // COLMAP's names for the bundle adjustment's intrinsics flags.
   BundleAdjustmentOptions& ba = o.bundle_adjustment;
   manager->Add("Mapper.ba_refine_focal_length", &ba.refine_focal_length,
@@ -374,11 +405,12 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "images");
   manager->Add("Mapper.num_ba_iterations", &o.num_ba_iterations,
                "rounds of bundle adjustment + filtering");
+  PositioningTrackSelectionOptions& selection = o.positioning_tracks;
   manager->Add("Mapper.positioning_tracks_per_image",
-               &o.positioning_tracks_per_image,
+               &selection.tracks_per_image,
                "global positioning uses the longest tracks until each image "
                "has this many observations (0: all tracks)");
-  manager->Add("Mapper.positioning_grid_size", &o.positioning_grid_size,
+  manager->Add("Mapper.positioning_grid_size", &selection.grid_size,
                "... spread over each image: a grid of this many cells per "
                "side, each cell's share of the quota first (1: the longest "
                "tracks only)");
@@ -386,8 +418,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "at most this many tracks (points): positioning's first, then "
                "the longest; a warning says how many were dropped (0: no "
                "cap)");
-  manager->Add("Mapper.positioning_tracks_per_pair",
-               &o.positioning_tracks_per_pair,
+  manager->Add("Mapper.positioning_tracks_per_pair", &selection.tracks_per_pair,
                "... and every view-graph pair keeps this many of its tracks "
                "(0: no pair quota)");
   manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
@@ -418,10 +449,140 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddGlobalPositioningOptions(manager, &o.global_positioning);
   AddTranslationAveragingOptions(manager, &o.translation_averaging);
   AddTriangulationOptions(manager, &o.triangulation);
+  AddTwoViewCheckOptions(manager, &o.two_view_check);
   AddBundleAdjustmentOptions(manager, &o.bundle_adjustment);
   AddFilterOptions(manager, &o.filtering);
   AddNormalizationOptions(manager, &o.normalization);
+  AddPoseConstraintOptions(manager, &o.pose_constraint);
   AddFoldResolutionOptions(manager, &o.fold);
+}
+
+const std::vector<Colmap4Flag>& Colmap4GlobalMapperFlags() {
+  constexpr int kUnsupported = -1;
+  static const std::vector<Colmap4Flag> flags = {
+      // The command's general options (COLMAP's BaseOptionManager).
+      {"project_path", "", kUnsupported, "give the options as flags"},
+      {"default_random_seed", "", kUnsupported, "see --Mapper.seed"},
+      {"log_target", "", kUnsupported, "logs go to stderr"},
+      {"log_path", "", kUnsupported, "logs go to stderr"},
+      {"log_level", "", kUnsupported, "logs go to stderr"},
+      {"log_severity", "", kUnsupported, "logs go to stderr"},
+      {"log_color", "", kUnsupported, "logs go to stderr"},
+      // --GlobalMapper.*
+      {"GlobalMapper.image_list_path", "", kUnsupported,
+       "every image of the database is used"},
+      {"GlobalMapper.min_num_matches", "Mapper.min_num_matches", 0,
+       "same default, 15"},
+      {"GlobalMapper.ignore_watermarks", "", 1,
+       "watermark pairs are dropped; --ViewGraph.drop_configs lists the "
+       "dropped configurations"},
+      {"GlobalMapper.num_threads", "Mapper.num_threads", 0, ""},
+      {"GlobalMapper.random_seed", "Mapper.seed", 0,
+       "COLMAP's -1 (a seed from the clock) is not supported: ours defaults "
+       "to 0, every run reproducible"},
+      {"GlobalMapper.decompose_relative_pose", "", 1,
+       "relative poses are always derived from the two-view geometries"},
+      {"GlobalMapper.ba_num_iterations", "Mapper.num_ba_iterations", 0,
+       "COLMAP 3, ours 2"},
+      {"GlobalMapper.skip_rotation_averaging", "", 0,
+       "nothing downstream exists without it"},
+      {"GlobalMapper.skip_track_establishment", "", 0,
+       "nothing downstream exists without it"},
+      {"GlobalMapper.skip_global_positioning", "", 0,
+       "nothing downstream exists without it"},
+      {"GlobalMapper.skip_bundle_adjustment", "Mapper.skip_bundle_adjustment",
+       0, ""},
+      {"GlobalMapper.skip_retriangulation", "Mapper.skip_retriangulation", 0,
+       ""},
+      {"GlobalMapper.track_intra_image_consistency_threshold",
+       "Tracks.max_duplicate_distance", 0, "pixels; COLMAP 10, ours 4"},
+      {"GlobalMapper.track_required_tracks_per_view", "", kUnsupported,
+       "--Mapper.positioning_tracks_per_image selects the tracks of global "
+       "positioning only"},
+      {"GlobalMapper.track_min_num_views_per_track", "Tracks.min_track_length",
+       0, "COLMAP 3, ours 2"},
+      {"GlobalMapper.keep_max_num_tracks", "Mapper.max_num_tracks", 0,
+       "no cap: COLMAP's default 2147483647, ours 0"},
+      {"GlobalMapper.gp_use_gpu", "", 0, "CPU only"},
+      {"GlobalMapper.gp_gpu_index", "", kUnsupported, "CPU only"},
+      {"GlobalMapper.gp_optimize_positions", "", 1,
+       "global positioning always solves for the positions"},
+      {"GlobalMapper.gp_optimize_points", "", 1,
+       "global positioning always solves for the points"},
+      {"GlobalMapper.gp_optimize_scales", "", 1,
+       "global positioning always solves for the scales"},
+      {"GlobalMapper.gp_loss_function_scale", "GlobalPositioning.loss_scale", 0,
+       "same default, 0.1 (ours: of a Cauchy loss)"},
+      {"GlobalMapper.gp_max_num_iterations",
+       "GlobalPositioning.max_num_iterations", 0, ""},
+      {"GlobalMapper.ba_refine_focal_length", "Mapper.ba_refine_focal_length",
+       0, ""},
+      {"GlobalMapper.ba_refine_principal_point",
+       "Mapper.ba_refine_principal_point", 0, ""},
+      {"GlobalMapper.ba_refine_extra_params", "Mapper.ba_refine_extra_params",
+       0, ""},
+      {"GlobalMapper.refine_sensor_from_rig", "", kUnsupported,
+       "no camera rigs"},
+      {"GlobalMapper.ba_refine_rig_from_world", "", 1,
+       "bundle adjustment always refines the poses"},
+      {"GlobalMapper.ba_refine_points3D", "", 1,
+       "bundle adjustment always refines the points"},
+      {"GlobalMapper.ba_min_track_length", "", kUnsupported,
+       "bundle adjustment uses every point"},
+      {"GlobalMapper.ba_ceres_use_gpu", "", 0, "CPU only"},
+      {"GlobalMapper.ba_ceres_gpu_index", "", kUnsupported, "CPU only"},
+      {"GlobalMapper.ba_ceres_loss_function_scale",
+       "BundleAdjustment.loss_scale", 0,
+       "pixels; ours applies it with --BundleAdjustment.loss_function huber "
+       "or cauchy (default trivial)"},
+      {"GlobalMapper.ba_ceres_max_num_iterations",
+       "BundleAdjustment.max_num_iterations", 0, ""},
+      {"GlobalMapper.ba_skip_fixed_rotation_stage", "", 1,
+       "ours has no fixed-rotation stage"},
+      {"GlobalMapper.ba_skip_joint_optimization_stage", "", 0,
+       "ours has no fixed-rotation stage"},
+      {"GlobalMapper.tri_complete_max_reproj_error", "", kUnsupported,
+       "one threshold: --Triangulation.max_reproj_error"},
+      {"GlobalMapper.tri_merge_max_reproj_error", "", kUnsupported,
+       "one threshold: --Triangulation.max_reproj_error"},
+      {"GlobalMapper.tri_min_angle", "Triangulation.min_tri_angle", 0,
+       "degrees; COLMAP 1, ours 1.5"},
+      {"GlobalMapper.ra_use_gravity", "", 0, "no gravity priors"},
+      {"GlobalMapper.ra_use_stratified", "", kUnsupported,
+       "see --Mapper.rotation_method"},
+      {"GlobalMapper.ra_max_rotation_error_deg",
+       "RotationFilter.max_rotation_error_deg", 0, ""},
+      {"GlobalMapper.max_angular_reproj_error_deg",
+       "GlobalPositioning.max_angular_error_deg", 0,
+       "degrees; COLMAP 1, ours 5"},
+      {"GlobalMapper.max_normalized_reproj_error", "", kUnsupported,
+       "ours in pixels: --BundleAdjustment.max_reproj_error, "
+       "--Filter.max_reproj_error"},
+      {"GlobalMapper.min_tri_angle_deg", "Filter.min_tri_angle", 0,
+       "degrees; COLMAP 1, ours 1.5"},
+  };
+  return flags;
+}
+
+void AddColmap4GlobalMapperFlags(OptionManager* manager) {
+  for (const Colmap4Flag& flag : Colmap4GlobalMapperFlags()) {
+    if (!flag.ours.empty()) {
+      manager->AddAlias(flag.colmap4, flag.ours);
+    } else if (flag.fixed >= 0) {
+      manager->AddFixed(flag.colmap4, flag.fixed == 1, flag.note);
+    } else {
+      manager->AddUnsupported(flag.colmap4, flag.note);
+    }
+  }
+}
+
+std::string GlobalMapperOptionsIni(const GlobalMapperOptions& options) {
+  GlobalMapperOptions registered = options;
+  OptionManager manager("mapper");
+  AddGlobalMapperOptions(&manager, &registered);
+  std::ostringstream ini;
+  manager.Write(ini);
+  return ini.str();
 }
 
 }  // namespace colmap_irav4

@@ -9,6 +9,7 @@
 // commands do.
 
 #include <string>
+#include <vector>
 
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/util/option_manager.h"
@@ -51,6 +52,10 @@ void AddSolverOptions(OptionManager* manager, const std::string& prefix,
                       SolverOptions* options);
 void AddTriangulationOptions(OptionManager* manager,
                              TriangulationOptions* options);
+void AddTwoViewCheckOptions(OptionManager* manager,
+                            TwoViewCheckOptions* options);
+void AddPoseConstraintOptions(OptionManager* manager,
+                              PoseConstraintOptions* options);
 void AddBundleAdjustmentOptions(OptionManager* manager,
                                 BundleAdjustmentOptions* options);
 void AddFilterOptions(OptionManager* manager, FilterOptions* options);
@@ -61,5 +66,26 @@ void AddFoldResolutionOptions(OptionManager* manager,
                               FoldResolutionOptions* options);
 void AddGlobalMapperOptions(OptionManager* manager,
                             GlobalMapperOptions* options);
+
+// COLMAP 4.1's flags of its `global_mapper` command, for ours of the same
+// name: a COLMAP 4 user swaps the program name only. `ours`: the flag of the
+// same meaning (an alias); empty: `fixed` is the only value ours implements
+// (-1: none, the flag is not supported). docs/usage.md holds this table.
+struct Colmap4Flag {
+  std::string colmap4;
+  std::string ours;
+  int fixed;
+  std::string note;
+};
+const std::vector<Colmap4Flag>& Colmap4GlobalMapperFlags();
+// Registers those names (after AddGlobalMapperOptions and the command's
+// database_path, image_path and output_path): aliases parse into our
+// members, a fixed flag accepts its value only, an unsupported one throws
+// naming itself.
+void AddColmap4GlobalMapperFlags(OptionManager* manager);
+
+// The mapper's options as COLMAP's project.ini writes them (OptionManager::
+// Write over AddGlobalMapperOptions): what a run used, beside its models.
+std::string GlobalMapperOptionsIni(const GlobalMapperOptions& options);
 
 }  // namespace colmap_irav4

@@ -30,18 +30,13 @@ void GlobalPositionerOptions::Check() const {
     throw OptionError(&min_track_length, "GlobalPositioning.min_track_length",
                       "must be at least 2");
   }
-  if (!IsLossFunction(loss_function)) {
-    throw OptionError(
-        &loss_function, "GlobalPositioning.loss_function",
-        "must be huber, cauchy or trivial, not '" + loss_function + "'");
-  }
   if (!(loss_scale > 0)) {
     throw OptionError(&loss_scale, "GlobalPositioning.loss_scale",
                       "must be positive");
   }
   if (!(initialization_box > 0)) {
     throw OptionError(&initialization_box,
-                      "GlobalPositioning.initialization_box",
+                      "GlobalPositionerOptions::initialization_box",
                       "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {

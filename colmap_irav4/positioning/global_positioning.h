@@ -27,7 +27,7 @@ struct GlobalPositionerOptions {
   // Robust loss on ||r_ik||: "huber", "cauchy" or "trivial".
   // Cauchy: wrong observations left in tracks barely pull (Huber's linear
   // tail still biases the centres by ~1% of the scene with 10% of them).
-  std::string loss_function = "cauchy";
+  LossFunctionType loss_function = LossFunctionType::kCauchy;
   // Scale of the robust loss, in the units of the scale lower bound.
   double loss_scale = 0.1;
   // Random initial centres and points uniform in [-box, box]^3; else the

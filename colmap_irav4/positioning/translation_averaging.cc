@@ -116,6 +116,14 @@ bool LinearInitialization(
 
 }  // namespace
 
+template <>
+const EnumNames<TranslationAveragingCost>& NamesOf<TranslationAveragingCost>() {
+  static const EnumNames<TranslationAveragingCost> names = {
+      {TranslationAveragingCost::kBata, "bata"},
+      {TranslationAveragingCost::kChordal, "chordal"}};
+  return names;
+}
+
 TranslationAveragingOptions::TranslationAveragingOptions() {
   solver.ceres.max_num_iterations = 200;
   solver.ceres.function_tolerance = 1e-7;
@@ -124,26 +132,17 @@ TranslationAveragingOptions::TranslationAveragingOptions() {
 }
 
 void TranslationAveragingOptions::Check() const {
-  if (!IsLossFunction(loss_function)) {
-    throw OptionError(
-        &loss_function, "TranslationAveraging.loss_function",
-        "must be huber, cauchy or trivial, not '" + loss_function + "'");
-  }
-  if (cost != "bata" && cost != "chordal") {
-    throw OptionError(&cost, "TranslationAveraging.cost",
-                      "must be bata or chordal, not '" + cost + "'");
-  }
   if (!(loss_scale > 0))
     throw OptionError(&loss_scale, "TranslationAveraging.loss_scale",
                       "must be positive");
   if (!(initialization_box > 0)) {
     throw OptionError(&initialization_box,
-                      "TranslationAveraging.initialization_box",
+                      "TranslationAveragingOptions::initialization_box",
                       "must be positive");
   }
   if (!(max_angular_error_deg >= 0 && max_angular_error_deg < 180)) {
     throw OptionError(&max_angular_error_deg,
-                      "TranslationAveraging.max_angular_error_deg",
+                      "TranslationAveragingOptions::max_angular_error_deg",
                       "must be in [0, 180)");
   }
   solver.Check("TranslationAveraging.");
@@ -218,8 +217,9 @@ bool RunTranslationAveraging(const TranslationAveragingOptions& options,
       double* c1 = centers.at(constraint.image_id1).data();
       double* c2 = centers.at(constraint.image_id2).data();
       problem.AddResidualBlock(
-          NormalizedDirectionCost::Create(constraint.direction,
-                                          options.cost == "bata"),
+          NormalizedDirectionCost::Create(
+              constraint.direction,
+              options.cost == TranslationAveragingCost::kBata),
           CreateLossFunction(options.loss_function, options.loss_scale), c1,
           c2);
     }

@@ -23,11 +23,15 @@ namespace colmap_irav4 {
 // initialisation (v_ij x u = 0, smallest eigenvector). The result is
 // scale-free: the scale is that of the initialisation (median baseline ~100);
 // the first image's centre is the origin.
+enum class TranslationAveragingCost { kBata, kChordal };
+template <>
+const EnumNames<TranslationAveragingCost>& NamesOf<TranslationAveragingCost>();
+
 struct TranslationAveragingOptions {
-  // "bata" (see above) or "chordal" (v_ij - u / |u|, as 1DSfM).
-  std::string cost = "bata";
-  // Robust loss on |r_ij| (a sine): "huber", "cauchy" or "trivial".
-  std::string loss_function = "cauchy";
+  // bata (see above) or chordal (v_ij - u / |u|, as 1DSfM).
+  TranslationAveragingCost cost = TranslationAveragingCost::kBata;
+  // Robust loss on |r_ij| (a sine).
+  LossFunctionType loss_function = LossFunctionType::kCauchy;
   double loss_scale = 0.1;
   // Linear initialisation (dense, up to 1500 images); else (or beyond) random
   // centres uniform in [-box, box]^3 (seeded).

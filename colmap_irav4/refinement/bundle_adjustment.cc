@@ -100,7 +100,7 @@ class BundleAdjustmentProblem {
                           Reconstruction* reconstruction)
       : options_(options),
         reconstruction_(reconstruction),
-        huber_(options.loss_function == "huber"),
+        huber_(options.loss_function == BundleAdjustmentLoss::kHuber),
         weighted_(huber_ || options.weight_by_keypoint_scale ||
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
@@ -306,11 +306,12 @@ class BundleAdjustmentProblem {
   }
 
   void Build() {
-    if (!huber_ && options_.loss_function != "trivial") {
-      loss_.reset(CreateLossFunction(options_.loss_function == "huber_ceres"
-                                         ? "huber"
-                                         : options_.loss_function,
-                                     options_.loss_scale));
+    if (options_.loss_function == BundleAdjustmentLoss::kHuberCeres) {
+      loss_.reset(
+          CreateLossFunction(LossFunctionType::kHuber, options_.loss_scale));
+    } else if (options_.loss_function == BundleAdjustmentLoss::kCauchy) {
+      loss_.reset(
+          CreateLossFunction(LossFunctionType::kCauchy, options_.loss_scale));
     }
     for (auto& [image_id, image] : reconstruction_->images) {
       image.cam_from_world.rotation.normalize();
@@ -439,17 +440,40 @@ class BundleAdjustmentProblem {
 
 void ChooseLinearSolver(const BundleAdjustmentOptions& options, int num_images,
                         ceres::Solver::Options* ceres_options) {
-  const std::string& name = options.linear_solver;
-  if (name == "dense_schur" || (name == "auto" && num_images < 50)) {
+  using Solver = BundleAdjustmentLinearSolver;
+  const Solver solver = options.linear_solver;
+  if (solver == Solver::kDenseSchur ||
+      (solver == Solver::kAuto && num_images < 50)) {
     ceres_options->linear_solver_type = ceres::DENSE_SCHUR;
-  } else if (name == "iterative_schur" ||
-             (name == "auto" &&
+  } else if (solver == Solver::kIterativeSchur ||
+             (solver == Solver::kAuto &&
               num_images >= options.iterative_schur_min_num_images)) {
     ceres_options->linear_solver_type = ceres::ITERATIVE_SCHUR;
     ceres_options->preconditioner_type = ceres::SCHUR_JACOBI;
   } else {
     ceres_options->linear_solver_type = ceres::SPARSE_SCHUR;
   }
+}
+
+template <>
+const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>() {
+  static const EnumNames<BundleAdjustmentLoss> names = {
+      {BundleAdjustmentLoss::kHuber, "huber"},
+      {BundleAdjustmentLoss::kHuberCeres, "huber_ceres"},
+      {BundleAdjustmentLoss::kCauchy, "cauchy"},
+      {BundleAdjustmentLoss::kTrivial, "trivial"}};
+  return names;
+}
+
+template <>
+const EnumNames<BundleAdjustmentLinearSolver>&
+NamesOf<BundleAdjustmentLinearSolver>() {
+  static const EnumNames<BundleAdjustmentLinearSolver> names = {
+      {BundleAdjustmentLinearSolver::kAuto, "auto"},
+      {BundleAdjustmentLinearSolver::kSparseSchur, "sparse_schur"},
+      {BundleAdjustmentLinearSolver::kDenseSchur, "dense_schur"},
+      {BundleAdjustmentLinearSolver::kIterativeSchur, "iterative_schur"}};
+  return names;
 }
 
 BundleAdjustmentOptions::BundleAdjustmentOptions() {
@@ -461,11 +485,6 @@ BundleAdjustmentOptions::BundleAdjustmentOptions() {
 }
 
 void BundleAdjustmentOptions::Check() const {
-  if (!IsLossFunction(loss_function) && loss_function != "huber_ceres") {
-    throw OptionError(&loss_function, "BundleAdjustment.loss_function",
-                      "must be huber, huber_ceres, cauchy or trivial, not '" +
-                          loss_function + "'");
-  }
   if (!(loss_scale > 0))
     throw OptionError(&loss_scale, "BundleAdjustment.loss_scale",
                       "must be positive");
@@ -474,18 +493,12 @@ void BundleAdjustmentOptions::Check() const {
                       "must be at least 1");
   if (!(min_filtered_fraction >= 0 && min_filtered_fraction < 1)) {
     throw OptionError(&min_filtered_fraction,
-                      "BundleAdjustment.min_filtered_fraction",
+                      "BundleAdjustmentOptions::min_filtered_fraction",
                       "must be in [0, 1)");
   }
   if (!(max_reproj_error >= 0)) {
     throw OptionError(&max_reproj_error, "BundleAdjustment.max_reproj_error",
                       "must be >= 0");
-  }
-  if (linear_solver != "auto" && linear_solver != "sparse_schur" &&
-      linear_solver != "dense_schur" && linear_solver != "iterative_schur") {
-    throw OptionError(
-        &linear_solver, "BundleAdjustment.linear_solver",
-        "must be auto, sparse_schur, dense_schur or iterative_schur");
   }
   if (iterative_schur_min_num_images < 1) {
     throw OptionError(&iterative_schur_min_num_images,
@@ -514,7 +527,8 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     for (int round = 0; round < options.num_rounds && !problem.Empty();
          ++round) {
       // Huber by reweighting: a few solves, each from the last one's errors.
-      const int num_solves = options.loss_function == "huber" ? 3 : 1;
+      const int num_solves =
+          options.loss_function == BundleAdjustmentLoss::kHuber ? 3 : 1;
       ceres::Solver::Summary solver_summary;
       for (int solve = 0; solve < num_solves; ++solve) {
         build_timer.Restart();

@@ -21,6 +21,19 @@ namespace colmap_irav4 {
 // Gauge: the first image's pose is held fixed and so is the component of the
 // second image's centre (or translation) most sensitive to scale, as COLMAP
 // does; with refine_poses off only the points (and intrinsics) move.
+enum class BundleAdjustmentLoss { kHuber, kHuberCeres, kCauchy, kTrivial };
+template <>
+const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>();
+enum class BundleAdjustmentLinearSolver {
+  kAuto,
+  kSparseSchur,
+  kDenseSchur,
+  kIterativeSchur
+};
+template <>
+const EnumNames<BundleAdjustmentLinearSolver>&
+NamesOf<BundleAdjustmentLinearSolver>();
+
 struct BundleAdjustmentOptions {
   // Intrinsics to refine (COLMAP's ba_refine_* options).
   bool refine_focal_length = true;
@@ -31,12 +44,12 @@ struct BundleAdjustmentOptions {
   // Hold the gauge (see above); off: LM's damping alone handles the 7
   // degrees of freedom.
   bool fix_gauge = true;
-  // Robust loss on the reprojection error: "huber" (iteratively reweighted:
+  // Robust loss on the reprojection error: huber (iteratively reweighted:
   // weights min(1, loss_scale / error) fixed during each solve, updated by
-  // the rounds; converges like least squares), "huber_ceres" (Ceres'
+  // the rounds; converges like least squares), huber_ceres (Ceres'
   // HuberLoss: Levenberg-Marquardt crawls when many residuals are in its
-  // linear region), "cauchy" (Ceres) or "trivial".
-  std::string loss_function = "huber";
+  // linear region), cauchy (Ceres) or trivial.
+  BundleAdjustmentLoss loss_function = BundleAdjustmentLoss::kHuber;
   double loss_scale = 1.0;  // px
   // Rounds of (solve, filter); observations over max_reproj_error px are
   // removed after each round (0: no filtering, a single round).
@@ -46,58 +59,36 @@ struct BundleAdjustmentOptions {
   // observations (fountain-P11: 1 round instead of 3, 5.5 s -> 3.7 s for the
   // stages after rotation averaging, same accuracy).
   double min_filtered_fraction = 0.01;
-  // "auto": by the number of images in the problem (ChooseLinearSolver):
+  // auto: by the number of images in the problem (ChooseLinearSolver):
   // DENSE_SCHUR below 50 (COLMAP's rule), SPARSE_SCHUR below
   // iterative_schur_min_num_images, ITERATIVE_SCHUR from there on; or
-  // "sparse_schur", "dense_schur", "iterative_schur" whatever the size.
-  // ITERATIVE_SCHUR (conjugate gradients on the reduced camera system,
-  // SCHUR_JACOBI preconditioner) never forms that system, whose assembly
-  // dominates SPARSE_SCHUR (every point adds a block for each pair of its
-  // images); but with the large trust region below its conjugate gradients
-  // need many iterations. Measured on the synthetic courtyard (first bundle
-  // adjustment of the mapper, CPU s, 2 threads): 300 images 47.2 iterative
-  // vs 5.8 sparse (8.1x slower), 1,000 images > 262 vs 36.2 (> 7x, stopped
-  // unfinished): no crossover in sight, so the default keeps SPARSE_SCHUR
-  // beyond the sizes measured (10,000; `--BundleAdjustment.linear_solver
-  // iterative_schur` forces it).
-  std::string linear_solver = "auto";
+  // sparse_schur, dense_schur, iterative_schur whatever the size.
+  // The threshold lies beyond the sizes measured: ITERATIVE_SCHUR was 7-8x
+  // slower at 300-1,000 images (docs/notes/2026-12-01-results-2b39f55.md).
+  BundleAdjustmentLinearSolver linear_solver =
+      BundleAdjustmentLinearSolver::kAuto;
   int iterative_schur_min_num_images = 10000;
-  // Ceres: 100 iterations per solve; function tolerance 1e-5 (on
-  // fountain-P11 20 instead of 30 iterations over the two bundle adjustments
-  // of the pipeline, same accuracy against the ground truth), parameter 1e-8.
-  // Levenberg-Marquardt's initial trust region 1e16 (Ceres' default 1e4,
-  // and its largest radius): Gauss-Newton steps, damped only after a step
-  // is rejected. The damping (diag(J^T J) / radius) smothers the weakly
-  // constrained directions of a bundle adjustment, the slow bends of a long
-  // camera path, whose stiffness relative to diag(J^T J) falls like the
-  // path's length to the -4th power; the radius grows 3x per iteration and
-  // the function tolerance stops the solve before they have moved. 100-image
-  // courtyard from 1e4: 6.5 mm where the optimum is at 5.0 mm. 3,000-image
-  // courtyard from 1e8: 75.2 mm and 0.034 deg where the optimum (the
-  // converged adjustment of the exact model) is 41.7 mm and 0.024 deg;
-  // from 1e16 41.7 mm. Below 300 images the two give the same iterations
-  // and errors; steps that do not fit are rejected and the radius shrinks.
+  // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
+  // 1e-8; Levenberg-Marquardt's initial trust region 1e16 (Ceres' largest):
+  // Gauss-Newton steps, damped only after a rejected step, because the
+  // damping smothers the slow bends of a long camera path
+  // (docs/notes/2026-12-01-bundle-adjustment-gauss-newton.md).
   SolverOptions solver;
   // Poses as rotation + projection centre (residual R (X - C)) instead of
   // rotation + translation (R X + t), whose rotation steps drag each centre
-  // by the angle times its distance from the origin: a coupling the
-  // linearisation gets wrong far from the origin, where the Gauss-Newton
-  // steps are then rejected (5,000-image courtyard at 10 points/m^2, from
-  // the exact model: 5 steps rejected and 15 iterations to a cost of
-  // 2.437765e6 with translations; with centres the first step is accepted,
-  // ratio 1.00, at 2.437771e6). The same optimum either way; at 8-1,000
-  // images the same errors and iterations.
+  // by the angle times its distance from the origin, so that Gauss-Newton
+  // steps are rejected far from it; the same optimum either way
+  // (docs/notes/2026-12-01-poses-by-centres.md).
   bool parameterize_centers = true;
   // Weigh each observation by the inverse of the reprojection noise of
   // keypoints of its scale (Point2D::scale, from the database's keypoint
   // shapes): before each solve the observations are split into
   // kNumKeypointScaleBins bins of equal count by scale, and each bin's noise
   // is its median reprojection error. A detector localises a keypoint found
-  // at a coarser scale less precisely (COLMAP 3.8's fountain-P11 model: median
-  // error 0.24 px in the finest fifth of its SIFT scales, 0.48 px in the
-  // coarsest), and least squares is the maximum-likelihood estimate only when
-  // each residual is divided by its own noise. Models without scales (or
-  // with one scale throughout) are adjusted as before.
+  // at a coarser scale less precisely, and least squares is the
+  // maximum-likelihood estimate only when each residual is divided by its
+  // own noise (docs/notes/2026-12-02-keypoint-scale-weighting.md). Models
+  // without scales (or with one scale throughout) are adjusted as before.
   bool weight_by_keypoint_scale = true;
   // With the observations weighed by scale, the reprojection filter's
   // threshold (max_reproj_error) is in units of each scale bin's noise: a

@@ -89,7 +89,8 @@ void FilterOptions::Check() const {
   }
   if (min_num_observations_per_image < 0) {
     throw OptionError(&min_num_observations_per_image,
-                      "Filter.min_num_observations_per_image", "must be >= 0");
+                      "FilterOptions::min_num_observations_per_image",
+                      "must be >= 0");
   }
 }
 
@@ -138,11 +139,12 @@ void TransformReconstruction(const Sim3d& new_from_old,
 }
 
 void NormalizationOptions::Check() const {
-  if (!(extent > 0))
-    throw OptionError(&extent, "Normalization.extent", "must be positive");
+  if (!(extent > 0 && std::isfinite(extent)))
+    throw OptionError(&extent, "Normalization.extent",
+                      "must be positive and finite");
   if (!(min_percentile >= 0 && min_percentile < max_percentile &&
         max_percentile <= 1)) {
-    throw OptionError(&min_percentile, "Normalization.min_percentile",
+    throw OptionError(&min_percentile, "NormalizationOptions::min_percentile",
                       "need 0 <= min_percentile < max_percentile <= 1");
   }
 }

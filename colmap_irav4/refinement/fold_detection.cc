@@ -295,60 +295,80 @@ RateModel WeakPairCut(const FoldDetectionOptions& options,
 
 void FoldDetectionOptions::Check() const {
   if (!(max_view_angle_deg > 0 && max_view_angle_deg < 180)) {
-    throw InputError("--Fold.max_view_angle_deg", "must be in (0, 180)");
+    throw OptionError(&max_view_angle_deg, "Fold.max_view_angle_deg",
+                      "must be in (0, 180)");
   }
   if (!(max_scale_ratio >= 1)) {
-    throw InputError("--Fold.max_scale_ratio", "must be >= 1");
+    throw OptionError(&max_scale_ratio, "FoldDetectionOptions::max_scale_ratio",
+                      "must be >= 1");
   }
   if (!(min_overlap_fraction > 0 && min_overlap_fraction <= 1)) {
-    throw InputError("--Fold.min_overlap_fraction", "must be in (0, 1]");
+    throw OptionError(&min_overlap_fraction, "Fold.min_overlap_fraction",
+                      "must be in (0, 1]");
   }
   if (min_overlap_points < 1) {
-    throw InputError("--Fold.min_overlap_points", "must be >= 1");
+    throw OptionError(&min_overlap_points,
+                      "FoldDetectionOptions::min_overlap_points",
+                      "must be >= 1");
   }
   if (max_points_per_image < 1) {
-    throw InputError("--Fold.max_points_per_image", "must be >= 1");
+    throw OptionError(&max_points_per_image,
+                      "FoldDetectionOptions::max_points_per_image",
+                      "must be >= 1");
   }
-  if (min_num_matches < 1) {
-    throw InputError("--Fold.min_num_matches", "must be >= 1");
+  if (min_num_matches < 0) {
+    // Set from --Mapper.min_num_matches (GlobalMapperOptions::ForStages).
+    throw OptionError(&min_num_matches, "Mapper.min_num_matches",
+                      "must be >= 0");
   }
   if (!(max_fold_score >= 0 && max_fold_score <= 1)) {
-    throw InputError("--Fold.max_fold_score", "must be in [0, 1]");
+    throw OptionError(&max_fold_score, "Fold.max_fold_score",
+                      "must be in [0, 1]");
   }
   if (min_missing_pairs < 1) {
-    throw InputError("--Fold.min_missing_pairs", "must be >= 1");
+    throw OptionError(&min_missing_pairs, "Fold.min_missing_pairs",
+                      "must be >= 1");
   }
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
-    throw InputError("--Fold.max_rotation_error_deg", "must be in (0, 180]");
+    throw OptionError(&max_rotation_error_deg,
+                      "FoldDetectionOptions::max_rotation_error_deg",
+                      "must be in (0, 180]");
   }
   if (!(contradictory_ray_angle_deg > 0 &&
         contradictory_ray_angle_deg <= 180)) {
-    throw InputError("--Fold.contradictory_ray_angle_deg",
-                     "must be in (0, 180]");
+    throw OptionError(&contradictory_ray_angle_deg,
+                      "FoldDetectionOptions::contradictory_ray_angle_deg",
+                      "must be in (0, 180]");
   }
   if (!(weak_pair_ratio >= 0 && weak_pair_ratio < 1)) {
-    throw InputError("--Fold.weak_pair_ratio", "must be in [0, 1)");
+    throw OptionError(&weak_pair_ratio, "Fold.weak_pair_ratio",
+                      "must be in [0, 1)");
   }
   if (!(missing_pair_inlier_factor >= 0)) {
     throw InputError("--Fold.missing_pair_inlier_factor", "must be >= 0");
   }
   if (min_weak_cut_pairs < 1) {
-    throw InputError("--Fold.min_weak_cut_pairs", "must be >= 1");
+    throw OptionError(&min_weak_cut_pairs, "Fold.min_weak_cut_pairs",
+                      "must be >= 1");
   }
   if (!(min_weak_cut_fraction > 0.5 && min_weak_cut_fraction <= 1)) {
-    throw InputError("--Fold.min_weak_cut_fraction", "must be in (0.5, 1]");
+    throw OptionError(&min_weak_cut_fraction, "Fold.min_weak_cut_fraction",
+                      "must be in (0.5, 1]");
   }
   if (min_weak_alone_pairs < 1) {
-    throw InputError("--Fold.min_weak_alone_pairs", "must be >= 1");
+    throw OptionError(&min_weak_alone_pairs, "Fold.min_weak_alone_pairs",
+                      "must be >= 1");
   }
   if (min_suspect_conflicts < 1) {
-    throw InputError("--Fold.min_suspect_conflicts", "must be >= 1");
+    throw OptionError(&min_suspect_conflicts,
+                      "FoldDetectionOptions::min_suspect_conflicts",
+                      "must be >= 1");
   }
 }
 
 void FoldResolutionOptions::Check() const {
   if (max_iterations < 0) {
-    throw InputError("--Fold.max_iterations", "must be >= 0");
+    throw OptionError(&max_iterations, "Fold.max_iterations", "must be >= 0");
   }
   detection.Check();
 }

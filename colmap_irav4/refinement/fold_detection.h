@@ -56,8 +56,8 @@ struct FoldDetectionOptions {
   // Model points sampled per image (evenly over its observations): bounds the
   // cost at images^2 * this projections.
   int max_points_per_image = 300;
-  // A pair with fewer verified inliers counts as not matched (the mapper's
-  // min_num_matches).
+  // A pair with fewer verified inliers counts as not matched (the mapper
+  // sets it to its --Mapper.min_num_matches).
   int min_num_matches = 15;
   // Models with a higher fold score are reported folded...
   double max_fold_score = 0.1;

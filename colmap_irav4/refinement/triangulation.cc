@@ -142,11 +142,12 @@ void TriangulationOptions::Check() const {
                       "must be in [0, 180)");
   }
   if (max_num_trials < 1)
-    throw OptionError(&max_num_trials, "Triangulation.max_num_trials",
+    throw OptionError(&max_num_trials, "TriangulationOptions::max_num_trials",
                       "must be positive");
   if (max_points_per_track < 1) {
     throw OptionError(&max_points_per_track,
-                      "Triangulation.max_points_per_track", "must be positive");
+                      "TriangulationOptions::max_points_per_track",
+                      "must be positive");
   }
 }
 

@@ -41,11 +41,9 @@ struct TriangulationOptions {
   // Tracks of exactly two observations are not triangulated (COLMAP's
   // ignore_two_view_tracks, on in COLMAP's incremental mapper): a match no
   // third image confirms is more often wrong, and its point constrains the
-  // poses little. Off by default: measured over 8 seeds it brings the model's
-  // points close to COLMAP's (fountain-P11: 23,562 -> 14,560 points, COLMAP
-  // 14,804) and fountain-P11's centre error from 2.65 to 2.49 mm, but
-  // Herz-Jesus-P8's from 3.43 to 3.56 mm, and synthetic courtyard_100's from
-  // 4.81 to 5.33 mm (docs/BENCHMARKS.md).
+  // poses little. Off by default: it helps fountain-P11 but hurts
+  // Herz-Jesus-P8 and the synthetic courtyards
+  // (docs/notes/2026-12-01-results-2b39f55.md).
   bool ignore_two_view_tracks = false;
 
   // Throws InputError naming the offending option.

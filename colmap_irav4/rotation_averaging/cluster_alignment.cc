@@ -32,16 +32,18 @@ int CountSupport(const Eigen::Matrix3d& candidate,
 
 void ClusterAlignmentOptions::Check() const {
   if (!(theta_deg > 0 && theta_deg < 180)) {
-    throw OptionError(&theta_deg, "ClusterAlignment.theta_deg",
+    throw OptionError(&theta_deg, "ClusterAlignmentOptions::theta_deg",
                       "must be in (0, 180)");
   }
   if (num_refinements < 0) {
-    throw OptionError(&num_refinements, "ClusterAlignment.num_refinements",
+    throw OptionError(&num_refinements,
+                      "ClusterAlignmentOptions::num_refinements",
                       "must be >= 0");
   }
   if (max_vote_candidates < 1) {
     throw OptionError(&max_vote_candidates,
-                      "ClusterAlignment.max_vote_candidates", "must be >= 1");
+                      "ClusterAlignmentOptions::max_vote_candidates",
+                      "must be >= 1");
   }
 }
 

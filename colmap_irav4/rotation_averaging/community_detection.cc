@@ -212,7 +212,7 @@ std::vector<std::vector<int>> BfsChunks(const RotationGraph& graph,
 
 void CommunityDetectionOptions::Check() const {
   if (!(resolution > 0)) {
-    throw OptionError(&resolution, "RotationAveraging.community_resolution",
+    throw OptionError(&resolution, "CommunityDetectionOptions::resolution",
                       "must be > 0");
   }
   if (max_community_size < 0 ||
@@ -229,7 +229,7 @@ void CommunityDetectionOptions::Check() const {
                       "max_community_size (unless that is 0)");
   }
   if (max_passes < 1) {
-    throw OptionError(&max_passes, "RotationAveraging.community_max_passes",
+    throw OptionError(&max_passes, "CommunityDetectionOptions::max_passes",
                       "must be >= 1");
   }
 }

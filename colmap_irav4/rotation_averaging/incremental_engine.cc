@@ -53,8 +53,10 @@ void IncrementalOptions::Check() const {
          "must be >= 1");
   }
   if (!(global_step_tolerance_deg >= 0.0)) {
-    fail(&global_step_tolerance_deg, "global_step_tolerance_deg",
-         "must be >= 0");
+    // Not registered as a flag: named as the member.
+    throw OptionError(&global_step_tolerance_deg,
+                      "IncrementalOptions::global_step_tolerance_deg",
+                      "must be >= 0");
   }
 }
 

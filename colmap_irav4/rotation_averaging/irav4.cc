@@ -190,31 +190,28 @@ int PlaceRemainingVertices(const RotationGraph& graph, double theta_deg,
   return num_placed;
 }
 
-ReferenceMethod ReferenceMethodFromString(const std::string& name) {
-  if (name == "irav4") return ReferenceMethod::kIrav4;
-  if (name == "greedy_cds") return ReferenceMethod::kGreedyCds;
-  if (name == "random_cds") return ReferenceMethod::kRandomCds;
-  throw InputError("--RotationAveraging.reference_method",
-                   "unknown reference method '" + name +
-                       "' (irav4, greedy_cds, random_cds)");
+template <>
+const EnumNames<ReferenceMethod>& NamesOf<ReferenceMethod>() {
+  static const EnumNames<ReferenceMethod> names = {
+      {ReferenceMethod::kIrav4, "irav4"},
+      {ReferenceMethod::kGreedyCds, "greedy_cds"},
+      {ReferenceMethod::kRandomCds, "random_cds"}};
+  return names;
 }
 
-std::string ReferenceMethodToString(ReferenceMethod method) {
-  switch (method) {
-    case ReferenceMethod::kIrav4:
-      return "irav4";
-    case ReferenceMethod::kGreedyCds:
-      return "greedy_cds";
-    case ReferenceMethod::kRandomCds:
-      return "random_cds";
-  }
-  return "?";
+template <>
+const EnumNames<Irav4FinalRefinement>& NamesOf<Irav4FinalRefinement>() {
+  static const EnumNames<Irav4FinalRefinement> names = {
+      {Irav4FinalRefinement::kNone, "none"},
+      {Irav4FinalRefinement::kIrls, "irls"},
+      {Irav4FinalRefinement::kL1Irls, "l1_irls"},
+      {Irav4FinalRefinement::kGuarded, "guarded"}};
+  return names;
 }
 
 void Irav4Options::Check() const {
   engine.Check();
   communities.Check();
-  ReferenceMethodFromString(reference_method);
   if (num_random_cds < 1) {
     throw OptionError(&num_random_cds, "RotationAveraging.num_random_cds",
                       "must be >= 1");
@@ -226,12 +223,6 @@ void Irav4Options::Check() const {
   if (num_final_rounds < 0) {
     throw OptionError(&num_final_rounds, "RotationAveraging.num_final_rounds",
                       "must be >= 0");
-  }
-  if (final_refinement != "none" && final_refinement != "irls" &&
-      final_refinement != "l1_irls" && final_refinement != "guarded") {
-    throw OptionError(&final_refinement, "RotationAveraging.final_refinement",
-                      "must be none, irls, l1_irls or guarded, got '" +
-                          final_refinement + "'");
   }
   if (!(reseed_threshold_deg > 0 && reseed_threshold_deg < 180)) {
     throw OptionError(&reseed_threshold_deg,
@@ -321,6 +312,18 @@ Irav4::Irav4(const Irav4Options& options) : options_(options) {
   options_.Check();
 }
 
+// The clusters of one Estimate (steps 1 and 2) and what they grow in.
+struct Irav4::Clusters {
+  std::vector<std::vector<int>> communities;
+  std::vector<int> label;  // the community of each vertex
+  std::vector<std::unique_ptr<IncrementalEngine>> engines;
+  std::vector<int> community;    // of each cluster's seed (-1: none)
+  std::vector<bool> affiliated;  // the vertices some cluster holds
+  std::shared_ptr<const IncrementalEngine::AdjacencyList> adjacency;
+  // potential[c][v]: whether cluster c may take vertex v.
+  std::vector<std::vector<bool>> potential;
+};
+
 RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   report_ = Irav4Report();
   RotationAveragingResult result;
@@ -343,18 +346,107 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   const int num_threads = ResolveNumThreads(options_.engine.num_threads);
 
   // 1. Communities and one seed triplet each (Eq. 1-4 inside the community).
-  const std::vector<std::vector<int>> communities =
-      DetectCommunities(graph, options_.communities);
+  Clusters run;
+  if (!SeedClusters(graph, num_threads, &run)) return result;
+  result.stage_seconds.emplace_back("communities_and_seeds",
+                                    timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: " << report_.num_communities << " communities, "
+      << report_.num_clusters << " cluster seeds ("
+      << result.stage_seconds.back().second << " s)";
+
+  // 2 and 3 side by side (with num_threads >= 2): the reference depends on
+  // the graph only, not on the clusters, so both results are the same for
+  // any thread count. 2. On-the-fly clustering; 3. the alignment reference.
+  double clustering_seconds = 0.0;
+  AlignmentReference reference;
+  double reference_seconds = 0.0;
+  ParallelFor(std::min(num_threads, 2), 2, [&](size_t task) {
+    if (task == 0) {
+      clustering_seconds = GrowClusters(num_threads, &run);
+    } else {
+      Timer reference_timer;
+      reference =
+          BuildAlignmentReference(graph, options_, options_.reference_method);
+      reference_seconds = reference_timer.ElapsedSeconds();
+    }
+  });
+  result.stage_seconds.emplace_back("on_the_fly_clustering",
+                                    clustering_seconds);
+  report_.n_ref = static_cast<int>(reference.vertices.size());
+  result.stage_seconds.emplace_back("reference", reference_seconds);
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: " << EnumName(options_.reference_method)
+      << " reference n_ref = " << report_.n_ref
+      << (reference.is_cds ? " (connected dominating)" : "") << " ("
+      << reference_seconds << " s)";
+
+  // 4. Common-vertex-guided alignment of each cluster and global alignment.
+  timer.Restart();
+  std::vector<Eigen::Matrix3d> rotations(n, Eigen::Matrix3d::Identity());
+  std::vector<bool> estimated(n, false);
+  AlignClusters(graph, reference, &run, &rotations, &estimated);
+  result.stage_seconds.emplace_back("alignment", timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: aligned " << report_.num_clusters << " clusters ("
+      << report_.num_vertex_guided_alignments << " by common vertices)";
+
+  // 5. Final optimisation over the inlier edges of the whole graph.
+  timer.Restart();
+  std::vector<int> estimated_vertices;
+  for (int v = 0; v < n; ++v) {
+    if (estimated[v]) estimated_vertices.push_back(v);
+  }
+  OptimizeOverInlierEdges(graph, estimated_vertices, &rotations);
+  result.stage_seconds.emplace_back("global_optimization",
+                                    timer.ElapsedSeconds());
+  LOG_IF(INFO, options_.log_progress)
+      << "IRAv4: final optimisation on " << report_.num_final_inlier_edges
+      << " inlier edges (" << result.stage_seconds.back().second << " s)";
+
+  // 6. Optional robust refinement over all edges.
+  if (options_.final_refinement != Irav4FinalRefinement::kNone &&
+      estimated_vertices.size() >= 2) {
+    timer.Restart();
+    RefineOverAllEdges(graph, estimated, estimated_vertices.front(),
+                       &rotations);
+    result.stage_seconds.emplace_back("irls_refinement",
+                                      timer.ElapsedSeconds());
+  }
+
+  for (int v = 0; v < n; ++v) {
+    result.rotations[to_input(v)] = rotations[v];
+    result.estimated[to_input(v)] = estimated[v];
+  }
+  report_.reference.selected.assign(num_input, false);
+  report_.reference.rotations.assign(num_input, Eigen::Matrix3d::Identity());
+  report_.reference.is_cds = reference.is_cds;
+  for (int v : reference.vertices) {
+    report_.reference.vertices.push_back(to_input(v));
+    report_.reference.selected[to_input(v)] = true;
+    report_.reference.rotations[to_input(v)] = reference.rotations[v];
+  }
+  return result;
+}
+
+bool Irav4::SeedClusters(const RotationGraph& graph, int num_threads,
+                         Clusters* run) {
+  const int n = graph.NumVertices();
+  run->communities = DetectCommunities(graph, options_.communities);
+  const std::vector<std::vector<int>>& communities = run->communities;
   report_.num_communities = static_cast<int>(communities.size());
-  std::vector<int> label(n, -1);
+  run->label.assign(n, -1);
+  std::vector<int>& label = run->label;
   for (size_t k = 0; k < communities.size(); ++k) {
     for (int v : communities[k]) label[v] = static_cast<int>(k);
   }
-  std::vector<std::unique_ptr<IncrementalEngine>> clusters;
-  std::vector<int> cluster_community;  // community of each cluster's seed
-  std::vector<bool> affiliated(n, false);
-  std::shared_ptr<const IncrementalEngine::AdjacencyList> adjacency =
-      IncrementalEngine::BuildAdjacency(graph);
+  std::vector<std::unique_ptr<IncrementalEngine>>& clusters = run->engines;
+  std::vector<int>& cluster_community = run->community;
+  run->affiliated.assign(n, false);
+  std::vector<bool>& affiliated = run->affiliated;
+  run->adjacency = IncrementalEngine::BuildAdjacency(graph);
+  const std::shared_ptr<const IncrementalEngine::AdjacencyList>& adjacency =
+      run->adjacency;
   // The communities' seeds are independent: found in parallel, collected in
   // community order (the same clusters for any thread count).
   std::vector<std::unique_ptr<IncrementalEngine>> seeded(communities.size());
@@ -381,7 +473,7 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
         graph, options_.engine, std::vector<bool>(), adjacency);
     if (!cluster->InitializeFromBestTriplet() &&
         !cluster->InitializeFromVertex(MaxDegreeVertex(graph))) {
-      return result;
+      return false;
     }
     for (int v : cluster->Selected()) affiliated[v] = true;
     clusters.push_back(std::move(cluster));
@@ -407,8 +499,8 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       cluster_of_community[cluster_community[c]] = c;
   }
   // potential[c][v]; edges_into_potential[c][v] = v's edges into it.
-  std::vector<std::vector<bool>> potential(num_clusters,
-                                           std::vector<bool>(n, false));
+  run->potential.assign(num_clusters, std::vector<bool>(n, false));
+  std::vector<std::vector<bool>>& potential = run->potential;
   if (options_.preselect_clusters && num_clusters > 1) {
     std::vector<double> weight_into(communities.size(), 0.0);
     std::vector<int> touched;
@@ -442,140 +534,110 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       }
     }
   }
+  return true;
+}
+
+double Irav4::GrowClusters(int num_threads, Clusters* run) {
+  const int n = static_cast<int>(run->affiliated.size());
+  const int num_clusters = static_cast<int>(run->engines.size());
+  std::vector<std::unique_ptr<IncrementalEngine>>& clusters = run->engines;
+  std::vector<bool>& affiliated = run->affiliated;
+  std::vector<std::vector<bool>>& potential = run->potential;
   // Normaliser of a candidate's reward in cluster c: its edges into c's
   // potential cluster (so a vertex that has met one edge of a cluster it is
   // strongly tied to waits until more of the cluster has grown, and clusters
   // of different sizes compete on equal terms).
   auto edges_into_potential = [&](int c, int v) {
     int count = 0;
-    for (const auto& [u, e] : (*adjacency)[v]) count += potential[c][u];
+    for (const auto& [u, e] : (*run->adjacency)[v]) {
+      count += run->potential[c][u];
+    }
     return std::max(count, 1);
   };
-  result.stage_seconds.emplace_back("communities_and_seeds",
-                                    timer.ElapsedSeconds());
-  LOG_IF(INFO, options_.log_progress)
-      << "IRAv4: " << report_.num_communities << " communities, "
-      << num_clusters << " cluster seeds ("
-      << result.stage_seconds.back().second << " s)";
+  Timer clustering_timer;
+  std::vector<IncrementalEngine::Candidate> best(num_clusters);
+  std::vector<double> best_score(num_clusters, 0.0);
+  std::vector<bool> stale(num_clusters, true);
+  int num_affiliated = 0;
+  for (bool a : affiliated) num_affiliated += a;
+  const int max_size = options_.max_cluster_size;
+  for (int pass = 0; pass < 2 && num_affiliated < n; ++pass) {
+    const bool fallback = pass == 1;
+    if (fallback) {
+      for (int c = 0; c < num_clusters; ++c) {
+        for (int v = 0; v < n; ++v) {
+          if (!affiliated[v]) {
+            clusters[c]->Allow(v);
+            potential[c][v] = true;
+          }
+        }
+        stale[c] = true;
+      }
+    }
+    while (num_affiliated < n) {
+      int chosen = -1;
+      for (int c = 0; c < num_clusters; ++c) {
+        if (!fallback && max_size > 0 &&
+            clusters[c]->NumSelected() >= max_size) {
+          continue;
+        }
+        if (stale[c]) {
+          best[c] = clusters[c]->BestCandidate();
+          best_score[c] =
+              best[c].vertex < 0
+                  ? 0.0
+                  : best[c].reward / edges_into_potential(c, best[c].vertex);
+          stale[c] = false;
+        }
+        if (best[c].vertex < 0) continue;
+        if (chosen < 0 || best_score[c] > best_score[chosen]) chosen = c;
+      }
+      if (chosen < 0) break;  // nothing reachable in this pass
+      const IncrementalEngine::Candidate candidate = best[chosen];
+      CHECK(!affiliated[candidate.vertex]);
+      clusters[chosen]->AddVertex(candidate);
+      affiliated[candidate.vertex] = true;
+      ++num_affiliated;
+      LOG_IF(INFO,
+             options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
+          << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
+          << " vertices (" << clustering_timer.ElapsedSeconds() << " s)";
+      stale[chosen] = true;
+      for (int c = 0; c < num_clusters; ++c) {
+        if (c == chosen) continue;
+        if (!clusters[c]->IsExcluded(candidate.vertex)) {
+          clusters[c]->Exclude(candidate.vertex);
+        }
+        if (best[c].vertex == candidate.vertex) stale[c] = true;
+      }
+    }
+    if (!fallback) report_.num_fallback_vertices = n - num_affiliated;
+  }
+  // Each cluster's last optimisation touches only its own engine.
+  ParallelFor(num_threads, clusters.size(),
+              [&](size_t c) { clusters[c]->GlobalOptimize(); });
+  for (auto& cluster : clusters) {
+    report_.cluster_sizes.push_back(
+        static_cast<int>(cluster->Selected().size()));
+  }
+  const double clustering_seconds = clustering_timer.ElapsedSeconds();
+  if (options_.log_progress) {
+    std::string sizes;
+    for (int size : report_.cluster_sizes) {
+      sizes += " " + std::to_string(size);
+    }
+    LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
+              << report_.num_fallback_vertices << " placed by the fallback "
+              << "pass, " << clustering_seconds << " s)";
+  }
+  return clustering_seconds;
+}
 
-  // 2 and 3 side by side (with num_threads >= 2): the reference depends on
-  // the graph only, not on the clusters, so both results are the same for
-  // any thread count.
-  //
-  // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
-  // clusters joins, by normalised reward. A cluster's best candidate only
-  // changes when the cluster grows or its candidate is taken by another
-  // cluster, so it is cached. A second pass (fallback) lets every cluster
-  // take any adjacent vertex that no pre-selected pair reached.
-  double clustering_seconds = 0.0;
-  auto grow_clusters = [&]() {
-    Timer clustering_timer;
-    std::vector<IncrementalEngine::Candidate> best(num_clusters);
-    std::vector<double> best_score(num_clusters, 0.0);
-    std::vector<bool> stale(num_clusters, true);
-    int num_affiliated = 0;
-    for (bool a : affiliated) num_affiliated += a;
-    const int max_size = options_.max_cluster_size;
-    for (int pass = 0; pass < 2 && num_affiliated < n; ++pass) {
-      const bool fallback = pass == 1;
-      if (fallback) {
-        for (int c = 0; c < num_clusters; ++c) {
-          for (int v = 0; v < n; ++v) {
-            if (!affiliated[v]) {
-              clusters[c]->Allow(v);
-              potential[c][v] = true;
-            }
-          }
-          stale[c] = true;
-        }
-      }
-      while (num_affiliated < n) {
-        int chosen = -1;
-        for (int c = 0; c < num_clusters; ++c) {
-          if (!fallback && max_size > 0 &&
-              clusters[c]->NumSelected() >= max_size) {
-            continue;
-          }
-          if (stale[c]) {
-            best[c] = clusters[c]->BestCandidate();
-            best_score[c] =
-                best[c].vertex < 0
-                    ? 0.0
-                    : best[c].reward / edges_into_potential(c, best[c].vertex);
-            stale[c] = false;
-          }
-          if (best[c].vertex < 0) continue;
-          if (chosen < 0 || best_score[c] > best_score[chosen]) chosen = c;
-        }
-        if (chosen < 0) break;  // nothing reachable in this pass
-        const IncrementalEngine::Candidate candidate = best[chosen];
-        CHECK(!affiliated[candidate.vertex]);
-        clusters[chosen]->AddVertex(candidate);
-        affiliated[candidate.vertex] = true;
-        ++num_affiliated;
-        LOG_IF(INFO,
-               options_.log_progress && num_affiliated % ((n + 9) / 10) == 0)
-            << "IRAv4: on-the-fly clustering " << num_affiliated << " / " << n
-            << " vertices (" << clustering_timer.ElapsedSeconds() << " s)";
-        stale[chosen] = true;
-        for (int c = 0; c < num_clusters; ++c) {
-          if (c == chosen) continue;
-          if (!clusters[c]->IsExcluded(candidate.vertex)) {
-            clusters[c]->Exclude(candidate.vertex);
-          }
-          if (best[c].vertex == candidate.vertex) stale[c] = true;
-        }
-      }
-      if (!fallback) report_.num_fallback_vertices = n - num_affiliated;
-    }
-    // Each cluster's last optimisation touches only its own engine.
-    ParallelFor(num_threads, clusters.size(),
-                [&](size_t c) { clusters[c]->GlobalOptimize(); });
-    for (auto& cluster : clusters) {
-      report_.cluster_sizes.push_back(
-          static_cast<int>(cluster->Selected().size()));
-    }
-    clustering_seconds = clustering_timer.ElapsedSeconds();
-    if (options_.log_progress) {
-      std::string sizes;
-      for (int size : report_.cluster_sizes) {
-        sizes += " " + std::to_string(size);
-      }
-      LOG(INFO) << "IRAv4: cluster sizes" << sizes << " ("
-                << report_.num_fallback_vertices << " placed by the fallback "
-                << "pass, " << clustering_seconds << " s)";
-    }
-  };
-  // 3. The alignment reference.
-  AlignmentReference reference;
-  double reference_seconds = 0.0;
-  auto build_reference = [&]() {
-    Timer reference_timer;
-    reference = BuildAlignmentReference(
-        graph, options_, ReferenceMethodFromString(options_.reference_method));
-    reference_seconds = reference_timer.ElapsedSeconds();
-  };
-  ParallelFor(std::min(num_threads, 2), 2, [&](size_t task) {
-    if (task == 0) {
-      grow_clusters();
-    } else {
-      build_reference();
-    }
-  });
-  result.stage_seconds.emplace_back("on_the_fly_clustering",
-                                    clustering_seconds);
-  report_.n_ref = static_cast<int>(reference.vertices.size());
-  result.stage_seconds.emplace_back("reference", reference_seconds);
-  LOG_IF(INFO, options_.log_progress)
-      << "IRAv4: " << options_.reference_method
-      << " reference n_ref = " << report_.n_ref
-      << (reference.is_cds ? " (connected dominating)" : "") << " ("
-      << reference_seconds << " s)";
-
-  // 4. Common-vertex-guided alignment of each cluster and global alignment.
-  timer.Restart();
-  std::vector<Eigen::Matrix3d> rotations(n, Eigen::Matrix3d::Identity());
-  std::vector<bool> estimated(n, false);
+void Irav4::AlignClusters(const RotationGraph& graph,
+                          const AlignmentReference& reference, Clusters* run,
+                          std::vector<Eigen::Matrix3d>* rotations,
+                          std::vector<bool>* estimated) {
+  const int n = graph.NumVertices();
   ClusterAlignmentOptions alignment_options;
   alignment_options.theta_deg = options_.engine.theta_deg;
   std::vector<Eigen::Matrix3d> cluster_rotations;
@@ -584,13 +646,14 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   // the reference plus the clusters aligned so far; what still fails is
   // placed vertex by vertex (below), so that no camera is lost.
   std::vector<int> pending;
-  for (int c = 0; c < num_clusters; ++c) pending.push_back(c);
+  for (int c = 0; c < static_cast<int>(run->engines.size()); ++c)
+    pending.push_back(c);
   for (int round = 0; round < 2 && !pending.empty(); ++round) {
     std::vector<int> failed;
     for (int c : pending) {
-      ExportEngine(*clusters[c], n, &cluster_rotations, &in_cluster);
+      ExportEngine(*run->engines[c], n, &cluster_rotations, &in_cluster);
       ClusterAlignment alignment;
-      if (std::none_of(estimated.begin(), estimated.end(),
+      if (std::none_of(estimated->begin(), estimated->end(),
                        [](bool b) { return b; }) &&
           (round == 1 || reference.vertices.empty())) {
         // No reference at all, or nothing aligned to it: this cluster's
@@ -603,16 +666,16 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
       } else {
         alignment =
             AlignClusterToReference(graph, cluster_rotations, in_cluster,
-                                    rotations, estimated, alignment_options);
+                                    *rotations, *estimated, alignment_options);
       }
       if (!alignment.success) {
         failed.push_back(c);
         continue;
       }
       report_.num_vertex_guided_alignments += alignment.used_vertex_guidance;
-      for (int v : clusters[c]->Selected()) {
-        rotations[v] = cluster_rotations[v] * alignment.A;
-        estimated[v] = true;
+      for (int v : run->engines[c]->Selected()) {
+        (*rotations)[v] = cluster_rotations[v] * alignment.A;
+        (*estimated)[v] = true;
       }
     }
     pending = failed;
@@ -620,115 +683,90 @@ RotationAveragingResult Irav4::Estimate(const RotationGraph& input) {
   report_.num_failed_alignments = static_cast<int>(pending.size());
   for (int c : pending) {
     LOG(WARNING) << "IRAv4: cluster " << c << " ("
-                 << clusters[c]->Selected().size()
+                 << run->engines[c]->Selected().size()
                  << " vertices) did not align; its vertices are placed one "
                     "by one from their aligned neighbours";
   }
   report_.num_individually_placed = PlaceRemainingVertices(
-      graph, options_.engine.theta_deg, &estimated, &rotations);
-  clusters.clear();  // release the engines before the final problem
-  result.stage_seconds.emplace_back("alignment", timer.ElapsedSeconds());
-  LOG_IF(INFO, options_.log_progress)
-      << "IRAv4: aligned " << num_clusters << " clusters ("
-      << report_.num_vertex_guided_alignments << " by common vertices)";
+      graph, options_.engine.theta_deg, estimated, rotations);
+  run->engines.clear();  // release the engines before the final problem
+}
 
-  // 5. Final optimisation over the inlier edges of the whole graph.
-  timer.Restart();
-  std::vector<int> estimated_vertices;
-  for (int v = 0; v < n; ++v) {
-    if (estimated[v]) estimated_vertices.push_back(v);
-  }
+void Irav4::OptimizeOverInlierEdges(const RotationGraph& graph,
+                                    const std::vector<int>& estimated_vertices,
+                                    std::vector<Eigen::Matrix3d>* rotations) {
   if (options_.num_final_rounds > 0 && estimated_vertices.size() >= 2) {
     // Eq. 11-12 on all vertices: the engine seeded with the aligned
     // rotations (same inlier selection and Ceres problem as the growth).
     IncrementalEngine final_engine(graph, options_.engine);
-    CHECK(final_engine.InitializeFromRotations(estimated_vertices, rotations));
+    CHECK(final_engine.InitializeFromRotations(estimated_vertices, *rotations));
     for (int round = 0; round < options_.num_final_rounds; ++round) {
       final_engine.GlobalOptimize();
     }
     report_.num_final_inlier_edges =
         final_engine.Stats().last_global_num_inliers;
-    for (int v : estimated_vertices) rotations[v] = final_engine.Rotation(v);
-  }
-  result.stage_seconds.emplace_back("global_optimization",
-                                    timer.ElapsedSeconds());
-  LOG_IF(INFO, options_.log_progress)
-      << "IRAv4: final optimisation on " << report_.num_final_inlier_edges
-      << " inlier edges (" << result.stage_seconds.back().second << " s)";
-
-  // 6. Optional robust refinement over all edges: the truncated least
-  // squares above ignores every edge beyond theta (so a vertex placed via
-  // outlier edges can never come back) and weighs the inliers uniformly
-  // (at sigma 5 deg many inliers lie beyond theta = 3 deg); L1 then a
-  // smooth redescending loss on all edges fixes both.
-  if (options_.final_refinement != "none" && estimated_vertices.size() >= 2) {
-    timer.Restart();
-    L1IrlsOptions refinement = options_.refinement;
-    refinement.log_progress = refinement.log_progress || options_.log_progress;
-    const int root = estimated_vertices.front();
-    if (options_.final_refinement == "guarded") {
-      // L1 then IRLS from IRAv4's rotations, kept only if it lowers the
-      // Geman-McClure cost over all edges below that of IRAv4's own
-      // rotations. The L1 stage recovers cameras placed through random
-      // outliers, but it is global: under structured outliers (mirrored
-      // twins, mutually consistent) it can move a group of correct cameras
-      // into the false basin; IRLS alone from there cannot come back, and the
-      // cost says so. Otherwise IRLS alone refines IRAv4's rotations (local:
-      // it stays in their basin). One cost evaluation, O(E), in the usual
-      // case.
-      const double sigma = DegToRad(options_.refinement.gm_sigma_deg);
-      std::vector<Eigen::Matrix3d> unrefined = rotations;
-      const double cost_before =
-          GemanMcClureCost(graph, estimated, rotations, sigma);
-      report_.num_refinement_iterations =
-          RefineRotationsIrls(graph, refinement, estimated, root, &rotations,
-                              /*run_l1_stage=*/true);
-      const double cost_after =
-          GemanMcClureCost(graph, estimated, rotations, sigma);
-      report_.refinement_used_l1 = cost_after <= cost_before;
-      if (!report_.refinement_used_l1) {
-        rotations.swap(unrefined);
-        report_.num_refinement_iterations += RefineRotationsIrls(
-            graph, refinement, estimated, root, &rotations, false);
-      }
-      LOG_IF(INFO, options_.log_progress)
-          << "IRAv4: guarded refinement, Geman-McClure cost " << cost_before
-          << " before, " << cost_after << " after L1 + IRLS: "
-          << (report_.refinement_used_l1 ? "kept" : "rejected, IRLS only");
-    } else {
-      report_.refinement_used_l1 = options_.final_refinement == "l1_irls";
-      report_.num_refinement_iterations =
-          RefineRotationsIrls(graph, refinement, estimated, root, &rotations,
-                              report_.refinement_used_l1);
+    for (int v : estimated_vertices) {
+      (*rotations)[v] = final_engine.Rotation(v);
     }
-    if (options_.reseed_vertices) {
-      report_.num_reseeded_vertices =
-          ReseedBadlySupportedVertices(graph, options_, estimated, &rotations);
-      if (report_.num_reseeded_vertices > 0) {
-        report_.num_refinement_iterations +=
-            RefineRotationsIrls(graph, refinement, estimated, root, &rotations);
-      }
-      LOG_IF(INFO, options_.log_progress)
-          << "IRAv4: re-seeded " << report_.num_reseeded_vertices
-          << " badly supported vertices";
-    }
-    result.stage_seconds.emplace_back("irls_refinement",
-                                      timer.ElapsedSeconds());
   }
+}
 
-  for (int v = 0; v < n; ++v) {
-    result.rotations[to_input(v)] = rotations[v];
-    result.estimated[to_input(v)] = estimated[v];
+void Irav4::RefineOverAllEdges(const RotationGraph& graph,
+                               const std::vector<bool>& estimated, int root,
+                               std::vector<Eigen::Matrix3d>* rotations) {
+  // The truncated least squares of step 5 ignores every edge beyond theta
+  // (so a vertex placed via outlier edges can never come back) and weighs
+  // the inliers uniformly (at sigma 5 deg many inliers lie beyond theta = 3
+  // deg); L1 then a smooth redescending loss on all edges fixes both.
+  L1IrlsOptions refinement = options_.refinement;
+  refinement.log_progress = refinement.log_progress || options_.log_progress;
+  if (options_.final_refinement == Irav4FinalRefinement::kGuarded) {
+    // L1 then IRLS from IRAv4's rotations, kept only if it lowers the
+    // Geman-McClure cost over all edges below that of IRAv4's own
+    // rotations. The L1 stage recovers cameras placed through random
+    // outliers, but it is global: under structured outliers (mirrored
+    // twins, mutually consistent) it can move a group of correct cameras
+    // into the false basin; IRLS alone from there cannot come back, and the
+    // cost says so. Otherwise IRLS alone refines IRAv4's rotations (local:
+    // it stays in their basin). One cost evaluation, O(E), in the usual
+    // case.
+    const double sigma = DegToRad(options_.refinement.gm_sigma_deg);
+    std::vector<Eigen::Matrix3d> unrefined = *rotations;
+    const double cost_before =
+        GemanMcClureCost(graph, estimated, *rotations, sigma);
+    report_.num_refinement_iterations =
+        RefineRotationsIrls(graph, refinement, estimated, root, rotations,
+                            /*run_l1_stage=*/true);
+    const double cost_after =
+        GemanMcClureCost(graph, estimated, *rotations, sigma);
+    report_.refinement_used_l1 = cost_after <= cost_before;
+    if (!report_.refinement_used_l1) {
+      rotations->swap(unrefined);
+      report_.num_refinement_iterations += RefineRotationsIrls(
+          graph, refinement, estimated, root, rotations, false);
+    }
+    LOG_IF(INFO, options_.log_progress)
+        << "IRAv4: guarded refinement, Geman-McClure cost " << cost_before
+        << " before, " << cost_after << " after L1 + IRLS: "
+        << (report_.refinement_used_l1 ? "kept" : "rejected, IRLS only");
+  } else {
+    report_.refinement_used_l1 =
+        options_.final_refinement == Irav4FinalRefinement::kL1Irls;
+    report_.num_refinement_iterations =
+        RefineRotationsIrls(graph, refinement, estimated, root, rotations,
+                            report_.refinement_used_l1);
   }
-  report_.reference.selected.assign(num_input, false);
-  report_.reference.rotations.assign(num_input, Eigen::Matrix3d::Identity());
-  report_.reference.is_cds = reference.is_cds;
-  for (int v : reference.vertices) {
-    report_.reference.vertices.push_back(to_input(v));
-    report_.reference.selected[to_input(v)] = true;
-    report_.reference.rotations[to_input(v)] = reference.rotations[v];
+  if (options_.reseed_vertices) {
+    report_.num_reseeded_vertices =
+        ReseedBadlySupportedVertices(graph, options_, estimated, rotations);
+    if (report_.num_reseeded_vertices > 0) {
+      report_.num_refinement_iterations +=
+          RefineRotationsIrls(graph, refinement, estimated, root, rotations);
+    }
+    LOG_IF(INFO, options_.log_progress)
+        << "IRAv4: re-seeded " << report_.num_reseeded_vertices
+        << " badly supported vertices";
   }
-  return result;
 }
 
 }  // namespace colmap_irav4

@@ -20,9 +20,15 @@ enum class ReferenceMethod {
   kGreedyCds,  // Guha-Khuller greedy CDS (WCDS-style), estimated by engine
   kRandomCds,  // union of random CDSs (IRAv3+-style), estimated by engine
 };
-// "irav4" | "greedy_cds" | "random_cds"; throws InputError otherwise.
-ReferenceMethod ReferenceMethodFromString(const std::string& name);
-std::string ReferenceMethodToString(ReferenceMethod method);
+// irav4, greedy_cds, random_cds.
+template <>
+const EnumNames<ReferenceMethod>& NamesOf<ReferenceMethod>();
+
+// IRAv4's ending after its final optimisation (Irav4Options::
+// final_refinement): none, irls, l1_irls, guarded.
+enum class Irav4FinalRefinement { kNone, kIrls, kL1Irls, kGuarded };
+template <>
+const EnumNames<Irav4FinalRefinement>& NamesOf<Irav4FinalRefinement>();
 
 struct Irav4Options {
   // Engine parameters (theta = outlier threshold, 5% global growth ratio),
@@ -41,8 +47,8 @@ struct Irav4Options {
   // A cluster stops competing at this size until the fallback pass; 0 = no
   // cap.
   int max_cluster_size = 0;
-  // "irav4" (the paper), "greedy_cds" or "random_cds" (baselines).
-  std::string reference_method = "irav4";
+  // irav4 (the paper), greedy_cds or random_cds (baselines).
+  ReferenceMethod reference_method = ReferenceMethod::kIrav4;
   // Greedy CDS: count neighbours by inlier count instead of one each.
   bool weighted_greedy_cds = false;
   // Random CDS reference: how many random CDSs are united.
@@ -52,21 +58,18 @@ struct Irav4Options {
   // Rounds of the final global optimisation (each re-selects the inlier
   // edges of the whole graph within theta, then optimises Eq. 12).
   int num_final_rounds = 1;
-  // After the final optimisation: "none" (the paper: truncated least squares
-  // on the edges within theta), "irls" (L1-IRLS's Geman-McClure IRLS stage
+  // After the final optimisation: none (the paper: truncated least squares
+  // on the edges within theta), irls (L1-IRLS's Geman-McClure IRLS stage
   // over ALL edges between estimated vertices, from IRAv4's rotations),
-  // "l1_irls" (L1-IRLS's L1 stage then its IRLS stage, from IRAv4's
-  // rotations) or "guarded" (l1_irls, kept only if it lowers the
+  // l1_irls (L1-IRLS's L1 stage then its IRLS stage, from IRAv4's
+  // rotations) or guarded (l1_irls, kept only if it lowers the
   // Geman-McClure cost over all edges below that of IRAv4's own rotations,
   // else irls: the global L1 stage may not move a correct IRAv4 solution
-  // into the basin of consistent structured outliers). Default guarded:
-  // measured with tools/rotation_benchmark on the Madrid graph, 3 seeds,
-  // sigma 5, the paper's protocol (30% outliers) and the structured one (50%
-  // of the twin pairs + 30% random outliers), the L1 stage brings the median
-  // to L1-IRLS's (paper protocol 0.406 -> 0.334 deg, structured 0.473 ->
-  // 0.369) and fewer cameras > 30 deg off (23.3 -> 15.3, 51.3 -> 23.0);
-  // guarded gave the same figures at the cost of one O(E) evaluation.
-  std::string final_refinement = "guarded";
+  // into the basin of consistent structured outliers). Default guarded: the
+  // L1 stage brings IRAv4's median error to L1-IRLS's on both protocols, at
+  // the cost of one O(E) evaluation
+  // (docs/notes/2026-12-01-rotation-averaging.md).
+  Irav4FinalRefinement final_refinement = Irav4FinalRefinement::kGuarded;
   // With a final refinement: after it, vertices whose
   // rotation agrees (within reseed_threshold_deg) with fewer than
   // reseed_support_fraction of their edges' chained predictions R_mp R_m
@@ -152,6 +155,36 @@ class Irav4 : public RotationAverager {
   const Irav4Report& LastReport() const { return report_; }
 
  private:
+  // Estimate's steps, in order (3, the reference, is
+  // BuildAlignmentReference); each fills its part of report_.
+  struct Clusters;
+  // 1. Communities (Eq. 1-4 inside each), one seed triplet each (or one
+  // from the whole graph), and each cluster's potential vertices (IRAv3's
+  // pre-selection). False when nothing could seed.
+  bool SeedClusters(const RotationGraph& graph, int num_threads, Clusters* run);
+  // 2. On-the-fly clustering: the best (vertex, cluster) pair over all
+  // clusters joins, by normalised reward (a cluster's best candidate is
+  // cached until it grows or loses it); a fallback pass lets every cluster
+  // take any adjacent vertex no pre-selected pair reached. Returns the
+  // seconds it took.
+  double GrowClusters(int num_threads, Clusters* run);
+  // 4. Common-vertex-guided alignment of each cluster to the reference (a
+  // second round against the clusters aligned so far); what still fails is
+  // placed vertex by vertex. Releases the clusters' engines.
+  void AlignClusters(const RotationGraph& graph,
+                     const AlignmentReference& reference, Clusters* run,
+                     std::vector<Eigen::Matrix3d>* rotations,
+                     std::vector<bool>* estimated);
+  // 5. The final optimisation over the inlier edges of the whole graph
+  // (Eq. 11-12), num_final_rounds times.
+  void OptimizeOverInlierEdges(const RotationGraph& graph,
+                               const std::vector<int>& estimated_vertices,
+                               std::vector<Eigen::Matrix3d>* rotations);
+  // 6. final_refinement over all edges (`root` held), then re-seeding.
+  void RefineOverAllEdges(const RotationGraph& graph,
+                          const std::vector<bool>& estimated, int root,
+                          std::vector<Eigen::Matrix3d>* rotations);
+
   Irav4Options options_;
   Irav4Report report_;
 };

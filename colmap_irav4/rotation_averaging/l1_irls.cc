@@ -17,6 +17,15 @@
 
 namespace colmap_irav4 {
 
+template <>
+const EnumNames<L1IrlsLinearSolver>& NamesOf<L1IrlsLinearSolver>() {
+  static const EnumNames<L1IrlsLinearSolver> names = {
+      {L1IrlsLinearSolver::kAuto, "auto"},
+      {L1IrlsLinearSolver::kCholesky, "cholesky"},
+      {L1IrlsLinearSolver::kCg, "cg"}};
+  return names;
+}
+
 void L1IrlsOptions::Check() const {
   auto require = [](bool condition, const void* field, const std::string& name,
                     const std::string& problem) {
@@ -34,15 +43,17 @@ void L1IrlsOptions::Check() const {
   require(irls_step_tolerance_deg >= 0, &irls_step_tolerance_deg,
           "irls_step_tolerance_deg", "must be >= 0");
   require(gm_sigma_deg > 0, &gm_sigma_deg, "gm_sigma_deg", "must be > 0");
-  require(linear_solver == "auto" || linear_solver == "cholesky" ||
-              linear_solver == "cg",
-          &linear_solver, "linear_solver",
-          "must be auto, cholesky or cg, got '" + linear_solver + "'");
   require(max_cholesky_flops >= 0, &max_cholesky_flops, "max_cholesky_flops",
           "must be >= 0");
-  require(cg_tolerance > 0, &cg_tolerance, "cg_tolerance", "must be > 0");
-  require(cg_max_iterations > 0, &cg_max_iterations, "cg_max_iterations",
-          "must be > 0");
+  // Not registered as flags: named as the members.
+  if (!(cg_tolerance > 0)) {
+    throw OptionError(&cg_tolerance, "L1IrlsOptions::cg_tolerance",
+                      "must be > 0");
+  }
+  if (cg_max_iterations <= 0) {
+    throw OptionError(&cg_max_iterations, "L1IrlsOptions::cg_max_iterations",
+                      "must be > 0");
+  }
 }
 
 namespace {
@@ -94,11 +105,11 @@ class TangentSystem {
       const int uj = unknown_index_[graph_.Edge(edges_[k]).j];
       slots_[k] = {Slot(ui, ui), Slot(uj, uj), Slot(ui, uj), Slot(uj, ui)};
     }
-    use_cholesky_ = options_.linear_solver != "cg";
+    use_cholesky_ = options_.linear_solver != L1IrlsLinearSolver::kCg;
     if (use_cholesky_) {
       cholesky_ = std::make_unique<AnalyzedLdlt>();
       cholesky_->analyzePattern(matrix_);
-      if (options_.linear_solver == "auto" &&
+      if (options_.linear_solver == L1IrlsLinearSolver::kAuto &&
           cholesky_->FactorizationFlops() > options_.max_cholesky_flops) {
         use_cholesky_ = false;
         cholesky_.reset();

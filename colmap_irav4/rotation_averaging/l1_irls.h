@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include "colmap_irav4/rotation_averaging/rotation_graph.h"
+#include "colmap_irav4/util/enum_names.h"
 
 namespace colmap_irav4 {
 
@@ -20,6 +21,11 @@ namespace colmap_irav4 {
 // residual norm), so the normal matrix is (weighted graph Laplacian) x I_3:
 // one (n-1)x(n-1) system with three right-hand sides, gauge vertex removed.
 // The sparsity pattern and its symbolic factorisation are built once.
+// The linear solver of every L1-IRLS step: auto, cholesky or cg.
+enum class L1IrlsLinearSolver { kAuto, kCholesky, kCg };
+template <>
+const EnumNames<L1IrlsLinearSolver>& NamesOf<L1IrlsLinearSolver>();
+
 struct L1IrlsOptions {
   // Relinearised IRLS-L1 steps (weights 1 / max(|r_e|, l1_epsilon)).
   int l1_max_iterations = 20;
@@ -38,9 +44,9 @@ struct L1IrlsOptions {
   // random-like graphs fill the Cholesky factor completely (O(n^3) per
   // factorisation), where CG on the well-conditioned Laplacian converges in
   // few iterations; sparse, elongated graphs (sequences) are the opposite.
-  // "auto" runs the symbolic analysis and picks Cholesky when the
+  // auto runs the symbolic analysis and picks Cholesky when the
   // factorisation's cost sum_k nnz(L_k)^2 is at most max_cholesky_flops.
-  std::string linear_solver = "auto";
+  L1IrlsLinearSolver linear_solver = L1IrlsLinearSolver::kAuto;
   double max_cholesky_flops = 5e7;
   // CG relative residual tolerance and iteration cap per solve.
   double cg_tolerance = 1e-10;

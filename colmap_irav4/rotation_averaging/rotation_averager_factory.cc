@@ -25,7 +25,7 @@ const std::vector<std::pair<std::string, Factory>>& Methods() {
       {"irav4_paper",
        [](const RotationAveragerOptions& o) {
          Irav4Options irav4 = o.irav4;
-         irav4.final_refinement = "none";
+         irav4.final_refinement = Irav4FinalRefinement::kNone;
          irav4.log_progress = irav4.log_progress || o.log_progress;
          return std::make_unique<Irav4>(irav4);
        }},

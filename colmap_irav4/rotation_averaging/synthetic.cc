@@ -23,16 +23,16 @@ void SyntheticOptions::Check() const {
   }
   if (!(structured_outlier_ratio >= 0.0 && structured_outlier_ratio <= 1.0)) {
     throw InputError(
-        "SyntheticOptions.structured_outlier_ratio",
+        "SyntheticOptions::structured_outlier_ratio",
         "must be in [0, 1], got " + std::to_string(structured_outlier_ratio));
   }
   if (!(twin_overlap_deg > 0.0 && twin_overlap_deg <= 180.0)) {
     throw InputError(
-        "SyntheticOptions.twin_overlap_deg",
+        "SyntheticOptions::twin_overlap_deg",
         "must be in (0, 180], got " + std::to_string(twin_overlap_deg));
   }
   if (!(upright_sigma_deg >= 0.0)) {
-    throw InputError("SyntheticOptions.upright_sigma_deg", "must be >= 0");
+    throw InputError("SyntheticOptions::upright_sigma_deg", "must be >= 0");
   }
 }
 

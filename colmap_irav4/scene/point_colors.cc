@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -40,13 +42,37 @@ int ColorPointsFromImages(const std::string& image_path,
   }
   std::vector<std::vector<std::pair<point3D_t, Eigen::Vector3d>>> colors(
       images.size());
-  std::vector<char> missing(images.size(), 0);
+  // Why an image was not used ("" if it was).
+  std::vector<std::string> missing(images.size());
   ParallelFor(num_threads, images.size(), [&](size_t i) {
     const Image& image = *images[i];
-    const cv::Mat bgr =
-        cv::imread((fs::path(image_path) / image.name).string(), flags);
+    const std::string file = (fs::path(image_path) / image.name).string();
+    // Only regular files: opening a named pipe would block the run.
+    std::error_code error;
+    const fs::file_status status = fs::status(file, error);
+    if (!fs::is_regular_file(status)) {
+      missing[i] = fs::exists(status)
+                       ? "not a regular file (a pipe or device?), not read"
+                       : "cannot read the image";
+      return;
+    }
+    const cv::Mat bgr = cv::imread(file, flags);
     if (bgr.empty()) {
-      missing[i] = 1;
+      missing[i] = "cannot read the image";
+      return;
+    }
+    // Another image than the one the keypoints were found in (another
+    // size, or rotated): its colours would be wrong.
+    const Camera& camera = reconstruction->cameras.at(image.camera_id);
+    const auto scaled = [&](uint64_t size) {
+      return static_cast<int>((size + downscale - 1) / downscale);
+    };
+    if (std::abs(bgr.cols - scaled(camera.width)) > 1 ||
+        std::abs(bgr.rows - scaled(camera.height)) > 1) {
+      missing[i] = "the image is " + std::to_string(bgr.cols * downscale) +
+                   " x " + std::to_string(bgr.rows * downscale) +
+                   " px, its camera " + std::to_string(camera.width) + " x " +
+                   std::to_string(camera.height) + " px: not this image's file";
       return;
     }
     for (const Point2D& point2D : image.points2D) {
@@ -79,10 +105,10 @@ int ColorPointsFromImages(const std::string& image_path,
   std::map<point3D_t, std::pair<Eigen::Vector3d, int>> sums;
   int num_missing = 0;
   for (size_t i = 0; i < images.size(); ++i) {
-    if (missing[i]) {
+    if (!missing[i].empty()) {
       ++num_missing;
-      LOG(WARNING) << (fs::path(image_path) / images[i]->name).string()
-                   << ": cannot read the image; its points stay grey";
+      LOG(WARNING) << (fs::path(image_path) / images[i]->name).string() << ": "
+                   << missing[i] << "; its points stay grey";
     }
     for (const auto& [point3D_id, rgb] : colors[i]) {
       auto& sum = sums[point3D_id];

@@ -1,6 +1,8 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 
+#include <cmath>
 #include <limits>
+#include <string>
 
 #include <glog/logging.h>
 
@@ -78,6 +80,74 @@ void DeleteImage(image_t image_id, Reconstruction* reconstruction) {
     DeleteObservation(image_id, idx, reconstruction);
   }
   reconstruction->images.erase(it);
+}
+
+std::string NonFiniteValueProblem(const Reconstruction& reconstruction) {
+  for (const auto& [camera_id, camera] : reconstruction.cameras) {
+    for (size_t k = 0; k < camera.params.size(); ++k) {
+      if (!std::isfinite(camera.params[k])) {
+        return "camera " + std::to_string(camera_id) + ": parameter " +
+               std::to_string(k) + " is not finite (" +
+               std::to_string(camera.params[k]) + ")";
+      }
+    }
+  }
+  for (const auto& [image_id, image] : reconstruction.images) {
+    const std::string what =
+        "image " + std::to_string(image_id) + " (" + image.name + "): ";
+    if (!image.cam_from_world.rotation.coeffs().allFinite()) {
+      return what + "rotation is not finite";
+    }
+    if (!image.cam_from_world.translation.allFinite()) {
+      return what + "translation is not finite";
+    }
+    for (size_t k = 0; k < image.points2D.size(); ++k) {
+      if (!image.points2D[k].xy.allFinite()) {
+        return what + "point2D " + std::to_string(k) + " is not finite";
+      }
+    }
+  }
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    if (!point.xyz.allFinite()) {
+      return "point3D " + std::to_string(point3D_id) +
+             ": position is not finite";
+    }
+    if (std::isnan(point.error)) {
+      return "point3D " + std::to_string(point3D_id) +
+             ": error is not finite (nan)";
+    }
+  }
+  return "";
+}
+
+std::map<image_t, int> RemoveNonFinitePoints2D(Reconstruction* reconstruction) {
+  std::map<image_t, int> removed;
+  for (auto& [image_id, image] : reconstruction->images) {
+    std::vector<point2D_t> new_index(image.points2D.size());
+    std::vector<Point2D> kept;
+    kept.reserve(image.points2D.size());
+    for (size_t k = 0; k < image.points2D.size(); ++k) {
+      new_index[k] = static_cast<point2D_t>(kept.size());
+      if (image.points2D[k].xy.allFinite()) {
+        kept.push_back(image.points2D[k]);
+        continue;
+      }
+      // Never an observation (the database reader excludes them); unlinked
+      // all the same should that change.
+      UnlinkObservation(image_id, static_cast<point2D_t>(k), reconstruction);
+      ++removed[image_id];
+    }
+    if (removed.count(image_id) == 0) continue;
+    image.points2D = std::move(kept);
+    for (auto& [point3D_id, point] : reconstruction->points3D) {
+      for (TrackElement& element : point.track) {
+        if (element.image_id == image_id) {
+          element.point2D_idx = new_index[element.point2D_idx];
+        }
+      }
+    }
+  }
+  return removed;
 }
 
 double ReprojectionError(const Camera& camera, const Image& image,

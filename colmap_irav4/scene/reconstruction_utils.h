@@ -4,6 +4,7 @@
 // and the points' tracks consistent with each other.
 
 #include <map>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -30,6 +31,16 @@ bool DeleteObservation(image_t image_id, point2D_t point2D_idx,
                        Reconstruction* reconstruction);
 // Unlinks every observation of the image and removes it from the model.
 void DeleteImage(image_t image_id, Reconstruction* reconstruction);
+
+// The first non-finite value of the model ("camera 1: parameter 0 is nan",
+// "image 3 (a.jpg): translation is not finite", "point3D 7: position is not
+// finite", ...); "" if every value is finite. No such model is written or
+// read.
+std::string NonFiniteValueProblem(const Reconstruction& reconstruction);
+// Removes the 2D points with non-finite coordinates (keypoints the database
+// held as NaN or inf; never observations) and renumbers the others in the
+// tracks. Returns the number removed per image.
+std::map<image_t, int> RemoveNonFinitePoints2D(Reconstruction* reconstruction);
 
 // Reprojection error in pixels of `xyz` observed at `xy` in `image`;
 // +infinity when the point is not in front of the camera.

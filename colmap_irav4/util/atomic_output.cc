@@ -13,6 +13,9 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
 
 #include <glog/logging.h>
 
@@ -23,16 +26,35 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* const kOwnNames[] = {"cameras.bin", "images.bin", "points3D.bin",
-                                 "cameras.txt", "images.txt", "points3D.txt",
-                                 "summary.json"};
+const char* const kModelNames[] = {"cameras.bin", "images.bin", "points3D.bin",
+                                   "cameras.txt", "images.txt", "points3D.txt"};
+// Written beside every model (the run's options, as COLMAP's project.ini);
+// ours only beside a model.
+constexpr char kProjectName[] = "project.ini";
+constexpr char kSummaryName[] = "summary.json";
+// The install journal of a run's temporary directory (an own name).
+const std::string kJournalName = std::string(kTemporaryMarker) + "journal";
+
+bool IsModelName(const char* name) {
+  for (const char* own : kModelNames) {
+    if (std::strcmp(name, own) == 0) return true;
+  }
+  return false;
+}
+
+// A file of a model directory this program writes.
+bool IsModelDirectoryName(const char* name) {
+  return IsModelName(name) || std::strcmp(name, kProjectName) == 0;
+}
+
+bool IsTemporaryName(const char* name) {
+  return std::strstr(name, kTemporaryMarker) != nullptr;
+}
 
 // Async-signal-safe version of IsOwnOutputFileName (no allocation).
 bool IsOwnName(const char* name) {
-  for (const char* own : kOwnNames) {
-    if (std::strcmp(name, own) == 0) return true;
-  }
-  return std::strstr(name, kTemporaryMarker) != nullptr;
+  return IsModelDirectoryName(name) || std::strcmp(name, kSummaryName) == 0 ||
+         IsTemporaryName(name);
 }
 
 bool IsNumber(const std::string& name) {
@@ -43,12 +65,22 @@ bool IsNumber(const std::string& name) {
 
 std::string Errno() { return std::strerror(errno); }
 
+// Test hook: called after each step of an installation.
+void (*g_install_hook)(int step) = nullptr;
+
 // ---------------------------------------------------------------------------
 // Signal handling: only async-signal-safe calls (openat, getdents64, unlinkat,
-// close, sigaction, raise) on a path copied in advance.
+// close, sigaction, raise) on paths copied in advance.
 
+constexpr int kMaxCreated = 8;
 char g_temporary[PATH_MAX];
+char g_created[kMaxCreated][PATH_MAX];
+volatile sig_atomic_t g_num_created = 0;
 volatile sig_atomic_t g_armed = 0;
+// During an installation a signal is only recorded (the output is then
+// complete either way; the run finishes and says so).
+volatile sig_atomic_t g_installing = 0;
+volatile sig_atomic_t g_pending_signal = 0;
 struct sigaction g_old_int, g_old_term;
 
 struct LinuxDirent64 {
@@ -92,9 +124,17 @@ void RemoveOwnTreeSignalSafe(int parent_fd, const char* name, int depth) {
 }
 
 void HandleSignal(int signal_number) {
+  if (g_installing) {
+    g_pending_signal = signal_number;
+    return;
+  }
   if (g_armed) {
     g_armed = 0;
     RemoveOwnTreeSignalSafe(AT_FDCWD, g_temporary, 0);
+    // The directories the run created, deepest first (kept if not empty).
+    for (int i = g_num_created - 1; i >= 0; --i) {
+      unlinkat(AT_FDCWD, g_created[i], AT_REMOVEDIR);
+    }
   }
   // The default action (terminate with the signal's status).
   struct sigaction action;
@@ -104,11 +144,20 @@ void HandleSignal(int signal_number) {
   raise(signal_number);
 }
 
-void ArmCleanup(const std::string& temporary) {
+void ArmCleanup(const std::string& temporary,
+                const std::vector<std::string>& created) {
   std::snprintf(g_temporary, sizeof(g_temporary), "%s", temporary.c_str());
+  int num_created = 0;
+  for (const std::string& path : created) {
+    if (num_created == kMaxCreated || path.size() >= PATH_MAX) break;
+    std::snprintf(g_created[num_created++], PATH_MAX, "%s", path.c_str());
+  }
+  g_num_created = num_created;
+  g_pending_signal = 0;
   struct sigaction action;
   std::memset(&action, 0, sizeof(action));
   action.sa_handler = HandleSignal;
+  action.sa_flags = SA_RESTART;
   sigemptyset(&action.sa_mask);
   sigaction(SIGINT, &action, &g_old_int);
   sigaction(SIGTERM, &action, &g_old_term);
@@ -122,29 +171,77 @@ void DisarmCleanup() {
   sigaction(SIGTERM, &g_old_term, nullptr);
 }
 
-// Blocks SIGINT/SIGTERM for its lifetime (the installation's renames).
-class BlockInterrupts {
- public:
-  BlockInterrupts() {
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &set, &old_);
+// The missing directories of `path` created top-down; returns them in that
+// order (absolute). Throws InputError if one cannot be created.
+// The directory `path` names as the system resolves it: the links and
+// ".." of its existing part followed, so that every later operation sees
+// the same directory. A dangling link on the way is an error.
+fs::path ResolvedDirectory(const std::string& path) {
+  std::error_code error;
+  const fs::path raw = fs::absolute(path, error);
+  for (fs::path p = raw; !p.empty(); p = p.parent_path()) {
+    if (fs::is_symlink(fs::symlink_status(p, error)) &&
+        !fs::exists(fs::status(p, error))) {
+      throw InputError(path, p.string() + " is a symbolic link to " +
+                                 fs::read_symlink(p, error).string() +
+                                 ", which does not exist (create it or "
+                                 "remove the link)");
+    }
+    if (p == p.parent_path()) break;
   }
-  ~BlockInterrupts() { pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
+  fs::path dir = fs::weakly_canonical(raw, error);
+  if (error) dir = raw.lexically_normal();  // a link loop: fails later
+  if (!dir.empty() && !dir.has_filename()) dir = dir.parent_path();
+  return dir;
+}
 
- private:
-  sigset_t old_;
-};
+std::vector<std::string> CreateDirectories(const std::string& path) {
+  std::error_code error;
+  const fs::path dir = ResolvedDirectory(path);
+  std::vector<fs::path> missing;
+  for (fs::path p = dir; !p.empty(); p = p.parent_path()) {
+    if (fs::exists(fs::symlink_status(p, error))) break;
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  std::vector<std::string> created;
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
+    if (mkdir(it->c_str(), 0777) == 0) {
+      created.push_back(it->string());
+    } else if (errno != EEXIST) {
+      const std::string problem = Errno();
+      for (auto c = created.rbegin(); c != created.rend(); ++c) {
+        rmdir(c->c_str());
+      }
+      throw InputError(
+          path, "cannot create the directory " + it->string() + ": " + problem);
+    }
+  }
+  if (!fs::is_directory(dir)) {
+    for (auto c = created.rbegin(); c != created.rend(); ++c) {
+      rmdir(c->c_str());
+    }
+    throw InputError(path, "cannot create the directory: a file is in the way");
+  }
+  return created;
+}
+
+// Removes the directories of CreateDirectories, deepest first, if empty.
+void RemoveCreatedDirectories(const std::vector<std::string>& created) {
+  for (auto it = created.rbegin(); it != created.rend(); ++it) {
+    rmdir(it->c_str());
+  }
+}
 
 // Atomically swaps two existing paths; two renames (through `aside`) where
-// the file system has no RENAME_EXCHANGE.
+// the file system has no RENAME_EXCHANGE. Afterwards `staged` is gone and
+// the old target is at `aside`.
 void ExchangeOrReplace(const std::string& staged, const std::string& target,
                        const std::string& aside) {
 #ifdef RENAME_EXCHANGE
   if (renameat2(AT_FDCWD, staged.c_str(), AT_FDCWD, target.c_str(),
                 RENAME_EXCHANGE) == 0) {
+    if (g_install_hook) g_install_hook(1);
     if (std::rename(staged.c_str(), aside.c_str()) != 0) {
       throw InputError(staged, "cannot move the old model aside: " + Errno());
     }
@@ -164,13 +261,114 @@ void ExchangeOrReplace(const std::string& staged, const std::string& target,
   }
 }
 
-}  // namespace
+// Where a write to `path` goes.
+enum class OutputKind {
+  kFile,       // a regular file or none: replaced through a temporary name
+  kStream,     // a pipe, a character device, /dev or /proc: written into
+  kDirectory,  // refused
+  kSpecial,    // a block device or a socket: refused
+};
 
-bool IsOwnOutputFileName(const std::string& name) {
-  return IsOwnName(name.c_str());
+bool IsUnderSystemTree(const std::string& path) {
+  std::error_code error;
+  const std::string normal =
+      fs::absolute(path, error).lexically_normal().string();
+  return normal.rfind("/dev/", 0) == 0 || normal.rfind("/proc/", 0) == 0 ||
+         normal == "/dev" || normal == "/proc";
 }
 
-namespace {
+OutputKind KindOf(const std::string& path) {
+  if (IsUnderSystemTree(path)) return OutputKind::kStream;
+  struct stat status;
+  if (stat(path.c_str(), &status) != 0) return OutputKind::kFile;
+  if (S_ISREG(status.st_mode)) return OutputKind::kFile;
+  if (S_ISDIR(status.st_mode)) return OutputKind::kDirectory;
+  if (S_ISFIFO(status.st_mode) || S_ISCHR(status.st_mode)) {
+    return OutputKind::kStream;
+  }
+  return OutputKind::kSpecial;
+}
+
+// `path` with its symbolic links followed to the file they name (which may
+// not exist yet): the file replaced, so that the link stays a link.
+std::string FollowLinks(const std::string& path) {
+  fs::path current(path);
+  std::error_code error;
+  for (int hops = 0; hops < 40; ++hops) {
+    if (!fs::is_symlink(fs::symlink_status(current, error))) {
+      return current.string();
+    }
+    const fs::path target = fs::read_symlink(current, error);
+    if (error) break;
+    current = target.is_absolute() ? target : current.parent_path() / target;
+  }
+  throw InputError(path, "too many levels of symbolic links");
+}
+
+void ThrowUnlessWritableKind(const std::string& path, OutputKind kind) {
+  if (kind == OutputKind::kDirectory) {
+    throw InputError(path, "is a directory, cannot write the file");
+  }
+  if (kind == OutputKind::kSpecial) {
+    throw InputError(path,
+                     "is a special file (block device or socket); not "
+                     "written, not replaced");
+  }
+}
+
+// The descriptor `path` names (/dev/stdout, /dev/stderr, /dev/fd/N,
+// /proc/self/fd/N), else -1.
+int NamedDescriptor(const std::string& path) {
+  std::error_code error;
+  const std::string normal =
+      fs::absolute(path, error).lexically_normal().string();
+  if (normal == "/dev/stdout") return 1;
+  if (normal == "/dev/stderr") return 2;
+  for (const std::string prefix : {"/dev/fd/", "/proc/self/fd/"}) {
+    if (normal.rfind(prefix, 0) != 0) continue;
+    const std::string number = normal.substr(prefix.size());
+    if (!IsNumber(number)) return -1;
+    return std::stoi(number);
+  }
+  return -1;
+}
+
+// Writes into an existing pipe or device (no temporary, no rename); a
+// named descriptor (/dev/stdout) is written through itself, so that the
+// bytes follow what the program printed there before (a file behind it
+// keeps one offset).
+void WriteIntoStream(const std::string& path, const std::string& bytes) {
+  const int named = NamedDescriptor(path);
+  if (named >= 0) {
+    std::cout.flush();
+    std::cerr.flush();
+    std::fflush(nullptr);
+  }
+  const int fd = named >= 0 ? named
+                            : open(path.c_str(),
+                                   O_WRONLY | O_APPEND | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0 || (named >= 0 && fcntl(fd, F_GETFL) < 0)) {
+    throw InputError(path, errno == ENOENT
+                               ? "does not exist (no file is created under "
+                                 "/dev or /proc)"
+                               : "cannot open for writing: " + Errno());
+  }
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const std::string problem =
+          errno == EPIPE ? "the reader closed the pipe" : Errno();
+      if (named < 0) close(fd);
+      throw InputError(path, "cannot write: " + problem);
+    }
+    written += static_cast<size_t>(n);
+  }
+  if (named < 0 && close(fd) != 0) {
+    throw InputError(path, "cannot write: " + Errno());
+  }
+}
 
 std::string TemporaryName(const std::string& path) {
   return path + kTemporaryMarker + std::to_string(static_cast<long>(getpid()));
@@ -203,73 +401,255 @@ std::string WriteTemporary(const std::string& path, const std::string& bytes) {
   return temporary;
 }
 
+// Moves the entries of `from` that are not model files (a user's notes, an
+// old summary.json of theirs) into `to`; never over an existing name.
+void CarryOverUserFiles(const fs::path& from, const fs::path& to,
+                        const std::string& shown_as,
+                        std::vector<std::string>* warnings) {
+  std::error_code error;
+  std::vector<fs::path> entries;
+  for (const auto& entry : fs::directory_iterator(from, error)) {
+    const std::string name = entry.path().filename().string();
+    if (!IsModelDirectoryName(name.c_str()) && !IsTemporaryName(name.c_str())) {
+      entries.push_back(entry.path());
+    }
+  }
+  for (const fs::path& entry : entries) {
+    const fs::path destination = to / entry.filename();
+    if (fs::exists(fs::symlink_status(destination, error)) ||
+        std::rename(entry.c_str(), destination.c_str()) != 0) {
+      warnings->push_back(entry.string() +
+                          ": could not be moved into the new model directory " +
+                          to.string() + "; left there");
+      continue;
+    }
+    warnings->push_back(shown_as + "/" + entry.filename().string() +
+                        ": not a model file; kept in the new model directory");
+  }
+}
+
+struct Journal {
+  std::vector<std::pair<int, ino_t>> models;  // k, inode of the staged model
+  std::vector<std::string> files;
+};
+
+std::string JournalText(const Journal& journal) {
+  std::ostringstream text;
+  for (const auto& [k, inode] : journal.models) {
+    text << "model " << k << " " << inode << "\n";
+  }
+  for (const std::string& name : journal.files) text << "file " << name << "\n";
+  return text.str();
+}
+
+bool ReadJournal(const fs::path& temporary, Journal* journal) {
+  std::ifstream file(temporary / kJournalName);
+  if (!file) return false;
+  std::string kind;
+  while (file >> kind) {
+    if (kind == "model") {
+      int k = 0;
+      unsigned long long inode = 0;
+      if (!(file >> k >> inode) || k < 0) return false;
+      journal->models.emplace_back(k, static_cast<ino_t>(inode));
+    } else if (kind == "file") {
+      std::string name;
+      if (!(file >> name) || name.find('/') != std::string::npos) return false;
+      journal->files.push_back(name);
+    } else {
+      return false;
+    }
+  }
+  return true;
+}
+
+// Performs (or, after a kill, finishes) the installation the journal of
+// `temporary` describes. Every step can be redone: a staged model whose
+// inode is the journal's is not installed yet; another directory at its
+// place is the old model after the exchange.
+std::vector<std::string> FinishInstall(const fs::path& temporary,
+                                       const fs::path& out,
+                                       const Journal& journal) {
+  std::vector<std::string> warnings;
+  std::error_code error;
+  int step = 10;
+  for (const auto& [k, inode] : journal.models) {
+    const fs::path staged = temporary / std::to_string(k);
+    const fs::path target = out / std::to_string(k);
+    const fs::path aside = temporary / ("old." + std::to_string(k));
+    struct stat status;
+    if (lstat(staged.c_str(), &status) == 0) {
+      if (status.st_ino == inode) {
+        if (!fs::exists(fs::symlink_status(target, error))) {
+          if (std::rename(staged.c_str(), target.c_str()) != 0) {
+            throw InputError(target.string(),
+                             "cannot install the new model: " + Errno());
+          }
+        } else {
+          // The user's files in the old model directory go into the new one.
+          CarryOverUserFiles(target, staged, target.string(), &warnings);
+          if (g_install_hook) g_install_hook(step);
+          ExchangeOrReplace(staged.string(), target.string(), aside.string());
+        }
+      } else if (std::rename(staged.c_str(), aside.c_str()) != 0) {
+        throw InputError(staged.string(),
+                         "cannot move the old model aside: " + Errno());
+      }
+    }
+    if (g_install_hook) g_install_hook(step + 1);
+    if (fs::is_directory(aside)) {
+      CarryOverUserFiles(aside, target, target.string(), &warnings);
+      for (const std::string& kept : RemoveOwnFiles(aside.string())) {
+        warnings.push_back(kept + ": left in the temporary directory");
+      }
+    }
+    if (g_install_hook) g_install_hook(step + 2);
+    step += 10;
+  }
+  for (const std::string& name : journal.files) {
+    const fs::path staged = temporary / name;
+    if (!fs::exists(fs::symlink_status(staged, error))) continue;
+    if (std::rename(staged.c_str(), (out / name).c_str()) != 0) {
+      throw InputError((out / name).string(), "cannot install: " + Errno());
+    }
+    if (g_install_hook) g_install_hook(step++);
+  }
+  return warnings;
+}
+
 }  // namespace
 
-void WriteFileAtomically(const std::string& path, const std::string& bytes) {
-  const fs::path parent = fs::path(path).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent)) {
-    throw InputError(path, "cannot write file: directory " + parent.string() +
-                               " does not exist");
+namespace internal {
+void SetInstallHookForTesting(void (*hook)(int step)) { g_install_hook = hook; }
+}  // namespace internal
+
+bool IsOwnOutputFileName(const std::string& name) {
+  return IsOwnName(name.c_str());
+}
+
+void CheckNotAnInput(const std::string& output,
+                     const std::vector<std::string>& inputs) {
+  if (output.empty()) return;
+  struct stat out;
+  const bool exists = stat(output.c_str(), &out) == 0;
+  // A pipe or device may well be both (two outputs to /dev/stdout).
+  if (exists && !S_ISREG(out.st_mode)) return;
+  std::error_code error;
+  const fs::path output_path = fs::weakly_canonical(output, error);
+  for (const std::string& input : inputs) {
+    if (input.empty()) continue;
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+      const std::string path = input + suffix;
+      struct stat in;
+      const bool same =
+          exists ? stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
+                       in.st_ino == out.st_ino
+                 : !output_path.empty() &&
+                       fs::weakly_canonical(path, error) == output_path;
+      if (same) {
+        throw InputError(output, "is the same file as " + path +
+                                     " (an input, or another output of this "
+                                     "run); writing it would destroy that: "
+                                     "choose another output path");
+      }
+    }
   }
-  WriteFilesAtomically(parent.string(),
-                       {{fs::path(path).filename().string(), bytes}});
+}
+
+void WriteFileAtomically(const std::string& path, const std::string& bytes) {
+  const OutputKind kind = KindOf(path);
+  ThrowUnlessWritableKind(path, kind);
+  if (kind == OutputKind::kStream) {
+    WriteIntoStream(path, bytes);
+    return;
+  }
+  const fs::path target(FollowLinks(path));
+  WriteFilesAtomically(target.parent_path().string(),
+                       {{target.filename().string(), bytes}});
 }
 
 void WriteFilesAtomically(
     const std::string& dir,
     const std::vector<std::pair<std::string, std::string>>& names_and_bytes) {
-  const std::string directory = dir.empty() ? "." : dir;
-  std::error_code error;
-  fs::create_directories(directory, error);
-  if (!fs::is_directory(directory)) {
-    throw InputError(directory, "cannot create the output directory" +
-                                    (error ? ": " + error.message() : ""));
+  // Links and ".." resolved once: the directories created, the temporary
+  // files and the renames all name the same directory.
+  const std::string directory =
+      ResolvedDirectory(dir.empty() ? "." : dir).string();
+  if (IsUnderSystemTree(directory)) {
+    throw InputError(dir, "is under /dev or /proc; no files are created there");
   }
-  // A directory in the way would make a later rename fail after earlier
-  // ones; every temporary file is complete before the first rename.
-  for (const auto& name_and_bytes : names_and_bytes) {
-    const fs::path final_path = fs::path(directory) / name_and_bytes.first;
-    if (fs::is_directory(final_path)) {
-      throw InputError(final_path.string(),
-                       "is a directory, cannot write the file");
-    }
-  }
-  std::vector<std::string> temporaries;
+  const std::vector<std::string> created = CreateDirectories(directory);
   try {
-    for (const auto& [name, bytes] : names_and_bytes) {
-      temporaries.push_back(
-          WriteTemporary((fs::path(directory) / name).string(), bytes));
+    // Anything but a regular file (or none) in the way would make a later
+    // rename fail, or replace a device; every temporary file is complete
+    // before the first rename.
+    for (const auto& name_and_bytes : names_and_bytes) {
+      const std::string final_path =
+          (fs::path(directory) / name_and_bytes.first).string();
+      const OutputKind kind = KindOf(final_path);
+      ThrowUnlessWritableKind(final_path, kind);
+      if (kind == OutputKind::kStream) {
+        throw InputError(final_path,
+                         "is a named pipe or device, not replaced by a "
+                         "model file");
+      }
+    }
+    std::vector<std::string> temporaries;
+    try {
+      for (const auto& [name, bytes] : names_and_bytes) {
+        temporaries.push_back(
+            WriteTemporary((fs::path(directory) / name).string(), bytes));
+      }
+    } catch (...) {
+      for (const std::string& temporary : temporaries) {
+        unlink(temporary.c_str());
+      }
+      throw;
+    }
+    for (size_t k = 0; k < names_and_bytes.size(); ++k) {
+      const std::string path =
+          (fs::path(directory) / names_and_bytes[k].first).string();
+      if (std::rename(temporaries[k].c_str(), path.c_str()) != 0) {
+        const std::string problem = Errno();
+        for (size_t i = k; i < temporaries.size(); ++i) {
+          unlink(temporaries[i].c_str());
+        }
+        throw InputError(
+            path, "cannot rename the temporary file into place: " + problem);
+      }
     }
   } catch (...) {
-    for (const std::string& temporary : temporaries) unlink(temporary.c_str());
+    RemoveCreatedDirectories(created);
     throw;
-  }
-  for (size_t k = 0; k < names_and_bytes.size(); ++k) {
-    const std::string path =
-        (fs::path(directory) / names_and_bytes[k].first).string();
-    if (std::rename(temporaries[k].c_str(), path.c_str()) != 0) {
-      const std::string problem = Errno();
-      for (size_t i = k; i < temporaries.size(); ++i) {
-        unlink(temporaries[i].c_str());
-      }
-      throw InputError(
-          path, "cannot rename the temporary file into place: " + problem);
-    }
   }
 }
 
-void CheckFileWritable(const std::string& path) {
-  const fs::path file(path);
-  fs::path dir = file.parent_path();
-  if (dir.empty()) dir = ".";
-  std::error_code error;
-  fs::create_directories(dir, error);
-  if (!fs::is_directory(dir)) {
-    throw InputError(path, "cannot create its directory " + dir.string() +
-                               (error ? ": " + error.message() : ""));
+void CheckFileWritable(const std::string& path,
+                       const std::vector<std::string>& inputs) {
+  CheckNotAnInput(path, inputs);
+  const OutputKind kind = KindOf(path);
+  ThrowUnlessWritableKind(path, kind);
+  if (kind == OutputKind::kStream) {
+    if (access(path.c_str(), W_OK) != 0) {
+      throw InputError(path, errno == ENOENT
+                                 ? "does not exist (no file is created under "
+                                   "/dev or /proc)"
+                                 : "cannot write: " + Errno());
+    }
+    return;
   }
-  if (fs::is_directory(file)) {
-    throw InputError(path, "is a directory, cannot write the file");
+  // The nearest existing directory of the file (a link's target) must take
+  // a new file; the missing ones are created when the file is written.
+  std::error_code error;
+  fs::path dir =
+      fs::absolute(FollowLinks(path), error).lexically_normal().parent_path();
+  while (!fs::exists(fs::symlink_status(dir, error)) &&
+         dir != dir.parent_path()) {
+    dir = dir.parent_path();
+  }
+  if (!fs::is_directory(dir)) {
+    throw InputError(
+        path, "cannot create its directory: " + dir.string() + " is a file");
   }
   const std::string probe = (dir / (std::string(kTemporaryMarker) +
                                     std::to_string(getpid()) + ".probe"))
@@ -304,88 +684,159 @@ std::vector<std::string> RemoveOwnFiles(const std::string& dir) {
   return kept;
 }
 
-std::string ModelDirectoryProblem(const std::string& dir) {
+std::string ModelDirectoryProblem(const std::string& dir,
+                                  const ModelCheck& model_check) {
   std::error_code error;
   const fs::file_status status = fs::symlink_status(dir, error);
   if (!fs::exists(status)) return "";
+  if (fs::is_symlink(status)) {
+    return "is a symbolic link (to " + fs::read_symlink(dir, error).string() +
+           "), not a model directory of this program; not replaced";
+  }
   if (!fs::is_directory(status)) {
     return "exists and is not a directory; not replaced";
   }
-  bool has_model_file = false;
+  std::vector<std::string> present[2];  // [binary]
   bool has_other = false;
   for (const auto& entry : fs::directory_iterator(dir, error)) {
     const std::string name = entry.path().filename().string();
-    if (IsOwnOutputFileName(name) &&
-        name.find(kTemporaryMarker) == std::string::npos) {
-      if (fs::is_directory(entry.symlink_status(error))) {
-        return "holds a directory named " + name + "; not replaced";
+    if (IsModelName(name.c_str())) {
+      if (!fs::is_regular_file(entry.symlink_status(error))) {
+        return "holds " + name + ", which is not a regular file; not replaced";
       }
-      has_model_file = true;
-    } else if (name.find(kTemporaryMarker) == std::string::npos) {
+      present[name.size() > 4 && name.substr(name.size() - 4) == ".bin"]
+          .push_back(name);
+    } else if (!IsTemporaryName(name.c_str())) {
+      // A project.ini is ours beside a model only.
       has_other = true;
     }
   }
-  if (has_other && !has_model_file) {
+  for (const bool binary : {true, false}) {
+    const std::vector<std::string>& names = present[binary];
+    if (names.empty()) continue;
+    if (names.size() < 3) {
+      std::string listed;
+      for (const std::string& name : names) {
+        listed += (listed.empty() ? "" : ", ") + name;
+      }
+      return "holds " + listed +
+             " but not a complete model (cameras, images and points3D " +
+             (binary ? ".bin" : ".txt") +
+             "): not written by this program, not replaced (move the "
+             "files away or choose another --output_path)";
+    }
+    if (model_check) {
+      try {
+        model_check(dir, binary);
+      } catch (const std::exception& problem) {
+        return std::string("holds model files that do not read as a model (") +
+               problem.what() +
+               "): not written by this program, not replaced (move the "
+               "files away or choose another --output_path)";
+      }
+    }
+  }
+  if (has_other && present[0].empty() && present[1].empty()) {
     return "exists and holds no COLMAP model (files of someone else's?); "
            "not replaced";
   }
   return "";
 }
 
-OutputTransaction::OutputTransaction(const std::string& output_dir)
-    : output_dir_(output_dir) {
+OutputTransaction::OutputTransaction(const std::string& output_dir,
+                                     const std::vector<std::string>& inputs,
+                                     ModelCheck model_check)
+    : output_dir_(output_dir), model_check_(std::move(model_check)) {
+  if (IsUnderSystemTree(output_dir)) {
+    throw InputError(output_dir,
+                     "is under /dev or /proc; no model directory is "
+                     "created there");
+  }
   std::error_code error;
-  fs::create_directories(output_dir, error);
-  if (!fs::is_directory(output_dir)) {
-    throw InputError(output_dir, "cannot create the output directory" +
-                                     (error ? ": " + error.message() : ""));
+  // One spelling for every operation (links and ".." resolved once).
+  const fs::path out = ResolvedDirectory(output_dir);
+  if (IsUnderSystemTree(out.string())) {
+    throw InputError(output_dir,
+                     "leads under /dev or /proc; no model directory is "
+                     "created there");
   }
-  const fs::path out = fs::absolute(output_dir, error);
-  // Temporary directories of runs that were killed (their process is gone).
-  for (const auto& entry : fs::directory_iterator(out, error)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind(kTemporaryMarker, 0) != 0) continue;
-    const std::string pid_text = name.substr(std::strlen(kTemporaryMarker));
-    char* end = nullptr;
-    const long pid = std::strtol(pid_text.c_str(), &end, 10);
-    if (end == pid_text.c_str() || *end != '\0' || pid <= 0) continue;
-    if (pid != static_cast<long>(getpid()) &&
-        !(kill(static_cast<pid_t>(pid), 0) == -1 && errno == ESRCH)) {
-      continue;  // a run in progress
+  output_dir_ = out.string();
+  const fs::file_status out_status = fs::status(out, error);
+  if (fs::exists(out_status) && !fs::is_directory(out_status)) {
+    throw InputError(output_dir, "exists and is not a directory");
+  }
+  if (fs::is_directory(out_status)) {
+    // No input among the files the run replaces or removes.
+    CheckNotAnInput((out / kSummaryName).string(), inputs);
+    for (const auto& entry : fs::directory_iterator(out, error)) {
+      if (!IsNumber(entry.path().filename().string())) continue;
+      for (const char* name : kModelNames) {
+        CheckNotAnInput((entry.path() / name).string(), inputs);
+      }
     }
-    for (const std::string& kept : RemoveOwnFiles(entry.path().string())) {
-      LOG(WARNING) << kept << ": left in the temporary directory of a killed "
-                   << "run (not written by this program)";
+    // Temporary directories of runs that were killed (their process is
+    // gone): an interrupted installation is finished, else they are removed.
+    for (const auto& entry : fs::directory_iterator(out, error)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind(kTemporaryMarker, 0) != 0) continue;
+      const std::string pid_text = name.substr(std::strlen(kTemporaryMarker));
+      char* end = nullptr;
+      const long pid = std::strtol(pid_text.c_str(), &end, 10);
+      if (end == pid_text.c_str() || *end != '\0' || pid <= 0) continue;
+      if (pid != static_cast<long>(getpid()) &&
+          !(kill(static_cast<pid_t>(pid), 0) == -1 && errno == ESRCH)) {
+        continue;  // a run in progress
+      }
+      Journal journal;
+      if (ReadJournal(entry.path(), &journal)) {
+        LOG(WARNING) << entry.path().string()
+                     << ": a killed run's installation was interrupted; "
+                        "finishing it";
+        for (const std::string& warning :
+             FinishInstall(entry.path(), out, journal)) {
+          LOG(WARNING) << warning;
+        }
+      }
+      for (const std::string& kept : RemoveOwnFiles(entry.path().string())) {
+        LOG(WARNING) << kept << ": left in the temporary directory of a killed "
+                     << "run (not written by this program)";
+      }
+    }
+    const std::string problem =
+        ModelDirectoryProblem((out / "0").string(), model_check_);
+    if (!problem.empty()) throw InputError((out / "0").string(), problem);
+    if (fs::is_directory(out / kSummaryName)) {
+      throw InputError((out / kSummaryName).string(),
+                       "is a directory, cannot write the run summary");
     }
   }
+  created_ = CreateDirectories(out.string());
   temporary_ = (out / (std::string(kTemporaryMarker) +
                        std::to_string(static_cast<long>(getpid()))))
                    .string();
   if (mkdir(temporary_.c_str(), 0777) != 0) {
+    const std::string problem = Errno();
+    RemoveCreatedDirectories(created_);
     throw InputError(output_dir,
-                     "cannot write in the output directory: " + Errno());
+                     "cannot write in the output directory: " + problem);
   }
-  ArmCleanup(temporary_);
-  try {
-    const std::string problem = ModelDirectoryProblem((out / "0").string());
-    if (!problem.empty()) throw InputError((out / "0").string(), problem);
-    if (fs::is_directory(out / "summary.json")) {
-      throw InputError((out / "summary.json").string(),
-                       "is a directory, cannot write the run summary");
-    }
-  } catch (...) {
-    DisarmCleanup();
-    RemoveOwnFiles(temporary_);
-    throw;
-  }
+  ArmCleanup(temporary_, created_);
 }
 
 OutputTransaction::~OutputTransaction() {
   if (committed_) return;
   DisarmCleanup();
+  if (fs::exists(fs::path(temporary_) / kJournalName)) {
+    // The installation failed half-way: the journal lets the next run in
+    // OUT finish it.
+    LOG(WARNING) << temporary_ << ": installation incomplete; the next run in "
+                 << output_dir_ << " finishes it";
+    return;
+  }
   for (const std::string& kept : RemoveOwnFiles(temporary_)) {
     LOG(WARNING) << kept << ": left in the temporary directory";
   }
+  RemoveCreatedDirectories(created_);
 }
 
 std::vector<std::string> OutputTransaction::StaleModelDirectories(
@@ -416,16 +867,19 @@ std::string OutputTransaction::StagingFilePath(const std::string& name) const {
 std::vector<std::string> OutputTransaction::Commit(
     int num_models, const std::vector<std::string>& files) {
   CHECK(!committed_);
-  std::vector<std::string> warnings;
   const fs::path out(output_dir_);
   // Everything that could fail is checked before the first installation.
+  Journal journal;
   for (int k = 0; k < num_models; ++k) {
     const std::string target = (out / std::to_string(k)).string();
-    const std::string problem = ModelDirectoryProblem(target);
+    const std::string problem = ModelDirectoryProblem(target, model_check_);
     if (!problem.empty()) throw InputError(target, problem);
-    if (!fs::is_directory(StagingModelPath(k))) {
+    struct stat status;
+    if (stat(StagingModelPath(k).c_str(), &status) != 0 ||
+        !S_ISDIR(status.st_mode)) {
       throw InputError(StagingModelPath(k), "model was not written");
     }
+    journal.models.emplace_back(k, status.st_ino);
   }
   for (const std::string& name : files) {
     if (fs::is_directory(out / name)) {
@@ -435,52 +889,31 @@ std::vector<std::string> OutputTransaction::Commit(
     if (!fs::exists(StagingFilePath(name))) {
       throw InputError(StagingFilePath(name), "was not written");
     }
+    journal.files.push_back(name);
   }
-  {
-    const BlockInterrupts block;
-    std::error_code error;
-    for (int k = 0; k < num_models; ++k) {
-      const fs::path target = out / std::to_string(k);
-      const fs::path staged = StagingModelPath(k);
-      if (!fs::exists(fs::symlink_status(target, error))) {
-        if (std::rename(staged.c_str(), target.c_str()) != 0) {
-          throw InputError(target.string(),
-                           "cannot install the new model: " + Errno());
-        }
-        continue;
-      }
-      // The user's files in the old model directory go into the new one.
-      for (const auto& entry : fs::directory_iterator(target, error)) {
-        const std::string name = entry.path().filename().string();
-        if (IsOwnOutputFileName(name)) continue;
-        if (std::rename(entry.path().c_str(), (staged / name).c_str()) != 0) {
-          throw InputError(entry.path().string(),
-                           "cannot keep this file in the new model "
-                           "directory: " +
-                               Errno());
-        }
-        warnings.push_back(target.string() + "/" + name +
-                           ": not a model file; kept in the new model "
-                           "directory");
-      }
-      const fs::path aside =
-          fs::path(temporary_) / ("old." + std::to_string(k));
-      ExchangeOrReplace(staged.string(), target.string(), aside.string());
-      for (const std::string& kept : RemoveOwnFiles(aside.string())) {
-        warnings.push_back(kept + ": left in the temporary directory");
-      }
-    }
-    for (const std::string& name : files) {
-      if (std::rename(StagingFilePath(name).c_str(), (out / name).c_str()) !=
-          0) {
-        throw InputError((out / name).string(), "cannot install: " + Errno());
-      }
-    }
-    committed_ = true;
-    DisarmCleanup();
+  // From the journal on, a kill leaves an installation the next run
+  // finishes; SIGINT/SIGTERM are only recorded.
+  g_installing = 1;
+  std::vector<std::string> warnings;
+  try {
+    WriteFilesAtomically(temporary_, {{kJournalName, JournalText(journal)}});
+    if (g_install_hook) g_install_hook(0);
+    warnings = FinishInstall(temporary_, out, journal);
+  } catch (...) {
+    g_installing = 0;
+    throw;
   }
+  committed_ = true;
   for (const std::string& kept : RemoveOwnFiles(temporary_)) {
     warnings.push_back(kept + ": left in the temporary directory");
+  }
+  DisarmCleanup();
+  g_installing = 0;
+  if (g_pending_signal != 0) {
+    warnings.push_back(std::string(strsignal(g_pending_signal)) +
+                       " received while installing the output: the output "
+                       "is complete; the run finishes");
+    g_pending_signal = 0;
   }
   for (const std::string& path : StaleModelDirectories(num_models)) {
     warnings.push_back(path +

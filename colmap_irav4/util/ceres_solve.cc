@@ -51,7 +51,8 @@ void SolverOptions::Check(const std::string& prefix) const {
                       "must be positive");
   }
   if (ceres.num_threads == 0 || ceres.num_threads < -1) {
-    throw OptionError(&ceres.num_threads, prefix + "num_threads",
+    // Set from the command's threads flag: named as the member.
+    throw OptionError(&ceres.num_threads, "SolverOptions::ceres.num_threads",
                       "must be -1 (all cores) or > 0");
   }
 }
@@ -75,14 +76,19 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
   return summary;
 }
 
-ceres::LossFunction* CreateLossFunction(const std::string& name, double scale) {
-  if (name == "huber") return new ceres::HuberLoss(scale);
-  if (name == "cauchy") return new ceres::CauchyLoss(scale);
-  return nullptr;
+template <>
+const EnumNames<LossFunctionType>& NamesOf<LossFunctionType>() {
+  static const EnumNames<LossFunctionType> names = {
+      {LossFunctionType::kHuber, "huber"},
+      {LossFunctionType::kCauchy, "cauchy"},
+      {LossFunctionType::kTrivial, "trivial"}};
+  return names;
 }
 
-bool IsLossFunction(const std::string& name) {
-  return name == "huber" || name == "cauchy" || name == "trivial";
+ceres::LossFunction* CreateLossFunction(LossFunctionType type, double scale) {
+  if (type == LossFunctionType::kHuber) return new ceres::HuberLoss(scale);
+  if (type == LossFunctionType::kCauchy) return new ceres::CauchyLoss(scale);
+  return nullptr;
 }
 
 }  // namespace colmap_irav4

@@ -4,6 +4,8 @@
 
 #include <ceres/ceres.h>
 
+#include "colmap_irav4/util/enum_names.h"
+
 namespace colmap_irav4 {
 
 // The Ceres settings of a stage that solves with Ceres (bundle adjustment,
@@ -34,11 +36,13 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
                                     const SolverOptions& options,
                                     ceres::Problem* problem);
 
-// The robust losses every stage offers, by the name its --*.loss_function
-// flag takes: "huber", "cauchy" (Ceres' losses at `scale`) or "trivial"
-// (nullptr: least squares). The caller (or the problem) owns the result.
-ceres::LossFunction* CreateLossFunction(const std::string& name, double scale);
-// Whether CreateLossFunction knows `name`.
-bool IsLossFunction(const std::string& name);
+// The robust losses every stage offers (--*.loss_function): huber, cauchy
+// (Ceres' losses at their scale) or trivial (least squares).
+enum class LossFunctionType { kHuber, kCauchy, kTrivial };
+template <>
+const EnumNames<LossFunctionType>& NamesOf<LossFunctionType>();
+// The loss of `type` at `scale` (nullptr for trivial). The caller (or the
+// problem) owns the result.
+ceres::LossFunction* CreateLossFunction(LossFunctionType type, double scale);
 
 }  // namespace colmap_irav4

@@ -180,7 +180,8 @@ void FocalCalibrationOptions::Check() const {
                       "must be > 1");
   }
   if (num_grid_points < 3) {
-    throw OptionError(&num_grid_points, "ViewGraph.calibration_num_grid_points",
+    throw OptionError(&num_grid_points,
+                      "FocalCalibrationOptions::num_grid_points",
                       "must be >= 3");
   }
   if (min_num_pairs < 1) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -31,5 +32,23 @@ struct ViewGraph {
   // self-calibrated); may be empty for graphs not built from a database.
   std::map<camera_t, Camera> cameras;
 };
+
+// The pairs with both images in `images`, in their order.
+std::vector<ImagePairGeometry> PairsWithin(
+    const std::vector<ImagePairGeometry>& pairs,
+    const std::set<image_t>& images);
+
+// Connected components of the images of `pairs` (util/union_find.h's
+// ConnectedComponents), largest first (ties: the component with the
+// smallest image id first); each sorted ascending.
+std::vector<std::vector<image_t>> PairComponents(
+    const std::vector<ImagePairGeometry>& pairs);
+
+// The angle between the pair's measured relative rotation and the one the
+// absolute rotations (cam_from_world) R1, R2 of its images predict,
+// R_12 = R2 R1^T (deg).
+double RelativeRotationErrorDeg(const ImagePairGeometry& pair,
+                                const Eigen::Matrix3d& R1,
+                                const Eigen::Matrix3d& R2);
 
 }  // namespace colmap_irav4

@@ -27,6 +27,159 @@ std::vector<std::string> SplitComma(const std::string& text) {
   return items;
 }
 
+// The database's pairs that pass the cheap filters (configuration, inlier
+// count and ratio), in database order; the others counted in `summary`.
+std::vector<const TwoViewGeometry*> FilterPairs(
+    const DatabaseContents& database, const ViewGraphBuilderOptions& options,
+    ViewGraphSummary* summary) {
+  const std::vector<int> drop_configs = options.DropConfigs();
+  std::vector<const TwoViewGeometry*> candidates;
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    if (std::find(drop_configs.begin(), drop_configs.end(), geometry.config) !=
+        drop_configs.end()) {
+      ++summary->num_dropped["config " + TwoViewConfigName(geometry.config)];
+      continue;
+    }
+    if (geometry.config < 0 || geometry.config > TwoViewGeometry::MULTIPLE) {
+      ++summary->num_dropped["unknown config"];
+      continue;
+    }
+    const int num_inliers = static_cast<int>(geometry.inlier_matches.size());
+    if (num_inliers < options.min_num_inliers) {
+      ++summary->num_dropped["fewer than min_num_inliers inliers"];
+      continue;
+    }
+    if (options.min_inlier_ratio > 0) {
+      const auto it = database.num_matches.find(
+          ImagePairToPairId(geometry.image_id1, geometry.image_id2));
+      if (it != database.num_matches.end() && it->second > 0 &&
+          num_inliers < options.min_inlier_ratio * it->second) {
+        ++summary->num_dropped["inlier ratio below min_inlier_ratio"];
+        continue;
+      }
+    }
+    candidates.push_back(&geometry);
+  }
+  return candidates;
+}
+
+// Focal self-calibration from the fundamental matrices of the `candidates`
+// (F is in pixels: it does not depend on the focal guess).
+void CalibrateFocals(const DatabaseContents& database,
+                     const std::vector<const TwoViewGeometry*>& candidates,
+                     const FocalCalibrationOptions& options,
+                     ViewGraphSummary* summary,
+                     std::map<camera_t, Camera>* cameras) {
+  std::vector<FocalCalibrationPair> calibration_pairs;
+  for (const TwoViewGeometry* geometry : candidates) {
+    if (geometry->config != TwoViewGeometry::UNCALIBRATED &&
+        geometry->config != TwoViewGeometry::CALIBRATED) {
+      continue;  // planar / panoramic: F is ill-defined
+    }
+    FocalCalibrationPair pair;
+    pair.camera_id1 = database.images.at(geometry->image_id1).camera_id;
+    pair.camera_id2 = database.images.at(geometry->image_id2).camera_id;
+    pair.F = geometry->F;
+    pair.weight = static_cast<double>(geometry->inlier_matches.size());
+    calibration_pairs.push_back(pair);
+  }
+  summary->focal_calibration =
+      CalibrateFocalLengths(calibration_pairs, options, cameras);
+}
+
+// Moves the candidates outside the largest connected component of the
+// candidate pairs (images by index) to `deferred`; the number and the
+// largest size of the other components of two images or more.
+void DeferOutsideLargestComponent(
+    const std::map<image_t, int>& index, size_t num_images,
+    std::vector<const TwoViewGeometry*>* candidates,
+    std::vector<const TwoViewGeometry*>* deferred, int* num_deferred_components,
+    int* largest_deferred_component) {
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(candidates->size());
+  for (const TwoViewGeometry* geometry : *candidates) {
+    edges.emplace_back(index.at(geometry->image_id1),
+                       index.at(geometry->image_id2));
+  }
+  const std::vector<std::vector<int>> candidate_components =
+      ConnectedComponents(static_cast<int>(num_images), edges);
+  std::vector<char> in_largest(num_images, 0);
+  if (!candidate_components.empty()) {
+    for (const int i : candidate_components[0]) in_largest[i] = 1;
+  }
+  for (size_t c = 1; c < candidate_components.size(); ++c) {
+    if (candidate_components[c].size() < 2) break;  // sorted: singletons
+    ++*num_deferred_components;
+    *largest_deferred_component =
+        std::max(*largest_deferred_component,
+                 static_cast<int>(candidate_components[c].size()));
+  }
+  std::vector<const TwoViewGeometry*> in_component;
+  for (const TwoViewGeometry* geometry : *candidates) {
+    (in_largest[index.at(geometry->image_id1)] ? in_component : *deferred)
+        .push_back(geometry);
+  }
+  candidates->swap(in_component);
+}
+
+// Derives the relative poses of `geometries` (each image's keypoints
+// undistorted once, then the pairs; both in parallel) and appends the
+// successful ones to `pairs` and `poses`, in order.
+void DeriveRelativePoses(const DatabaseContents& database,
+                         const ViewGraphBuilderOptions& options,
+                         const std::map<camera_t, Camera>& cameras,
+                         const std::vector<const TwoViewGeometry*>& geometries,
+                         ViewGraphSummary* summary,
+                         std::vector<ImagePairGeometry>* pairs,
+                         std::vector<RelativePose>* poses) {
+  std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
+  for (const TwoViewGeometry* geometry : geometries) {
+    normalized[geometry->image_id1];
+    normalized[geometry->image_id2];
+  }
+  std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
+  for (auto& slot : normalized) slots.push_back(&slot);
+  ParallelFor(options.num_threads, slots.size(), [&](size_t i) {
+    const image_t image_id = slots[i]->first;
+    const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
+    const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
+    std::vector<Eigen::Vector2d>& points = slots[i]->second;
+    points.reserve(keypoints.size());
+    for (const auto& keypoint : keypoints) {
+      points.push_back(CameraImageToCamera(camera, keypoint.cast<double>()));
+    }
+  });
+  std::vector<RelativePose> derived(geometries.size());
+  ParallelFor(options.num_threads, geometries.size(), [&](size_t i) {
+    const TwoViewGeometry& geometry = *geometries[i];
+    const DatabaseImage& image1 = database.images.at(geometry.image_id1);
+    const DatabaseImage& image2 = database.images.at(geometry.image_id2);
+    derived[i] = EstimateRelativePoseNormalized(
+        geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
+        normalized.at(geometry.image_id1), normalized.at(geometry.image_id2),
+        options.relative_pose);
+  });
+  for (size_t i = 0; i < geometries.size(); ++i) {
+    const TwoViewGeometry& geometry = *geometries[i];
+    const RelativePose& pose = derived[i];
+    if (!pose.success) {
+      VLOG(1) << "pair (" << geometry.image_id1 << ", " << geometry.image_id2
+              << "): " << pose.failure;
+      ++summary->num_dropped["relative pose failed"];
+      continue;
+    }
+    ImagePairGeometry pair;
+    pair.image_id1 = geometry.image_id1;
+    pair.image_id2 = geometry.image_id2;
+    pair.R = pose.R;
+    pair.t = pose.t;
+    pair.num_inliers = static_cast<int>(geometry.inlier_matches.size());
+    pair.config = geometry.config;
+    pairs->push_back(pair);
+    poses->push_back(pose);
+  }
+}
+
 }  // namespace
 
 void ViewGraphBuilderOptions::Check() const {
@@ -106,57 +259,14 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     summary->num_dropped[reason] += count;
     summary->num_pairs_read += count;
   }
-  const std::vector<int> drop_configs = options.DropConfigs();
-
   // Filters first (cheap, sequential), then the relative poses of the
   // survivors in parallel (independent per pair).
-  std::vector<const TwoViewGeometry*> candidates;
-  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
-    if (std::find(drop_configs.begin(), drop_configs.end(), geometry.config) !=
-        drop_configs.end()) {
-      ++summary->num_dropped["config " + TwoViewConfigName(geometry.config)];
-      continue;
-    }
-    if (geometry.config < 0 || geometry.config > TwoViewGeometry::MULTIPLE) {
-      ++summary->num_dropped["unknown config"];
-      continue;
-    }
-    const int num_inliers = static_cast<int>(geometry.inlier_matches.size());
-    if (num_inliers < options.min_num_inliers) {
-      ++summary->num_dropped["fewer than min_num_inliers inliers"];
-      continue;
-    }
-    if (options.min_inlier_ratio > 0) {
-      const auto it = database.num_matches.find(
-          ImagePairToPairId(geometry.image_id1, geometry.image_id2));
-      if (it != database.num_matches.end() && it->second > 0 &&
-          num_inliers < options.min_inlier_ratio * it->second) {
-        ++summary->num_dropped["inlier ratio below min_inlier_ratio"];
-        continue;
-      }
-    }
-    candidates.push_back(&geometry);
-  }
-
-  // Focal self-calibration from the fundamental matrices of the surviving
-  // pairs (F is in pixels: it does not depend on the focal guess).
+  std::vector<const TwoViewGeometry*> candidates =
+      FilterPairs(database, options, summary);
   std::map<camera_t, Camera> cameras = database.cameras;
   if (options.focal_calibration.calibrate_focal) {
-    std::vector<FocalCalibrationPair> calibration_pairs;
-    for (const TwoViewGeometry* geometry : candidates) {
-      if (geometry->config != TwoViewGeometry::UNCALIBRATED &&
-          geometry->config != TwoViewGeometry::CALIBRATED) {
-        continue;  // planar / panoramic: F is ill-defined
-      }
-      FocalCalibrationPair pair;
-      pair.camera_id1 = database.images.at(geometry->image_id1).camera_id;
-      pair.camera_id2 = database.images.at(geometry->image_id2).camera_id;
-      pair.F = geometry->F;
-      pair.weight = static_cast<double>(geometry->inlier_matches.size());
-      calibration_pairs.push_back(pair);
-    }
-    summary->focal_calibration = CalibrateFocalLengths(
-        calibration_pairs, options.focal_calibration, &cameras);
+    CalibrateFocals(database, candidates, options.focal_calibration, summary,
+                    &cameras);
   }
 
   // Cheap rejection before any pose is derived: a pair outside the largest
@@ -174,87 +284,13 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   int largest_deferred_component = 0;
   int num_deferred_components = 0;
   if (options.keep_largest_component) {
-    std::vector<std::pair<int, int>> edges;
-    edges.reserve(candidates.size());
-    for (const TwoViewGeometry* geometry : candidates) {
-      edges.emplace_back(index.at(geometry->image_id1),
-                         index.at(geometry->image_id2));
-    }
-    const std::vector<std::vector<int>> candidate_components =
-        ConnectedComponents(static_cast<int>(ids.size()), edges);
-    std::vector<char> in_largest(ids.size(), 0);
-    if (!candidate_components.empty()) {
-      for (const int i : candidate_components[0]) in_largest[i] = 1;
-    }
-    for (size_t c = 1; c < candidate_components.size(); ++c) {
-      if (candidate_components[c].size() < 2) break;  // sorted: singletons
-      ++num_deferred_components;
-      largest_deferred_component =
-          std::max(largest_deferred_component,
-                   static_cast<int>(candidate_components[c].size()));
-    }
-    std::vector<const TwoViewGeometry*> in_component;
-    for (const TwoViewGeometry* geometry : candidates) {
-      (in_largest[index.at(geometry->image_id1)] ? in_component : deferred)
-          .push_back(geometry);
-    }
-    candidates.swap(in_component);
+    DeferOutsideLargestComponent(index, ids.size(), &candidates, &deferred,
+                                 &num_deferred_components,
+                                 &largest_deferred_component);
   }
 
-  // Each image's keypoints are undistorted once (not once per pair: an
-  // image of a dense capture is in hundreds of pairs), then the relative
-  // poses are derived; both in parallel.
   std::vector<ImagePairGeometry> pairs;
   std::vector<RelativePose> poses;
-  auto derive = [&](const std::vector<const TwoViewGeometry*>& geometries) {
-    std::map<image_t, std::vector<Eigen::Vector2d>> normalized;
-    for (const TwoViewGeometry* geometry : geometries) {
-      normalized[geometry->image_id1];
-      normalized[geometry->image_id2];
-    }
-    std::vector<std::pair<const image_t, std::vector<Eigen::Vector2d>>*> slots;
-    for (auto& slot : normalized) slots.push_back(&slot);
-    ParallelFor(options.num_threads, slots.size(), [&](size_t i) {
-      const image_t image_id = slots[i]->first;
-      const Camera& camera = cameras.at(database.images.at(image_id).camera_id);
-      const FeatureKeypoints& keypoints = database.keypoints.at(image_id);
-      std::vector<Eigen::Vector2d>& points = slots[i]->second;
-      points.reserve(keypoints.size());
-      for (const auto& keypoint : keypoints) {
-        points.push_back(CameraImageToCamera(camera, keypoint.cast<double>()));
-      }
-    });
-    std::vector<RelativePose> derived(geometries.size());
-    ParallelFor(options.num_threads, geometries.size(), [&](size_t i) {
-      const TwoViewGeometry& geometry = *geometries[i];
-      const DatabaseImage& image1 = database.images.at(geometry.image_id1);
-      const DatabaseImage& image2 = database.images.at(geometry.image_id2);
-      derived[i] = EstimateRelativePoseNormalized(
-          geometry, cameras.at(image1.camera_id), cameras.at(image2.camera_id),
-          normalized.at(geometry.image_id1), normalized.at(geometry.image_id2),
-          options.relative_pose);
-    });
-    for (size_t i = 0; i < geometries.size(); ++i) {
-      const TwoViewGeometry& geometry = *geometries[i];
-      const RelativePose& pose = derived[i];
-      if (!pose.success) {
-        VLOG(1) << "pair (" << geometry.image_id1 << ", " << geometry.image_id2
-                << "): " << pose.failure;
-        ++summary->num_dropped["relative pose failed"];
-        continue;
-      }
-      ImagePairGeometry pair;
-      pair.image_id1 = geometry.image_id1;
-      pair.image_id2 = geometry.image_id2;
-      pair.R = pose.R;
-      pair.t = pose.t;
-      pair.num_inliers = static_cast<int>(geometry.inlier_matches.size());
-      pair.config = geometry.config;
-      pairs.push_back(pair);
-      poses.push_back(pose);
-    }
-  };
-
   // Connected components over the kept pairs, on image indices in image id
   // order. An image without a pair is a singleton component and is not
   // counted. Largest by images first; ties go to the component of the
@@ -268,13 +304,15 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
     }
     components = ConnectedComponents(static_cast<int>(ids.size()), edges);
   };
-  derive(candidates);
+  DeriveRelativePoses(database, options, cameras, candidates, summary, &pairs,
+                      &poses);
   find_components();
   if (!deferred.empty() &&
       (components.empty() ||
        static_cast<int>(components[0].size()) <= largest_deferred_component)) {
     // Failed poses split the largest candidate component: derive the rest.
-    derive(deferred);
+    DeriveRelativePoses(database, options, cameras, deferred, summary, &pairs,
+                        &poses);
     deferred.clear();
     num_deferred_components = 0;
     find_components();

@@ -55,6 +55,36 @@ TEST(HelpCommand, HelpMapperPrintsTheMappersHelp) {
   EXPECT_EQ(help.output, RunProgram("mapper -h").output);
 }
 
+TEST(HelpCommand, GlobalMapperTakesColmap4sFlags) {
+  const RunResult help = RunProgram("help global_mapper");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(
+      help.output.find("--GlobalMapper.num_threads: --Mapper.num_threads"),
+      std::string::npos)
+      << help.output;
+  // mapper's help lists ours only.
+  EXPECT_EQ(RunProgram("mapper -h").output.find("GlobalMapper"),
+            std::string::npos);
+  // A COLMAP 4 flag ours does not support: exit 1, named, before any work.
+  test::TempDir temp;
+  const RunResult unsupported = RunProgram(
+      "global_mapper --database_path " + temp.File("none.db") +
+      " --output_path " + temp.File("out") + " --GlobalMapper.gp_gpu_index 0");
+  EXPECT_EQ(unsupported.exit_code, 1);
+  EXPECT_NE(unsupported.output.find(
+                "ERROR: --GlobalMapper.gp_gpu_index: not supported"),
+            std::string::npos)
+      << unsupported.output;
+  // A bad value under COLMAP 4's name is named so.
+  const RunResult bad = RunProgram(
+      "global_mapper --database_path " + temp.File("none.db") +
+      " --output_path " + temp.File("out") + " --GlobalMapper.random_seed -1");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.output.find("ERROR: --GlobalMapper.random_seed: must be >= 0"),
+            std::string::npos)
+      << bad.output;
+}
+
 TEST(HelpCommand, HelpOfAnUnknownCommandFails) {
   const RunResult result = RunProgram("help no_such_command");
   EXPECT_NE(result.exit_code, 0);

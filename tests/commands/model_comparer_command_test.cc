@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <set>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -74,6 +76,42 @@ TEST(ModelComparerCommand, ModelAgainstItselfHasNoError) {
   EXPECT_LT(FigureAfter(run.output, "rotation error [deg]: median "), 1e-6);
   EXPECT_LT(FigureAfter(run.output, "centre error: median "), 1e-6);
   EXPECT_NEAR(FigureAfter(run.output, "alignment scale: "), 1.0, 1e-6);
+}
+
+TEST(ModelComparerCommand, PerImageListsEveryImageWorstFirst) {
+  COLMAP_IRAV4_REQUIRE_DATA("strecha/castle-P19");
+  const std::string scene = DataDir() + "/strecha/castle-P19";
+  test::TempDir temp;
+  const RunResult run = RunComparer("--input_path1 " + scene +
+                                        "/colmap38_incremental --gt_path " +
+                                        scene + "/gt_cameras --per_image",
+                                    temp);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const size_t header = run.output.find("per image, worst first");
+  ASSERT_NE(header, std::string::npos) << run.output;
+  std::istringstream lines(run.output.substr(header));
+  std::string line;
+  std::getline(lines, line);
+  std::set<std::string> names;
+  double previous = 180;
+  std::string first;
+  while (std::getline(lines, line)) {
+    std::istringstream fields(line);
+    std::string name;
+    double rotation_only = -1, rotation = -1, centre = -1;
+    fields >> name >> rotation_only >> rotation >> centre;
+    ASSERT_FALSE(fields.fail()) << line;
+    EXPECT_LE(rotation_only, previous) << line;
+    EXPECT_GE(rotation, 0);
+    EXPECT_GE(centre, 0);
+    previous = rotation_only;
+    if (first.empty()) first = name;
+    names.insert(name);
+  }
+  EXPECT_EQ(names.size(), 19u) << run.output;
+  // COLMAP 3.8's worst camera there: 0015, 0.64 deg off (rotation only).
+  EXPECT_EQ(first, "0015.jpg") << run.output;
+  EXPECT_NEAR(FigureAfter(run.output, "0015.jpg "), 0.64, 0.01);
 }
 
 TEST(ModelComparerCommand, NeedsExactlyOneReference) {

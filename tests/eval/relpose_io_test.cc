@@ -60,8 +60,9 @@ TEST(RelposeIo, WriteReadRoundTrip) {
   EXPECT_EQ(read[1].first, "z.jpg");
   EXPECT_LT(AngularDistanceDeg(read[0].second, rotations[0]), 1e-9);
   EXPECT_LT(AngularDistanceDeg(read[1].second, rotations[2]), 1e-9);
-  EXPECT_THROW(WriteAbsoluteRotations("/nonexistent/dir/r.txt", names,
-                                      rotations, {true, true, true}),
+  // A directory that cannot be created (a file is in the way).
+  EXPECT_THROW(WriteAbsoluteRotations(path + "/dir/r.txt", names, rotations,
+                                      {true, true, true}),
                InputError);
 }
 

@@ -90,7 +90,29 @@ def database():
     write("database_fuzzer", "one_pair", parts(*fields))
 
 
+def options():
+    # mapper: --Normalization.extent and a few others by number, values from
+    # the fuzzer's list (< 128) or from the input's bytes (>= 128).
+    write("options_fuzzer", "mapper", bytes([0, 5, 4, 9, 200]) + b"1e308\0" +
+          bytes([30, 1, 31, 2]))
+    write("options_fuzzer", "view_graph", bytes([1, 0, 1, 3, 5]))
+    write("options_fuzzer", "rotation_averager", bytes([2, 2, 3, 7, 129]) +
+          b"-3\0")
+
+
+def output_paths():
+    # Single files: db.db, link.db, dir/cameras.bin, new/new; model
+    # directories: model, dir, dangling.
+    for name, data in (("file_db", [0, 0]), ("file_link", [0, 1]),
+                       ("file_in_dir", [0, 3, 6]), ("file_new", [0, 12, 12]),
+                       ("model", [1, 4]), ("model_dir", [1, 3]),
+                       ("model_dangling", [1, 14])):
+        write("output_paths_fuzzer", name, bytes(data))
+
+
 if __name__ == "__main__":
     model_bin()
     text_readers()
     database()
+    options()
+    output_paths()

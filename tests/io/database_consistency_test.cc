@@ -4,6 +4,7 @@
 // pairs in both orders, pair ids out of range, invalid cameras, non-finite
 // keypoints) give a clear error or a warning and a correct result.
 
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -143,6 +144,67 @@ TEST(DatabaseConsistency, LiveRollbackWriterIsWaitedForThenAClearError) {
   EXPECT_TRUE(ReadDatabase(path, options).images.empty());
   EXPECT_FALSE(fs::exists(path + "-wal"));
   EXPECT_FALSE(fs::exists(path + "-shm"));
+}
+
+// Issue 28, item 14: a journal left by a killed writer is named as such,
+// with how to recover it (not "attempt to write a readonly database").
+TEST(DatabaseConsistency, KilledWritersJournalSaysHowToRecover) {
+  TempDir temp;
+  const std::string path = CopyExampleDatabase(temp);
+  const pid_t child = fork();
+  if (child == 0) {
+    SqliteWriter writer(path);
+    writer.Exec("PRAGMA journal_mode=DELETE;");
+    writer.Exec("PRAGMA cache_size=1;");
+    writer.Exec("BEGIN;");
+    writer.Exec("UPDATE keypoints SET data = data || x'00';");
+    _exit(0);  // killed before COMMIT or ROLLBACK
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(fs::exists(path + "-journal"));
+  const std::string error = ErrorOf([&] { ReadDatabase(path); });
+  EXPECT_NE(error.find(path + ": a writer that crashed or was killed left a "
+                              "journal"),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.find("readonly"), std::string::npos) << error;
+}
+
+// Issue 28, item 14: a live writer in exclusive locking mode (WAL without
+// -shm) is named; no advice to checkpoint, which cannot work meanwhile.
+TEST(DatabaseConsistency, ExclusiveWalWriterIsNamed) {
+  TempDir temp;
+  const std::string path = CopyExampleDatabase(temp);
+  {
+    // The writer below turns it into WAL mode already holding the file:
+    // its WAL index is in its memory (no -shm file).
+    SqliteWriter writer(path);
+    writer.Exec("PRAGMA journal_mode=DELETE;");
+  }
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t child = fork();
+  if (child == 0) {
+    SqliteWriter writer(path);
+    writer.Exec("PRAGMA locking_mode=EXCLUSIVE;");
+    writer.Exec("PRAGMA journal_mode=WAL;");
+    writer.Exec("UPDATE images SET name = name;");
+    (void)!write(ready[1], "x", 1);
+    pause();
+    _exit(0);
+  }
+  char byte = 0;
+  ASSERT_EQ(read(ready[0], &byte, 1), 1);
+  const std::string error = ErrorOf([&] { ReadDatabase(path); });
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  close(ready[0]);
+  close(ready[1]);
+  EXPECT_NE(error.find("held by process " + std::to_string(child)),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.find("wal_checkpoint"), std::string::npos) << error;
 }
 
 TEST(DatabaseConsistency, ReadOnlyWalDatabaseWithoutWalFileCreatesNothing) {

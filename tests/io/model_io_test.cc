@@ -474,5 +474,88 @@ TEST(ModelIO, FailedWriteLeavesNoPartialModel) {
       std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 3);
 }
 
+// Issue 28, items 7-9: no model with a NaN or inf is written or read; the
+// non-finite 2D points are removed with the tracks renumbered.
+TEST(ModelIO, NonFiniteValuesAreNeitherWrittenNorRead) {
+  TempDir temp;
+  const Reconstruction good = SyntheticModel(false);
+  ASSERT_EQ(NonFiniteValueProblem(good), "");
+  const image_t image_id = good.images.begin()->first;
+  const camera_t camera_id = good.cameras.begin()->first;
+  const point3D_t point3D_id = good.points3D.begin()->first;
+  std::vector<std::pair<std::string, Reconstruction>> bad;
+  bad.emplace_back("camera", good);
+  bad.back().second.cameras.at(camera_id).params[0] = NAN;
+  bad.emplace_back("translation", good);
+  bad.back().second.images.at(image_id).cam_from_world.translation.x() =
+      INFINITY;
+  bad.emplace_back("point2D", good);
+  bad.back().second.images.at(image_id).points2D[3].xy.y() = NAN;
+  bad.emplace_back("point3D", good);
+  bad.back().second.points3D.at(point3D_id).xyz.z() = -INFINITY;
+  for (const auto& [what, model] : bad) {
+    EXPECT_NE(NonFiniteValueProblem(model).find("not finite"),
+              std::string::npos)
+        << what;
+    for (const char* type : {"BIN", "TXT"}) {
+      const std::string path = temp.File(what + type);
+      EXPECT_THROW(WriteReconstruction(model, path, type), InputError)
+          << what << type;
+      EXPECT_FALSE(fs::exists(path + "/cameras.bin")) << what;
+      EXPECT_FALSE(fs::exists(path + "/cameras.txt")) << what;
+    }
+    // Written byte by byte as another program would: refused on reading.
+    const std::string path = temp.File(what + "_raw");
+    fs::create_directories(path);
+    WriteBytes(path + "/cameras.bin", CamerasBinaryBytes(model));
+    WriteBytes(path + "/images.bin", ImagesBinaryBytes(model));
+    WriteBytes(path + "/points3D.bin", Points3DBinaryBytes(model));
+    EXPECT_THROW(ReadReconstruction(path), InputError) << what;
+  }
+}
+
+TEST(ModelIO, RemoveNonFinitePoints2DRenumbersTracks) {
+  Reconstruction model = SyntheticModel(false);
+  // An image with observations: NaN at a free 2D point before an observed
+  // one, whose track must follow it down by one.
+  image_t image_id = 0;
+  point2D_t observed = 0;
+  for (const auto& [id, image] : model.images) {
+    for (point2D_t k = 1; k < image.points2D.size(); ++k) {
+      if (image.points2D[k].point3D_id != kInvalidPoint3DId &&
+          image.points2D[k - 1].point3D_id == kInvalidPoint3DId) {
+        image_id = id;
+        observed = k;
+        break;
+      }
+    }
+    if (image_id != 0) break;
+  }
+  ASSERT_NE(image_id, 0u);
+  Image& image = model.images.at(image_id);
+  const size_t size = image.points2D.size();
+  const point3D_t point3D_id = image.points2D[observed].point3D_id;
+  image.points2D[observed - 1].xy.x() = NAN;
+  const std::map<image_t, int> removed = RemoveNonFinitePoints2D(&model);
+  ASSERT_EQ(removed.size(), 1u);
+  EXPECT_EQ(removed.at(image_id), 1);
+  EXPECT_EQ(model.images.at(image_id).points2D.size(), size - 1);
+  EXPECT_EQ(model.images.at(image_id).points2D[observed - 1].point3D_id,
+            point3D_id);
+  bool found = false;
+  for (const TrackElement& element : model.points3D.at(point3D_id).track) {
+    if (element.image_id == image_id) {
+      EXPECT_EQ(element.point2D_idx, observed - 1);
+      found = true;
+    }
+  }
+  EXPECT_TRUE(found);
+  EXPECT_EQ(NonFiniteValueProblem(model), "");
+  // The model is consistent: it writes and reads back.
+  TempDir temp;
+  WriteReconstruction(model, temp.File("m"), "BIN");
+  ExpectIdentical(ReadReconstruction(temp.File("m")), model);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

@@ -114,8 +114,8 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   const StageScene s = MakeStageScene();
   const size_t num_pairs = s.pairs.size();
   ASSERT_GE(num_pairs, 20u);
-  GlobalMapper mapper(TestOptions(), s.database, s.database.cameras, s.images,
-                      s.pairs);
+  GlobalMapper mapper(TestOptions().ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
   EXPECT_EQ(mapper.num_component_pairs(), num_pairs);
 
   ASSERT_TRUE(mapper.RotationAveraging());
@@ -148,10 +148,11 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   ASSERT_TRUE(mapper.IterativeBundleAdjustment());
   std::vector<std::string> names;
   for (const StageReport& stage : mapper.stages()) names.push_back(stage.name);
-  EXPECT_EQ(names, (std::vector<std::string>{
-                       "rotation averaging (irav4)", "rotation filter",
-                       "tracks", "global_positioning", "bundle adjustment 1",
-                       "retriangulation", "bundle adjustment 2"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{
+                "rotation averaging (irav4)", "rotation filter", "tracks",
+                "global_positioning", "bundle adjustment 1", "retriangulation",
+                "two-view check", "bundle adjustment 2"}));
   // 0.5 px keypoint noise: mean reprojection error near 0.5 * sqrt(pi/2).
   const double error = UpdateReprojectionErrors(&mapper.reconstruction());
   EXPECT_LT(error, 0.8);
@@ -177,8 +178,8 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
 
 TEST(GlobalMapperStages, MaxNumTracksCapsTheTracksAndSaysSo) {
   const StageScene s = MakeStageScene();
-  GlobalMapper uncapped(TestOptions(), s.database, s.database.cameras, s.images,
-                        s.pairs);
+  GlobalMapper uncapped(TestOptions().ForStages(s.images.size()), s.database,
+                        s.database.cameras, s.images, s.pairs);
   ASSERT_TRUE(uncapped.RotationAveraging() && uncapped.RotationFilter() &&
               uncapped.BuildTracks());
   const size_t num_tracks = uncapped.tracks().size();
@@ -186,8 +187,8 @@ TEST(GlobalMapperStages, MaxNumTracksCapsTheTracksAndSaysSo) {
 
   GlobalMapperOptions options = TestOptions();
   options.max_num_tracks = 300;
-  GlobalMapper mapper(options, s.database, s.database.cameras, s.images,
-                      s.pairs);
+  GlobalMapper mapper(options.ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
   ASSERT_TRUE(mapper.RotationAveraging() && mapper.RotationFilter() &&
               mapper.BuildTracks());
   EXPECT_EQ(mapper.tracks().size(), 300u);
@@ -212,16 +213,16 @@ TEST(GlobalMapperStages, MaxNumTracksCapsTheTracksAndSaysSo) {
   EXPECT_LE(mapper.reconstruction().points3D.size(), 300u);
 }
 
-TEST(GlobalMapperStages, RunIsTheStagesInOrder) {
+TEST(GlobalMapperStages, SolveIsTheStagesInOrder) {
   const StageScene s = MakeStageScene();
-  GlobalMapper by_stage(TestOptions(), s.database, s.database.cameras, s.images,
-                        s.pairs);
+  GlobalMapper by_stage(TestOptions().ForStages(s.images.size()), s.database,
+                        s.database.cameras, s.images, s.pairs);
   ASSERT_TRUE(by_stage.RotationAveraging() && by_stage.RotationFilter() &&
               by_stage.BuildTracks() && by_stage.Positioning() &&
               by_stage.IterativeBundleAdjustment() && by_stage.Finalize());
-  GlobalMapper whole(TestOptions(), s.database, s.database.cameras, s.images,
-                     s.pairs);
-  ASSERT_TRUE(whole.Run());
+  GlobalMapper whole(TestOptions().ForStages(s.images.size()), s.database,
+                     s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(whole.Solve());
   ASSERT_EQ(whole.stages().size(), by_stage.stages().size());
   for (size_t k = 0; k < whole.stages().size(); ++k) {
     EXPECT_EQ(whole.stages()[k].name, by_stage.stages()[k].name);
@@ -275,12 +276,12 @@ TEST(GlobalMapperStages, SameSeedSameModelOtherSeedOtherStart) {
   EXPECT_EQ(stages.translation_averaging.random_seed, 11u);
   EXPECT_EQ(stages.triangulation.random_seed, 11u);
 
-  GlobalMapper first(options, s.database, s.database.cameras, s.images,
-                     s.pairs);
-  GlobalMapper second(options, s.database, s.database.cameras, s.images,
-                      s.pairs);
-  ASSERT_TRUE(first.Run());
-  ASSERT_TRUE(second.Run());
+  GlobalMapper first(options.ForStages(s.images.size()), s.database,
+                     s.database.cameras, s.images, s.pairs);
+  GlobalMapper second(options.ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(first.Solve());
+  ASSERT_TRUE(second.Solve());
   const Reconstruction& a = first.reconstruction();
   const Reconstruction& b = second.reconstruction();
   // The same model; in one process up to floating-point noise (Ceres orders
@@ -298,10 +299,10 @@ TEST(GlobalMapperStages, SameSeedSameModelOtherSeedOtherStart) {
   // above the 1e-9 of the same seed), as accurate.
   GlobalMapperOptions other_options = options;
   other_options.seed = 12;
-  GlobalMapper same_start(options, s.database, s.database.cameras, s.images,
-                          s.pairs);
-  GlobalMapper other_start(other_options, s.database, s.database.cameras,
-                           s.images, s.pairs);
+  GlobalMapper same_start(options.ForStages(s.images.size()), s.database,
+                          s.database.cameras, s.images, s.pairs);
+  GlobalMapper other_start(other_options.ForStages(s.images.size()), s.database,
+                           s.database.cameras, s.images, s.pairs);
   for (GlobalMapper* mapper : {&same_start, &other_start}) {
     ASSERT_TRUE(mapper->RotationAveraging() && mapper->RotationFilter() &&
                 mapper->BuildTracks() && mapper->Positioning());
@@ -320,9 +321,9 @@ TEST(GlobalMapperStages, StagesSkippedByOptionsAndFailureReason) {
   GlobalMapperOptions options = TestOptions();
   options.skip_bundle_adjustment = true;
   options.skip_normalization = true;
-  GlobalMapper mapper(options, s.database, s.database.cameras, s.images,
-                      s.pairs);
-  ASSERT_TRUE(mapper.Run());
+  GlobalMapper mapper(options.ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(mapper.Solve());
   std::vector<std::string> names;
   for (const StageReport& stage : mapper.stages()) names.push_back(stage.name);
   EXPECT_EQ(names,
@@ -333,9 +334,9 @@ TEST(GlobalMapperStages, StagesSkippedByOptionsAndFailureReason) {
   // More images needed than the component has: the rotation filter stops.
   options = TestOptions();
   options.min_model_size = static_cast<int>(s.images.size()) + 1;
-  GlobalMapper too_small(options, s.database, s.database.cameras, s.images,
-                         s.pairs);
-  EXPECT_FALSE(too_small.Run());
+  GlobalMapper too_small(options.ForStages(s.images.size()), s.database,
+                         s.database.cameras, s.images, s.pairs);
+  EXPECT_FALSE(too_small.Solve());
   EXPECT_NE(too_small.failure().find("images with consistent rotations"),
             std::string::npos)
       << too_small.failure();

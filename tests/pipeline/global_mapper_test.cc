@@ -83,6 +83,9 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
               cv::Mat(8, 8, CV_8UC3, cv::Scalar(100, 0, 0)));
   Reconstruction model;
   model.cameras[1].camera_id = 1;
+  // The images' size (another size would be another image: not used).
+  model.cameras[1].width = 8;
+  model.cameras[1].height = 8;
   const std::vector<std::string> names = {"a.png", "b.png", "missing.png"};
   for (image_t id = 1; id <= 3; ++id) {
     Image& image = model.images[id];
@@ -111,11 +114,14 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
   }
 }
 
-// Two views of the image file `name` with keypoints at `xy` (no points).
-Reconstruction TwoViewsOf(const std::string& name,
+// Two views of the image file `name` (`width` x `height`) with keypoints at
+// `xy` (no points).
+Reconstruction TwoViewsOf(const std::string& name, int width, int height,
                           const std::vector<Eigen::Vector2d>& xy) {
   Reconstruction model;
   model.cameras[1].camera_id = 1;
+  model.cameras[1].width = width;
+  model.cameras[1].height = height;
   for (image_t id = 1; id <= 2; ++id) {
     Image& view = model.images[id];
     view.image_id = id;
@@ -136,7 +142,7 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
   }
   cv::imwrite(temp.File("g.png"), image);
   Reconstruction model =
-      TwoViewsOf("g.png", {Eigen::Vector2d(5.5, 2.5),    // centre of column 5
+      TwoViewsOf("g.png", 16, 16, {Eigen::Vector2d(5.5, 2.5),    // centre of column 5
                            Eigen::Vector2d(5.0, 2.5)});  // between 4 and 5
   const point3D_t centre =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
@@ -176,7 +182,7 @@ TEST(PointColors, SampledInTheStoredPixelsWhateverTheExifOrientation) {
   // OpenCV turns it by default: the test image does carry the tag.
   ASSERT_EQ(cv::imread(temp.File("portrait.jpg")).cols, 16);
   Reconstruction model = TwoViewsOf(
-      "portrait.jpg", {Eigen::Vector2d(28.5, 8.5),    // right half: blue
+      "portrait.jpg", 32, 16, {Eigen::Vector2d(28.5, 8.5),    // right half: blue
                        Eigen::Vector2d(4.5, 12.5)});  // left half: red
   const point3D_t blue =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
@@ -208,8 +214,8 @@ TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {
               std::string::npos);
   }
   options = GlobalMapperOptions();
-  options.positioning_method = "magic";
-  EXPECT_THROW(options.Check(), InputError);
+  // An unknown method is not representable; its name is refused.
+  EXPECT_FALSE(ParseEnum("magic", &options.positioning_method));
   options = GlobalMapperOptions();
   options.rotation_filter.max_rotation_error_deg = 0;
   EXPECT_THROW(options.Check(), InputError);

@@ -5,6 +5,8 @@
 // absent. Each test prints one "CASE |" line (the table of the issue's note).
 
 #include <signal.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -24,6 +26,7 @@
 
 #include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
 #include "tests/test_utils/database_test_utils.h"
 
 namespace colmap_irav4 {
@@ -86,23 +89,32 @@ void PrintCase(const std::string& name, const std::string& says, int exit_code,
             << std::endl;
 }
 
-// A small old model at OUT/0 (one image named "old_marker.jpg") so that
-// "complete old" is recognisable.
-void WriteOldModel(const std::string& model) {
+// A small model: one 100 x 100 SIMPLE_PINHOLE camera (focal `focal`), the
+// images of `names`.
+Reconstruction SmallModel(const std::vector<std::string>& names,
+                          double focal = 100) {
   Reconstruction reconstruction;
   Camera camera;
   camera.camera_id = 1;
   camera.model_id = 0;
   camera.width = 100;
   camera.height = 100;
-  camera.params = {100, 50, 50};
+  camera.params = {focal, 50, 50};
   reconstruction.cameras[1] = camera;
-  Image image;
-  image.image_id = 1;
-  image.camera_id = 1;
-  image.name = "old_marker.jpg";
-  reconstruction.images[1] = image;
-  WriteReconstruction(reconstruction, model, "BIN");
+  for (size_t k = 0; k < names.size(); ++k) {
+    Image image;
+    image.image_id = static_cast<image_t>(k + 1);
+    image.camera_id = 1;
+    image.name = names[k];
+    reconstruction.images[image.image_id] = image;
+  }
+  return reconstruction;
+}
+
+// A small old model at OUT/0 (one image named "old_marker.jpg") so that
+// "complete old" is recognisable.
+void WriteOldModel(const std::string& model) {
+  WriteReconstruction(SmallModel({"old_marker.jpg"}), model, "BIN");
 }
 
 struct Case {
@@ -221,6 +233,7 @@ TEST(Reliability, ZeroUsablePairsSaysWhatWasDroppedAndWhy) {
 
 TEST(Reliability, NonFiniteAndOutOfImageKeypointsAreDroppedAndCounted) {
   Case c;
+  int rows5 = 0;
   {
     // Image 5: its first 60 keypoints NaN; image 6: 40 outside the image.
     sqlite3* db = nullptr;
@@ -235,6 +248,7 @@ TEST(Reliability, NonFiniteAndOutOfImageKeypointsAreDroppedAndCounted) {
       ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
       const int rows = sqlite3_column_int(stmt, 0);
       const int cols = sqlite3_column_int(stmt, 1);
+      if (image_id == 5) rows5 = rows;
       std::vector<float> data(static_cast<size_t>(rows) * cols);
       std::memcpy(data.data(), sqlite3_column_blob(stmt, 2),
                   data.size() * sizeof(float));
@@ -267,7 +281,17 @@ TEST(Reliability, NonFiniteAndOutOfImageKeypointsAreDroppedAndCounted) {
   EXPECT_NE(summary.find("\"keypoint outside the images dropped\": 40"),
             std::string::npos)
       << summary;
-  EXPECT_EQ(ReadReconstruction(c.sparse + "/0").images.size(), 11u);
+  // Issue 28, item 8: the NaN keypoints are no 2D points of the model (the
+  // reader refuses any NaN), and the summary says so.
+  const Reconstruction model = ReadReconstruction(c.sparse + "/0");
+  EXPECT_EQ(model.images.size(), 11u);
+  EXPECT_EQ(model.images.at(5).points2D.size() + 60,
+            static_cast<size_t>(rows5));
+  for (const Point2D& point2D : model.images.at(5).points2D) {
+    ASSERT_TRUE(point2D.xy.allFinite());
+  }
+  EXPECT_NE(summary.find("60 non-finite keypoints left out"), std::string::npos)
+      << summary;
   PrintCase("60 NaN keypoints (image 5), 40 outside (image 6)",
             LineWith(run.output, "database:"), run.exit_code, c.Unchanged(),
             ModelState(c.sparse + "/0", 0));
@@ -685,6 +709,356 @@ TEST(Reliability, ModelComparerCases) {
   EXPECT_EQ(run.exit_code, 1) << run.output;
   PrintCase("model_comparer: --Comparer.max_relative_error 5",
             LineWith(run.output, "ERROR"), run.exit_code, true, "n/a");
+}
+
+// Issue 28, item 1: an output path that is an input is refused before any
+// work; the input is unchanged.
+TEST(Reliability, OutputThatIsAnInputIsRefused) {
+  Case c;
+  c.Freeze();
+  const std::string db = c.database;
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"view_graph --output_path DB",
+       "view_graph --database_path " + db + " --output_path " + db},
+      {"rotation_averager --output_path DB",
+       "rotation_averager --database_path " + db + " --output_path " + db},
+      {"rotation_averager --summary_path DB",
+       "rotation_averager --database_path " + db + " --summary_path " + db},
+      {"rotation_averager --summary_path = --output_path",
+       "rotation_averager --database_path " + db + " --output_path " +
+           c.temp.File("r.txt") + " --summary_path " + c.temp.File("r.txt")},
+  };
+  for (const auto& [name, arguments] : commands) {
+    const RunResult run = RunProgram(arguments, c.temp);
+    EXPECT_EQ(run.exit_code, 1) << name << run.output;
+    EXPECT_NE(run.output.find("is the same file as"), std::string::npos)
+        << name << run.output;
+    EXPECT_TRUE(c.Unchanged()) << name;
+    PrintCase(name, LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "input unchanged");
+  }
+  // mapper with the database stored as OUT/summary.json.
+  fs::create_directories(c.sparse);
+  fs::copy_file(db, c.sparse + "/summary.json");
+  const uint64_t hash = HashFile(c.sparse + "/summary.json");
+  const RunResult run =
+      RunProgram("mapper --database_path " + c.sparse +
+                     "/summary.json --output_path " + c.sparse,
+                 c.temp);
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_EQ(HashFile(c.sparse + "/summary.json"), hash);
+  EXPECT_FALSE(fs::exists(c.sparse + "/0"));
+  PrintCase("mapper --database_path OUT/summary.json --output_path OUT",
+            LineWith(run.output, "ERROR"), run.exit_code,
+            HashFile(c.sparse + "/summary.json") == hash, "absent");
+}
+
+// Issue 28, item 2: a named pipe or a device as an output is written into,
+// never replaced by a regular file (never a real /dev entry here: a pipe,
+// /dev/fd/1 and, as root, a device node of our own in the test directory).
+TEST(Reliability, SpecialOutputFilesAreWrittenIntoNotReplaced) {
+  Case c;
+  c.Freeze();
+  const std::string fifo = c.temp.File("fifo");
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"view_graph --output_path FIFO",
+       "view_graph --database_path " + c.database + " --output_path " + fifo},
+      {"rotation_averager --output_path FIFO",
+       "rotation_averager --database_path " + c.database + " --output_path " +
+           fifo},
+      {"rotation_averager --summary_path FIFO",
+       "rotation_averager --database_path " + c.database + " --summary_path " +
+           fifo},
+  };
+  for (const auto& [name, arguments] : commands) {
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+    std::string received;
+    std::thread reader([&] { received = ReadText(fifo); });
+    const RunResult run = RunProgram(arguments, c.temp);
+    reader.join();
+    struct stat status;
+    ASSERT_EQ(lstat(fifo.c_str(), &status), 0);
+    EXPECT_TRUE(S_ISFIFO(status.st_mode)) << name;
+    EXPECT_EQ(run.exit_code, 0) << name << run.output;
+    EXPECT_FALSE(received.empty()) << name;
+    PrintCase(name, std::to_string(received.size()) + " bytes read from it",
+              run.exit_code, c.Unchanged(),
+              S_ISFIFO(status.st_mode) ? "still a pipe" : "REPLACED");
+    fs::remove(fifo);
+  }
+  // /dev/fd/1: the relative poses go to the log (stdout).
+  const RunResult run = RunProgram(
+      "view_graph --database_path " + c.database + " --output_path /dev/fd/1",
+      c.temp);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("0000.jpg 0001.jpg"), std::string::npos)
+      << run.output;
+  // A character device node of our own (root only).
+  const std::string device = c.temp.File("null_device");
+  if (mknod(device.c_str(), S_IFCHR | 0600, makedev(1, 3)) == 0) {
+    for (const std::string& arguments :
+         {"view_graph --database_path " + c.database + " --output_path " +
+              device,
+          "rotation_averager --database_path " + c.database +
+              " --summary_path " + device}) {
+      const RunResult device_run = RunProgram(arguments, c.temp);
+      struct stat status;
+      ASSERT_EQ(lstat(device.c_str(), &status), 0);
+      EXPECT_TRUE(S_ISCHR(status.st_mode)) << arguments;
+      EXPECT_EQ(device_run.exit_code, 0) << device_run.output;
+    }
+    PrintCase("view_graph / rotation_averager to a character device", "-", 0,
+              c.Unchanged(), "still a device");
+  }
+}
+
+// Issue 28, item 3: a user's file named like a model file in OUT/0 is never
+// deleted: the run refuses before any work, naming it.
+TEST(Reliability, UserFilesNamedLikeModelFilesAreNotDeleted) {
+  for (const std::string name : {"cameras.txt", "images.bin", "points3D.txt"}) {
+    Case c;
+    c.Freeze();
+    fs::create_directories(c.sparse + "/0");
+    std::ofstream(c.sparse + "/0/" + name) << "junk";
+    std::ofstream(c.sparse + "/0/notes.txt") << "mine";
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_NE(run.output.find(name), std::string::npos) << run.output;
+    EXPECT_EQ(run.output.find("view graph:"), std::string::npos) << run.output;
+    EXPECT_EQ(ReadText(c.sparse + "/0/" + name), "junk");
+    EXPECT_EQ(ReadText(c.sparse + "/0/notes.txt"), "mine");
+    PrintCase("OUT/0/" + name + " of the user's (junk)",
+              LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "user's files untouched");
+  }
+}
+
+// Issue 28, item 5: a closed log stream (`mapper 2>&1 | head`) does not
+// lose the run.
+TEST(Reliability, ClosedLogStreamDoesNotLoseTheRun) {
+  Case c;
+  c.Freeze();
+  const RunResult run = test::RunShell(
+      "bash -c '" + std::string(COLMAP_IRAV4_BINARY) +
+          " mapper --database_path " + c.database + " --output_path " +
+          c.sparse + " --Mapper.num_threads 2 2>&1 | head -n 2; exit " +
+          "${PIPESTATUS[0]}'",
+      c.temp);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_EQ(ModelState(c.sparse + "/0", 0), "complete new");
+  EXPECT_TRUE(fs::exists(c.sparse + "/summary.json"));
+  for (const auto& entry : fs::directory_iterator(c.sparse)) {
+    EXPECT_EQ(entry.path().filename().string().find(".colmap_irav4_tmp"),
+              std::string::npos);
+  }
+  PrintCase("mapper 2>&1 | head -n 2", "(log cut after 2 lines)", run.exit_code,
+            c.Unchanged(), ModelState(c.sparse + "/0", 0));
+}
+
+// Issue 28, item 6: a failed run creates no output directory.
+TEST(Reliability, FailedRunCreatesNoOutputDirectory) {
+  TempDir temp;
+  const std::string missing = temp.File("missing.db");
+  for (const std::string& arguments :
+       {"mapper --database_path " + missing + " --output_path " +
+            temp.File("new/sparse"),
+        "view_graph --database_path " + missing + " --output_path " +
+            temp.File("new/poses.txt"),
+        "rotation_averager --database_path " + missing + " --output_path " +
+            temp.File("new/r.txt") + " --summary_path " +
+            temp.File("new/s.json")}) {
+    const RunResult run = RunProgram(arguments, temp);
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_NE(run.output.find(missing), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(temp.File("new"))) << arguments;
+    PrintCase(arguments.substr(0, arguments.find(' ')) + ": missing database",
+              LineWith(run.output, "ERROR"), run.exit_code, true,
+              fs::exists(temp.File("new")) ? "directory CREATED" : "nothing");
+  }
+}
+
+// Issue 28, items 7 and 9: no model with a NaN or inf is written or read.
+TEST(Reliability, NonFiniteModelsAreNeitherWrittenNorRead) {
+  Case c;
+  c.Freeze();
+  const RunResult run = c.Map("--Normalization.extent inf");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("--Normalization.extent: must be positive and "
+                            "finite"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(c.sparse));
+  PrintCase("--Normalization.extent inf", LineWith(run.output, "ERROR"),
+            run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
+  // model_converter: a model with a NaN focal length, one with an inf point.
+  for (const std::string what : {"NaN focal length", "inf point"}) {
+    Reconstruction model = SmallModel({"1.jpg", "2.jpg"},
+                                      what == "NaN focal length" ? NAN : 100.0);
+    for (image_t id : {1, 2}) {
+      model.images[id].points2D.resize(1);
+      model.images[id].points2D[0].xy = Eigen::Vector2d(10, 10);
+    }
+    AddPoint3D(Eigen::Vector3d(what == "inf point" ? INFINITY : 0.0, 0, 5),
+               {{1, 0}, {2, 0}}, &model);
+    const std::string input = c.temp.File("bad_model");
+    fs::create_directories(input);
+    std::ofstream(input + "/cameras.bin", std::ios::binary)
+        << CamerasBinaryBytes(model);
+    std::ofstream(input + "/images.bin", std::ios::binary)
+        << ImagesBinaryBytes(model);
+    std::ofstream(input + "/points3D.bin", std::ios::binary)
+        << Points3DBinaryBytes(model);
+    const RunResult converted =
+        RunProgram("model_converter --input_path " + input + " --output_path " +
+                       c.temp.File("converted") + " --output_type TXT",
+                   c.temp);
+    EXPECT_EQ(converted.exit_code, 1) << converted.output;
+    EXPECT_NE(converted.output.find("not finite"), std::string::npos)
+        << converted.output;
+    EXPECT_FALSE(fs::exists(c.temp.File("converted")));
+    PrintCase("model_converter: " + what, LineWith(converted.output, "ERROR"),
+              converted.exit_code, true, "absent");
+  }
+}
+
+// Issue 28, item 10 and 12 (names): duplicate, NULL and NUL-holding image
+// names are errors naming the images.
+TEST(Reliability, ImageNamesMustBeUniqueNonEmptyWithoutNul) {
+  struct Variant {
+    std::string name, sql, expected;
+  };
+  const std::vector<Variant> variants = {
+      {"duplicate name (no UNIQUE constraint)",
+       "CREATE TABLE images2 AS SELECT * FROM images; DROP TABLE images; "
+       "ALTER TABLE images2 RENAME TO images; "
+       "UPDATE images SET name = '0000.jpg' WHERE image_id = 2;",
+       "images 1 and 2 have the same name '0000.jpg'"},
+      {"NULL name",
+       "CREATE TABLE images2 AS SELECT * FROM images; DROP TABLE images; "
+       "ALTER TABLE images2 RENAME TO images; "
+       "UPDATE images SET name = NULL WHERE image_id = 3;",
+       "image 3 has no name"},
+      {"NUL byte inside a name",
+       "UPDATE images SET name = CAST(X'30303030002E6A7067' AS TEXT) WHERE "
+       "image_id = 4;",
+       "image 4's name contains a NUL byte"},
+      {"camera model stored as text",
+       "UPDATE cameras SET model = 'PINHOLE' WHERE camera_id = 1;",
+       "camera 1: model is the text 'PINHOLE', not COLMAP's integer model id"},
+      {"NULL camera_id of an image",
+       "CREATE TABLE images2 AS SELECT * FROM images; DROP TABLE images; "
+       "ALTER TABLE images2 RENAME TO images; "
+       "UPDATE images SET camera_id = NULL WHERE image_id = 2;",
+       "image 2: camera_id is NULL"},
+      {"focal length 1e300", "", "focal length 1e+300 px is implausible"},
+      {"focal length 1e-300", "", "focal length 1e-300 px is implausible"},
+  };
+  for (const Variant& variant : variants) {
+    Case c;
+    {
+      SqliteWriter writer(c.database);
+      if (variant.name.rfind("focal length", 0) == 0) {
+        const double focal =
+            variant.name == "focal length 1e300" ? 1e300 : 1e-300;
+        writer.Run("UPDATE cameras SET params = ? WHERE camera_id = 1",
+                   {test::ToBlob(std::vector<double>{focal, 1536, 1024, 0})});
+      } else {
+        writer.Exec(variant.sql);
+      }
+    }
+    c.Freeze();
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1) << variant.name << run.output;
+    EXPECT_NE(run.output.find(variant.expected), std::string::npos)
+        << variant.name << run.output;
+    EXPECT_TRUE(c.Unchanged());
+    EXPECT_FALSE(fs::exists(c.sparse)) << variant.name;
+    PrintCase(variant.name, LineWith(run.output, "ERROR"), run.exit_code,
+              c.Unchanged(), ModelState(c.sparse + "/0", 0));
+  }
+}
+
+// Issue 28, items 12 and 13: an image file of another size than its camera
+// is not used for colours (a warning), a named pipe under --image_path is
+// never opened (no hang).
+TEST(Reliability, ImagesOfAnotherSizeAndPipesAreNotUsedForColours) {
+  Case c;
+  c.Freeze();
+  const std::string images = c.temp.File("images");
+  fs::create_directories(images);
+  // 0000.jpg: a 64 x 48 picture (the camera's is 3072 x 2048).
+  std::ofstream(images + "/0000.jpg", std::ios::binary)
+      << "P6\n64 48\n255\n"
+      << std::string(64 * 48 * 3, '\x7f');
+  ASSERT_EQ(mkfifo((images + "/0001.jpg").c_str(), 0600), 0);
+  const auto start = std::chrono::steady_clock::now();
+  const RunResult run =
+      c.Map("--image_path " + images + " --Mapper.num_threads 2");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_LT(seconds, 120);
+  EXPECT_NE(run.output.find("0000.jpg: the image is 64 x 48 px, its camera "
+                            "3072 x 2048 px"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("0001.jpg: not a regular file"), std::string::npos)
+      << run.output;
+  PrintCase("image of another size; a named pipe as an image",
+            LineWith(run.output, "0001.jpg: not a regular"), run.exit_code,
+            c.Unchanged(), ModelState(c.sparse + "/0", 0));
+}
+
+// Issue 28, item 14: messages that say what is wrong.
+TEST(Reliability, MessagesNameTheRealProblem) {
+  {
+    // A dangling symbolic link as the output directory.
+    Case c;
+    c.Freeze();
+    fs::create_symlink(c.temp.File("nowhere/sparse"), c.sparse);
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    EXPECT_NE(run.output.find("is a symbolic link to"), std::string::npos)
+        << run.output;
+    EXPECT_EQ(run.output.find("File exists"), std::string::npos) << run.output;
+    PrintCase("output directory: a dangling symbolic link",
+              LineWith(run.output, "ERROR"), run.exit_code, c.Unchanged(),
+              "absent");
+  }
+  {
+    // A name with a newline in an error: the error stays one line.
+    Case c;
+    {
+      SqliteWriter writer(c.database);
+      writer.Exec(
+          "UPDATE images SET name = 'a' || char(10) || 'b.jpg', "
+          "camera_id = 999 WHERE image_id = 1;");
+    }
+    c.Freeze();
+    const RunResult run = c.Map();
+    EXPECT_EQ(run.exit_code, 1) << run.output;
+    const std::string error = LineWith(run.output, "ERROR");
+    EXPECT_NE(error.find("'a\\nb.jpg' refers to camera 999"), std::string::npos)
+        << run.output;
+    PrintCase("image name with a newline in an error", error, run.exit_code,
+              c.Unchanged(), "absent");
+  }
+}
+
+// Issue 28, item 11: a track cap below what positioning needs is an error,
+// not a model with cameras hundreds of metres off.
+TEST(Reliability, TrackCapTooSmallToPositionIsAnError) {
+  Case c;
+  c.Freeze();
+  const RunResult run = c.Map("--Mapper.max_num_tracks 1");
+  EXPECT_EQ(run.exit_code, 1) << run.output;
+  EXPECT_NE(run.output.find("--Mapper.max_num_tracks: 1 leaves image"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(fs::exists(c.sparse));
+  PrintCase("--Mapper.max_num_tracks 1", LineWith(run.output, "ERROR"),
+            run.exit_code, c.Unchanged(), ModelState(c.sparse + "/0", 0));
 }
 
 }  // namespace

@@ -63,7 +63,7 @@ TEST(TranslationAveraging, ExactDirectionsGiveExactCenters) {
   // Also from a random start.
   TranslationAveragingOptions options;
   options.linear_initialization = false;
-  options.loss_function = "huber";
+  options.loss_function = LossFunctionType::kHuber;
   ASSERT_TRUE(
       RunTranslationAveraging(options, pairs, &reconstruction, &summary));
   EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth, 10.0), 1e-5);

@@ -86,7 +86,7 @@ BundleAdjustmentOptions LeastSquaresOptions() {
   BundleAdjustmentOptions options;
   options.refine_extra_params = false;
   options.max_reproj_error = 0;
-  options.loss_function = "trivial";
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
   options.solver.ceres.function_tolerance = 1e-12;
   options.solver.ceres.num_threads = 1;
   return options;
@@ -115,7 +115,7 @@ TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
   // ... and, without filtering (which depends on the path) and with least
   // squares, the same optimum as bundle adjustment started from the truth.
   BundleAdjustmentOptions exact_options = options;
-  exact_options.loss_function = "trivial";
+  exact_options.loss_function = BundleAdjustmentLoss::kTrivial;
   exact_options.max_reproj_error = 0;
   exact_options.solver.ceres.function_tolerance = 1e-12;
   Reconstruction from_perturbed = scene.truth;
@@ -198,7 +198,7 @@ TEST(BundleAdjustment, KeptProblemSolvesTheFilteredObservations) {
   Perturb(0.5, 0.05, 0.02, 1.0, 3, &reconstruction);
   const size_t num_points_before = reconstruction.points3D.size();
   BundleAdjustmentOptions options;
-  options.loss_function = "trivial";
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
   options.min_filtered_fraction = 0;
   options.solver.ceres.function_tolerance = 1e-12;
   options.solver.ceres.gradient_tolerance = 1e-14;
@@ -262,13 +262,13 @@ TEST(BundleAdjustment, ChoosesTheLinearSolverBySize) {
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
   EXPECT_EQ(ceres_options.preconditioner_type, ceres::SCHUR_JACOBI);
   // A named solver whatever the size.
-  options.linear_solver = "sparse_schur";
+  options.linear_solver = BundleAdjustmentLinearSolver::kSparseSchur;
   ChooseLinearSolver(options, 5000, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
-  options.linear_solver = "iterative_schur";
+  options.linear_solver = BundleAdjustmentLinearSolver::kIterativeSchur;
   ChooseLinearSolver(options, 10, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
-  options.linear_solver = "dense_schur";
+  options.linear_solver = BundleAdjustmentLinearSolver::kDenseSchur;
   ChooseLinearSolver(options, 5000, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
 }
@@ -406,8 +406,7 @@ TEST(BundleAdjustment, KeypointScaleWeightingIsCloserToTheTruth) {
 TEST(BundleAdjustment, OptionsCheck) {
   BundleAdjustmentOptions options;
   EXPECT_NO_THROW(options.Check());
-  options.linear_solver = "magic";
-  EXPECT_THROW(options.Check(), InputError);
+  EXPECT_FALSE(ParseEnum("magic", &options.linear_solver));
   options = BundleAdjustmentOptions();
   options.num_rounds = 0;
   EXPECT_THROW(options.Check(), InputError);

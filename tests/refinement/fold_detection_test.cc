@@ -1,6 +1,6 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 
-#include "colmap_irav4/pipeline/fold_resolution.h"
+#include "colmap_irav4/pipeline/component_mapper.h"
 
 #include <cmath>
 #include <functional>
@@ -283,32 +283,78 @@ TEST(FoldDetection, CheckNamesTheOption) {
   EXPECT_THROW(options.Check(), InputError);
 }
 
-// Stand-in stages that "map" a component by copying a given model (the truth
-// or the folded one, as `choose` says from the pairs) onto a GlobalMapper.
-ComponentStages StandInStages(
-    const std::function<
-        const Reconstruction&(const std::vector<ImagePairGeometry>&)>& choose,
-    int* num_runs) {
-  static const DatabaseContents database;
-  static const std::map<camera_t, Camera> cameras;
-  ComponentStages stages;
-  stages.position = [choose, num_runs](
-                        const std::vector<image_t>& images,
-                        const std::vector<ImagePairGeometry>& pairs,
-                        const std::string& prefix, std::string* failure) {
-    ++*num_runs;
-    auto mapper = std::make_unique<GlobalMapper>(
-        GlobalMapperOptions(), database, cameras, images, pairs, prefix);
-    mapper->reconstruction() = choose(pairs);
-    const std::set<image_t> keep(images.begin(), images.end());
-    auto& model_images = mapper->reconstruction().images;
+// The model `choose` picks from an attempt's pairs (the truth or the folded
+// one).
+typedef std::function<const Reconstruction&(
+    const std::vector<ImagePairGeometry>&)>
+    ChooseModel;
+
+// A stand-in GlobalMapper: its stages "map" the attempt's images by copying
+// the chosen model; the fold checks are GlobalMapper's own.
+class StandInMapper : public GlobalMapper {
+ public:
+  StandInMapper(const GlobalMapperOptions& options,
+                const std::vector<image_t>& images,
+                const std::vector<ImagePairGeometry>& pairs,
+                const std::string& prefix, const FoldEvidence* evidence,
+                const ChooseModel& choose)
+      : GlobalMapper(options, database_, cameras_, images, pairs, prefix,
+                     evidence),
+        choose_(choose) {}
+
+  bool RotationAveraging() override {
+    reconstruction() = choose_(pairs());
+    const std::set<image_t> keep(images().begin(), images().end());
+    auto& model_images = reconstruction().images;
     for (auto it = model_images.begin(); it != model_images.end();) {
       it = keep.count(it->first) ? std::next(it) : model_images.erase(it);
     }
-    return mapper;
-  };
-  stages.refine = [](GlobalMapper*, std::string*) { return true; };
-  return stages;
+    return true;
+  }
+  bool RotationFilter() override { return true; }
+  bool BuildTracks() override { return true; }
+  bool Positioning() override { return true; }
+  bool IterativeBundleAdjustment() override { return true; }
+  bool Finalize() override { return true; }
+
+ private:
+  static inline const DatabaseContents database_{};
+  static inline const std::map<camera_t, Camera> cameras_{};
+  ChooseModel choose_;
+};
+
+// The component mapper around the stand-in; counts the attempts.
+class StandInComponentMapper : public ComponentMapper {
+ public:
+  StandInComponentMapper(const GlobalMapperOptions& options, ChooseModel choose,
+                         int* num_runs)
+      : ComponentMapper(options, database_, cameras_),
+        choose_(std::move(choose)),
+        num_runs_(num_runs) {}
+
+ protected:
+  std::unique_ptr<GlobalMapper> NewMapper(
+      const std::vector<image_t>& images,
+      const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
+      const FoldEvidence* evidence) const override {
+    ++*num_runs_;
+    return std::make_unique<StandInMapper>(options(), images, pairs, prefix,
+                                           evidence, choose_);
+  }
+
+ private:
+  static inline const DatabaseContents database_{};
+  static inline const std::map<camera_t, Camera> cameras_{};
+  ChooseModel choose_;
+  int* num_runs_;
+};
+
+// Mapper options with min_model_size 3 and the given fold options.
+GlobalMapperOptions WithFold(const FoldResolutionOptions& fold) {
+  GlobalMapperOptions options;
+  options.min_model_size = 3;
+  options.fold = fold;
+  return options;
 }
 
 // The resolution around a stand-in mapper that folds the courtyard while
@@ -330,44 +376,44 @@ TEST(FoldResolution, ReorientsAcrossTheCutOrSplitsNeverWritesAFold) {
     pairs.push_back(pair);
   }
   int num_runs = 0;
-  const ComponentStages stages = StandInStages(
+  const ChooseModel choose =
       [&](const std::vector<ImagePairGeometry>& map_pairs)
-          -> const Reconstruction& {
-        int num_cross_false = 0;
-        for (const ImagePairGeometry& pair : map_pairs) {
-          num_cross_false +=
-              scene.false_pairs.count({pair.image_id1, pair.image_id2}) &&
-              scene.folded_images.count(pair.image_id1) !=
-                  scene.folded_images.count(pair.image_id2);
-        }
-        return num_cross_false > 5 ? scene.folded : scene.truth;
-      },
-      &num_runs);
+      -> const Reconstruction& {
+    int num_cross_false = 0;
+    for (const ImagePairGeometry& pair : map_pairs) {
+      num_cross_false +=
+          scene.false_pairs.count({pair.image_id1, pair.image_id2}) &&
+          scene.folded_images.count(pair.image_id1) !=
+              scene.folded_images.count(pair.image_id2);
+    }
+    return num_cross_false > 5 ? scene.folded : scene.truth;
+  };
   FoldResolutionOptions options;
-  std::vector<std::string> notes;
-  std::string failure;
-  const std::vector<FoldCheckedModel> models = MapComponentWithFoldCheck(
-      options, 3, scene.evidence, images, pairs, "", stages, &notes, &failure);
-  ASSERT_FALSE(models.empty()) << failure;
-  for (const FoldCheckedModel& model : models) {
-    EXPECT_TRUE(model.checked);
-    EXPECT_FALSE(model.fold.folded) << model.outcome;
-    EXPECT_EQ(model.outcome.find("folded"), std::string::npos) << model.outcome;
+  StandInComponentMapper mapper(WithFold(options), choose, &num_runs);
+  const std::vector<ComponentModel> models =
+      mapper.Map(scene.evidence, images, pairs);
+  ASSERT_FALSE(models.empty()) << mapper.failure();
+  for (const ComponentModel& model : models) {
+    EXPECT_TRUE(model.mapper->fold_checked());
+    EXPECT_FALSE(model.folded) << model.fold_outcome;
+    EXPECT_FALSE(model.mapper->fold().folded) << model.fold_outcome;
+    EXPECT_EQ(model.fold_outcome.find("folded"), std::string::npos)
+        << model.fold_outcome;
   }
   EXPECT_GE(num_runs, 2);
-  EXPECT_FALSE(notes.empty());
+  EXPECT_FALSE(mapper.notes().empty());
 
   // Without resolution the fold is reported, not hidden.
   options.resolve = false;
-  notes.clear();
-  const std::vector<FoldCheckedModel> unresolved = MapComponentWithFoldCheck(
-      options, 3, scene.evidence, images, pairs, "", stages, &notes, &failure);
+  StandInComponentMapper unresolving(WithFold(options), choose, &num_runs);
+  const std::vector<ComponentModel> unresolved =
+      unresolving.Map(scene.evidence, images, pairs);
   ASSERT_EQ(unresolved.size(), 1u);
-  EXPECT_TRUE(unresolved[0].fold.folded);
-  EXPECT_GT(unresolved[0].fold.fold_score, 0.1);
-  EXPECT_EQ(unresolved[0].outcome, "folded (not resolved)");
-  ASSERT_EQ(notes.size(), 1u);
-  EXPECT_NE(notes[0].find("folded"), std::string::npos);
+  EXPECT_TRUE(unresolved[0].folded);
+  EXPECT_GT(unresolved[0].mapper->fold().fold_score, 0.1);
+  EXPECT_EQ(unresolved[0].fold_outcome, "folded (not resolved)");
+  ASSERT_EQ(unresolving.notes().size(), 1u);
+  EXPECT_NE(unresolving.notes()[0].find("folded"), std::string::npos);
 }
 
 TEST(FoldResolution, CleanModelIsMappedOnceAndCheckedTwice) {
@@ -377,23 +423,28 @@ TEST(FoldResolution, CleanModelIsMappedOnceAndCheckedTwice) {
     images.push_back(image_id);
   }
   int num_runs = 0;
-  const ComponentStages stages = StandInStages(
+  StandInComponentMapper mapper(
+      WithFold(FoldResolutionOptions()),
       [&](const std::vector<ImagePairGeometry>&) -> const Reconstruction& {
         return scene.truth;
       },
       &num_runs);
-  std::vector<std::string> notes;
-  std::string failure;
-  const std::vector<FoldCheckedModel> models =
-      MapComponentWithFoldCheck(FoldResolutionOptions(), 3, scene.evidence,
-                                images, {}, "", stages, &notes, &failure);
+  const std::vector<ComponentModel> models =
+      mapper.Map(scene.evidence, images, {});
   ASSERT_EQ(models.size(), 1u);
   EXPECT_EQ(num_runs, 1);
-  EXPECT_EQ(models[0].outcome, "clean");
-  EXPECT_LT(models[0].fold.fold_score, 0.02);
-  // After positioning and after refinement.
-  EXPECT_EQ(models[0].stages.size(), 2u);
-  EXPECT_TRUE(notes.empty());
+  EXPECT_EQ(models[0].fold_outcome, "clean");
+  EXPECT_LT(models[0].mapper->fold().fold_score, 0.02);
+  // After positioning and after refinement (then the rigidity check), in the
+  // order they ran.
+  std::vector<std::string> names;
+  for (const StageReport& stage : models[0].mapper->stages()) {
+    names.push_back(stage.name);
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"fold check (after positioning)",
+                                             "fold check (after refinement)",
+                                             "rigidity check"}));
+  EXPECT_TRUE(mapper.notes().empty());
 }
 
 }  // namespace

@@ -152,7 +152,7 @@ TEST(TransferPoses, NeedsThreeCommonImages) {
 TEST(TransferPoses, BundleAdjustmentEndsAtTheSameOptimumFromOtherPoses) {
   const SyntheticScene scene = Scene(1.0);
   BundleAdjustmentOptions options;
-  options.loss_function = "trivial";
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
   options.num_rounds = 1;
   options.solver.ceres.function_tolerance = 0;
   options.solver.ceres.parameter_tolerance = 0;

@@ -79,7 +79,7 @@ TEST(L1Irls, NoiseFreeExactRecovery) {
   for (const std::string solver : {"cholesky", "cg"}) {
     const Scene scene = MakeScene(80, 300, 0.0, 0.0, 2);
     L1IrlsOptions options;
-    options.linear_solver = solver;
+    ASSERT_TRUE(ParseEnum(solver, &options.linear_solver)) << solver;
     const RotationAveragingResult result =
         L1IrlsAverager(options).Estimate(scene.graph);
     ASSERT_EQ(result.NumEstimated(), 80);
@@ -142,8 +142,8 @@ TEST(L1Irls, MadridStructureWithNoiseAndOutliers) {
 TEST(L1Irls, CholeskyAndCgAgree) {
   const Scene scene = MakeScene(100, 1000, 5.0, 0.2, 4);
   L1IrlsOptions cholesky_options, cg_options;
-  cholesky_options.linear_solver = "cholesky";
-  cg_options.linear_solver = "cg";
+  cholesky_options.linear_solver = L1IrlsLinearSolver::kCholesky;
+  cg_options.linear_solver = L1IrlsLinearSolver::kCg;
   const RotationAveragingResult a =
       L1IrlsAverager(cholesky_options).Estimate(scene.graph);
   const RotationAveragingResult b =
@@ -156,8 +156,7 @@ TEST(L1Irls, CholeskyAndCgAgree) {
 TEST(L1Irls, OptionsCheck) {
   L1IrlsOptions options;
   EXPECT_NO_THROW(options.Check());
-  options.linear_solver = "qr";
-  EXPECT_THROW(options.Check(), InputError);
+  EXPECT_FALSE(ParseEnum("qr", &options.linear_solver));
   options = L1IrlsOptions();
   options.gm_sigma_deg = 0;
   EXPECT_THROW(options.Check(), InputError);

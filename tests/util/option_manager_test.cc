@@ -1,5 +1,9 @@
 #include "colmap_irav4/util/option_manager.h"
 
+#include <sstream>
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/util/error.h"
@@ -33,6 +37,28 @@ TEST(OptionManager, ParsesDottedOptions) {
   EXPECT_TRUE(options.IsSet("Mapper.count"));
 }
 
+TEST(OptionManager, WritesTheCurrentValuesAsProjectIni) {
+  std::string path = "a.db";
+  double theta = 0.1;
+  int count = 5;
+  bool flag = true;
+  OptionManager options("test");
+  options.Add("Mapper.count", &count, "count");
+  options.AddRequired("database_path", &path, "db");
+  options.Add("RotationAveraging.theta_deg", &theta, "theta");
+  options.Add("Mapper.flag", &flag, "flag");
+  count = 7;
+  theta = 1.0 / 3.0;
+  std::ostringstream ini;
+  options.Write(ini);
+  // Unsectioned first, then each section once in registration order; the
+  // values as they are now, doubles exactly.
+  EXPECT_EQ(ini.str(),
+            "database_path=a.db\n[Mapper]\ncount=7\nflag=1\n"
+            "[RotationAveraging]\ntheta_deg=0.3333333333333333\n");
+  EXPECT_EQ(std::stod("0.3333333333333333"), theta);
+}
+
 TEST(OptionManager, RejectsBadInput) {
   std::string path;
   int count = 5;
@@ -46,6 +72,13 @@ TEST(OptionManager, RejectsBadInput) {
       Parse(&options, {"test", "--database_path", "a", "--count", "7x"}),
       InputError);
   EXPECT_THROW(Parse(&options, {"test", "--database_path"}), InputError);
+  // A required path given as '' (issue 28: an unset shell variable).
+  try {
+    Parse(&options, {"test", "--database_path", ""});
+    ADD_FAILURE() << "an empty required path was accepted";
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what()), "--database_path: is empty");
+  }
   EXPECT_FALSE(Parse(&options, {"test", "-h"}));
 }
 

@@ -1,0 +1,479 @@
+#include "colmap_irav4/pipeline/component_mapper.h"
+
+#include <algorithm>
+#include <map>
+#include <utility>
+
+#include <glog/logging.h>
+
+#include "colmap_irav4/geometry/rotation.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// Whether the model's rotations contradict the pair's measured rotation
+// (false when an image is not in the model).
+bool ContradictedByModel(const ImagePairGeometry& pair,
+                         const Reconstruction& reconstruction,
+                         double max_rotation_error_deg) {
+  const auto image1 = reconstruction.images.find(pair.image_id1);
+  const auto image2 = reconstruction.images.find(pair.image_id2);
+  if (image1 == reconstruction.images.end() ||
+      image2 == reconstruction.images.end()) {
+    return false;
+  }
+  const Eigen::Matrix3d R1 =
+      image1->second.cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Matrix3d R2 =
+      image2->second.cam_from_world.rotation.toRotationMatrix();
+  return RelativeRotationErrorDeg(pair, R1, R2) > max_rotation_error_deg;
+}
+
+}  // namespace
+
+FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
+                               const std::vector<ImagePairGeometry>& pairs,
+                               const std::set<image_t>& images) {
+  FoldEvidence evidence;
+  std::map<image_pair_t, PairEvidence> by_id;
+  auto entry = [&](image_t a, image_t b) -> PairEvidence& {
+    PairEvidence& pair = by_id[ImagePairToPairId(a, b)];
+    if (pair.image_id1 == kInvalidImageId) {
+      pair.image_id1 = std::min(a, b);
+      pair.image_id2 = std::max(a, b);
+    }
+    return pair;
+  };
+  for (const auto& [pair_id, num_matches] : database.num_matches) {
+    const auto [a, b] = PairIdToImagePair(pair_id);
+    if (!images.count(a) || !images.count(b)) continue;
+    entry(a, b).num_matches = num_matches;
+  }
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    if (!images.count(geometry.image_id1) ||
+        !images.count(geometry.image_id2)) {
+      continue;
+    }
+    PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.verified = true;
+    // Failed verifications are stored with no inliers (config UNDEFINED).
+    pair.num_inliers = geometry.config == TwoViewGeometry::UNDEFINED
+                           ? 0
+                           : static_cast<int>(geometry.inlier_matches.size());
+  }
+  for (const ImagePairGeometry& geometry : pairs) {
+    if (!images.count(geometry.image_id1) ||
+        !images.count(geometry.image_id2)) {
+      continue;
+    }
+    PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.verified = true;
+    pair.has_rotation = true;
+    // Oriented image_id1 -> image_id2 of the evidence (smaller id first).
+    pair.R = geometry.image_id1 == pair.image_id1
+                 ? geometry.R
+                 : Eigen::Matrix3d(geometry.R.transpose());
+    pair.num_inliers = std::max(pair.num_inliers, geometry.num_inliers);
+  }
+  for (auto& [pair_id, pair] : by_id) evidence.pairs.push_back(pair);
+  // COLMAP's matchers record every pair they try, failures included (a
+  // matches row with 0 rows, a two_view_geometries row of config UNDEFINED),
+  // so an absent pair was not tried. A database that records no failure at
+  // all (raw matches deleted, or written by a tool that keeps only the
+  // matched pairs) cannot say: exhaustive matching is assumed.
+  bool records_failures = false;
+  for (const auto& [pair_id, num_matches] : database.num_matches) {
+    if (num_matches == 0) records_failures = true;
+  }
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    if (geometry.config == TwoViewGeometry::UNDEFINED ||
+        geometry.inlier_matches.empty()) {
+      records_failures = true;
+    }
+  }
+  evidence.absent_pairs_were_tried = !records_failures;
+  return evidence;
+}
+
+ComponentMapper::ComponentMapper(const GlobalMapperOptions& options,
+                                 const DatabaseContents& database,
+                                 const std::map<camera_t, Camera>& cameras,
+                                 std::string log_prefix)
+    : options_(options),
+      database_(database),
+      cameras_(cameras),
+      prefix_(std::move(log_prefix)) {}
+
+std::unique_ptr<GlobalMapper> ComponentMapper::NewMapper(
+    const std::vector<image_t>& images,
+    const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
+    const FoldEvidence* evidence) const {
+  return std::make_unique<GlobalMapper>(options_, database_, cameras_, images,
+                                        pairs, prefix, evidence);
+}
+
+std::unique_ptr<GlobalMapper> ComponentMapper::Attempt(
+    const std::vector<image_t>& images,
+    const std::vector<ImagePairGeometry>& pairs, const std::string& prefix) {
+  std::unique_ptr<GlobalMapper> mapper =
+      NewMapper(images, pairs, prefix, evidence_);
+  if (!mapper->Solve(/*stop_if_folded=*/options_.fold.resolve)) {
+    failure_ = mapper->failure();
+    return nullptr;
+  }
+  return mapper;
+}
+
+bool ComponentMapper::Finish(std::unique_ptr<GlobalMapper> mapper,
+                             const std::string& outcome, bool folded) {
+  if (!mapper->Solve()) {
+    failure_ = mapper->failure();
+    return false;
+  }
+  ComponentModel model;
+  model.folded = folded || mapper->fold().folded;
+  if (!outcome.empty()) {
+    model.fold_outcome = outcome;
+  } else if (mapper->fold_checked()) {
+    model.fold_outcome = mapper->fold().folded ? "folded" : "clean";
+  }
+  model.mapper = std::move(mapper);
+  models_.push_back(std::move(model));
+  return true;
+}
+
+bool ComponentMapper::KeepsMost(size_t num_images,
+                                size_t num_reference_images) {
+  return num_images * 4 >= num_reference_images * 3;
+}
+
+bool ComponentMapper::Accepted(GlobalMapper* mapper) {
+  return !mapper->fold().folded && mapper->Solve() && !mapper->fold().folded &&
+         KeepsMost(mapper->reconstruction().images.size(), num_first_images_);
+}
+
+std::vector<ComponentModel> ComponentMapper::Map(
+    const FoldEvidence& evidence, const std::vector<image_t>& images,
+    const std::vector<ImagePairGeometry>& pairs) {
+  evidence_ = &evidence;
+  models_.clear();
+  notes_.clear();
+  failure_.clear();
+  num_removed_ = 0;
+  std::unique_ptr<GlobalMapper> first = Attempt(images, pairs, prefix_);
+  if (first == nullptr) return {};
+  if (!first->fold().folded) {
+    Finish(std::move(first), "");
+  } else if (!options_.fold.resolve) {
+    LOG(WARNING) << prefix_ << "the model of " << images.size()
+                 << " images looks FOLDED (symmetric scene: some cameras "
+                    "may sit at their mirrored twin's place): "
+                 << first->fold().Describe();
+    notes_.push_back(prefix_ + "model looks folded (fold score " +
+                     std::to_string(first->fold().fold_score) +
+                     "); not resolved (--Fold.resolve 0)");
+    Finish(std::move(first), "folded (not resolved)", /*folded=*/true);
+  } else {
+    LOG(WARNING) << prefix_ << "the model of " << images.size()
+                 << " images looks FOLDED (symmetric scene: some cameras may "
+                    "sit at their mirrored twin's place), resolving: "
+                 << first->fold().Describe();
+    num_first_images_ = first->reconstruction().images.size();
+    current_pairs_ = pairs;
+    best_ = std::move(first);
+    if (!ReorientAcrossCut() && !RemoveSuspectPairs() && !SplitAtCut()) {
+      WriteFolded();
+    }
+    best_.reset();
+  }
+  std::vector<ComponentModel> models;
+  for (ComponentModel& model : models_) {
+    for (ComponentModel& part : SplitIntoRigidParts(std::move(model))) {
+      models.push_back(std::move(part));
+    }
+  }
+  models_.clear();
+  return models;
+}
+
+bool ComponentMapper::ReorientAcrossCut() {
+  // The images on one side of the weakest cut sit at their twins' place:
+  // across the cut, the pairs the folded model agrees with are those that
+  // folded it, and those it contradicts are the true ones. Keep only the
+  // latter across the cut and map again. A cut placed from a model folded
+  // in several places re-orients only part of it: while the re-oriented
+  // model is better supported (lower fold score, no fewer images), cut it
+  // again (up to 1 + max_iterations rounds).
+  const FoldResolutionOptions& options = options_.fold;
+  for (int round = 0; round <= options.max_iterations; ++round) {
+    const Reconstruction& model = best_->reconstruction();
+    const auto [side1, side2] =
+        FoldCut(options.detection, model, *evidence_, best_->fold());
+    if (side2.empty()) break;
+    const std::set<image_t> in_side1(side1.begin(), side1.end());
+    const std::set<image_t> in_side2(side2.begin(), side2.end());
+    std::vector<ImagePairGeometry> reoriented;
+    for (const ImagePairGeometry& pair : current_pairs_) {
+      const bool cross =
+          (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
+          (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
+      if (!cross ||
+          ContradictedByModel(pair, model,
+                              options.detection.max_rotation_error_deg)) {
+        reoriented.push_back(pair);
+      }
+    }
+    const size_t num_dropped = current_pairs_.size() - reoriented.size();
+    LOG(INFO) << prefix_ << "fold resolution (cut " << round + 1
+              << "): cut into " << side1.size() << " and " << side2.size()
+              << " images; " << num_dropped
+              << " pairs across it agree with the fold and are removed, "
+                 "mapping again";
+    const std::vector<std::vector<image_t>> components =
+        PairComponents(reoriented);
+    if (num_dropped == 0 || components.empty() ||
+        static_cast<int>(components[0].size()) < options_.min_model_size) {
+      break;
+    }
+    std::vector<ImagePairGeometry> component_pairs = PairsWithin(
+        reoriented,
+        std::set<image_t>(components[0].begin(), components[0].end()));
+    std::unique_ptr<GlobalMapper> attempt =
+        Attempt(components[0], component_pairs, prefix_);
+    if (attempt == nullptr) break;
+    if (Accepted(attempt.get())) {
+      size_t num_removed = num_removed_ + num_dropped;
+      if (!attempt->fold().weak_alone_images.empty() &&
+          !ReorientImagesTurnedAlone(&attempt, component_pairs, &num_removed)) {
+        return true;
+      }
+      LOG(INFO) << prefix_ << "fold resolved: " << attempt->fold().Describe();
+      notes_.push_back(prefix_ + "fold resolved by removing " +
+                       std::to_string(num_removed) +
+                       " pairs that agree with it across " +
+                       std::to_string(round + 1) + " cut(s)");
+      Finish(std::move(attempt), "resolved (" + std::to_string(num_removed) +
+                                     " pairs across the fold removed)");
+      return true;
+    }
+    LOG(INFO) << prefix_ << "re-oriented model not accepted: "
+              << attempt->fold().Describe();
+    if (!(attempt->fold().fold_score < best_->fold().fold_score) ||
+        !KeepsMost(attempt->reconstruction().images.size(),
+                   best_->reconstruction().images.size())) {
+      break;
+    }
+    best_ = std::move(attempt);
+    current_pairs_ = std::move(component_pairs);
+    num_removed_ += num_dropped;
+  }
+  return false;
+}
+
+bool ComponentMapper::ReorientImagesTurnedAlone(
+    std::unique_ptr<GlobalMapper>* attempt,
+    const std::vector<ImagePairGeometry>& pairs, size_t* num_removed) {
+  // Cameras turned alone among cameras the right way round are no cut;
+  // re-orient them once (their pairs the model agrees with removed), else
+  // write the model flagged folded.
+  const std::vector<image_t> alone_images =
+      (*attempt)->fold().weak_alone_images;
+  const Reconstruction& resolved = (*attempt)->reconstruction();
+  const std::set<image_t> alone(alone_images.begin(), alone_images.end());
+  std::vector<ImagePairGeometry> kept;
+  for (const ImagePairGeometry& pair : pairs) {
+    if ((!alone.count(pair.image_id1) && !alone.count(pair.image_id2)) ||
+        ContradictedByModel(pair, resolved,
+                            options_.fold.detection.max_rotation_error_deg)) {
+      kept.push_back(pair);
+    }
+  }
+  const size_t num_alone_dropped = pairs.size() - kept.size();
+  LOG(INFO) << prefix_ << alone.size()
+            << " images may be turned alone: " << num_alone_dropped
+            << " pairs at them agree with the model and are removed, "
+               "mapping again";
+  const std::vector<std::vector<image_t>> kept_components =
+      PairComponents(kept);
+  if (num_alone_dropped > 0 && !kept_components.empty() &&
+      KeepsMost(kept_components[0].size(), num_first_images_)) {
+    std::unique_ptr<GlobalMapper> again =
+        Attempt(kept_components[0],
+                PairsWithin(kept, std::set<image_t>(kept_components[0].begin(),
+                                                    kept_components[0].end())),
+                prefix_);
+    if (again != nullptr && Accepted(again.get()) &&
+        again->fold().weak_alone_images.empty()) {
+      *attempt = std::move(again);
+      *num_removed += num_alone_dropped;
+      return true;
+    }
+  }
+  LOG(WARNING) << prefix_ << "fold resolved but " << alone.size()
+               << " images may still be turned alone: the model is "
+                  "written flagged FOLDED: "
+               << (*attempt)->fold().Describe();
+  notes_.push_back(prefix_ + std::to_string(alone.size()) +
+                   " images may be turned alone after the fold resolution");
+  Finish(std::move(*attempt),
+         "folded (" + std::to_string(alone.size()) +
+             " images may be turned alone)",
+         /*folded=*/true);
+  return false;
+}
+
+bool ComponentMapper::RemoveSuspectPairs() {
+  for (int iteration = 0; iteration < options_.fold.max_iterations;
+       ++iteration) {
+    const std::set<std::pair<image_t, image_t>> suspects(
+        best_->fold().suspect_pairs.begin(), best_->fold().suspect_pairs.end());
+    const size_t before = current_pairs_.size();
+    current_pairs_.erase(
+        std::remove_if(current_pairs_.begin(), current_pairs_.end(),
+                       [&](const ImagePairGeometry& pair) {
+                         return suspects.count(
+                             {std::min(pair.image_id1, pair.image_id2),
+                              std::max(pair.image_id1, pair.image_id2)});
+                       }),
+        current_pairs_.end());
+    if (current_pairs_.size() == before) break;
+    num_removed_ += before - current_pairs_.size();
+    LOG(INFO) << prefix_ << "fold resolution " << iteration + 1 << ": "
+              << before - current_pairs_.size()
+              << " suspect pairs removed, mapping again";
+    const std::vector<std::vector<image_t>> components =
+        PairComponents(current_pairs_);
+    if (components.empty() ||
+        static_cast<int>(components[0].size()) < options_.min_model_size) {
+      break;
+    }
+    std::unique_ptr<GlobalMapper> attempt = Attempt(
+        components[0],
+        PairsWithin(current_pairs_, std::set<image_t>(components[0].begin(),
+                                                      components[0].end())),
+        prefix_);
+    if (attempt == nullptr) break;
+    // Only a better-supported model replaces the previous one.
+    const bool better = attempt->fold().fold_score < best_->fold().fold_score &&
+                        KeepsMost(attempt->reconstruction().images.size(),
+                                  best_->reconstruction().images.size());
+    if (!better) break;
+    best_ = std::move(attempt);
+    if (!best_->fold().folded && best_->Solve() && !best_->fold().folded) {
+      LOG(INFO) << prefix_ << "fold resolved by removing " << num_removed_
+                << " pairs: " << best_->fold().Describe();
+      notes_.push_back(prefix_ + "fold resolved by removing " +
+                       std::to_string(num_removed_) + " suspect pairs");
+      Finish(std::move(best_),
+             "resolved (" + std::to_string(num_removed_) + " pairs removed)");
+      return true;
+    }
+  }
+  return false;
+}
+
+bool ComponentMapper::SplitAtCut() {
+  const auto [side1, side2] =
+      FoldCut(options_.fold.detection, best_->reconstruction(), *evidence_,
+              best_->fold());
+  if (side2.empty()) return false;
+  LOG(WARNING) << prefix_ << "fold not resolved: splitting into "
+               << side1.size() << " and " << side2.size() << " images";
+  const std::string split_prefix = prefix_ + "[split] ";
+  for (const std::vector<image_t>* side : {&side1, &side2}) {
+    const std::vector<ImagePairGeometry> side_pairs = PairsWithin(
+        current_pairs_, std::set<image_t>(side->begin(), side->end()));
+    for (const std::vector<image_t>& component : PairComponents(side_pairs)) {
+      if (static_cast<int>(component.size()) < options_.min_model_size) break;
+      std::unique_ptr<GlobalMapper> attempt = Attempt(
+          component,
+          PairsWithin(side_pairs,
+                      std::set<image_t>(component.begin(), component.end())),
+          split_prefix);
+      if (attempt == nullptr || !attempt->Solve()) continue;
+      const bool folded = attempt->fold().folded;
+      if (folded) {
+        LOG(WARNING) << split_prefix << "part of " << component.size()
+                     << " images still looks folded: "
+                     << attempt->fold().Describe();
+      }
+      Finish(std::move(attempt),
+             std::string("split") + (folded ? " (still folded)" : ""));
+    }
+  }
+  if (models_.empty()) return false;
+  notes_.push_back(prefix_ + "folded model split into " +
+                   std::to_string(models_.size()) + " models");
+  return true;
+}
+
+void ComponentMapper::WriteFolded() {
+  // Flagged after positioning from weak pairs alone and nothing removed: that
+  // check sees only the tracks selected for positioning; the check after
+  // refinement (every track, adjusted) decides.
+  if (num_removed_ == 0 && !best_->fold().missing_fold && best_->Solve() &&
+      !best_->fold().folded) {
+    LOG(INFO) << prefix_
+              << "no fold after refinement (the check after positioning "
+                 "flagged weak pairs alone): "
+              << best_->fold().Describe();
+    notes_.push_back(prefix_ +
+                     "weak pairs flagged after positioning, clean after "
+                     "refinement");
+    Finish(std::move(best_), "clean after refinement");
+    return;
+  }
+  LOG(WARNING) << prefix_
+               << "fold not resolved and no cut found: the model is written "
+                  "but is likely FOLDED: "
+               << best_->fold().Describe();
+  notes_.push_back(prefix_ + "model likely folded (fold score " +
+                   std::to_string(best_->fold().fold_score) +
+                   "), not resolved");
+  Finish(std::move(best_), "folded (unresolved)", /*folded=*/true);
+}
+
+std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
+    ComponentModel model) {
+  // The model as it is when it is one rigid piece, else its rigid parts of
+  // min_model_size images or more, each as a model of its own, with a
+  // warning: never one model whose parts sit at an arbitrary relative offset
+  // or scale.
+  const ModelRigidity rigidity = model.mapper->CheckRigidity();
+  std::vector<ComponentModel> parts;
+  if (rigidity.num_large_blocks <= 1) {
+    parts.push_back(std::move(model));
+    return parts;
+  }
+  std::string sizes;
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < options_.min_model_size) break;
+    sizes += (sizes.empty() ? "" : ", ") + std::to_string(block.size());
+  }
+  const std::string message =
+      "the model of " +
+      std::to_string(model.mapper->reconstruction().images.size()) +
+      " images is not one rigid piece: its parts of " + sizes +
+      " images are joined through single images only (fewer than " +
+      std::to_string(ModelRigidityOptions().min_shared_points) +
+      " common points otherwise), so their relative position and scale are "
+      "not determined; writing the parts as separate models";
+  LOG(WARNING) << prefix_ << message;
+  notes_.push_back(prefix_ + message);
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < options_.min_model_size) break;
+    ComponentModel part;
+    part.mapper = std::make_unique<GlobalMapper>(*model.mapper);
+    part.mapper->RestrictToImages(
+        std::set<image_t>(block.begin(), block.end()));
+    part.folded = model.folded;
+    part.fold_outcome =
+        model.fold_outcome.empty() || model.fold_outcome == "clean"
+            ? "split (not rigid)"
+            : model.fold_outcome + ", split (not rigid)";
+    parts.push_back(std::move(part));
+  }
+  return parts;
+}
+
+}  // namespace colmap_irav4

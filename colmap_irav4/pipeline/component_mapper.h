@@ -1,0 +1,127 @@
+#pragma once
+
+// The mapping of one connected component with its fold check and
+// resolution: map (GlobalMapper::Solve, whose fold checks test the model,
+// refinement/fold_detection.h); if folded, re-orient the images across the
+// weakest cut, else remove the suspect pairs, and map again (rotation
+// averaging, positioning and refinement redone on what remains); where that
+// does not resolve it, split the component at the cut into separate models
+// rather than write a folded one; where no cut is found, write the model
+// with a warning (never silently). Every model is then written as its rigid
+// parts (refinement/model_rigidity.h).
+
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "colmap_irav4/io/database.h"
+#include "colmap_irav4/pipeline/global_mapper.h"
+#include "colmap_irav4/refinement/fold_detection.h"
+#include "colmap_irav4/view_graph/view_graph.h"
+
+namespace colmap_irav4 {
+
+// The database's evidence about the pairs of `images`: every verified
+// geometry (with its inlier count), every pair the raw matches table records
+// as tried, and the view graph's measured rotations.
+FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
+                               const std::vector<ImagePairGeometry>& pairs,
+                               const std::set<image_t>& images);
+
+// One model of a component.
+struct ComponentModel {
+  std::unique_ptr<GlobalMapper> mapper;  // solved (refined)
+  // Written flagged folded (the fold check's last report may say otherwise:
+  // a model written as folded stays flagged).
+  bool folded = false;
+  // "clean", "resolved (...)", "split", "folded (...)"; empty: not checked.
+  std::string fold_outcome;
+};
+
+class ComponentMapper {
+ public:
+  // `options`: with the mapper-wide settings applied (ForStages), copied so a
+  // temporary may be passed; `database` and `cameras` (the view graph's) must
+  // outlive the mapper. `log_prefix`
+  // starts every log line and note (e.g. "[component 1] ").
+  ComponentMapper(const GlobalMapperOptions& options,
+                  const DatabaseContents& database,
+                  const std::map<camera_t, Camera>& cameras,
+                  std::string log_prefix = "");
+  virtual ~ComponentMapper() = default;
+
+  // Maps the component (`images`, `pairs`; `evidence` about its pairs, see
+  // BuildFoldEvidence) into its models. Empty when none results, with the
+  // reason in failure(). Notes for summary.json go to notes().
+  std::vector<ComponentModel> Map(const FoldEvidence& evidence,
+                                  const std::vector<image_t>& images,
+                                  const std::vector<ImagePairGeometry>& pairs);
+
+  const std::vector<std::string>& notes() const { return notes_; }
+  const std::string& failure() const { return failure_; }
+
+ protected:
+  // The mapper of one attempt (the test seam: tests return a stand-in whose
+  // stages copy a given model).
+  virtual std::unique_ptr<GlobalMapper> NewMapper(
+      const std::vector<image_t>& images,
+      const std::vector<ImagePairGeometry>& pairs, const std::string& prefix,
+      const FoldEvidence* evidence) const;
+  const GlobalMapperOptions& options() const { return options_; }
+
+ private:
+  // A solved attempt on (images, pairs): positioned and fold-checked, and
+  // refined unless a fold is to be resolved; null when it gave no model
+  // (failure_ says why).
+  std::unique_ptr<GlobalMapper> Attempt(
+      const std::vector<image_t>& images,
+      const std::vector<ImagePairGeometry>& pairs, const std::string& prefix);
+  // Refines the attempt if not yet done and adds it to models_ with
+  // `outcome` (empty: the fold check's verdict), flagged folded if
+  // `folded`. False when the refinement gave up.
+  bool Finish(std::unique_ptr<GlobalMapper> mapper, const std::string& outcome,
+              bool folded = false);
+  // Whether a re-mapped attempt is taken: not folded after positioning nor
+  // after refinement, and keeping most of the first model's images.
+  bool Accepted(GlobalMapper* mapper);
+  // Whether a model of `num_images` keeps at least 3/4 of `reference`'s.
+  static bool KeepsMost(size_t num_images, size_t num_reference_images);
+
+  // The resolution's steps, in order; each returns true when it wrote the
+  // component's models (to models_).
+  // 1. Re-orientation across the weakest cut: the pairs across it that the
+  // folded model agrees with are removed, and the component mapped again.
+  bool ReorientAcrossCut();
+  // ... and cameras turned alone among cameras the right way round, once.
+  bool ReorientImagesTurnedAlone(std::unique_ptr<GlobalMapper>* attempt,
+                                 const std::vector<ImagePairGeometry>& pairs,
+                                 size_t* num_removed);
+  // 2. Removal of the suspect pairs, and the component mapped again.
+  bool RemoveSuspectPairs();
+  // 3. Split at the weakest cut: separate models rather than a folded one.
+  bool SplitAtCut();
+  // 4. Otherwise: the best model, written flagged folded.
+  void WriteFolded();
+
+  // Writes a model that is not one rigid piece as its rigid parts.
+  std::vector<ComponentModel> SplitIntoRigidParts(ComponentModel model);
+
+  const GlobalMapperOptions options_;
+  const DatabaseContents& database_;
+  const std::map<camera_t, Camera>& cameras_;
+  const std::string prefix_;
+
+  // The state of one Map().
+  const FoldEvidence* evidence_ = nullptr;
+  size_t num_first_images_ = 0;  // of the first (folded) model
+  std::vector<ImagePairGeometry> current_pairs_;
+  std::unique_ptr<GlobalMapper> best_;  // the best-supported model so far
+  size_t num_removed_ = 0;              // pairs removed so far
+  std::vector<ComponentModel> models_;
+  std::vector<std::string> notes_;
+  std::string failure_;
+};
+
+}  // namespace colmap_irav4

@@ -96,6 +96,9 @@ constexpr double kAngleBinDeg = 5.0;
 constexpr int kNumAngleBins = 6;
 constexpr int kMinBinPairs = 10;
 constexpr int kMinImagePairs = 3;
+// The fewest strong pairs that set an image's effect above its upper
+// quartile (FitPairRates).
+constexpr int kMinStrongPairs = 2;
 
 int AngleBin(double angle_deg) {
   return std::clamp(static_cast<int>(angle_deg / kAngleBinDeg), 0,
@@ -126,7 +129,8 @@ struct RateModel {
 // so that an image with too few pairs for its own is judged as a typical
 // one; bins with too few pairs share their neighbour's effect.
 RateModel FitPairRates(const std::vector<PairSupport>& pairs,
-                       const std::map<image_t, int>& index) {
+                       const std::map<image_t, int>& index,
+                       double weak_pair_ratio) {
   const int n = static_cast<int>(index.size());
   std::vector<int> node1, node2, bin;
   std::vector<double> log_ratio;
@@ -176,6 +180,9 @@ RateModel FitPairRates(const std::vector<PairSupport>& pairs,
     image_pairs[node1[m]].push_back(m);
     image_pairs[node2[m]].push_back(m);
   }
+  // The weak band (log ratio) below a rate.
+  const double weak_gap =
+      weak_pair_ratio > 0 ? -std::log(weak_pair_ratio) : 0.0;
   std::vector<std::vector<double>> residuals;
   for (int iteration = 0; iteration < 20; ++iteration) {
     residuals.assign(kNumAngleBins, {});
@@ -195,6 +202,22 @@ RateModel FitPairRates(const std::vector<PairSupport>& pairs,
         own.push_back(log_ratio[m] - image_effect[other] - bin_effect[bin[m]]);
       }
       image_effect[i] = Quantile(own, 0.75);
+      // An image whose upper quartile is at the weak level while a few of
+      // its pairs are strong both at the typical level and above that
+      // quartile's weak band: most of its pairs are a fold's false ones (an
+      // image that keeps few of its points has them all low), and its
+      // effect follows the strong few, lest it absorb the fold's evidence.
+      if (weak_pair_ratio > 0 && image_effect[i] < -weak_gap) {
+        double lowest_strong = std::numeric_limits<double>::infinity();
+        int num_strong = 0;
+        for (const double r : own) {
+          if (r >= -weak_gap && r > image_effect[i] + weak_gap) {
+            ++num_strong;
+            lowest_strong = std::min(lowest_strong, r);
+          }
+        }
+        if (num_strong >= kMinStrongPairs) image_effect[i] = lowest_strong;
+      }
       effects.push_back(image_effect[i]);
     }
     // Gauge: the median image has effect 0 (the bins take the level).
@@ -239,7 +262,7 @@ RateModel WeakPairCut(const FoldDetectionOptions& options,
   if (ratios.empty()) return model;
   report->typical_ratio = Quantile(ratios, 0.75);
   if (options.weak_pair_rate_model) {
-    model = FitPairRates(report->pair_support, index);
+    model = FitPairRates(report->pair_support, index, options.weak_pair_ratio);
   } else {
     model.typical = report->typical_ratio;
   }

@@ -142,8 +142,9 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
   }
   cv::imwrite(temp.File("g.png"), image);
   Reconstruction model =
-      TwoViewsOf("g.png", 16, 16, {Eigen::Vector2d(5.5, 2.5),    // centre of column 5
-                           Eigen::Vector2d(5.0, 2.5)});  // between 4 and 5
+      TwoViewsOf("g.png", 16, 16,
+                 {Eigen::Vector2d(5.5, 2.5),    // centre of column 5
+                  Eigen::Vector2d(5.0, 2.5)});  // between 4 and 5
   const point3D_t centre =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
   const point3D_t between =
@@ -181,9 +182,10 @@ TEST(PointColors, SampledInTheStoredPixelsWhateverTheExifOrientation) {
   }
   // OpenCV turns it by default: the test image does carry the tag.
   ASSERT_EQ(cv::imread(temp.File("portrait.jpg")).cols, 16);
-  Reconstruction model = TwoViewsOf(
-      "portrait.jpg", 32, 16, {Eigen::Vector2d(28.5, 8.5),    // right half: blue
-                       Eigen::Vector2d(4.5, 12.5)});  // left half: red
+  Reconstruction model =
+      TwoViewsOf("portrait.jpg", 32, 16,
+                 {Eigen::Vector2d(28.5, 8.5),    // right half: blue
+                  Eigen::Vector2d(4.5, 12.5)});  // left half: red
   const point3D_t blue =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
   const point3D_t red =

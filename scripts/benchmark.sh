@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # One benchmark run, side by side: colmap_irav4's mapper, COLMAP 3.8's
-# incremental mapper and (when a COLMAP >= 4 binary is given or is `colmap` on
+# incremental mapper and (when a COLMAP >= 4 binary is given by
+# --global_mapper or $COLMAP4, is /opt/colmap4/bin/colmap or is `colmap` on
 # the PATH) COLMAP 4's global_mapper, on the Strecha databases and on
 # synthetic scenes with exact ground truth (tools/scene_generator).
 #
@@ -24,7 +25,10 @@
 # model_comparer on the largest model; centre errors in millimetres, both
 # ground truths being metric). Writes DIR/results.csv (one row per run),
 # DIR/comparison.csv (one row per scene, ours beside COLMAP with ratios),
-# DIR/results.json, DIR/stages.csv (our stage times), DIR/machine.txt, and
+# DIR/results.json, DIR/stages.csv (our stages' wall and CPU time, resident
+# memory after each, the peak so far and how much each raised it),
+# DIR/memory.csv (our peak, the stage that reached it, bytes per observation
+# of the models and per verified pair), DIR/machine.txt, and
 # the plots (scripts/plot_benchmarks.py) when matplotlib is installed.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -38,7 +42,10 @@ threads=2
 colmap_max_images=300
 run_colmap=1
 run_strecha=1
-global_mapper=""
+# COLMAP 4's binary: --global_mapper, else $COLMAP4, else a build installed
+# under /opt/colmap4, else `colmap` when it has global_mapper.
+global_mapper=${COLMAP4:-}
+[ -z "$global_mapper" ] && [ -x /opt/colmap4/bin/colmap ] && global_mapper=/opt/colmap4/bin/colmap
 global_mapper_max_images=1000
 timeout_seconds=7200
 data_dir=$(cd "$root/.." && pwd)/shared/data
@@ -62,7 +69,7 @@ while [ $# -gt 0 ]; do
     --global_mapper_max_images) global_mapper_max_images=$2; shift 2 ;;
     --timeout) timeout_seconds=$2; shift 2 ;;
     --data_dir) data_dir=$2; shift 2 ;;
-    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
     *) echo "ERROR: unknown option $1 (see $0 --help)" >&2; exit 2 ;;
   esac
 done
@@ -98,7 +105,8 @@ mkdir -p "$out/scenes" "$out/runs"
 
 results=$out/results.csv
 echo "scene,kind,num_images,mapper,status,seconds,cpu_seconds,peak_mib,registered,models,rotation_median_deg,rotation_max_deg,center_median_mm,center_max_mm" > "$results"
-echo "scene,stage,seconds" > "$out/stages.csv"
+echo "scene,stage,seconds,cpu_seconds,memory_mib,peak_memory_mib,peak_rise_mib" > "$out/stages.csv"
+echo "scene,peak_mib,peak_stage,observations,verified_pairs,bytes_per_observation,bytes_per_pair" > "$out/memory.csv"
 
 # The model directory with the most images under $1 (COLMAP numbers models
 # in the order found, not by size).
@@ -174,14 +182,32 @@ bench_scene() {
       --image_path "$image_path" --output_path "$runs/irav4" \
       --Mapper.num_threads "$threads"
   if [ -f "$runs/irav4/summary.json" ]; then
-    "$python" - "$runs/irav4/summary.json" "$scene" >> "$out/stages.csv" <<'EOF'
+    "$python" - "$runs/irav4/summary.json" "$scene" "$out/stages.csv" "$out/memory.csv" <<'EOF'
 import json, sys
 summary = json.load(open(sys.argv[1]))
+scene = sys.argv[2]
 stages = list(summary.get("stages", []))
 for model in summary.get("models", [])[:1]:
     stages += model.get("stages", [])
-for stage in stages:
-    print("%s,%s,%.3f" % (sys.argv[2], stage["name"].replace(",", ";"), stage["seconds"]))
+with open(sys.argv[3], "a") as out:
+    for stage in stages:
+        out.write("%s,%s,%.3f,%.3f,%.1f,%.1f,%.1f\n" % (
+            scene, stage["name"].replace(",", ";"), stage["seconds"],
+            stage.get("cpu_seconds", 0), stage.get("memory_mib", 0),
+            stage.get("peak_memory_mib", 0), stage.get("peak_rise_mib", 0)))
+observations = sum(m.get("num_observations", 0) for m in summary.get("models", []))
+peak = summary.get("peak_memory_mib") or 0
+stage = summary.get("peak_memory_stage", "")
+per_observation = summary.get("peak_bytes_per_observation") or 0
+per_pair = summary.get("peak_bytes_per_pair") or 0
+with open(sys.argv[4], "a") as out:
+    out.write("%s,%.1f,%s,%d,%d,%.0f,%.0f\n" % (
+        scene, peak, stage.replace(",", ";"), observations,
+        summary.get("num_database_pairs", 0), per_observation, per_pair))
+sys.stderr.write("   memory: peak %.0f MiB in %s, %.0f bytes per observation "
+                 "(%d), %.0f per verified pair (%d)\n" % (
+                     peak, stage or "?", per_observation, observations,
+                     per_pair, summary.get("num_database_pairs", 0)))
 EOF
   fi
   if [ "$run_colmap" = 1 ]; then
@@ -242,4 +268,4 @@ echo "load at end: $(cut -d' ' -f1-3 /proc/loadavg)" >> "$out/machine.txt"
 # One row per scene, ours beside COLMAP (ratios), JSON, and the plots when
 # matplotlib is installed.
 "$python" "$root/scripts/plot_benchmarks.py" --results "$results" --out "$out"
-echo "Results in $out (results.csv, comparison.csv, accuracy_summary.csv, results.json, stages.csv, machine.txt)"
+echo "Results in $out (results.csv, comparison.csv, accuracy_summary.csv, results.json, stages.csv, memory.csv, machine.txt)"

@@ -13,6 +13,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev
   libopencv-core-dev libopencv-imgcodecs-dev libopencv-imgproc-dev
   python3-matplotlib
+  python3-dev python3-numpy pybind11-dev
   colmap time
   clang-format
 )

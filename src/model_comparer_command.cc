@@ -21,6 +21,7 @@
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/io/model_io.h"
+#include "colmap_irav4/pipeline/option_registration.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
@@ -31,14 +32,16 @@ namespace {
 
 void PrintModel(const std::string& label, const std::string& path,
                 Reconstruction* model) {
-  const double error = UpdateReprojectionErrors(model);
+  const ModelFigures figures = ComputeModelFigures(model);
   std::cout << std::left << std::setw(12) << label << std::right << path << ": "
-            << model->images.size() << " registered images, "
-            << model->points3D.size() << " points, mean track length "
-            << std::fixed << std::setprecision(2) << MeanTrackLength(*model)
+            << figures.num_images << " registered images, "
+            << figures.num_points << " points, mean track length " << std::fixed
+            << std::setprecision(2) << figures.mean_track_length
             << ", mean reprojection error per observation "
-            << std::setprecision(3) << error << " px, per point "
-            << MeanPointReprojectionError(*model) << " px\n";
+            << std::setprecision(3)
+            << figures.mean_reprojection_error_per_observation
+            << " px, per point " << figures.mean_reprojection_error_per_point
+            << " px\n";
 }
 
 // One line per common image, worst rotation first (rotation-only alignment:
@@ -81,9 +84,7 @@ int RunModelComparer(int argc, char** argv) {
   manager.Add("input_path2", &input_path2, "reference model");
   manager.Add("gt_path", &gt_path,
               "reference: directory of Strecha <image>.camera files");
-  manager.Add("Comparer.max_relative_error", &ransac.max_relative_error,
-              "RANSAC inlier threshold, fraction of the reference's median "
-              "centre distance to its centroid");
+  AddComparerOptions(&manager, &ransac);
   manager.Add("per_image", &per_image,
               "also print each common image's rotation and centre error, "
               "worst rotation first");
@@ -145,18 +146,9 @@ int RunModelComparer(int argc, char** argv) {
             << comparison.center_error_max << " (reference units"
             << (gt_path.empty() ? "" : ": metres") << ")\n";
   // The similarity's rotation comes from the centres alone; nearly collinear
-  // cameras leave it loose. With one rotation fitted to the rotations instead
-  // (robust geodesic L1 mean, as for rotation averaging):
-  std::map<std::string, Eigen::Matrix3d> estimated_rotations,
-      reference_rotations;
-  for (const auto& [name, pose] : PosesByName(model1)) {
-    estimated_rotations[name] = pose.rotation.toRotationMatrix();
-  }
-  for (const auto& [name, pose] : reference) {
-    reference_rotations[name] = pose.rotation.toRotationMatrix();
-  }
+  // cameras leave it loose. With one rotation fitted to the rotations instead:
   const RotationErrors rotation_only =
-      EvaluateRotations(estimated_rotations, reference_rotations);
+      CompareRotationsOnly(PosesByName(model1), reference);
   std::cout << std::setprecision(4)
             << "rotation error, rotation-only alignment [deg]: median "
             << rotation_only.median_deg << ", max " << rotation_only.max_deg

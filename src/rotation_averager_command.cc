@@ -6,7 +6,6 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
-#include <sstream>
 
 #include <glog/logging.h>
 
@@ -16,8 +15,8 @@
 #include "colmap_irav4/eval/strecha_gt.h"
 #include "colmap_irav4/io/database.h"
 #include "colmap_irav4/pipeline/option_registration.h"
-#include "colmap_irav4/rotation_averaging/irav4.h"
 #include "colmap_irav4/rotation_averaging/rotation_averager_factory.h"
+#include "colmap_irav4/rotation_averaging/rotation_averaging_summary.h"
 #include "colmap_irav4/rotation_averaging/view_graph_rotations.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
@@ -38,60 +37,6 @@ void PrintErrors(const std::string& label, const RotationErrors& errors) {
             << errors.median_deg << " deg, mean " << errors.mean_deg
             << " deg, max " << errors.max_deg << " deg, " << num_far
             << " cameras > 30 deg off" << std::endl;
-}
-
-std::string JsonString(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buffer[8];
-      std::snprintf(buffer, sizeof(buffer), "\\u%04x", c);
-      out += buffer;
-    } else {
-      out += c;
-    }
-  }
-  return out + "\"";
-}
-
-// The run summary: method, cameras and edges used, seconds per stage, the
-// IRAv4 reference size and cluster sizes (0 and [] for other methods).
-// Written to a temporary file and renamed: complete or absent.
-void WriteSummary(const std::string& path, const std::string& method,
-                  const RotationGraph& graph,
-                  const RotationAveragingResult& result, double seconds,
-                  const RotationAverager& averager) {
-  const auto* irav4 = dynamic_cast<const Irav4*>(&averager);
-  int num_edges_used = 0;
-  for (const RelativeRotation& edge : graph.Edges()) {
-    num_edges_used += result.estimated[edge.i] && result.estimated[edge.j];
-  }
-  std::ostringstream json;
-  json << std::setprecision(6);
-  json << "{\n  \"method\": " << JsonString(method)
-       << ",\n  \"num_cameras\": " << graph.NumVertices()
-       << ",\n  \"num_edges\": " << graph.NumEdges()
-       << ",\n  \"num_cameras_estimated\": " << result.NumEstimated()
-       << ",\n  \"num_edges_used\": " << num_edges_used
-       << ",\n  \"seconds\": " << seconds << ",\n  \"stage_seconds\": {";
-  for (size_t k = 0; k < result.stage_seconds.size(); ++k) {
-    json << (k ? ", " : "") << JsonString(result.stage_seconds[k].first) << ": "
-         << result.stage_seconds[k].second;
-  }
-  json << "},\n  \"reference_size\": "
-       << (irav4 ? irav4->LastReport().n_ref : 0)
-       << ",\n  \"cluster_sizes\": [";
-  if (irav4) {
-    const std::vector<int>& sizes = irav4->LastReport().cluster_sizes;
-    for (size_t k = 0; k < sizes.size(); ++k) {
-      json << (k ? ", " : "") << sizes[k];
-    }
-  }
-  json << "]\n}\n";
-  WriteFileAtomically(path, json.str());
 }
 
 // The epipolar graph of a COLMAP database as a rotation graph: vertices are
@@ -257,7 +202,11 @@ int RunRotationAverager(int argc, char** argv) {
     std::cout << std::endl;
   }
   if (!summary_path.empty()) {
-    WriteSummary(summary_path, method, graph, result, seconds, *averager);
+    // Complete or absent (rotation_averaging_summary.h).
+    WriteFileAtomically(
+        summary_path,
+        SummarizeRotationAveraging(method, graph, result, seconds, *averager)
+            .ToJson());
     LOG(INFO) << "Wrote " << summary_path;
   }
   if (!output_path.empty()) {

@@ -9,6 +9,7 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/statistics.h"
 
 namespace colmap_irav4 {
@@ -98,6 +99,32 @@ std::map<std::string, Rigid3d> PosesByName(const Reconstruction& model) {
     poses[image.name] = image.cam_from_world;
   }
   return poses;
+}
+
+ModelFigures ComputeModelFigures(Reconstruction* model) {
+  ModelFigures figures;
+  figures.mean_reprojection_error_per_observation =
+      UpdateReprojectionErrors(model);
+  figures.mean_reprojection_error_per_point =
+      MeanPointReprojectionError(*model);
+  figures.num_images = static_cast<int>(model->images.size());
+  figures.num_points = static_cast<int>(model->points3D.size());
+  figures.mean_track_length = MeanTrackLength(*model);
+  return figures;
+}
+
+RotationErrors CompareRotationsOnly(
+    const std::map<std::string, Rigid3d>& estimate,
+    const std::map<std::string, Rigid3d>& reference) {
+  std::map<std::string, Eigen::Matrix3d> estimated_rotations,
+      reference_rotations;
+  for (const auto& [name, pose] : estimate) {
+    estimated_rotations[name] = pose.rotation.toRotationMatrix();
+  }
+  for (const auto& [name, pose] : reference) {
+    reference_rotations[name] = pose.rotation.toRotationMatrix();
+  }
+  return EvaluateRotations(estimated_rotations, reference_rotations);
 }
 
 }  // namespace colmap_irav4

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/sim3d.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
@@ -45,5 +46,24 @@ bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
 
 // cam_from_world poses of a reconstruction's images, by name.
 std::map<std::string, Rigid3d> PosesByName(const Reconstruction& model);
+
+// A model's figures as model_comparer prints them.
+struct ModelFigures {
+  int num_images = 0;
+  int num_points = 0;
+  double mean_track_length = 0;
+  double mean_reprojection_error_per_observation = 0;  // px
+  double mean_reprojection_error_per_point = 0;        // px
+};
+// Also updates the points' reprojection errors.
+ModelFigures ComputeModelFigures(Reconstruction* model);
+
+// Rotation errors (deg) of the common images after one rotation fitted to
+// the rotations (robust geodesic L1 mean, as for rotation averaging), not to
+// the centres: model_comparer's second figure, firm where nearly collinear
+// centres leave the similarity's rotation loose.
+RotationErrors CompareRotationsOnly(
+    const std::map<std::string, Rigid3d>& estimate,
+    const std::map<std::string, Rigid3d>& reference);
 
 }  // namespace colmap_irav4

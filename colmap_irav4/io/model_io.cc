@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -341,15 +342,29 @@ std::ostringstream MakeTextStream() {
   return stream;
 }
 
-// (qw, qx, qy, qz) as COLMAP 3.8 writes it: divided by its norm (so that a
-// model COLMAP wrote, whose quaternions this leaves unchanged, is written
-// back byte for byte, and ours match what COLMAP writes from the same pose).
+// Whether a quaternion's squared norm is 1 to rounding: such a quaternion is
+// read and written bit for bit, as normalising it again may change its last
+// bits and reading and writing a model would then not give the same bytes.
+bool IsUnitToRounding(double squared_norm) {
+  return std::abs(squared_norm - 1.0) <=
+         8 * std::numeric_limits<double>::epsilon();
+}
+
+// (qw, qx, qy, qz) as COLMAP 3.8 writes it: divided by its norm, unless of
+// unit norm to rounding (so that a model COLMAP wrote is written back byte
+// for byte, and ours match what COLMAP writes from the same pose).
 Eigen::Vector4d WrittenQuaternion(const Image& image) {
   const Eigen::Quaterniond& q = image.cam_from_world.rotation;
   const Eigen::Vector4d qvec(q.w(), q.x(), q.y(), q.z());
+  if (IsUnitToRounding(qvec.squaredNorm())) return qvec;
   const double norm = qvec.norm();
   if (norm == 0.0) return Eigen::Vector4d(1.0, qvec(1), qvec(2), qvec(3));
   return qvec / norm;
+}
+
+// COLMAP normalises the quaternion it reads (see IsUnitToRounding).
+void NormalizeReadQuaternion(Eigen::Quaterniond* q) {
+  if (!IsUnitToRounding(q->squaredNorm())) q->normalize();
 }
 
 }  // namespace
@@ -401,7 +416,7 @@ void ReadImagesBinary(const std::string& path, Reconstruction* reconstruction) {
         reader.ReadCount("number of points2D", 8 + 8 + 8);
     const std::string problem = ImageRecordProblem(image, *reconstruction);
     if (!problem.empty()) throw InputError(path, problem);
-    image.cam_from_world.rotation.normalize();
+    NormalizeReadQuaternion(&image.cam_from_world.rotation);
     image.points2D.resize(num_points2D);
     for (Point2D& point2D : image.points2D) {
       point2D.xy.x() = reader.Read<double>("point2D x");
@@ -518,7 +533,7 @@ void ReadImagesText(const std::string& path, Reconstruction* reconstruction) {
     image.name = Trim(line.substr(name_begin));
     const std::string problem = ImageRecordProblem(image, *reconstruction);
     if (!problem.empty()) reader.Fail(problem);
-    image.cam_from_world.rotation.normalize();
+    NormalizeReadQuaternion(&image.cam_from_world.rotation);
     // The POINTS2D line always follows (empty if the image has none).
     if (!reader.NextLine(&line)) {
       reader.Fail("missing POINTS2D line of image " +
@@ -636,6 +651,37 @@ Reconstruction ReadReconstruction(const std::string& path) {
   throw InputError(path,
                    "no COLMAP model: expected cameras, images and points3D "
                    "files (.bin or .txt)");
+}
+
+void CheckReconstruction(const std::string& source,
+                         const Reconstruction& reconstruction) {
+  // Record by record against the records checked before, as the readers do.
+  Reconstruction checked;
+  for (const auto& [camera_id, camera] : reconstruction.cameras) {
+    std::string problem = CameraRecordProblem(camera, checked);
+    const int num_params = CameraModelNumParams(camera.model_id);
+    if (problem.empty() &&
+        static_cast<int>(camera.params.size()) != num_params) {
+      problem = "camera " + std::to_string(camera_id) + ": camera model " +
+                CameraModelIdToName(camera.model_id) + " has " +
+                std::to_string(num_params) + " parameters (" +
+                CameraModelParamsInfo(camera.model_id) + "), got " +
+                std::to_string(camera.params.size());
+    }
+    if (!problem.empty()) throw InputError(source, problem);
+    checked.cameras.emplace(camera_id, camera);
+  }
+  for (const auto& [image_id, image] : reconstruction.images) {
+    const std::string problem = ImageRecordProblem(image, checked);
+    if (!problem.empty()) throw InputError(source, problem);
+    checked.images.emplace(image_id, Image());
+  }
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    const std::string problem = PointRecordProblem(point3D_id, checked);
+    if (!problem.empty()) throw InputError(source, problem);
+    checked.points3D.emplace(point3D_id, Point3D());
+  }
+  CheckTracks(source, reconstruction);
 }
 
 // ---------------------------------------------------------------------------

@@ -30,6 +30,13 @@ Reconstruction ReadReconstruction(const std::string& path);
 Reconstruction ReadReconstructionBinary(const std::string& path);
 Reconstruction ReadReconstructionText(const std::string& path);
 
+// Checks a model built in memory (the Python module's write_model) as the
+// readers check files: camera models and their number of parameters, finite
+// poses, the images' cameras, tracks against observations. Throws
+// InputError("<source>: <problem>").
+void CheckReconstruction(const std::string& source,
+                         const Reconstruction& reconstruction);
+
 // Whether `path` holds a binary or text model.
 bool ExistsBinaryModel(const std::string& path);
 bool ExistsTextModel(const std::string& path);

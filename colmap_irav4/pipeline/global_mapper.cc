@@ -260,23 +260,15 @@ bool GlobalMapper::BuildTracks() {
     geometries[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
         &geometry;
   }
-  std::vector<ImagePairMatches> matches;
-  matches.reserve(pairs_.size());
+  TrackBuilder track_builder(options_.tracks, reconstruction_.images);
   for (const ImagePairGeometry& pair : pairs_) {
     const TwoViewGeometry& geometry =
         *geometries.at(ImagePairToPairId(pair.image_id1, pair.image_id2));
-    ImagePairMatches pair_matches;
-    pair_matches.image_id1 = geometry.image_id1;
-    pair_matches.image_id2 = geometry.image_id2;
-    pair_matches.matches.reserve(geometry.inlier_matches.size());
-    for (const FeatureMatch& match : geometry.inlier_matches) {
-      pair_matches.matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
-    }
-    matches.push_back(std::move(pair_matches));
+    track_builder.AddMatches(geometry.image_id1, geometry.image_id2,
+                             geometry.inlier_matches);
   }
   TrackBuilderStats track_stats;
-  tracks_ = colmap_irav4::BuildTracks(options_.tracks, matches,
-                                      reconstruction_.images, &track_stats);
+  tracks_ = track_builder.Build(&track_stats);
   const bool global_positioning =
       options_.positioning_method == PositioningMethod::kGlobalPositioning;
   // Global positioning needs only enough tracks to tie every camera down;
@@ -444,11 +436,18 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         stage.Add("keypoint noise px (coarsest scales)",
                   ba_summary.scale_bin_noise_px.back());
       }
+      stage.AddText("linear solver", ba_summary.linear_solver_reason);
+      if (ba_summary.schur_density >= 0) {
+        stage.Add("pairs sharing a point (fraction)", ba_summary.schur_density);
+      }
       // Where its time goes (wall seconds; not figures: they vary by run).
       LOG(INFO) << log_prefix_ << "bundle adjustment "
                 << std::to_string(iteration + 1) << ": "
-                << ba_summary.linear_solver << ", building the problems "
-                << ba_summary.problem_seconds << " s, Ceres' preprocessing "
+                << (ba_summary.linear_solver_reason.empty()
+                        ? ba_summary.linear_solver
+                        : ba_summary.linear_solver_reason)
+                << ", building the problems " << ba_summary.problem_seconds
+                << " s, Ceres' preprocessing "
                 << ba_summary.preprocessor_seconds << " s, linear solves "
                 << ba_summary.linear_solver_seconds << " s of "
                 << ba_summary.seconds << " s";

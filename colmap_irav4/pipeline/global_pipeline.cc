@@ -1,6 +1,5 @@
 #include "colmap_irav4/pipeline/global_pipeline.h"
 
-#include <sys/resource.h>
 #include <unistd.h>
 #include <algorithm>
 #include <cmath>
@@ -61,6 +60,10 @@ std::string GlobalMapperSummary::ToJson() const {
       << ",\n  \"num_database_pairs\": " << num_database_pairs
       << ",\n  \"total_seconds\": " << JsonNumber(total_seconds)
       << ",\n  \"peak_memory_mib\": " << JsonNumber(peak_memory_mib)
+      << ",\n  \"peak_memory_stage\": " << JsonString(peak_memory_stage)
+      << ",\n  \"peak_bytes_per_observation\": "
+      << JsonNumber(peak_bytes_per_observation)
+      << ",\n  \"peak_bytes_per_pair\": " << JsonNumber(peak_bytes_per_pair)
       << ",\n  \"num_folded_models\": " << NumFoldedModels()
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
@@ -112,6 +115,28 @@ std::string GlobalMapperSummary::ToJson() const {
   }
   out << "]\n}\n";
   return out.str();
+}
+
+void GlobalMapperSummary::RecordPeakMemory() {
+  peak_memory_mib = ReadProcessMemory().peak_mib;
+  std::vector<const std::vector<StageReport>*> stage_lists = {&stages};
+  double num_observations = 0;
+  for (const ComponentReport& component : components) {
+    stage_lists.push_back(&component.stages);
+    num_observations += component.num_observations;
+  }
+  peak_memory_stage = PeakMemoryStage(stage_lists);
+  const double peak_bytes = peak_memory_mib * 1024 * 1024;
+  peak_bytes_per_observation =
+      num_observations > 0 ? peak_bytes / num_observations : 0;
+  peak_bytes_per_pair =
+      num_database_pairs > 0 ? peak_bytes / num_database_pairs : 0;
+  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
+            << peak_memory_mib << " MiB (in "
+            << (peak_memory_stage.empty() ? "?" : peak_memory_stage) << "; "
+            << std::setprecision(0) << peak_bytes_per_observation
+            << " bytes per observation, " << peak_bytes_per_pair
+            << " per verified pair)";
 }
 
 int GlobalMapperSummary::NumFoldedModels() const {
@@ -434,14 +459,7 @@ void GlobalPipeline::Write(const std::vector<Reconstruction>& models,
   stage.Add("models", static_cast<double>(models.size()));
   stage.Finish("", &summary_.stages);
   summary_.total_seconds = total_timer.ElapsedSeconds();
-  {
-    struct rusage usage;
-    if (getrusage(RUSAGE_SELF, &usage) == 0) {
-      summary_.peak_memory_mib = usage.ru_maxrss / 1024.0;  // KiB on Linux
-    }
-  }
-  LOG(INFO) << "Peak memory: " << std::fixed << std::setprecision(1)
-            << summary_.peak_memory_mib << " MiB";
+  summary_.RecordPeakMemory();
   WriteFileAtomically(output->StagingFilePath("summary.json"),
                       summary_.ToJson());
   output->Commit(static_cast<int>(models.size()), {"summary.json"});

@@ -60,11 +60,19 @@ struct GlobalMapperSummary {
   std::vector<StageReport> stages;  // database reading, view graph, writing
   std::vector<ComponentReport> components;
   double total_seconds = 0;
-  // Peak resident memory of the process (getrusage ru_maxrss), MiB, when
-  // the summary is written.
+  // Peak resident memory of the process (VmHWM), MiB, when the summary is
+  // written; the stage that reached it; and the peak per observation of the
+  // models written and per verified pair of the database (bytes), the
+  // figures that say how memory scales.
   double peak_memory_mib = 0;
+  std::string peak_memory_stage;
+  double peak_bytes_per_observation = 0;
+  double peak_bytes_per_pair = 0;
   std::vector<std::string> notes;  // warnings, skipped stages
 
+  // Sets the peak figures above from the process and the stages (and logs
+  // them): called once every stage has finished.
+  void RecordPeakMemory();
   // Models written although the fold check still flags them (folded).
   int NumFoldedModels() const;
   std::string ToJson() const;

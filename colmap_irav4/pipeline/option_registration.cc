@@ -304,6 +304,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "
                "(sparse_schur from 50)");
+  manager->Add("BundleAdjustment.iterative_schur_min_density",
+               &ba.iterative_schur_min_density,
+               "linear_solver auto: iterative_schur when this fraction of "
+               "the image pairs share a point (above 1: never)");
   manager->Add("BundleAdjustment.parameterize_centers",
                &ba.parameterize_centers,
                "poses as rotation and projection centre (0: rotation and "
@@ -331,6 +335,13 @@ void AddFilterOptions(OptionManager* manager, FilterOptions* o) {
 void AddNormalizationOptions(OptionManager* manager, NormalizationOptions* o) {
   manager->Add("Normalization.extent", &o->extent,
                "extent of the central part of the normalised scene");
+}
+
+void AddComparerOptions(OptionManager* manager,
+                        SimilarityRansacOptions* options) {
+  manager->Add("Comparer.max_relative_error", &options->max_relative_error,
+               "RANSAC inlier threshold, fraction of the reference's median "
+               "centre distance to its centroid");
 }
 
 void AddFoldResolutionOptions(OptionManager* manager,

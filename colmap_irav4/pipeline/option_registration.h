@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "colmap_irav4/geometry/sim3d.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/util/option_manager.h"
 
@@ -61,6 +62,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
 void AddFilterOptions(OptionManager* manager, FilterOptions* options);
 void AddNormalizationOptions(OptionManager* manager,
                              NormalizationOptions* options);
+// --Comparer.max_relative_error (model_comparer, the Python module's
+// compare_models and align_models).
+void AddComparerOptions(OptionManager* manager,
+                        SimilarityRansacOptions* options);
 // The mapper: --Mapper.* and every stage's struct above.
 void AddFoldResolutionOptions(OptionManager* manager,
                               FoldResolutionOptions* options);

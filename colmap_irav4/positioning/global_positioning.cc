@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 #include <unordered_map>
 
@@ -137,8 +138,12 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                                   normalized.homogeneous().normalized()});
     }
   }
+  // One loss for all residuals (Ceres evaluates it per residual): not one
+  // allocation per observation. Declared first: it outlives the problem.
+  const std::unique_ptr<ceres::LossFunction> loss(
+      CreateLossFunction(options.loss_function, options.loss_scale));
   ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   for (size_t k = 0; k < observations.size(); ++k) {
@@ -147,9 +152,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
     double* point =
         reconstruction->points3D.at(observation.point3D_id).xyz.data();
     problem.AddResidualBlock(
-        ProjectedDirectionCost::Create(observation.direction),
-        CreateLossFunction(options.loss_function, options.loss_scale), center,
-        point);
+        ProjectedDirectionCost::Create(observation.direction), loss.get(),
+        center, point);
     ordering->AddElementToGroup(point, 0);
     ordering->AddElementToGroup(center, 1);
   }

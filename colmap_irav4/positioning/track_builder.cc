@@ -1,21 +1,15 @@
 #include "colmap_irav4/positioning/track_builder.h"
 
 #include <algorithm>
-#include <numeric>
-#include <unordered_map>
+#include <limits>
 
 #include <glog/logging.h>
 
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
-#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
-
-uint64_t ObservationKey(image_t image_id, point2D_t point2D_idx) {
-  return (static_cast<uint64_t>(image_id) << 32) | point2D_idx;
-}
 
 bool ElementLess(const TrackElement& a, const TrackElement& b) {
   return a.image_id != b.image_id ? a.image_id < b.image_id
@@ -39,54 +33,77 @@ void TrackBuilderOptions::Check() const {
   }
 }
 
-std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
-                               const std::vector<ImagePairMatches>& pairs,
-                               const std::map<image_t, Image>& images,
-                               TrackBuilderStats* stats) {
-  options.Check();
-  TrackBuilderStats local_stats;
-  std::unordered_map<uint64_t, size_t> node_of_observation;
-  std::vector<TrackElement> observations;
-  UnionFind union_find;
-  auto node = [&](image_t image_id, point2D_t point2D_idx) {
-    auto [it, inserted] = node_of_observation.emplace(
-        ObservationKey(image_id, point2D_idx), observations.size());
-    if (inserted) {
-      auto image_it = images.find(image_id);
-      CHECK(image_it != images.end())
-          << "match refers to unknown image " << image_id;
-      CHECK_LT(point2D_idx, image_it->second.points2D.size())
-          << "match refers to a missing keypoint of image " << image_id;
-      observations.push_back({image_id, point2D_idx});
-      union_find.Add();
-    }
-    return it->second;
-  };
-  for (const ImagePairMatches& pair : pairs) {
-    if (pair.image_id1 == pair.image_id2) continue;
-    for (const auto& [idx1, idx2] : pair.matches) {
-      union_find.Union(node(pair.image_id1, idx1), node(pair.image_id2, idx2));
-    }
+TrackBuilder::TrackBuilder(const TrackBuilderOptions& options,
+                           const std::map<image_t, Image>& images)
+    : options_(options), images_(images) {
+  options_.Check();
+  size_t num_nodes = 0;
+  for (const auto& [image_id, image] : images_) {
+    first_node_.emplace_hint(first_node_.end(), image_id, num_nodes);
+    num_nodes += image.points2D.size();
   }
-  local_stats.num_observations = observations.size();
+  sets_ = UnionFind(num_nodes);
+}
 
-  // Group the observations by component.
-  std::unordered_map<size_t, size_t> track_of_root;
-  std::vector<Track> components;
-  for (size_t i = 0; i < observations.size(); ++i) {
-    const size_t root = union_find.Find(i);
-    auto [it, inserted] = track_of_root.emplace(root, components.size());
-    if (inserted) components.emplace_back();
-    components[it->second].push_back(observations[i]);
+size_t TrackBuilder::Node(image_t image_id, point2D_t point2D_idx) const {
+  const auto it = first_node_.find(image_id);
+  CHECK(it != first_node_.end())
+      << "match refers to unknown image " << image_id;
+  CHECK_LT(point2D_idx, images_.at(image_id).points2D.size())
+      << "match refers to a missing keypoint of image " << image_id;
+  return it->second + point2D_idx;
+}
+
+void TrackBuilder::AddMatches(image_t image_id1, image_t image_id2,
+                              const FeatureMatches& matches) {
+  if (image_id1 == image_id2) return;
+  for (const FeatureMatch& match : matches) {
+    sets_.Union(Node(image_id1, match.point2D_idx1),
+                Node(image_id2, match.point2D_idx2));
   }
+}
+
+void TrackBuilder::AddMatches(
+    image_t image_id1, image_t image_id2,
+    const std::vector<std::pair<point2D_t, point2D_t>>& matches) {
+  if (image_id1 == image_id2) return;
+  for (const auto& [idx1, idx2] : matches) {
+    sets_.Union(Node(image_id1, idx1), Node(image_id2, idx2));
+  }
+}
+
+std::vector<Track> TrackBuilder::Build(TrackBuilderStats* stats) {
+  TrackBuilderStats local_stats;
+  // Group the matched keypoints (sets of two or more) by set, in node order:
+  // each component's elements come out sorted by (image_id, point2D_idx).
+  constexpr uint32_t kNoTrack = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> component_of_root(sets_.Size(), kNoTrack);
+  std::vector<Track> components;
+  for (const auto& [image_id, first_node] : first_node_) {
+    const size_t num_points2D = images_.at(image_id).points2D.size();
+    for (size_t idx = 0; idx < num_points2D; ++idx) {
+      const size_t root = sets_.Find(first_node + idx);
+      if (sets_.SetSize(root) < 2) continue;  // never matched
+      uint32_t& component = component_of_root[root];
+      if (component == kNoTrack) {
+        CHECK_LT(components.size(), kNoTrack);
+        component = static_cast<uint32_t>(components.size());
+        components.emplace_back();
+        components.back().reserve(sets_.SetSize(root));
+      }
+      components[component].push_back({image_id, static_cast<point2D_t>(idx)});
+      ++local_stats.num_observations;
+    }
+  }
+  sets_ = UnionFind();
+  std::vector<uint32_t>().swap(component_of_root);
   local_stats.num_components = components.size();
 
   std::vector<Track> tracks;
   const double max_duplicate_distance_sq =
-      options.max_duplicate_distance * options.max_duplicate_distance;
+      options_.max_duplicate_distance * options_.max_duplicate_distance;
   for (Track& track : components) {
-    std::sort(track.begin(), track.end(), ElementLess);
-    // Observations of one image are adjacent after sorting: keep the first of
+    // Observations of one image are adjacent (sorted): keep the first of
     // each image unless another one of that image lies far from it.
     Track kept;
     bool consistent = true;
@@ -96,7 +113,7 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
              track[end].image_id == track[begin].image_id) {
         ++end;
       }
-      const Image& image = images.at(track[begin].image_id);
+      const Image& image = images_.at(track[begin].image_id);
       for (size_t i = begin; i < end && consistent; ++i) {
         for (size_t j = i + 1; j < end; ++j) {
           if ((image.points2D[track[i].point2D_idx].xy -
@@ -111,15 +128,16 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
       kept.push_back(track[begin]);
       begin = end;
     }
+    Track().swap(track);
     if (!consistent) {
       ++local_stats.num_inconsistent;
       continue;
     }
-    if (static_cast<int>(kept.size()) < options.min_track_length) {
+    if (static_cast<int>(kept.size()) < options_.min_track_length) {
       ++local_stats.num_too_short;
       continue;
     }
-    if (static_cast<int>(kept.size()) > options.max_track_length) {
+    if (static_cast<int>(kept.size()) > options_.max_track_length) {
       ++local_stats.num_too_long;
       continue;
     }
@@ -131,6 +149,17 @@ std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
   local_stats.num_tracks = tracks.size();
   if (stats != nullptr) *stats = local_stats;
   return tracks;
+}
+
+std::vector<Track> BuildTracks(const TrackBuilderOptions& options,
+                               const std::vector<ImagePairMatches>& pairs,
+                               const std::map<image_t, Image>& images,
+                               TrackBuilderStats* stats) {
+  TrackBuilder builder(options, images);
+  for (const ImagePairMatches& pair : pairs) {
+    builder.AddMatches(pair.image_id1, pair.image_id2, pair.matches);
+  }
+  return builder.Build(stats);
 }
 
 std::vector<point3D_t> AddTracksToReconstruction(

@@ -59,15 +59,21 @@ struct BundleAdjustmentOptions {
   // observations (fountain-P11: 1 round instead of 3, 5.5 s -> 3.7 s for the
   // stages after rotation averaging, same accuracy).
   double min_filtered_fraction = 0.01;
-  // auto: by the number of images in the problem (ChooseLinearSolver):
-  // DENSE_SCHUR below 50 (COLMAP's rule), SPARSE_SCHUR below
-  // iterative_schur_min_num_images, ITERATIVE_SCHUR from there on; or
+  // auto: by the size and density of the reduced camera system (the
+  // Schur complement of the points; ChooseLinearSolver): DENSE_SCHUR below
+  // 50 images (COLMAP's rule), ITERATIVE_SCHUR (Schur-Jacobi
+  // preconditioner) from iterative_schur_min_num_images or when at least
+  // iterative_schur_min_density of its image pairs share a point (sparse
+  // Cholesky fills a nearly dense system in at a dense one's cost, and its
+  // memory grows as the square of the images), SPARSE_SCHUR otherwise; or
   // sparse_schur, dense_schur, iterative_schur whatever the size.
-  // The threshold lies beyond the sizes measured: ITERATIVE_SCHUR was 7-8x
-  // slower at 300-1,000 images (docs/notes/2026-12-01-results-2b39f55.md).
+  // The size threshold lies beyond the sizes measured: ITERATIVE_SCHUR was
+  // 7-8x slower at 300-1,000 images of the sparse courtyard
+  // (docs/notes/2026-12-01-results-2b39f55.md).
   BundleAdjustmentLinearSolver linear_solver =
       BundleAdjustmentLinearSolver::kAuto;
   int iterative_schur_min_num_images = 10000;
+  double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
   // 1e-8; Levenberg-Marquardt's initial trust region 1e16 (Ceres' largest):
   // Gauss-Newton steps, damped only after a rejected step, because the
@@ -120,7 +126,11 @@ struct BundleAdjustmentSummary {
   double linear_solver_seconds = 0;
   int num_solves = 0;
   std::string linear_solver;  // Ceres' name, of the last solve
-  bool converged = false;     // last round reached a tolerance
+  // Why it was chosen (ChooseLinearSolver), and the fraction of the image
+  // pairs of the problem that share a point (-1: not computed).
+  std::string linear_solver_reason;
+  double schur_density = -1;
+  bool converged = false;  // last round reached a tolerance
   // weight_by_keypoint_scale: the keypoint scale bins' inner edges (px) and
   // each bin's noise (median reprojection error, px) when the last solve
   // started, finest first; empty when the observations were not weighed.
@@ -132,9 +142,20 @@ struct BundleAdjustmentSummary {
 };
 
 // Sets the linear solver (and preconditioner) of a bundle adjustment of
-// `num_images` images in `ceres_options` (options.linear_solver, above).
-void ChooseLinearSolver(const BundleAdjustmentOptions& options, int num_images,
-                        ceres::Solver::Options* ceres_options);
+// `num_images` images in `ceres_options` (options.linear_solver, above);
+// `schur_density`: the fraction of the images' pairs that share a point
+// (the reduced camera system's off-diagonal blocks; negative: unknown).
+// Returns the reason, e.g. "sparse_schur: 1000 images, 3.1% of pairs share
+// a point".
+std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
+                               int num_images, double schur_density,
+                               ceres::Solver::Options* ceres_options);
+// The fraction of the n (n - 1) / 2 pairs of the n images observing the
+// points of `tracks` that share at least one point (0 for fewer than two
+// images; -1 beyond max_num_images, where the n^2 bits it takes would not
+// be small).
+double SchurDensity(const std::vector<const Track*>& tracks,
+                    int max_num_images = 30000);
 
 // Returns false if Ceres failed (no usable solution).
 bool RunBundleAdjustment(const BundleAdjustmentOptions& options,

@@ -15,6 +15,7 @@
 #include "colmap_irav4/rotation_averaging/cluster_alignment.h"
 #include "colmap_irav4/rotation_averaging/l1_irls.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/interrupt.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -860,6 +861,7 @@ void IncrementalEngine::GlobalOptimizeCeres(
 int IncrementalEngine::Grow(const std::function<bool()>& stop) {
   int num_added = 0;
   while (true) {
+    ThrowIfInterrupted();  // a checkpoint per vertex (util/interrupt.h)
     const Candidate candidate = BestCandidate();
     if (candidate.vertex < 0) break;
     AddVertex(candidate);

@@ -13,6 +13,7 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/interrupt.h"
 #include "colmap_irav4/util/timer.h"
 
 namespace colmap_irav4 {
@@ -275,6 +276,7 @@ class TangentProblem {
     if (num_unknowns_ == 0) return 0;
     int num_iterations = 0;
     for (int iteration = 0; iteration < max_iterations; ++iteration) {
+      ThrowIfInterrupted();  // a checkpoint per iteration (util/interrupt.h)
       for (size_t k = 0; k < edges_.size(); ++k) {
         const RelativeRotation& e = graph_.Edge(edges_[k]);
         residuals_[k] = RotationToAngleAxis(rotations_[e.j].transpose() *

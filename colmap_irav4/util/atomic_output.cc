@@ -144,6 +144,29 @@ void HandleSignal(int signal_number) {
   raise(signal_number);
 }
 
+// Whether our handler replaced the signal's (see ArmCleanup).
+bool g_handles_int = false, g_handles_term = false;
+
+// Installs HandleSignal for `signal_number` unless the host program handles
+// the signal itself (a handler function, as Python's interpreter has for
+// SIGINT): that handler then returns, the host stops the run through
+// util/interrupt.h and the transaction's destructor removes the temporary
+// directory. Returns whether it installed.
+bool InstallHandler(int signal_number, struct sigaction* old_action) {
+  sigaction(signal_number, nullptr, old_action);
+  const bool host_handler =
+      (old_action->sa_flags & SA_SIGINFO) != 0 ||
+      (old_action->sa_handler != SIG_DFL && old_action->sa_handler != SIG_IGN);
+  if (host_handler) return false;
+  struct sigaction action;
+  std::memset(&action, 0, sizeof(action));
+  action.sa_handler = HandleSignal;
+  action.sa_flags = SA_RESTART;
+  sigemptyset(&action.sa_mask);
+  sigaction(signal_number, &action, nullptr);
+  return true;
+}
+
 void ArmCleanup(const std::string& temporary,
                 const std::vector<std::string>& created) {
   std::snprintf(g_temporary, sizeof(g_temporary), "%s", temporary.c_str());
@@ -154,21 +177,16 @@ void ArmCleanup(const std::string& temporary,
   }
   g_num_created = num_created;
   g_pending_signal = 0;
-  struct sigaction action;
-  std::memset(&action, 0, sizeof(action));
-  action.sa_handler = HandleSignal;
-  action.sa_flags = SA_RESTART;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, &g_old_int);
-  sigaction(SIGTERM, &action, &g_old_term);
+  g_handles_int = InstallHandler(SIGINT, &g_old_int);
+  g_handles_term = InstallHandler(SIGTERM, &g_old_term);
   g_armed = 1;
 }
 
 void DisarmCleanup() {
   if (!g_armed) return;
   g_armed = 0;
-  sigaction(SIGINT, &g_old_int, nullptr);
-  sigaction(SIGTERM, &g_old_term, nullptr);
+  if (g_handles_int) sigaction(SIGINT, &g_old_int, nullptr);
+  if (g_handles_term) sigaction(SIGTERM, &g_old_term, nullptr);
 }
 
 // The missing directories of `path` created top-down; returns them in that

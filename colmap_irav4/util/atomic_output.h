@@ -32,9 +32,11 @@
 //
 // Interrupts: SIGINT/SIGTERM during the run remove the temporary directory's
 // own files (an async-signal-safe walk) and the directories the run created
-// before the default action; during the installation the two signals are
-// blocked, and one that arrives then is reported and ignored (the run is
-// complete). Temporary directories of killed runs (their PID no longer
+// before the default action (a signal the host program handles itself, as
+// Python does SIGINT, is left to it: it stops the run through
+// util/interrupt.h and the destructor cleans); during the installation the two
+// signals are blocked, and one that arrives then is reported and ignored (the
+// run is complete). Temporary directories of killed runs (their PID no longer
 // alive) are cleaned, or their installation finished, when a later run
 // starts in the same OUT.
 

@@ -3,6 +3,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/interrupt.h"
 #include "colmap_irav4/util/progress_bar.h"
 #include "colmap_irav4/util/threading.h"
 
@@ -17,7 +18,9 @@ class CeresProgressCallback : public ceres::IterationCallback {
   ceres::CallbackReturnType operator()(
       const ceres::IterationSummary& summary) override {
     bar_->Update(summary.iteration);
-    return ceres::SOLVER_CONTINUE;
+    // An interrupt (util/interrupt.h) stops the solve at this iteration;
+    // SolveProblem then throws.
+    return InterruptRequested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
   }
 
  private:
@@ -68,9 +71,11 @@ ceres::Solver::Summary SolveProblem(const std::string& label,
   ProgressBar bar(label, solver_options.max_num_iterations,
                   options.show_progress_bar);
   CeresProgressCallback callback(&bar);
-  if (options.show_progress_bar) solver_options.callbacks.push_back(&callback);
+  // Always: the callback is also the interrupt's checkpoint.
+  solver_options.callbacks.push_back(&callback);
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, problem, &summary);
+  ThrowIfInterrupted();
   bar.Finish();
   if (print_progress) LOG(INFO) << summary.FullReport();
   return summary;

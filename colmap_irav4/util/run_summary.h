@@ -14,6 +14,14 @@
 
 namespace colmap_irav4 {
 
+// The process's resident memory (Linux: /proc/self/status VmRSS and VmHWM;
+// elsewhere the peak from getrusage and no current figure: 0).
+struct ProcessMemory {
+  double current_mib = 0;  // resident now
+  double peak_mib = 0;     // highest resident so far (never reset)
+};
+ProcessMemory ReadProcessMemory();
+
 // One stage's figures.
 struct StageReport {
   StageReport() = default;
@@ -21,13 +29,28 @@ struct StageReport {
   std::string name;
   double seconds = 0;      // wall time
   double cpu_seconds = 0;  // process CPU time (all threads) during the stage
+  // Resident memory at the end of the stage, the process's peak so far, and
+  // how much the stage raised that peak: the stage whose rise reaches the
+  // run's peak holds it (the allocator may keep freed memory resident, so
+  // the current figure is an upper bound of what the stage left).
+  double memory_mib = 0;
+  double peak_memory_mib = 0;
+  double peak_rise_mib = 0;
   // Named figures in order, e.g. {"pairs", 55}, {"points", 1234}.
   std::vector<std::pair<std::string, double>> figures;
+
+  // Named texts in order (e.g. {"linear solver", "SPARSE_SCHUR: ..."}):
+  // summary.json strings, not in the log line.
+  std::vector<std::pair<std::string, std::string>> texts;
 
   void Add(const std::string& figure, double value) {
     figures.emplace_back(figure, value);
   }
-  // "name: 1.23 s (cpu 0.45 s), pairs 55, ..." (integers without decimals).
+  void AddText(const std::string& name, const std::string& text) {
+    texts.emplace_back(name, text);
+  }
+  // "name: 1.23 s (cpu 0.45 s, peak 120 MiB), pairs 55, ..." (integers
+  // without decimals).
   std::string LogLine() const;
 };
 
@@ -43,6 +66,9 @@ class StageTimer {
   void Add(const std::string& figure, double value) {
     report_.Add(figure, value);
   }
+  void AddText(const std::string& name, const std::string& text) {
+    report_.AddText(name, text);
+  }
 
   // Stops the clocks, logs, appends to *stages (if not null) and returns the
   // report.
@@ -53,11 +79,18 @@ class StageTimer {
   StageReport report_;
   Timer timer_;
   std::clock_t cpu_start_;
+  double peak_start_mib_;
 };
 
+// The stage that raised the process's memory to its highest peak among
+// `stages` (lists in any order; "" when none raised it).
+std::string PeakMemoryStage(
+    const std::vector<const std::vector<StageReport>*>& stages);
+
 // JSON pieces: a quoted, escaped string; a number (non-finite: null); a list
-// of stages [{"name": ..., "seconds": ..., <figures>}, ...] indented by
-// `indent`.
+// of stages [{"name": ..., "seconds": ..., "cpu_seconds": ..., "memory_mib":
+// ..., "peak_memory_mib": ..., "peak_rise_mib": ..., <figures>}, ...]
+// indented by `indent`.
 std::string JsonString(const std::string& text);
 std::string JsonNumber(double value);
 void AppendStagesJson(const std::vector<StageReport>& stages,

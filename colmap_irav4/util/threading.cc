@@ -11,6 +11,8 @@
 
 #include <glog/logging.h>
 
+#include "colmap_irav4/util/interrupt.h"
+
 namespace colmap_irav4 {
 
 int ResolveNumThreads(int num_threads) {
@@ -23,8 +25,12 @@ void ParallelFor(int num_threads, size_t n,
   if (n == 0) return;
   const size_t num_workers =
       std::min<size_t>(static_cast<size_t>(ResolveNumThreads(num_threads)), n);
+  // Every item is an interrupt checkpoint (util/interrupt.h).
   if (num_workers == 1) {
-    for (size_t i = 0; i < n; ++i) body(i);
+    for (size_t i = 0; i < n; ++i) {
+      ThrowIfInterrupted();
+      body(i);
+    }
     return;
   }
   std::atomic<size_t> next(0);
@@ -36,6 +42,7 @@ void ParallelFor(int num_threads, size_t n,
       const size_t i = next.fetch_add(1);
       if (i >= n) return;
       try {
+        ThrowIfInterrupted();
         body(i);
       } catch (...) {
         std::lock_guard<std::mutex> lock(error_mutex);

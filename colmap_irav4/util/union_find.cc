@@ -1,6 +1,7 @@
 #include "colmap_irav4/util/union_find.h"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
 
 #include <glog/logging.h>
@@ -9,11 +10,13 @@ namespace colmap_irav4 {
 
 UnionFind::UnionFind(size_t num_elements)
     : parent_(num_elements), size_(num_elements, 1) {
-  std::iota(parent_.begin(), parent_.end(), size_t{0});
+  CHECK_LT(num_elements, std::numeric_limits<uint32_t>::max());
+  std::iota(parent_.begin(), parent_.end(), uint32_t{0});
 }
 
 size_t UnionFind::Add() {
-  parent_.push_back(parent_.size());
+  CHECK_LT(parent_.size(), std::numeric_limits<uint32_t>::max());
+  parent_.push_back(static_cast<uint32_t>(parent_.size()));
   size_.push_back(1);
   return parent_.size() - 1;
 }
@@ -31,7 +34,7 @@ bool UnionFind::Union(size_t a, size_t b) {
   b = Find(b);
   if (a == b) return false;
   if (size_[a] < size_[b]) std::swap(a, b);
-  parent_[b] = a;
+  parent_[b] = static_cast<uint32_t>(a);
   size_[a] += size_[b];
   return true;
 }

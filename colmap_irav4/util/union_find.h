@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -9,7 +10,8 @@ namespace colmap_irav4 {
 // Disjoint sets over the elements 0..Size()-1, with path halving and union by
 // size (near-constant amortised time per operation). Which element becomes a
 // set's root is an implementation detail: callers that need a deterministic
-// representative use the smallest element (see ConnectedComponents).
+// representative use the smallest element (see ConnectedComponents). 8 bytes
+// per element (32-bit parents and sizes: fewer than 2^32 elements).
 class UnionFind {
  public:
   UnionFind() = default;
@@ -22,10 +24,12 @@ class UnionFind {
   size_t Find(size_t x);
   // Merges the sets of a and b; returns false if they were already one set.
   bool Union(size_t a, size_t b);
+  // The number of elements of x's set.
+  size_t SetSize(size_t x) { return size_[Find(x)]; }
 
  private:
-  std::vector<size_t> parent_;
-  std::vector<size_t> size_;
+  std::vector<uint32_t> parent_;
+  std::vector<uint32_t> size_;
 };
 
 // Connected components of the graph with vertices 0..num_vertices-1 and the

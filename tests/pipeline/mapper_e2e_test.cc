@@ -117,9 +117,10 @@ void CheckStrechaScene(const std::string& scene, int num_images,
   // positioning and after refinement, the colours last.
   const size_t positioning_check =
       summary.find("fold check (after positioning)");
-  const size_t first_ba = summary.find("bundle adjustment 1");
+  // (By their entries: a stage's name also appears as peak_memory_stage.)
+  const size_t first_ba = summary.find("\"name\": \"bundle adjustment 1\"");
   const size_t refinement_check = summary.find("fold check (after refinement)");
-  const size_t colours = summary.find("\"colours");
+  const size_t colours = summary.find("\"name\": \"colours");
   ASSERT_NE(positioning_check, std::string::npos) << summary;
   ASSERT_NE(refinement_check, std::string::npos) << summary;
   ASSERT_NE(colours, std::string::npos) << summary;

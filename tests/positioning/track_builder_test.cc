@@ -26,6 +26,28 @@ std::map<image_t, Image> MakeImages(
   return images;
 }
 
+// Element by element.
+void ExpectSameTracks(const std::vector<Track>& tracks,
+                      const std::vector<Track>& expected) {
+  ASSERT_EQ(tracks.size(), expected.size());
+  for (size_t t = 0; t < expected.size(); ++t) {
+    ASSERT_EQ(tracks[t].size(), expected[t].size());
+    for (size_t e = 0; e < expected[t].size(); ++e) {
+      EXPECT_EQ(tracks[t][e].image_id, expected[t][e].image_id);
+      EXPECT_EQ(tracks[t][e].point2D_idx, expected[t][e].point2D_idx);
+    }
+  }
+}
+
+// Six images, 400 points, 2% wrong matches.
+SyntheticScene SceneWithWrongMatches() {
+  SyntheticSceneOptions scene_options;
+  scene_options.num_images = 6;
+  scene_options.num_points = 400;
+  scene_options.outlier_match_ratio = 0.02;
+  return GenerateSyntheticScene(scene_options);
+}
+
 TEST(TrackBuilder, ChainsMatchesTransitively) {
   const auto images =
       MakeImages({{{0, 0}, {10, 10}}, {{1, 1}, {20, 20}}, {{2, 2}}});
@@ -111,23 +133,34 @@ TEST(TrackBuilder, RecoversSyntheticTracksDeterministically) {
   // Same tracks whatever the order of the pairs.
   std::vector<ImagePairMatches> reversed(scene.matches.rbegin(),
                                          scene.matches.rend());
-  const auto tracks2 = BuildTracks(options, reversed, scene.truth.images);
-  ASSERT_EQ(tracks2.size(), tracks.size());
-  for (size_t t = 0; t < tracks.size(); ++t) {
-    ASSERT_EQ(tracks2[t].size(), tracks[t].size());
-    for (size_t e = 0; e < tracks[t].size(); ++e) {
-      EXPECT_EQ(tracks2[t][e].image_id, tracks[t][e].image_id);
-      EXPECT_EQ(tracks2[t][e].point2D_idx, tracks[t][e].point2D_idx);
-    }
+  ExpectSameTracks(BuildTracks(options, reversed, scene.truth.images), tracks);
+}
+
+TEST(TrackBuilder, DatabaseMatchesFedPairByPairGiveTheSameTracks) {
+  const SyntheticScene scene = SceneWithWrongMatches();
+  TrackBuilderStats stats;
+  const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches,
+                                  scene.truth.images, &stats);
+  // The same matches as the database stores them (FeatureMatches), in
+  // another order, with a pair of an image with itself (skipped).
+  TrackBuilder builder(TrackBuilderOptions(), scene.truth.images);
+  builder.AddMatches(1, 1, FeatureMatches(3));
+  for (auto it = scene.matches.rbegin(); it != scene.matches.rend(); ++it) {
+    FeatureMatches matches;
+    for (const auto& [idx1, idx2] : it->matches)
+      matches.push_back({idx1, idx2});
+    builder.AddMatches(it->image_id1, it->image_id2, matches);
   }
+  TrackBuilderStats fed_stats;
+  const auto fed = builder.Build(&fed_stats);
+  EXPECT_EQ(fed_stats.num_observations, stats.num_observations);
+  EXPECT_EQ(fed_stats.num_inconsistent, stats.num_inconsistent);
+  EXPECT_GT(stats.num_inconsistent, 0u);
+  ExpectSameTracks(fed, tracks);
 }
 
 TEST(TrackBuilder, WrongMatchesBreakOnlySomeTracks) {
-  SyntheticSceneOptions scene_options;
-  scene_options.num_images = 6;
-  scene_options.num_points = 400;
-  scene_options.outlier_match_ratio = 0.02;
-  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  const SyntheticScene scene = SceneWithWrongMatches();
   TrackBuilderStats stats;
   const auto tracks = BuildTracks(TrackBuilderOptions(), scene.matches,
                                   scene.truth.images, &stats);

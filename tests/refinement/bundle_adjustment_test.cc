@@ -252,25 +252,59 @@ TEST(BundleAdjustment, ChoosesTheLinearSolverBySize) {
   BundleAdjustmentOptions options;
   options.iterative_schur_min_num_images = 300;
   ceres::Solver::Options ceres_options;
-  ChooseLinearSolver(options, 49, &ceres_options);
+  ChooseLinearSolver(options, 49, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
-  ChooseLinearSolver(options, 50, &ceres_options);
+  ChooseLinearSolver(options, 50, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
-  ChooseLinearSolver(options, 299, &ceres_options);
+  ChooseLinearSolver(options, 299, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
-  ChooseLinearSolver(options, 300, &ceres_options);
+  ChooseLinearSolver(options, 300, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
   EXPECT_EQ(ceres_options.preconditioner_type, ceres::SCHUR_JACOBI);
   // A named solver whatever the size.
   options.linear_solver = BundleAdjustmentLinearSolver::kSparseSchur;
-  ChooseLinearSolver(options, 5000, &ceres_options);
+  ChooseLinearSolver(options, 5000, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
   options.linear_solver = BundleAdjustmentLinearSolver::kIterativeSchur;
-  ChooseLinearSolver(options, 10, &ceres_options);
+  ChooseLinearSolver(options, 10, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
   options.linear_solver = BundleAdjustmentLinearSolver::kDenseSchur;
-  ChooseLinearSolver(options, 5000, &ceres_options);
+  ChooseLinearSolver(options, 5000, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
+}
+
+TEST(BundleAdjustment, ChoosesTheLinearSolverByDensity) {
+  BundleAdjustmentOptions options;
+  options.iterative_schur_min_density = 0.5;
+  ceres::Solver::Options ceres_options;
+  std::string reason = ChooseLinearSolver(options, 300, 0.49, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  EXPECT_EQ(reason,
+            "SPARSE_SCHUR: sparse reduced camera system (300 images, 49.0% of "
+            "pairs share a point)");
+  reason = ChooseLinearSolver(options, 300, 0.5, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  EXPECT_EQ(ceres_options.preconditioner_type, ceres::SCHUR_JACOBI);
+  EXPECT_NE(reason.find("dense reduced camera system"), std::string::npos);
+  // Small problems stay dense whatever their density.
+  ChooseLinearSolver(options, 49, 1.0, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
+  // A named solver whatever the density.
+  options.linear_solver = BundleAdjustmentLinearSolver::kSparseSchur;
+  reason = ChooseLinearSolver(options, 300, 1.0, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  EXPECT_NE(reason.find("asked"), std::string::npos);
+}
+
+TEST(BundleAdjustment, SchurDensityCountsThePairsSharingAPoint) {
+  // Images 1-4: tracks {1, 2, 3} and {3, 4}: pairs 12, 13, 23, 34 of 6.
+  const Track a = {{1, 0}, {2, 0}, {3, 0}};
+  const Track b = {{3, 1}, {4, 0}};
+  const Track c = {{1, 1}, {2, 1}};  // a pair counted once
+  EXPECT_DOUBLE_EQ(SchurDensity({&a, &b, &c}), 4.0 / 6.0);
+  EXPECT_DOUBLE_EQ(SchurDensity({&a}), 1.0);
+  EXPECT_DOUBLE_EQ(SchurDensity({}), 0.0);
+  EXPECT_DOUBLE_EQ(SchurDensity({&a, &b}, 3), -1.0);  // too many images
 }
 
 // Above the threshold the iterative solver runs, and reaches the optimum
@@ -286,8 +320,13 @@ TEST(BundleAdjustment, IterativeSchurAboveTheThresholdReachesTheSameOptimum) {
   Perturb(0.5, 0.05, 0.02, 1.0, 7, &direct);
   Reconstruction iterative = direct;
   BundleAdjustmentSummary summary;
+  // (Its reduced camera system is dense: auto would choose the iterative
+  // solver by density.)
+  options.linear_solver = BundleAdjustmentLinearSolver::kSparseSchur;
   ASSERT_TRUE(RunBundleAdjustment(options, &direct, &summary));
   EXPECT_EQ(summary.linear_solver, "SPARSE_SCHUR");
+  options.linear_solver = BundleAdjustmentLinearSolver::kAuto;
+  options.iterative_schur_min_density = 2;  // never by density
   options.iterative_schur_min_num_images = 50;
   ASSERT_TRUE(RunBundleAdjustment(options, &iterative, &summary));
   EXPECT_EQ(summary.linear_solver, "ITERATIVE_SCHUR");

@@ -19,6 +19,8 @@ TEST(UnionFind, MergesAndReportsCycles) {
   EXPECT_TRUE(sets.Union(added, 2));
   EXPECT_TRUE(sets.Union(2, 4));
   EXPECT_EQ(sets.Find(5), sets.Find(3));
+  EXPECT_EQ(sets.SetSize(4), 4u);  // {2, 3, 4, 5}
+  EXPECT_EQ(sets.SetSize(0), 2u);
 }
 
 TEST(ConnectedComponents, LargestFirstThenSmallestVertex) {

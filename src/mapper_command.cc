@@ -32,7 +32,14 @@ int RunMapper(int argc, char** argv, bool colmap4_names) {
       "--Mapper.min_model_size images into OUTPUT/0, OUTPUT/1, ... (largest\n"
       "first), and OUTPUT/summary.json with the figures of every stage.\n"
       "Exit code 3: the models were written, but at least one is still\n"
-      "flagged folded (symmetric scene; see --Fold.* and summary.json).");
+      "flagged folded (symmetric scene; see --Fold.* and summary.json).\n"
+      "Pose priors (GPS, gravity): read from the database (COLMAP >= 3.9's\n"
+      "feature_extractor stores EXIF GPS there) or --Mapper.pose_prior_path\n"
+      "(IMAGE_NAME X Y Z lines, COLMAP 3.8 model_aligner's format). A model\n"
+      "with 3+ position priors is placed in their frame (robust to outliers;\n"
+      "gravity sets the up axis), refined with them and written there:\n"
+      "metres, WGS84 as east-north-up at the origin in OUTPUT/k/\n"
+      "prior_frame.txt; no normalisation. --Mapper.use_pose_priors 0: ignore.");
   manager.AddRequired("database_path", &database_path,
                       "COLMAP database (opened read-only)");
   manager.Add("image_path", &image_path,

@@ -88,7 +88,14 @@ int RunModelComparer(int argc, char** argv) {
   manager.Add("per_image", &per_image,
               "also print each common image's rotation and centre error, "
               "worst rotation first");
+  std::string alignment = "similarity";
+  manager.Add("Comparer.alignment", &alignment,
+              "similarity (robust, RANSAC) or none: model 1 is compared in "
+              "its own frame (e.g. placed by pose priors in the reference's)");
   if (!manager.Parse(argc, argv)) return 0;
+  if (alignment != "similarity" && alignment != "none") {
+    throw InputError("--Comparer.alignment", "must be similarity or none");
+  }
   if (input_path2.empty() == gt_path.empty()) {
     throw InputError("--input_path2/--gt_path", "give exactly one of them");
   }
@@ -111,8 +118,8 @@ int RunModelComparer(int argc, char** argv) {
   }
 
   PoseComparison comparison;
-  const bool aligned =
-      ComparePoses(PosesByName(model1), reference, ransac, &comparison);
+  const bool aligned = ComparePoses(PosesByName(model1), reference, ransac,
+                                    &comparison, alignment == "similarity");
   std::cout << "common images: " << comparison.num_common
             << " (model 1: " << comparison.num_estimated
             << ", reference: " << comparison.num_reference

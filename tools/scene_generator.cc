@@ -6,7 +6,10 @@
 //       [--mirror_pair_rate 0.1] [--random_pair_rate 0.02] [--seed 3] ...
 // writes OUT/database.db, OUT/gt/{cameras,images,points3D}.bin and
 // OUT/pairs.txt (one line per written pair: IMAGE_ID1 IMAGE_ID2 KIND
-// NUM_INLIERS, KIND true|mirror|random).
+// NUM_INLIERS, KIND true|mirror|random); with --pose_priors 1 also GPS-like
+// priors and gravity (database_colmap311.db, database_colmap4.db,
+// pose_priors_enu.txt, pose_priors_wgs84.txt, gt_prior: the truth in their
+// frame).
 
 #include <filesystem>
 #include <fstream>
@@ -35,6 +38,61 @@ std::vector<std::string> SplitComma(const std::string& text) {
     if (!part.empty()) parts.push_back(part);
   }
   return parts;
+}
+
+// Pose prior options (scene_generator.h's PosePriorGeneratorOptions).
+void AddPosePriorOptions(OptionManager* manager, bool* pose_priors,
+                         PosePriorGeneratorOptions* options) {
+  manager->Add("pose_priors", pose_priors,
+               "GPS-like priors and gravity: database.db's images.prior_t* "
+               "(COLMAP 3.8), database_colmap311.db / database_colmap4.db "
+               "(pose_priors tables), pose_priors_enu.txt, "
+               "pose_priors_wgs84.txt and gt_prior (the truth in their "
+               "east-north-up frame)");
+  manager->Add("prior_horizontal_std", &options->horizontal_std,
+               "GPS noise east and north (m)");
+  manager->Add("prior_vertical_std", &options->vertical_std,
+               "GPS noise up (m)");
+  manager->Add("prior_outlier_fraction", &options->outlier_fraction,
+               "fraction of GPS outliers");
+  manager->Add("prior_outlier_min_distance", &options->outlier_min_distance,
+               "outliers' smallest offset (m)");
+  manager->Add("prior_outlier_max_distance", &options->outlier_max_distance,
+               "outliers' largest offset (m)");
+  manager->Add("prior_gravity_std", &options->gravity_std_deg,
+               "gravity noise per tilt axis (deg)");
+}
+
+// Writes the priors next to the scene (see AddPosePriorOptions).
+void WriteScenePosePriors(const GeneratedScene& scene,
+                          const PosePriorGeneratorOptions& options,
+                          const std::filesystem::path& out) {
+  const GeneratedPosePriors priors = GeneratePosePriors(scene, options);
+  const std::string database = (out / "database.db").string();
+  for (const char* schema : {"colmap311", "colmap4"}) {
+    const std::string path =
+        (out / ("database_" + std::string(schema) + ".db")).string();
+    std::filesystem::remove(path);
+    std::filesystem::copy_file(
+        database, path + ".tmp",
+        std::filesystem::copy_options::overwrite_existing);
+    WritePosePriorsToDatabase(path + ".tmp", PosePriorSchemaFromName(schema),
+                              priors.wgs84);
+    std::filesystem::rename(path + ".tmp", path);
+  }
+  WritePosePriorsToDatabase(database, PosePriorSchema::kColmap38, priors.wgs84);
+  WritePosePriorText(scene, priors, false,
+                     (out / "pose_priors_enu.txt").string());
+  WritePosePriorText(scene, priors, true,
+                     (out / "pose_priors_wgs84.txt").string());
+  std::filesystem::remove_all(out / "gt_prior");
+  WriteReconstruction(TruthInPriorFrame(scene, priors),
+                      (out / "gt_prior").string(), "BIN");
+  std::cout << "pose priors: " << priors.wgs84.size() << " ("
+            << priors.outliers.size() << " outliers), ENU origin "
+            << std::setprecision(12) << priors.enu_origin.latitude << ", "
+            << priors.enu_origin.longitude << ", " << priors.enu_origin.altitude
+            << std::setprecision(6) << "\n";
 }
 
 int Run(int argc, char** argv) {
@@ -110,6 +168,9 @@ int Run(int argc, char** argv) {
   manager.Add("store_relative_pose", &options.store_relative_pose,
               "write two_view_geometries.qvec/tvec");
   manager.Add("seed", &seed, "random seed");
+  bool pose_priors = false;
+  PosePriorGeneratorOptions prior_options;
+  AddPosePriorOptions(&manager, &pose_priors, &prior_options);
   if (!manager.Parse(argc, argv)) return 0;
   options.layout = SceneLayoutFromName(layout);
   options.camera_models = SplitComma(camera_models);
@@ -127,6 +188,7 @@ int Run(int argc, char** argv) {
     std::filesystem::remove(out / "database.db");
     std::filesystem::remove_all(out / "gt");
     std::filesystem::remove(out / "pairs.txt");
+    std::filesystem::remove_all(out / "gt_prior");
   }
   std::filesystem::create_directories(out);
 
@@ -145,6 +207,10 @@ int Run(int argc, char** argv) {
     file.close();
     if (!file) throw InputError(pairs_path, "cannot write");
     std::filesystem::rename(pairs_path + ".tmp", pairs_path);
+  }
+  if (pose_priors) {
+    prior_options.seed = options.seed;
+    WriteScenePosePriors(scene, prior_options, out);
   }
   size_t num_keypoints = 0;
   for (const auto& [id, image] : scene.truth.images)

@@ -17,7 +17,7 @@ namespace colmap_irav4 {
 bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
                   const std::map<std::string, Rigid3d>& reference,
                   const SimilarityRansacOptions& options,
-                  PoseComparison* comparison) {
+                  PoseComparison* comparison, bool align) {
   *comparison = PoseComparison();
   comparison->num_estimated = static_cast<int>(estimate.size());
   comparison->num_reference = static_cast<int>(reference.size());
@@ -30,9 +30,12 @@ bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
     dst.push_back(it->second.Inverse().translation);
   }
   comparison->num_common = static_cast<int>(src.size());
-  std::vector<bool> inliers;
-  if (!EstimateSimilarityRansac(src, dst, options,
-                                &comparison->estimate_to_reference, &inliers)) {
+  std::vector<bool> inliers(src.size(), true);
+  if (!align) {
+    if (src.size() < 3) return false;
+  } else if (!EstimateSimilarityRansac(src, dst, options,
+                                       &comparison->estimate_to_reference,
+                                       &inliers)) {
     return false;
   }
   comparison->num_inliers =
@@ -67,7 +70,7 @@ bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
     comparison->centers_nearly_collinear =
         singular(1) < kCollinearRatio * singular(0);
   }
-  if (comparison->centers_nearly_collinear) {
+  if (comparison->centers_nearly_collinear && align) {
     std::vector<Eigen::Matrix3d> relative;
     for (const std::string& name : comparison->names) {
       relative.push_back(

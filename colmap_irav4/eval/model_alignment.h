@@ -39,10 +39,13 @@ struct PoseComparison {
 
 // Poses are cam_from_world, keyed by image name. Returns false (with the
 // counts filled) when fewer than 3 common images or the alignment fails.
+// Without `align` the poses are compared as they are (a model in the
+// reference's frame, e.g. placed by pose priors): the similarity is the
+// identity and every common image an inlier.
 bool ComparePoses(const std::map<std::string, Rigid3d>& estimate,
                   const std::map<std::string, Rigid3d>& reference,
                   const SimilarityRansacOptions& options,
-                  PoseComparison* comparison);
+                  PoseComparison* comparison, bool align = true);
 
 // cam_from_world poses of a reconstruction's images, by name.
 std::map<std::string, Rigid3d> PosesByName(const Reconstruction& model);

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iomanip>
 #include <random>
 #include <unordered_map>
 #include <unordered_set>
@@ -1247,6 +1250,143 @@ void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
     begin = end;
   }
   writer.Commit();
+}
+
+void PosePriorGeneratorOptions::Check() const {
+  auto require = [](bool ok, const std::string& name,
+                    const std::string& problem) {
+    if (!ok) throw InputError("--" + name, problem);
+  };
+  require(horizontal_std >= 0 && vertical_std >= 0, "prior_horizontal_std",
+          "the standard deviations must be >= 0");
+  require(outlier_fraction >= 0 && outlier_fraction <= 1,
+          "prior_outlier_fraction", "must be in [0, 1]");
+  require(
+      outlier_min_distance >= 0 && outlier_max_distance >= outlier_min_distance,
+      "prior_outlier_min_distance", "must be in [0, max distance]");
+  require(gravity_std_deg >= 0 && gravity_std_deg < 30, "prior_gravity_std",
+          "must be in [0, 30) deg");
+  require(IsValidWgs84(origin), "prior_origin", "not a valid WGS84 position");
+}
+
+namespace {
+
+// The priors' frame from the generator's world: y up becomes z up.
+Eigen::Matrix3d EnuFromWorld() {
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  return R;
+}
+
+// The truth mapped by a rotation and translation x -> R x + t.
+Reconstruction TransformTruth(const Reconstruction& model,
+                              const Eigen::Matrix3d& R,
+                              const Eigen::Vector3d& t) {
+  Reconstruction truth = model;
+  const Eigen::Quaterniond q(R);
+  for (auto& [image_id, image] : truth.images) {
+    const Eigen::Vector3d center = R * image.ProjectionCenter() + t;
+    image.cam_from_world.rotation =
+        (image.cam_from_world.rotation * q.inverse()).normalized();
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
+  }
+  for (auto& [point3D_id, point] : truth.points3D) {
+    point.xyz = R * point.xyz + t;
+  }
+  return truth;
+}
+
+}  // namespace
+
+Reconstruction TruthInPriorFrame(const GeneratedScene& scene,
+                                 const GeneratedPosePriors& priors) {
+  // World -> ENU at options.origin -> ENU at the priors' median origin.
+  const EnuFrame from(priors.options.origin);
+  const EnuFrame to(priors.enu_origin);
+  const Eigen::Matrix3d R = to.EnuFromEcef() * from.EnuFromEcef().transpose();
+  const Eigen::Vector3d t =
+      to.EnuFromEcef() * (from.OriginEcef() - to.OriginEcef());
+  return TransformTruth(scene.truth, R * EnuFromWorld(), t);
+}
+
+GeneratedPosePriors GeneratePosePriors(
+    const GeneratedScene& scene, const PosePriorGeneratorOptions& options) {
+  options.Check();
+  GeneratedPosePriors priors;
+  priors.options = options;
+  std::mt19937_64 rng(Mix(options.seed ^ 0x706f73655f707269ULL));
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const EnuFrame frame(options.origin);
+  // The truth in the east-north-up frame at options.origin.
+  const Reconstruction truth =
+      TransformTruth(scene.truth, EnuFromWorld(), Eigen::Vector3d::Zero());
+  const double gravity_std = options.gravity_std_deg * M_PI / 180.0;
+  for (const auto& [image_id, image] : truth.images) {
+    Eigen::Vector3d enu = image.ProjectionCenter() +
+                          Eigen::Vector3d(options.horizontal_std * normal(rng),
+                                          options.horizontal_std * normal(rng),
+                                          options.vertical_std * normal(rng));
+    if (unit(rng) < options.outlier_fraction) {
+      const Eigen::Vector3d direction =
+          Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+      enu += direction * (options.outlier_min_distance +
+                          unit(rng) * (options.outlier_max_distance -
+                                       options.outlier_min_distance));
+      priors.outliers.insert(image_id);
+    }
+    // Down in the camera frame, tilted by two small random angles.
+    const Eigen::Vector3d down =
+        image.cam_from_world.rotation * Eigen::Vector3d(0, 0, -1);
+    const Eigen::Vector3d axis1 = down.unitOrthogonal();
+    const Eigen::Vector3d axis2 = down.cross(axis1);
+    const Eigen::Vector3d gravity = (down + gravity_std * normal(rng) * axis1 +
+                                     gravity_std * normal(rng) * axis2)
+                                        .normalized();
+    StoredPosePrior stored;
+    stored.image_name = image.name;
+    const Wgs84 geodetic = frame.ToWgs84(enu);
+    stored.position = Eigen::Vector3d(geodetic.latitude, geodetic.longitude,
+                                      geodetic.altitude);
+    stored.coordinate_system = PriorCoordinateSystem::kWgs84;
+    stored.position_covariance =
+        Eigen::Vector3d(options.horizontal_std * options.horizontal_std,
+                        options.horizontal_std * options.horizontal_std,
+                        options.vertical_std * options.vertical_std)
+            .asDiagonal();
+    stored.gravity = gravity;
+    priors.wgs84[image_id] = stored;
+  }
+  // The frame and positions the mapper will derive from them.
+  StoredPosePriors all;
+  std::map<std::string, image_t> image_ids;
+  for (const auto& [image_id, stored] : priors.wgs84) {
+    all.priors.push_back(stored);
+    image_ids[stored.image_name] = image_id;
+  }
+  const LocalPosePriors local = ConvertPosePriors(all, image_ids);
+  priors.enu_origin = local.enu_origin;
+  for (const auto& [image_id, prior] : local.priors) {
+    priors.enu[image_id] = prior.position;
+  }
+  return priors;
+}
+
+void WritePosePriorText(const GeneratedScene& scene,
+                        const GeneratedPosePriors& priors, bool wgs84,
+                        const std::string& path) {
+  std::ofstream file(path + ".tmp");
+  file << std::setprecision(wgs84 ? 12 : 9);
+  for (const auto& [image_id, enu] : priors.enu) {
+    const Eigen::Vector3d position =
+        wgs84 ? priors.wgs84.at(image_id).position : enu;
+    file << scene.truth.images.at(image_id).name << ' ' << position.x() << ' '
+         << position.y() << ' ' << position.z() << '\n';
+  }
+  file.close();
+  if (!file) throw InputError(path, "cannot write");
+  std::filesystem::rename(path + ".tmp", path);
 }
 
 }  // namespace colmap_irav4

@@ -18,10 +18,14 @@
 // plane, so each camera only tests the points near it.
 
 #include <cstdint>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "colmap_irav4/geometry/gps.h"
 #include "colmap_irav4/geometry/two_view_geometry.h"
+#include "colmap_irav4/io/pose_priors.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {
@@ -191,5 +195,54 @@ Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world);
 // matches, two_view_geometries), to a temporary name renamed when complete.
 // Throws InputError if `path` exists.
 void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path);
+
+// GPS-like pose priors of a generated scene: each camera centre in a local
+// east-north-up frame at `origin` (the scene's world mapped so that its
+// vertical Y is up: (x, y, z) -> (x, -z, y)), with Gaussian noise, a few
+// outliers far off, and gravity (down in the camera frame) with angular
+// noise. Drawn from their own random stream: the scene is the same with or
+// without them.
+struct PosePriorGeneratorOptions {
+  double horizontal_std = 3.0;  // m, east and north each
+  double vertical_std = 5.0;    // m
+  // Fraction of the priors displaced by a random direction times a distance
+  // uniform in [outlier_min_distance, outlier_max_distance] (m).
+  double outlier_fraction = 0.05;
+  double outlier_min_distance = 30.0;
+  double outlier_max_distance = 100.0;
+  // Standard deviation (deg) of each of the two tilt components of gravity.
+  double gravity_std_deg = 1.0;
+  Wgs84 origin = {47.3769, 8.5417, 408.0};
+  uint64_t seed = 1;
+  void Check() const;  // throws InputError naming the option
+};
+
+struct GeneratedPosePriors {
+  PosePriorGeneratorOptions options;
+  // The priors' frame: east-north-up at the origin the mapper picks from
+  // them (the median latitude, longitude and altitude; ConvertPosePriors),
+  // so that a model placed by them compares with the truth without any
+  // alignment.
+  Wgs84 enu_origin;
+  // As a COLMAP database stores them: WGS84 position, covariance
+  // diag(h^2, h^2, v^2) (m^2), gravity.
+  std::map<image_t, StoredPosePrior> wgs84;
+  // The same positions in that east-north-up frame (m).
+  std::map<image_t, Eigen::Vector3d> enu;
+  std::set<image_t> outliers;
+};
+
+GeneratedPosePriors GeneratePosePriors(
+    const GeneratedScene& scene, const PosePriorGeneratorOptions& options);
+
+// The true model in the priors' east-north-up frame (metric, z up).
+Reconstruction TruthInPriorFrame(const GeneratedScene& scene,
+                                 const GeneratedPosePriors& priors);
+
+// `IMAGE_NAME X Y Z` lines (COLMAP model_aligner's --ref_images_path):
+// east, north, up (m), or with `wgs84` latitude, longitude, altitude.
+void WritePosePriorText(const GeneratedScene& scene,
+                        const GeneratedPosePriors& priors, bool wgs84,
+                        const std::string& path);
 
 }  // namespace colmap_irav4

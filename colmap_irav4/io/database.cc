@@ -443,30 +443,6 @@ std::vector<DatabaseImage> Database::ReadAllImages() const {
     index[image.image_id] = images.size();
     images.push_back(std::move(image));
   }
-  if (schema_.has_pose_priors_table) {
-    const std::set<std::string> columns = TableColumns("pose_priors");
-    // 3.10: image_id; 4.x: corr_data_id (the image of a camera sensor).
-    const std::string id_column = columns.count("image_id") ? "image_id"
-                                  : columns.count("corr_data_id")
-                                      ? "corr_data_id"
-                                      : "";
-    if (!id_column.empty() && columns.count("position") > 0) {
-      Statement priors(*this,
-                       "SELECT " + id_column + ", position FROM pose_priors");
-      while (priors.Step()) {
-        const auto it = index.find(static_cast<image_t>(priors.Int(0)));
-        if (it == index.end() || priors.IsNull(1)) continue;
-        const int bytes = priors.BlobBytes(1);
-        if (bytes != 3 * static_cast<int>(sizeof(double))) {
-          Fail("pose_priors of image " + std::to_string(priors.Int(0)) +
-               ": position blob has " + Bytes(bytes) + ", expected 24 bytes");
-        }
-        DatabaseImage& image = images[it->second];
-        std::memcpy(image.prior_tvec.data(), priors.Blob(1), bytes);
-        image.has_prior_position = true;
-      }
-    }
-  }
   return images;
 }
 

@@ -11,15 +11,16 @@
 #include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/scene/camera.h"
 #include "colmap_irav4/scene/features.h"
+#include "colmap_irav4/scene/pose_prior.h"
 #include "colmap_irav4/scene/types.h"
 
 struct sqlite3;
 
 namespace colmap_irav4 {
 
-// An image row of the database, with its pose prior when there is one
-// (COLMAP <= 3.9: images.prior_q*/prior_t* columns; 3.10+: pose_priors table,
-// position only).
+// An image row of the database, with the pose prior of its
+// images.prior_q*/prior_t* columns when there is one (COLMAP <= 3.9; the
+// pose_priors table of 3.10+ is read by io/pose_priors.h).
 struct DatabaseImage {
   image_t image_id = kInvalidImageId;
   std::string name;
@@ -27,8 +28,8 @@ struct DatabaseImage {
   bool has_prior_rotation = false;
   Eigen::Vector4d prior_qvec = Eigen::Vector4d(1, 0, 0, 0);
   bool has_prior_position = false;
-  // cam_from_world translation (images.prior_t*) or, from pose_priors, the
-  // camera centre in the prior's coordinate system.
+  // images.prior_t* (COLMAP 3.8/3.9's feature extractor writes EXIF GPS
+  // latitude, longitude, altitude there).
   Eigen::Vector3d prior_tvec = Eigen::Vector3d::Zero();
 };
 
@@ -98,6 +99,9 @@ class Database {
   // Throws InputError if an immutable-mode file changed (or grew a -wal)
   // since it was opened: what was read may be torn.
   void CheckUnchanged() const;
+  // The read-only connection, inside this object's read transaction, for
+  // readers of optional tables kept in their own files (io/pose_priors.cc).
+  sqlite3* Connection() const { return db_; }
 
   std::vector<Camera> ReadAllCameras() const;
   std::vector<DatabaseImage> ReadAllImages() const;
@@ -181,6 +185,10 @@ struct DatabaseContents {
   std::vector<camera_t> reset_cameras;
   // One line per warning (also logged), for the run summary.
   std::vector<std::string> warnings;
+  // Pose priors in one metric frame, by image id: not read by ReadDatabase
+  // but set by the mapper (pipeline/pose_prior_setup.h) from the database's
+  // pose priors or a text file.
+  PosePriors pose_priors;
 };
 
 // Reads and validates everything (one read transaction). Throws InputError

@@ -3,6 +3,7 @@
 #include <unistd.h>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <numeric>
@@ -373,9 +374,21 @@ bool GlobalMapper::Positioning() {
   StageTimer stage(EnumName(options_.positioning_method));
   if (options_.positioning_method == PositioningMethod::kGlobalPositioning) {
     GlobalPositionerSummary positioner_summary;
-    if (!RunGlobalPositioning(options_.global_positioning, &reconstruction_,
-                              &positioner_summary)) {
+    if (!RunGlobalPositioning(
+            options_.global_positioning, &reconstruction_, &positioner_summary,
+            options_.use_pose_priors ? &database_.pose_priors : nullptr)) {
       return Fail("global positioning failed");
+    }
+    // Pose priors: the model is in their frame from here on.
+    in_prior_frame_ = positioner_summary.in_prior_frame;
+    if (in_prior_frame_) {
+      stage.Add("position priors",
+                static_cast<double>(positioner_summary.num_position_priors));
+      stage.Add(
+          "position prior inliers",
+          static_cast<double>(positioner_summary.num_position_prior_inliers));
+      stage.Add("gravity priors",
+                static_cast<double>(positioner_summary.num_gravity_priors));
     }
     stage.Add("iterations",
               static_cast<double>(positioner_summary.num_iterations));
@@ -420,7 +433,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         return false;
       }
       BundleAdjustmentSummary ba_summary;
-      if (!RunBundleAdjustment(round_options, &reconstruction_, &ba_summary)) {
+      if (!RunBundleAdjustment(
+              round_options, &reconstruction_, &ba_summary,
+              in_prior_frame_ ? &database_.pose_priors : nullptr)) {
         return Fail("bundle adjustment failed");
       }
       keypoint_noise_ = ba_summary.keypoint_noise;
@@ -529,7 +544,8 @@ bool GlobalMapper::Finalize() {
     return Fail("only " + std::to_string(reconstruction_.images.size()) +
                 " images left after refinement");
   }
-  if (!options_.skip_normalization) {
+  // A model in the pose priors' frame stays there (metric).
+  if (!options_.skip_normalization && !in_prior_frame_) {
     StageTimer stage("normalisation");
     NormalizeReconstruction(options_.normalization, &reconstruction_);
     stage.Finish(log_prefix_, &stages_);
@@ -661,6 +677,12 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.normalization.Check();
   o.pose_constraint.Check();
   o.fold.Check();
+  o.pose_priors.Check();
+  if (!o.pose_prior_path.empty() &&
+      !std::filesystem::is_regular_file(o.pose_prior_path)) {
+    throw OptionError(&o.pose_prior_path, "Mapper.pose_prior_path",
+                      "no such file: '" + o.pose_prior_path + "'");
+  }
 }
 
 }  // namespace
@@ -687,6 +709,8 @@ GlobalMapperOptions GlobalMapperOptions::ForStages(size_t num_images) const {
   stages.global_positioning.random_seed = seed;
   stages.translation_averaging.random_seed = seed;
   stages.triangulation.random_seed = seed;
+  stages.global_positioning.pose_priors = pose_priors;
+  stages.bundle_adjustment.pose_priors = pose_priors;
   // A pair with fewer inliers than the view graph keeps counts as not
   // matched for the fold check too.
   stages.fold.detection.min_num_matches = view_graph.min_num_inliers;

@@ -101,6 +101,17 @@ struct GlobalMapperOptions {
   // default focal and are refined (see DatabaseReadOptions).
   bool reset_invalid_cameras = false;
 
+  // Pose priors (GPS, gravity; io/pose_priors.h): from pose_prior_path when
+  // given (`IMAGE_NAME X Y Z [GX GY GZ]` lines, X Y Z latitude, longitude,
+  // altitude with pose_prior_wgs84), else from the database. Used when
+  // use_pose_priors and present: each model with enough position priors is
+  // placed in their frame by global positioning, bundle adjustment keeps
+  // them as robust terms, and it is written in that frame (no
+  // normalisation).
+  bool use_pose_priors = true;
+  std::string pose_prior_path;
+  bool pose_prior_wgs84 = false;
+  PosePriorOptions pose_priors;
   ViewGraphBuilderOptions view_graph;
   RotationAveragerOptions rotation_averaging;
   RotationFilterOptions rotation_filter;
@@ -221,6 +232,8 @@ class GlobalMapper {
   const Reconstruction& reconstruction() const { return reconstruction_; }
   const std::vector<StageReport>& stages() const { return stages_; }
   const std::string& failure() const { return failure_; }
+  // Whether the model was placed in the pose priors' frame (metric).
+  bool in_prior_frame() const { return in_prior_frame_; }
   // The last fold check's report; fold_checked() false: none ran.
   const FoldReport& fold() const { return fold_; }
   bool fold_checked() const { return fold_checked_; }
@@ -250,6 +263,7 @@ class GlobalMapper {
   std::vector<Track> tracks_;
   Reconstruction reconstruction_;
   bool retriangulated_ = false;
+  bool in_prior_frame_ = false;
   // The last bundle adjustment's noise by keypoint scale
   // (BundleAdjustmentSummary::keypoint_noise): the filters and the
   // retriangulation scale their thresholds by it; empty before or without.

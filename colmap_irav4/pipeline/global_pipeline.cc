@@ -15,6 +15,7 @@
 
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/pipeline/option_registration.h"
+#include "colmap_irav4/pipeline/pose_prior_setup.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/atomic_output.h"
 #include "colmap_irav4/util/error.h"
@@ -65,6 +66,7 @@ std::string GlobalMapperSummary::ToJson() const {
       << JsonNumber(peak_bytes_per_observation)
       << ",\n  \"peak_bytes_per_pair\": " << JsonNumber(peak_bytes_per_pair)
       << ",\n  \"num_folded_models\": " << NumFoldedModels()
+      << ",\n  \"pose_priors\": " << PosePriorsJson(pose_priors)
       << ",\n  \"stages\": ";
   AppendStagesJson(stages, "  ", &out);
   out << ",\n  \"models\": [";
@@ -88,6 +90,7 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
         << ", \"fold_missing_pairs\": " << c.fold_missing_pairs
         << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
+        << ", \"in_prior_frame\": " << (c.in_prior_frame ? "true" : "false")
         << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
     out << ",\n     \"images\": [";
@@ -177,7 +180,11 @@ void GlobalPipeline::Run() {
   Timer total_timer;
   summary_ = GlobalMapperSummary();
   summary_.database_path = database_path_;
-  const DatabaseContents database = ReadDatabase();
+  DatabaseContents database = ReadDatabase();
+  summary_.pose_priors = LoadPosePriors(options_, &database);
+  for (const std::string& warning : summary_.pose_priors.Warnings()) {
+    summary_.notes.push_back(warning);
+  }
   const std::vector<Reconstruction> models = Reconstruct(database);
   Write(models, total_timer, &output);
 }
@@ -376,6 +383,7 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
     report.num_images_in_graph = static_cast<int>(mapper.images().size());
     report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
     report.stages = mapper.stages();
+    report.in_prior_frame = mapper.in_prior_frame();
     if (mapper.fold_checked()) {
       report.fold_score = mapper.fold().fold_score;
       report.folded = models[k].folded;
@@ -451,6 +459,12 @@ void GlobalPipeline::Write(const std::vector<Reconstruction>& models,
     const std::string path = output->StagingModelPath(static_cast<int>(k));
     WriteReconstruction(models[k], path, output_type_);
     WriteFileAtomically(path + "/project.ini", options_ini);
+    // Where a model in the pose priors' frame sits on the map.
+    if (k < summary_.components.size() &&
+        summary_.components[k].in_prior_frame) {
+      WriteFileAtomically(path + "/prior_frame.txt",
+                          PriorFrameText(summary_.pose_priors));
+    }
   }
   for (const std::string& stale :
        output->StaleModelDirectories(static_cast<int>(models.size()))) {

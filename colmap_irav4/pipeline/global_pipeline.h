@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/io/pose_priors.h"
 #include "colmap_irav4/pipeline/component_mapper.h"
 #include "colmap_irav4/pipeline/global_mapper.h"
 #include "colmap_irav4/scene/reconstruction.h"
@@ -45,6 +46,8 @@ struct ComponentReport {
   int fold_missing_pairs = 0;
   // "clean", "resolved (...)", "split", "folded (...)".
   std::string fold_outcome;
+  // Placed in the pose priors' frame (metric; prior_frame.txt beside it).
+  bool in_prior_frame = false;
   std::vector<StageReport> stages;
   // Each image's observations and pose constraint, least constrained first
   // (refinement/pose_constraint.h).
@@ -69,6 +72,8 @@ struct GlobalMapperSummary {
   double peak_bytes_per_observation = 0;
   double peak_bytes_per_pair = 0;
   std::vector<std::string> notes;  // warnings, skipped stages
+  // The pose priors read (source, frame, counts; not the priors).
+  LocalPosePriors pose_priors;
 
   // Sets the peak figures above from the process and the stages (and logs
   // them): called once every stage has finished.

@@ -4,6 +4,33 @@
 
 namespace colmap_irav4 {
 
+void AddPosePriorOptions(OptionManager* manager, GlobalMapperOptions* options) {
+  manager->Add("Mapper.use_pose_priors", &options->use_pose_priors,
+               "use pose priors (GPS positions, gravity) when there are any: "
+               "the database's (COLMAP >= 3.10 pose_priors table; 3.8/3.9 "
+               "images.prior_t*, EXIF GPS) or --Mapper.pose_prior_path's; "
+               "models with 3+ position priors are written in their frame "
+               "(metres; WGS84 as east-north-up, origin in prior_frame.txt)");
+  manager->Add("Mapper.pose_prior_path", &options->pose_prior_path,
+               "text file of priors instead of the database's: IMAGE_NAME X "
+               "Y Z [GX GY GZ] per line (COLMAP model_aligner's "
+               "--ref_images_path format; G: gravity, down in the camera)");
+  manager->Add("Mapper.pose_prior_wgs84", &options->pose_prior_wgs84,
+               "pose_prior_path's X Y Z are latitude, longitude (deg), "
+               "altitude (m)");
+  manager->Add("Mapper.prior_position_std", &options->pose_priors.position_std,
+               "standard deviation (m) of a position prior stored without a "
+               "covariance");
+  manager->Add("Mapper.prior_gravity_std",
+               &options->pose_priors.gravity_std_deg,
+               "standard deviation of a gravity prior (deg)");
+  manager->Add("Mapper.prior_loss_scale", &options->pose_priors.loss_scale,
+               "Cauchy loss scale of prior residuals (standard deviations)");
+  manager->Add("Mapper.prior_min_num_positions",
+               &options->pose_priors.min_num_positions,
+               "fewest position priors that place a model in their frame");
+}
+
 void AddFocalCalibrationOptions(OptionManager* manager,
                                 FocalCalibrationOptions* options) {
   manager->Add("ViewGraph.calibrate_focal", &options->calibrate_focal,
@@ -442,6 +469,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "skip the final filtering");
   manager->Add("Mapper.skip_normalization", &o.skip_normalization,
                "skip normalising the scene's centre and scale");
+  AddPosePriorOptions(manager, options);
   manager->Add("Mapper.color_image_downscale", &o.color_image_downscale,
                "images are decoded at 1/1, 1/2, 1/4 or 1/8 of their size for "
                "the point colours");

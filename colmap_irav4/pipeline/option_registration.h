@@ -18,6 +18,8 @@
 namespace colmap_irav4 {
 
 // --ViewGraph.calibrate_focal, --ViewGraph.calibration_*.
+// --Mapper.use_pose_priors, pose_prior_path, prior_* (GlobalMapperOptions).
+void AddPosePriorOptions(OptionManager* manager, GlobalMapperOptions* options);
 void AddFocalCalibrationOptions(OptionManager* manager,
                                 FocalCalibrationOptions* options);
 // --ViewGraph.* (filters; focal self-calibration) and --RelativePose.*.

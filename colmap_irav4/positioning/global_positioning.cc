@@ -4,11 +4,13 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <set>
 #include <unordered_map>
 
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
+#include "colmap_irav4/geometry/pose_prior_cost.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/positioning/direction_cost.h"
 #include "colmap_irav4/scene/camera_models.h"
@@ -46,11 +48,286 @@ void GlobalPositionerOptions::Check() const {
                       "must be in [0, 180)");
   }
   solver.Check("GlobalPositioning.");
+  pose_priors.Check();
 }
+
+namespace {
+
+// The mean of unit vectors, after dropping those more than 10 deg from the
+// first mean (gravity outliers).
+Eigen::Vector3d RobustMeanDirection(const std::vector<Eigen::Vector3d>& dirs) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& d : dirs) mean += d;
+  mean.normalize();
+  for (int iteration = 0; iteration < 2; ++iteration) {
+    Eigen::Vector3d kept = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& d : dirs) {
+      if (d.dot(mean) > std::cos(DegToRad(10.0))) kept += d;
+    }
+    if (kept.norm() > 0) mean = kept.normalized();
+  }
+  return mean;
+}
+
+// Heading (rotation about z), scale and offset mapping R_tilt src onto dst
+// in least squares, the tilt R_tilt given.
+Sim3d FitWithFixedTilt(const Eigen::Matrix3d& tilt,
+                       const std::vector<Eigen::Vector3d>& src,
+                       const std::vector<Eigen::Vector3d>& dst) {
+  Eigen::Vector3d mean_a = Eigen::Vector3d::Zero(), mean_b = mean_a;
+  for (size_t k = 0; k < src.size(); ++k) {
+    mean_a += tilt * src[k];
+    mean_b += dst[k];
+  }
+  mean_a /= src.size();
+  mean_b /= src.size();
+  double sin_sum = 0, cos_sum = 0;
+  for (size_t k = 0; k < src.size(); ++k) {
+    const Eigen::Vector3d a = tilt * src[k] - mean_a, b = dst[k] - mean_b;
+    cos_sum += a.x() * b.x() + a.y() * b.y();
+    sin_sum += a.x() * b.y() - a.y() * b.x();
+  }
+  const double heading = std::atan2(sin_sum, cos_sum);
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+      tilt;
+  double num = 0, den = 0;
+  for (size_t k = 0; k < src.size(); ++k) {
+    const Eigen::Vector3d a = R * src[k] - R * (tilt.transpose() * mean_a);
+    num += a.dot(dst[k] - mean_b);
+    den += a.squaredNorm();
+  }
+  Sim3d sim;
+  sim.R = R;
+  sim.scale = den > 0 ? num / den : 1.0;
+  sim.t = mean_b - sim.scale * (R * (tilt.transpose() * mean_a));
+  return sim;
+}
+
+}  // namespace
+
+bool EstimatePriorFrameFromModel(
+    const std::map<image_t, Eigen::Vector3d>& centers,
+    const std::map<image_t, Eigen::Matrix3d>& cam_from_world_rotations,
+    const PosePriors& priors, const PosePriorOptions& options, uint64_t seed,
+    Sim3d* prior_from_model, std::set<image_t>* inliers, std::string* problem) {
+  std::vector<image_t> ids;
+  std::vector<Eigen::Vector3d> src, dst, downs;
+  std::vector<double> stds;
+  for (const auto& [image_id, center] : centers) {
+    const auto it = priors.find(image_id);
+    if (it == priors.end()) continue;
+    if (it->second.HasGravity() && cam_from_world_rotations.count(image_id)) {
+      downs.push_back(cam_from_world_rotations.at(image_id).transpose() *
+                      it->second.gravity);
+    }
+    if (!it->second.HasPosition()) continue;
+    ids.push_back(image_id);
+    src.push_back(center);
+    dst.push_back(it->second.position);
+    stds.push_back(PositionPriorStd(it->second, options));
+  }
+  if (static_cast<int>(ids.size()) < options.min_num_positions) {
+    *problem = std::to_string(ids.size()) + " images with a position prior (" +
+               std::to_string(options.min_num_positions) + " needed)";
+    return false;
+  }
+  // RANSAC's threshold is relative to the priors' spread about their
+  // centroid: 3 standard deviations (the median one).
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : dst) centroid += p;
+  centroid /= dst.size();
+  std::vector<double> spreads;
+  for (const Eigen::Vector3d& p : dst) spreads.push_back((p - centroid).norm());
+  std::vector<double> sorted_stds = stds;
+  std::nth_element(spreads.begin(), spreads.begin() + spreads.size() / 2,
+                   spreads.end());
+  std::nth_element(sorted_stds.begin(),
+                   sorted_stds.begin() + sorted_stds.size() / 2,
+                   sorted_stds.end());
+  const double spread = spreads[spreads.size() / 2];
+  const double threshold = 3.0 * sorted_stds[sorted_stds.size() / 2];
+  SimilarityRansacOptions ransac;
+  ransac.seed = seed;
+  ransac.max_relative_error =
+      spread > 0 ? std::clamp(threshold / spread, 1e-3, 0.99) : 0.99;
+  Sim3d sim;
+  std::vector<bool> is_inlier;
+  if (!EstimateSimilarityRansac(src, dst, ransac, &sim, &is_inlier)) {
+    *problem =
+        "no similarity maps the centres onto the priors (are the "
+        "cameras on a line?)";
+    return false;
+  }
+  // RANSAC's threshold, one distance for all and at most the spread, is
+  // only a start: the inliers are then the priors within 4 of their own
+  // standard deviations (chi-square, 3 degrees of freedom: 99.9%), and the
+  // similarity is fitted to them again, until they no longer change.
+  std::vector<Eigen::Vector3d> inlier_src, inlier_dst;
+  for (int iteration = 0; iteration < 5; ++iteration) {
+    std::vector<bool> whitened_inlier(ids.size());
+    for (size_t k = 0; k < ids.size(); ++k) {
+      whitened_inlier[k] =
+          (PositionPriorSqrtInformation(priors.at(ids[k]), options) *
+           (sim * src[k] - dst[k]))
+              .norm() < 4.0;
+    }
+    if (whitened_inlier == is_inlier) break;
+    inlier_src.clear();
+    inlier_dst.clear();
+    for (size_t k = 0; k < ids.size(); ++k) {
+      if (!whitened_inlier[k]) continue;
+      inlier_src.push_back(src[k]);
+      inlier_dst.push_back(dst[k]);
+    }
+    Sim3d refit;
+    if (inlier_src.size() < 3 ||
+        !EstimateSimilarity(inlier_src, inlier_dst, &refit)) {
+      break;
+    }
+    sim = refit;
+    is_inlier = whitened_inlier;
+  }
+  inlier_src.clear();
+  inlier_dst.clear();
+  inliers->clear();
+  for (size_t k = 0; k < ids.size(); ++k) {
+    if (!is_inlier[k]) continue;
+    inliers->insert(ids[k]);
+    inlier_src.push_back(src[k]);
+    inlier_dst.push_back(dst[k]);
+  }
+  if (downs.size() >= 3 && inlier_src.size() >= 2) {
+    // The tilt from gravity: the model's down onto -z (the minimal
+    // rotation), then heading, scale and offset from the positions.
+    const Eigen::Vector3d down = RobustMeanDirection(downs);
+    const Eigen::Matrix3d tilt =
+        Eigen::Quaterniond::FromTwoVectors(down, -Eigen::Vector3d::UnitZ())
+            .toRotationMatrix();
+    sim = FitWithFixedTilt(tilt, inlier_src, inlier_dst);
+  }
+  if (!(sim.scale > 0) || !sim.R.allFinite() || !sim.t.allFinite()) {
+    *problem = "degenerate similarity to the priors";
+    return false;
+  }
+  *prior_from_model = sim;
+  return true;
+}
+
+namespace {
+
+// The second solve of RunGlobalPositioning with position priors (see the
+// header): places the solved model (centres, points, rotations) in the
+// priors' frame, or leaves it as it is with summary->prior_problem set.
+bool SolveWithPriors(const GlobalPositionerOptions& options,
+                     const PosePriors& priors,
+                     const std::map<image_t, Eigen::Matrix3d>& world_from_cam,
+                     image_t gauge_image_id, const SolverOptions& solver,
+                     ceres::Problem* problem,
+                     std::map<image_t, Eigen::Vector3d>* centers,
+                     Reconstruction* reconstruction,
+                     GlobalPositionerSummary* summary,
+                     Sim3d* prior_from_model) {
+  std::map<image_t, Eigen::Matrix3d> cam_from_world;
+  for (const auto& [image_id, R] : world_from_cam) {
+    cam_from_world[image_id] = R.transpose();
+    const auto it = priors.find(image_id);
+    if (it == priors.end()) continue;
+    summary->num_position_priors += it->second.HasPosition();
+    summary->num_gravity_priors += it->second.HasGravity();
+  }
+  Sim3d sim;
+  std::set<image_t> inliers;
+  if (!EstimatePriorFrameFromModel(*centers, cam_from_world, priors,
+                                   options.pose_priors, options.random_seed,
+                                   &sim, &inliers, &summary->prior_problem)) {
+    LOG(WARNING) << "Global positioning: model not placed in the priors' "
+                    "frame: "
+                 << summary->prior_problem;
+    return false;
+  }
+  // Every position prior in the model's frame, x = sim^-1(p): the residual
+  // W (sim(c) - p) = s W R (c - x).
+  const Eigen::Matrix3d model_R_prior = sim.R.transpose();
+  for (auto& [image_id, center] : *centers) {
+    const auto it = priors.find(image_id);
+    if (it == priors.end() || !it->second.HasPosition()) continue;
+    const Eigen::Vector3d target =
+        model_R_prior * (it->second.position - sim.t) / sim.scale;
+    const Eigen::Matrix3d W =
+        sim.scale *
+        PositionPriorSqrtInformation(it->second, options.pose_priors) * sim.R;
+    problem->AddResidualBlock(
+        PositionPriorCost::Create(target, W),
+        new ceres::CauchyLoss(options.pose_priors.loss_scale), center.data());
+  }
+  problem->SetParameterBlockVariable(centers->at(gauge_image_id).data());
+  // A fresh elimination ordering: Ceres drops the constant gauge centre from
+  // the first solve's.
+  SolverOptions prior_solver = solver;
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (auto& [point3D_id, point] : reconstruction->points3D) {
+    if (problem->HasParameterBlock(point.xyz.data())) {
+      ordering->AddElementToGroup(point.xyz.data(), 0);
+    }
+  }
+  for (auto& [image_id, center] : *centers) {
+    ordering->AddElementToGroup(center.data(), 1);
+  }
+  prior_solver.ceres.linear_solver_ordering = ordering;
+  const ceres::Solver::Summary solver_summary =
+      SolveProblem("global positioning with priors", prior_solver, problem);
+  if (!solver_summary.IsSolutionUsable()) {
+    summary->prior_problem =
+        "the solve with priors failed: " + solver_summary.message;
+    LOG(WARNING) << "Global positioning: " << summary->prior_problem;
+    return false;
+  }
+  summary->num_iterations += solver_summary.iterations.size();
+  // The inliers after the solve: within 3 standard deviations.
+  summary->num_position_prior_inliers = 0;
+  for (const auto& [image_id, center] : *centers) {
+    const auto it = priors.find(image_id);
+    if (it == priors.end() || !it->second.HasPosition()) continue;
+    const Eigen::Vector3d r =
+        PositionPriorSqrtInformation(it->second, options.pose_priors) *
+        (sim * center - it->second.position);
+    summary->num_position_prior_inliers += r.norm() < 3.0;
+  }
+  *prior_from_model = sim;
+  summary->in_prior_frame = true;
+  LOG(INFO) << "Global positioning: placed in the priors' frame (scale "
+            << sim.scale << ") with " << summary->num_position_priors
+            << " position priors (" << inliers.size() << " RANSAC inliers, "
+            << summary->num_position_prior_inliers
+            << " within 3 std after the solve) and "
+            << summary->num_gravity_priors << " gravity priors"
+            << (summary->num_gravity_priors >= 3 ? " (they set the up axis)"
+                                                 : "");
+  return true;
+}
+
+// Maps the model (centres, points, rotations) by `sim`.
+void TransformModel(const Sim3d& sim,
+                    std::map<image_t, Eigen::Vector3d>* centers,
+                    Reconstruction* reconstruction) {
+  for (auto& [image_id, center] : *centers) center = sim * center;
+  for (auto& [point3D_id, point] : reconstruction->points3D) {
+    point.xyz = sim * point.xyz;
+  }
+  const Eigen::Quaterniond model_from_prior(Eigen::Matrix3d(sim.R.transpose()));
+  for (auto& [image_id, image] : reconstruction->images) {
+    image.cam_from_world.rotation =
+        (image.cam_from_world.rotation * model_from_prior).normalized();
+  }
+}
+
+}  // namespace
 
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           Reconstruction* reconstruction,
-                          GlobalPositionerSummary* summary) {
+                          GlobalPositionerSummary* summary,
+                          const PosePriors* priors) {
   options.Check();
   Timer timer;
   GlobalPositionerSummary local_summary;
@@ -182,10 +459,14 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
     return false;
   }
 
-  for (auto& [image_id, image] : reconstruction->images) {
-    image.cam_from_world.translation =
-        -(image.cam_from_world.rotation * centers.at(image_id));
-  }
+  // With priors: solved again with them, placed in their frame after the
+  // filter below (which compares the bearings in the model's frame).
+  Sim3d prior_from_model;
+  const bool place =
+      priors != nullptr && !priors->empty() &&
+      SolveWithPriors(options, *priors, world_from_cam, gauge_image_id, solver,
+                      &problem, &centers, reconstruction, &local_summary,
+                      &prior_from_model);
   if (options.max_angular_error_deg > 0) {
     const double min_cos = std::cos(DegToRad(options.max_angular_error_deg));
     for (const Observation& observation : observations) {
@@ -199,6 +480,11 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
         ++local_summary.num_observations_filtered;
       }
     }
+  }
+  if (place) TransformModel(prior_from_model, &centers, reconstruction);
+  for (auto& [image_id, image] : reconstruction->images) {
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * centers.at(image_id));
   }
   local_summary.num_images = reconstruction->images.size();
   local_summary.num_points = reconstruction->points3D.size();

@@ -1,8 +1,12 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <set>
 #include <string>
 
+#include "colmap_irav4/geometry/sim3d.h"
+#include "colmap_irav4/scene/pose_prior.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/ceres_solve.h"
 
@@ -20,6 +24,14 @@ namespace colmap_irav4 {
 // the lower bound of the scales fixes the scale (the nearest points end up
 // about one unit from a camera). Initialisation is random in a box (seeded), so
 // no prior poses are needed.
+//
+// With position priors (GPS) the model is then placed in the priors' frame:
+// a similarity from the centres to the priors (RANSAC, then least squares on
+// the priors within 4 standard deviations; where images have gravity priors the
+// similarity's tilt comes from them, its heading, scale and offset from the
+// positions), then a second solve with every prior as a residual in standard
+// deviations under a Cauchy loss (PosePriorOptions), so that an outlier 50 m
+// off barely pulls, and the result mapped into the priors' frame (metric).
 struct GlobalPositionerOptions {
   // Tracks with fewer observations in the model's images are left out (and
   // their points deleted: retriangulation recovers them later).
@@ -43,6 +55,8 @@ struct GlobalPositionerOptions {
   // take 9 iterations instead of 39 (1.3 s instead of 4.7 s) and give the
   // same model after bundle adjustment.
   SolverOptions solver;
+  // Weights of the pose priors (used only when priors are given).
+  PosePriorOptions pose_priors;
 
   GlobalPositionerOptions();
   // Throws InputError naming the offending option.
@@ -61,15 +75,42 @@ struct GlobalPositionerSummary {
   double final_cost = 0;
   double seconds = 0;
   bool converged = false;
+  // Pose priors: images of the model with a position prior, those within 3
+  // standard deviations of the placed model, with a gravity prior; whether
+  // the model was placed in the priors' frame (else as without priors).
+  int num_position_priors = 0;
+  int num_position_prior_inliers = 0;
+  int num_gravity_priors = 0;
+  bool in_prior_frame = false;
+  // Why it was not placed ("" when it was or no priors were given).
+  std::string prior_problem;
 };
 
 // Reads cameras, the images' cam_from_world rotations, their keypoints and
 // the points' tracks; writes cam_from_world translations (t_i = -R_i c_i) and
 // point positions. Images that no kept track observes are deleted from the
 // model. Returns false if fewer than two images could be positioned or Ceres
-// failed.
+// failed. With `priors` (by image id), the model is placed in their frame
+// when at least pose_priors.min_num_positions of its images have a position
+// prior and a similarity could be found (summary->in_prior_frame).
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           Reconstruction* reconstruction,
-                          GlobalPositionerSummary* summary = nullptr);
+                          GlobalPositionerSummary* summary = nullptr,
+                          const PosePriors* priors = nullptr);
+
+// The similarity mapping camera centres (by image id) onto their position
+// priors: RANSAC (inliers within 3 median standard deviations, at most the
+// priors' median spread), then least squares on the priors within 4 of
+// their own standard deviations, repeated until those no longer change; where
+// at least 3 images have gravity priors, the rotation's tilt maps the mean
+// world down of the images (their cam_from_world rotations applied to their
+// gravity) onto -z, and the heading, scale and offset are fitted to the inliers
+// with it. False when fewer than min_num_positions priors or no similarity
+// (collinear centres).
+bool EstimatePriorFrameFromModel(
+    const std::map<image_t, Eigen::Vector3d>& centers,
+    const std::map<image_t, Eigen::Matrix3d>& cam_from_world_rotations,
+    const PosePriors& priors, const PosePriorOptions& options, uint64_t seed,
+    Sim3d* prior_from_model, std::set<image_t>* inliers, std::string* problem);
 
 }  // namespace colmap_irav4

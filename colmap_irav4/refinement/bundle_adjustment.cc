@@ -13,6 +13,8 @@
 #include <ceres/ceres.h>
 #include <glog/logging.h>
 
+#include "colmap_irav4/geometry/pose_prior_cost.h"
+#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
@@ -126,9 +128,11 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
 class BundleAdjustmentProblem {
  public:
   BundleAdjustmentProblem(const BundleAdjustmentOptions& options,
-                          Reconstruction* reconstruction)
+                          Reconstruction* reconstruction,
+                          const PosePriors* priors)
       : options_(options),
         reconstruction_(reconstruction),
+        priors_(priors),
         huber_(options.loss_function == BundleAdjustmentLoss::kHuber),
         weighted_(huber_ || options.weight_by_keypoint_scale ||
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
@@ -148,6 +152,8 @@ class BundleAdjustmentProblem {
   }
 
   bool Empty() const { return problem_->NumResidualBlocks() == 0; }
+  int NumPositionPriors() const { return num_position_priors_; }
+  int NumGravityPriors() const { return num_gravity_priors_; }
 
   // The scale bins' inner edges and their noise at the last reweighting
   // (BundleAdjustmentSummary).
@@ -399,8 +405,9 @@ class BundleAdjustmentProblem {
     }
     FindScaleBins();
 
-    // Poses and gauge.
+    // Poses and gauge (held by the position priors when there are enough).
     std::vector<image_t> images(used_images.begin(), used_images.end());
+    const bool prior_gauge = AddPosePriors(images);
     for (size_t k = 0; k < images.size(); ++k) {
       Image& image = reconstruction_->images.at(images[k]);
       double* rotation = image.cam_from_world.rotation.coeffs().data();
@@ -408,10 +415,11 @@ class BundleAdjustmentProblem {
       ordering_->AddElementToGroup(rotation, 1);
       ordering_->AddElementToGroup(position, 1);
       problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
-      if (!options_.refine_poses || (options_.fix_gauge && k == 0)) {
+      const bool fix_gauge = options_.fix_gauge && !prior_gauge;
+      if (!options_.refine_poses || (fix_gauge && k == 0)) {
         problem_->SetParameterBlockConstant(rotation);
         problem_->SetParameterBlockConstant(position);
-      } else if (options_.fix_gauge && k == 1) {
+      } else if (fix_gauge && k == 1) {
         // The coordinate of the position along which a scaling about the
         // first image moves this one most.
         const Image& first = reconstruction_->images.at(images[0]);
@@ -451,8 +459,48 @@ class BundleAdjustmentProblem {
     }
   }
 
+  // The prior residuals of the images in the problem (see the header);
+  // true when the position priors hold the gauge.
+  bool AddPosePriors(const std::vector<image_t>& images) {
+    if (priors_ == nullptr || !options_.refine_poses) return false;
+    const PosePriorOptions& prior_options = options_.pose_priors;
+    prior_loss_.reset(new ceres::CauchyLoss(prior_options.loss_scale));
+    for (const image_t image_id : images) {
+      const auto it = priors_->find(image_id);
+      if (it == priors_->end()) continue;
+      const PosePrior& prior = it->second;
+      Image& image = reconstruction_->images.at(image_id);
+      double* rotation = image.cam_from_world.rotation.coeffs().data();
+      if (prior.HasPosition()) {
+        const Eigen::Matrix3d W =
+            PositionPriorSqrtInformation(prior, prior_options);
+        if (use_centers_) {
+          problem_->AddResidualBlock(
+              PositionPriorCost::Create(prior.position, W), prior_loss_.get(),
+              Position(image_id));
+        } else {
+          problem_->AddResidualBlock(
+              PositionPriorFromTranslationCost::Create(prior.position, W),
+              prior_loss_.get(), rotation, Position(image_id));
+        }
+        ++num_position_priors_;
+      }
+      if (prior.HasGravity()) {
+        problem_->AddResidualBlock(
+            GravityPriorCost::Create(prior.gravity,
+                                     DegToRad(prior_options.gravity_std_deg)),
+            prior_loss_.get(), rotation);
+        ++num_gravity_priors_;
+      }
+    }
+    return num_position_priors_ >= prior_options.min_num_positions;
+  }
+
   const BundleAdjustmentOptions& options_;
   Reconstruction* reconstruction_;
+  const PosePriors* priors_;
+  int num_position_priors_ = 0;
+  int num_gravity_priors_ = 0;
   const bool huber_;
   const bool weighted_;  // residuals reweighted or filtered: weights_
   // Keypoint scale bins (FindScaleBins); the bins' median errors are
@@ -462,6 +510,7 @@ class BundleAdjustmentProblem {
   KeypointScaleNoise noise_;
   std::vector<double> bin_noise_;              // px
   std::unique_ptr<ceres::LossFunction> loss_;  // outlives the problem
+  std::unique_ptr<ceres::LossFunction> prior_loss_;
   // Each image's weights, by keypoint; vectors never resized once built
   // (the costs hold their addresses).
   std::unordered_map<image_t, std::vector<double>> weights_;
@@ -613,11 +662,13 @@ void BundleAdjustmentOptions::Check() const {
                       "must be positive");
   }
   solver.Check("BundleAdjustment.");
+  pose_priors.Check();
 }
 
 bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
                          Reconstruction* reconstruction,
-                         BundleAdjustmentSummary* summary) {
+                         BundleAdjustmentSummary* summary,
+                         const PosePriors* priors) {
   options.Check();
   Timer timer;
   BundleAdjustmentSummary local_summary;
@@ -629,7 +680,9 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
   bool filter_model = false;
   {
     Timer build_timer;
-    BundleAdjustmentProblem problem(options, reconstruction);
+    BundleAdjustmentProblem problem(options, reconstruction, priors);
+    local_summary.num_position_priors = problem.NumPositionPriors();
+    local_summary.num_gravity_priors = problem.NumGravityPriors();
     local_summary.problem_seconds += build_timer.ElapsedSeconds();
     for (int round = 0; round < options.num_rounds && !problem.Empty();
          ++round) {

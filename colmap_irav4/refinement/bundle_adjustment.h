@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "colmap_irav4/refinement/keypoint_noise.h"
+#include "colmap_irav4/scene/pose_prior.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/ceres_solve.h"
 
@@ -21,6 +22,16 @@ namespace colmap_irav4 {
 // Gauge: the first image's pose is held fixed and so is the component of the
 // second image's centre (or translation) most sensitive to scale, as COLMAP
 // does; with refine_poses off only the points (and intrinsics) move.
+//
+// Pose priors (RunBundleAdjustment's `priors`, for a model already in their
+// frame): each position prior adds W (c - p), W^T W the inverse of its
+// covariance (or pose_priors.position_std^-2 I), and each gravity prior the
+// angle between its direction and the camera's down (0, 0, -1 in the
+// priors' frame) over pose_priors.gravity_std_deg, both under a Cauchy loss
+// of pose_priors.loss_scale standard deviations. With at least
+// pose_priors.min_num_positions position priors they hold the gauge (no
+// pose is fixed).
+
 enum class BundleAdjustmentLoss { kHuber, kHuberCeres, kCauchy, kTrivial };
 template <>
 const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>();
@@ -102,6 +113,8 @@ struct BundleAdjustmentOptions {
   // threshold. The summary passes the bins on (keypoint_noise) for the
   // mapper's filters and triangulation.
   bool filter_by_keypoint_noise = true;
+  // Weights of the pose priors (used only when priors are given).
+  PosePriorOptions pose_priors;
 
   BundleAdjustmentOptions();
   // Throws InputError naming the offending option.
@@ -139,6 +152,9 @@ struct BundleAdjustmentSummary {
   // filter_by_keypoint_noise: the bins' relative noise the filter used (empty
   // when the observations were not weighed).
   KeypointScaleNoise keypoint_noise;
+  // Prior residuals in the problem (see above).
+  int num_position_priors = 0;
+  int num_gravity_priors = 0;
 };
 
 // Sets the linear solver (and preconditioner) of a bundle adjustment of
@@ -157,9 +173,11 @@ std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
 double SchurDensity(const std::vector<const Track*>& tracks,
                     int max_num_images = 30000);
 
-// Returns false if Ceres failed (no usable solution).
+// Returns false if Ceres failed (no usable solution). `priors` (by image id,
+// may be null): pose priors of a model in their frame (see above).
 bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
                          Reconstruction* reconstruction,
-                         BundleAdjustmentSummary* summary = nullptr);
+                         BundleAdjustmentSummary* summary = nullptr,
+                         const PosePriors* priors = nullptr);
 
 }  // namespace colmap_irav4

@@ -10,6 +10,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/io/database_writer.h"
+#include "colmap_irav4/io/pose_priors.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/view_graph/view_graph_builder.h"
@@ -371,9 +372,11 @@ TEST(Database, ReadsSyntheticColmap4Database) {
     EXPECT_TRUE(contents.schema.has_frames_table);
     EXPECT_TRUE(contents.schema.has_frame_data_table);
     EXPECT_EQ(contents.schema.Description(), "COLMAP 4.x");
-    EXPECT_FALSE(contents.images.at(1).has_prior_position);
-    EXPECT_TRUE(contents.images.at(2).has_prior_position);
-    EXPECT_EQ(contents.images.at(2).prior_tvec, Eigen::Vector3d(4, 5, 6));
+    // The pose_priors table is read by io/pose_priors.h.
+    const StoredPosePriors priors = ReadDatabasePosePriors(Database(path));
+    ASSERT_EQ(priors.priors.size(), 1u);
+    EXPECT_EQ(priors.priors[0].image_name, swap_names ? "a.jpg" : "b.jpg");
+    EXPECT_EQ(priors.priors[0].position, Eigen::Vector3d(4, 5, 6));
     ViewGraphSummary summary;
     const ViewGraph view_graph =
         BuildViewGraph(contents, ViewGraphBuilderOptions(), &summary);

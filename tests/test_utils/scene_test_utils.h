@@ -31,5 +31,20 @@ inline double MaxRelativeCenterError(const Reconstruction& estimate,
   return max_error / scene_radius;
 }
 
+// Largest distance between the estimated and the true camera centres, as
+// they are (no alignment: a model placed by pose priors in the truth's
+// frame).
+inline double MaxUnalignedCenterError(const Reconstruction& estimate,
+                                      const Reconstruction& truth) {
+  double max_error = 0;
+  for (const auto& [image_id, image] : estimate.images) {
+    max_error =
+        std::max(max_error, (image.ProjectionCenter() -
+                             truth.images.at(image_id).ProjectionCenter())
+                                .norm());
+  }
+  return max_error;
+}
+
 }  // namespace test
 }  // namespace colmap_irav4

@@ -1,0 +1,135 @@
+// Bundle adjustment with pose priors: robust, covariance-weighted position
+// terms that hold the gauge, gravity terms on the rotations.
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/refinement/bundle_adjustment.h"
+#include "tests/test_utils/scene_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+using test::MaxUnalignedCenterError;
+
+SyntheticScene Scene() {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.num_points = 600;
+  options.visibility = 0.7;
+  options.noise_px = 0.5;
+  return GenerateSyntheticScene(options);
+}
+
+// Priors at the true centres (+ `std` noise), image 4's 50 m off; gravity
+// exact when asked.
+PosePriors Priors(const Reconstruction& truth, double std, bool gravity) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, std);
+  PosePriors priors;
+  for (const auto& [image_id, image] : truth.images) {
+    PosePrior& prior = priors[image_id];
+    prior.position = image.ProjectionCenter() +
+                     Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    if (image_id == 4) prior.position += Eigen::Vector3d(0, 50, 0);
+    prior.position_covariance = std * std * Eigen::Matrix3d::Identity();
+    if (gravity) {
+      prior.gravity = image.cam_from_world.rotation * Eigen::Vector3d(0, 0, -1);
+    }
+  }
+  return priors;
+}
+
+// Moves the whole model by a rotation about x and a shift.
+void MoveModel(double angle_deg, const Eigen::Vector3d& shift,
+               Reconstruction* model) {
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(DegToRad(angle_deg), Eigen::Vector3d::UnitX())
+          .toRotationMatrix();
+  const Eigen::Quaterniond q(R);
+  for (auto& [image_id, image] : model->images) {
+    const Eigen::Vector3d center = R * image.ProjectionCenter() + shift;
+    image.cam_from_world.rotation = image.cam_from_world.rotation * q.inverse();
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
+  }
+  for (auto& [point3D_id, point] : model->points3D) {
+    point.xyz = R * point.xyz + shift;
+  }
+}
+
+// The largest angle between a camera's down (0, 0, -1 of the world) in `a`
+// and in `b`.
+double MaxTiltErrorDeg(const Reconstruction& a, const Reconstruction& b) {
+  double error = 0;
+  const Eigen::Vector3d down(0, 0, -1);
+  for (const auto& [image_id, image] : a.images) {
+    const double cosine =
+        (image.cam_from_world.rotation * down)
+            .dot(b.images.at(image_id).cam_from_world.rotation * down);
+    error = std::max(error, RadToDeg(std::acos(std::min(1.0, cosine))));
+  }
+  return error;
+}
+
+BundleAdjustmentOptions Options() {
+  BundleAdjustmentOptions options;
+  options.refine_extra_params = false;  // PINHOLE
+  return options;
+}
+
+TEST(BundleAdjustmentPriors, PriorsPullAShiftedModelBackAndIgnoreAnOutlier) {
+  const SyntheticScene scene = Scene();
+  const PosePriors priors = Priors(scene.truth, 0.02, false);
+  Reconstruction model = scene.truth;
+  MoveModel(0.0, Eigen::Vector3d(0.3, -0.2, 0.1), &model);
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(Options(), &model, &summary, &priors));
+  EXPECT_EQ(summary.num_position_priors, 12);
+  // Back in the priors' frame (radius 10, priors 2 cm): the outlier, 50 m
+  // off, neither moved its camera nor the model.
+  EXPECT_LT(MaxUnalignedCenterError(model, scene.truth), 0.03);
+  EXPECT_LT((model.images.at(4).ProjectionCenter() -
+             scene.truth.images.at(4).ProjectionCenter())
+                .norm(),
+            0.03);
+
+  // Without priors the gauge holds the first image: the shift stays.
+  Reconstruction without = scene.truth;
+  MoveModel(0.0, Eigen::Vector3d(0.3, -0.2, 0.1), &without);
+  ASSERT_TRUE(RunBundleAdjustment(Options(), &without));
+  EXPECT_GT(MaxUnalignedCenterError(without, scene.truth), 0.3);
+
+  // Least squares on the priors: the outlier drags the model.
+  BundleAdjustmentOptions least_squares = Options();
+  least_squares.pose_priors.loss_scale = 1e6;
+  Reconstruction dragged = scene.truth;
+  ASSERT_TRUE(RunBundleAdjustment(least_squares, &dragged, nullptr, &priors));
+  EXPECT_GT(MaxUnalignedCenterError(dragged, scene.truth), 1.0);
+}
+
+TEST(BundleAdjustmentPriors, GravityCorrectsATilt) {
+  const SyntheticScene scene = Scene();
+  // Loose positions (1 m): they alone cannot tell a 2 degree tilt.
+  for (const bool gravity : {false, true}) {
+    const PosePriors priors = Priors(scene.truth, 1.0, gravity);
+    Reconstruction model = scene.truth;
+    MoveModel(2.0, Eigen::Vector3d::Zero(), &model);
+    BundleAdjustmentSummary summary;
+    ASSERT_TRUE(RunBundleAdjustment(Options(), &model, &summary, &priors));
+    EXPECT_EQ(summary.num_gravity_priors, gravity ? 12 : 0);
+    // The heading stays as loose as the positions make it; the tilt is
+    // gravity's.
+    if (gravity) {
+      EXPECT_LT(MaxTiltErrorDeg(model, scene.truth), 0.1);
+    } else {
+      EXPECT_GT(MaxTiltErrorDeg(model, scene.truth), 0.5);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace colmap_irav4

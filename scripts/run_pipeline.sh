@@ -3,7 +3,12 @@
 #   scripts/run_pipeline.sh IMAGES WORKSPACE [CAMERA_MODEL]
 # COLMAP 3.8 extracts SIFT features and matches exhaustively into
 # WORKSPACE/database.db, colmap_irav4 maps into WORKSPACE/sparse/N, and
-# `colmap model_analyzer` checks and summarises every model.
+# `colmap model_analyzer` checks and summarises every model. The exit code is
+# the mapper's: 3 when a model was written flagged FOLDED (summary.json says
+# which), after every model has been summarised.
+# Photos with an EXIF orientation tag (phones' portrait shots) are used as
+# stored, as COLMAP reads them: the models' cameras are then turned by the
+# tag's angle against what an image viewer shows.
 set -euo pipefail
 if [ $# -lt 2 ]; then
   echo "usage: $0 IMAGES WORKSPACE [CAMERA_MODEL (default SIMPLE_RADIAL)]" >&2
@@ -23,9 +28,17 @@ colmap feature_extractor --database_path "$db" --image_path "$images" \
   --ImageReader.camera_model "$camera_model" --ImageReader.single_camera 1 \
   --SiftExtraction.use_gpu 0
 colmap exhaustive_matcher --database_path "$db" --SiftMatching.use_gpu 0
+status=0
 "$binary" mapper --database_path "$db" --image_path "$images" \
-  --output_path "$workspace/sparse"
+  --output_path "$workspace/sparse" || status=$?
 for model in "$workspace"/sparse/*/; do
+  [ -f "$model/images.bin" ] || continue
   echo "== $model"
   colmap model_analyzer --path "$model"
 done
+case $status in
+  0) ;;
+  3) echo "WARNING: a model is flagged FOLDED (see $workspace/sparse/summary.json)" >&2 ;;
+  *) echo "ERROR: the mapper failed (exit $status)" >&2 ;;
+esac
+exit "$status"

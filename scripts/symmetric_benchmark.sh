@@ -5,7 +5,12 @@
 # database) on the same scenes in the same run. Per run: models written,
 # registered images, cameras turned by more than 30 deg against the exact
 # ground truth, centre error over all registered cameras (median, mean;
-# metres), wall and CPU seconds, and our fold score:outcome per model.
+# metres), wall and CPU seconds, our fold score:outcome per model and the
+# mapper's exit code (3: a model written flagged folded). Then the detection
+# rate (scenes with mirror pairs where our fold check fired: an outcome
+# other than clean) beside the false-alarm rate (scenes without mirror pairs
+# with an outcome other than clean or a non-zero exit), and the silent folds
+# (cameras turned, outcome clean).
 #
 #   scripts/symmetric_benchmark.sh WORKSPACE [RATES] [SEEDS] [NUM_IMAGES] [LAYOUT]
 #
@@ -54,7 +59,7 @@ if [ "$run_colmap" = 1 ]; then
 fi
 mkdir -p "$workspace"
 workspace=$(cd "$workspace" && pwd)
-format="%-9s %-6s %-4s %-6s %-6s %-7s %-6s %-5s %-6s %-9s %-9s %-7s %-7s %s\n"
+format="%-9s %-6s %-4s %-6s %-6s %-7s %-6s %-5s %-6s %-9s %-9s %-7s %-7s %-4s %s\n"
 
 scene_dir() {  # rate seed
   echo "$workspace/${layout}_n${num_images}${gen_tag:+_$gen_tag}_r$1_s$2"
@@ -70,7 +75,7 @@ row() {  # scene mapper rate seed: prints the table row
              2>/dev/null | awk 'NR == 1 {print $2}' || true)
   if [ ! -f "$scene/$mapper.time" ]; then
     printf "$format" "$layout" "$rate" "$seed" "$pairs" "${mirror:--}" "$mapper" \
-      "not run" - - - - - - -
+      "not run" - - - - - - - -
     return
   fi
   eval_line=$("$build/fold_eval" "$scene/gt" "$scene/$mapper" 2>/dev/null ||
@@ -90,8 +95,10 @@ print(";".join("%.3f:%s" % (-1 if m.get("fold_score") is None else m["fold_score
 PY
 )
   fi
+  local code
+  code=$(cat "$scene/$mapper.exit" 2>/dev/null || echo -)
   printf "$format" "$layout" "$rate" "$seed" "$pairs" "${mirror:--}" "$mapper" \
-    "$models" "$reg" "$turned" "$cmed" "$cmean" "$wall" "$cpu" "$fold"
+    "$models" "$reg" "$turned" "$cmed" "$cmean" "$wall" "$cpu" "$code" "$fold"
 }
 
 scenes=()
@@ -121,15 +128,18 @@ generate_and_map_ours() {
     if [ "$run_ours" = 1 ] &&
         { [ "$reuse" != 1 ] || [ ! -f "$scene/$tag.time" ]; }; then
       rm -rf "${scene:?}/$tag" && mkdir -p "$scene/$tag"
+      local code=0
       # shellcheck disable=SC2086
       /usr/bin/time -f "%e %U %S" -o "$scene/$tag.time" env OMP_NUM_THREADS=1 \
         "$build/colmap_irav4" mapper --database_path "$scene/database.db" \
         --output_path "$scene/$tag" --Mapper.num_threads "$threads" \
-        --Mapper.progress 0 $ours_args > "$scene/$tag.log" 2>&1 ||
-        case $? in
-          3) echo "ours: a model is flagged folded (exit 3, $scene/$tag.log)" >&2 ;;
-          *) echo "ours failed (see $scene/$tag.log)" >&2 ;;
-        esac
+        --Mapper.progress 0 $ours_args > "$scene/$tag.log" 2>&1 || code=$?
+      echo "$code" > "$scene/$tag.exit"
+      case $code in
+        0) ;;
+        3) echo "ours: a model is flagged folded (exit 3, $scene/$tag.log)" >&2 ;;
+        *) echo "ours failed (see $scene/$tag.log)" >&2 ;;
+      esac
     fi
   done
 }
@@ -178,7 +188,7 @@ wait "$ours_pid" || true
 table=$workspace/table_${layout}_n${num_images}${gen_tag:+_$gen_tag}_${tag}.txt
 {
   printf "$format" layout rate seed pairs mirror mapper models reg turned \
-    c_med_m c_mean_m wall_s cpu_s fold
+    c_med_m c_mean_m wall_s cpu_s exit fold
   for item in "${scenes[@]}"; do
     read -r rate seed <<< "$item"
     scene=$(scene_dir "$rate" "$seed")
@@ -190,3 +200,22 @@ table=$workspace/table_${layout}_n${num_images}${gen_tag:+_$gen_tag}_${tag}.txt
 } > "$table"
 cat "$table"
 echo "(images per scene: $num_images, layout: $layout, threads per mapper: $threads)"
+# Our rows: the fold check fired (any model's outcome other than clean or
+# "clean after refinement", where only the check after positioning saw weak
+# pairs) on
+# scenes with and without mirror pairs (column 5 counts them; the rate
+# column where the generator's log is missing).
+awk -v tag="$tag" 'NR > 1 && $6 == tag && $7 != "not" {
+    mirror = ($5 == "-") ? ($2 > 0) : ($5 > 0)
+    fired = 0
+    n = split($15, models, ";")
+    for (k = 1; k <= n; ++k) if (models[k] !~ /:clean(_after_refinement)?$/) fired = 1
+    if (mirror) { ++folded; detected += fired; silent += (!fired && $9 > 0) }
+    else { ++clean; alarms += (fired || $14 != 0) }
+  }
+  END {
+    printf "ours (%s): detection rate %d of %d scenes with mirror pairs, " \
+      "silent folds (turned, outcome clean) %d; false-alarm rate %d of %d " \
+      "scenes without (outcome not clean or exit not 0)\n",
+      tag, detected, folded, silent, alarms, clean
+  }' "$table"

@@ -140,6 +140,17 @@ int Run(int argc, char** argv) {
   manager.Add("noise_scale_exponent", &options.noise_scale_exponent,
               "noise grows as scale^exponent (1: proportional; needs "
               "keypoint_scales 1)");
+  manager.Add("max_keypoints_per_image", &options.max_keypoints_per_image,
+              "each image keeps a random subset of at most this many "
+              "keypoints of points (detector repeatability; 0: all)");
+  manager.Add("match_angle_falloff_deg", &options.match_angle_falloff_deg,
+              "a pair keeps exp(-(a / this)^2) of its matches, a the angle "
+              "(deg) between its rays (0: all)");
+  manager.Add("match_distance_falloff", &options.match_distance_falloff,
+              "... times near/far distance / (1 + mean distance / this) "
+              "(m; 0: no falloff)");
+  manager.Add("match_rate_sigma", &options.match_rate_sigma,
+              "... times a per-pair log-normal factor of this sigma");
   manager.Add("clutter_fraction", &options.clutter_fraction,
               "keypoints of nothing, fraction of each image's");
   manager.Add("min_num_inliers", &options.min_num_inliers,

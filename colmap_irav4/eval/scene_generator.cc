@@ -231,6 +231,72 @@ Point2D NoisyPoint2D(const Eigen::Vector2d& xy,
   return point2D;
 }
 
+// Detector repeatability (max_keypoints_per_image): keeps a random subset of
+// at most that many of `image`'s keypoints, which are all of points (no
+// clutter yet) and the last observations of their points in `observations`
+// (indexed by point3D_id - 1; the image was the last to add to them).
+// Seeded by the scene's seed and the image: the main stream of random draws
+// is the same with and without it.
+void SubsampleKeypoints(const SceneGeneratorOptions& options, Image* image,
+                        std::vector<std::vector<TrackElement>>* observations) {
+  const size_t max_keypoints =
+      static_cast<size_t>(options.max_keypoints_per_image);
+  if (max_keypoints == 0 || image->points2D.size() <= max_keypoints) return;
+  std::mt19937_64 rng(Mix(options.seed ^ Mix(0x5eedull + image->image_id)));
+  std::vector<char> keep(image->points2D.size(), 0);
+  std::fill(keep.begin(), keep.begin() + max_keypoints, 1);
+  std::shuffle(keep.begin(), keep.end(), rng);
+  std::vector<Point2D> kept;
+  kept.reserve(max_keypoints);
+  for (size_t idx = 0; idx < image->points2D.size(); ++idx) {
+    const Point2D& point2D = image->points2D[idx];
+    std::vector<TrackElement>& track = (*observations)[point2D.point3D_id - 1];
+    CHECK(!track.empty() && track.back().image_id == image->image_id);
+    if (keep[idx]) {
+      track.back().point2D_idx = static_cast<point2D_t>(kept.size());
+      kept.push_back(point2D);
+    } else {
+      track.pop_back();
+    }
+  }
+  image->points2D = std::move(kept);
+}
+
+// Whether a pair's match rate depends on its viewpoints (PairMatchRate).
+bool ViewpointMatchRates(const SceneGeneratorOptions& options) {
+  return options.match_angle_falloff_deg > 0 ||
+         options.match_distance_falloff > 0 || options.match_rate_sigma > 0;
+}
+
+// The fraction of its candidate correspondences a pair keeps
+// (SceneGeneratorOptions::match_angle_falloff_deg ...): cameras at `center1`
+// and `center2` looking at shared points around `point`. Seeded by the
+// scene's seed and the pair (independent of the order of the calls).
+double PairMatchRate(const SceneGeneratorOptions& options,
+                     const Eigen::Vector3d& center1,
+                     const Eigen::Vector3d& center2,
+                     const Eigen::Vector3d& point, image_pair_t pair_id) {
+  const Eigen::Vector3d ray1 = center1 - point;
+  const Eigen::Vector3d ray2 = center2 - point;
+  const double d1 = ray1.norm(), d2 = ray2.norm();
+  double rate = 1.0;
+  if (options.match_angle_falloff_deg > 0 && d1 > 0 && d2 > 0) {
+    const double angle_deg =
+        RadToDeg(std::acos(std::clamp(ray1.dot(ray2) / (d1 * d2), -1.0, 1.0)));
+    rate *= std::exp(-std::pow(angle_deg / options.match_angle_falloff_deg, 2));
+  }
+  if (options.match_distance_falloff > 0 && d1 > 0 && d2 > 0) {
+    rate *= std::min(d1, d2) / std::max(d1, d2) /
+            (1 + 0.5 * (d1 + d2) / options.match_distance_falloff);
+  }
+  if (options.match_rate_sigma > 0) {
+    std::mt19937_64 rng(Mix(options.seed ^ Mix(0x7a7eull ^ Mix(pair_id))));
+    std::normal_distribution<double> normal(0.0, options.match_rate_sigma);
+    rate *= std::exp(normal(rng));
+  }
+  return std::min(1.0, rate);
+}
+
 struct Layout {
   std::vector<Wall> walls;
   // Camera path: arc-length parameter in [0, path_length); position and
@@ -309,6 +375,14 @@ void SceneGeneratorOptions::Check() const {
   require(std::isfinite(noise_scale_exponent) &&
               (keypoint_scales || noise_scale_exponent == 0),
           "noise_scale_exponent", "needs keypoint_scales 1");
+  require(max_keypoints_per_image >= 0, "max_keypoints_per_image",
+          "must be >= 0");
+  require(match_angle_falloff_deg >= 0, "match_angle_falloff_deg",
+          "must be >= 0");
+  require(match_distance_falloff >= 0, "match_distance_falloff",
+          "must be >= 0");
+  require(match_rate_sigma >= 0 && match_rate_sigma <= 3, "match_rate_sigma",
+          "must be in [0, 3]");
   require(clutter_fraction >= 0 && clutter_fraction < 10, "clutter_fraction",
           "must be in [0, 10)");
   require(min_num_inliers >= 8, "min_num_inliers", "must be >= 8");
@@ -674,6 +748,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         }
       }
     }
+    SubsampleKeypoints(options, &image, &observations);
     // Clutter keypoints: features of nothing.
     const int num_clutter = static_cast<int>(
         std::round(options.clutter_fraction * image.points2D.size()));
@@ -725,6 +800,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   struct Candidate {
     image_t image_id1, image_id2;
     int count;
+    double match_rate = 1.0;
   };
   std::vector<const std::vector<TrackElement>*> track_of(num_cloud_points + 1,
                                                          nullptr);
@@ -733,12 +809,27 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   std::vector<Candidate> true_pairs, mirror_candidates;
   std::vector<int> count(n + 1, 0), mirror_count(n + 1, 0);
   std::vector<image_t> touched, mirror_touched;
+  // With viewpoint-dependent match rates: the sums of the shared (true) and
+  // twin-shared (mirror: the points the second image sees) points, and the
+  // camera centres (PairMatchRate).
+  const bool viewpoint_rates = ViewpointMatchRates(options);
+  std::vector<Eigen::Vector3d> shared_sum, mirror_sum, centers(n + 1);
+  if (viewpoint_rates) {
+    shared_sum.assign(n + 1, Eigen::Vector3d::Zero());
+    mirror_sum.assign(n + 1, Eigen::Vector3d::Zero());
+    for (const auto& [image_id, image] : truth.images) {
+      centers[image_id] = image.cam_from_world.Inverse().translation;
+    }
+  }
   for (const auto& [image_id, image] : truth.images) {
     for (const Point2D& point2D : image.points2D) {
       if (point2D.point3D_id == kInvalidPoint3DId) continue;
       for (const TrackElement& element : *track_of[point2D.point3D_id]) {
         if (element.image_id <= image_id) continue;
         if (count[element.image_id]++ == 0) touched.push_back(element.image_id);
+        if (viewpoint_rates) {
+          shared_sum[element.image_id] += cloud.xyz[point2D.point3D_id - 1];
+        }
       }
       const point3D_t twin = scene.twin_of_point[point2D.point3D_id];
       if (twin == kInvalidPoint3DId) continue;
@@ -747,24 +838,48 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
         if (mirror_count[element.image_id]++ == 0) {
           mirror_touched.push_back(element.image_id);
         }
+        if (viewpoint_rates)
+          mirror_sum[element.image_id] += cloud.xyz[twin - 1];
       }
     }
     std::sort(touched.begin(), touched.end());
     std::sort(mirror_touched.begin(), mirror_touched.end());
     for (const image_t other : touched) {
-      if (count[other] >= options.min_num_inliers) {
-        true_pairs.push_back({image_id, other, count[other]});
+      // A mirror pair is the true pair of image_id's twin (centre M c) and
+      // other, on the points other sees.
+      const double rate =
+          viewpoint_rates
+              ? PairMatchRate(options, centers[image_id], centers[other],
+                              shared_sum[other] / count[other],
+                              ImagePairToPairId(image_id, other))
+              : 1.0;
+      if (count[other] * rate >= options.min_num_inliers) {
+        true_pairs.push_back({image_id, other, count[other], rate});
       }
     }
     for (const image_t other : mirror_touched) {
-      if (mirror_count[other] * options.false_pair_inlier_fraction >=
+      const double rate =
+          viewpoint_rates
+              ? PairMatchRate(options, Mirror(centers[image_id]),
+                              centers[other],
+                              mirror_sum[other] / mirror_count[other],
+                              ImagePairToPairId(image_id, other))
+              : 1.0;
+      if (mirror_count[other] * options.false_pair_inlier_fraction * rate >=
               options.min_num_inliers &&
           mirror_count[other] > count[other]) {
-        mirror_candidates.push_back({image_id, other, mirror_count[other]});
+        mirror_candidates.push_back(
+            {image_id, other, mirror_count[other], rate});
       }
     }
-    for (const image_t other : touched) count[other] = 0;
-    for (const image_t other : mirror_touched) mirror_count[other] = 0;
+    for (const image_t other : touched) {
+      count[other] = 0;
+      if (viewpoint_rates) shared_sum[other].setZero();
+    }
+    for (const image_t other : mirror_touched) {
+      mirror_count[other] = 0;
+      if (viewpoint_rates) mirror_sum[other].setZero();
+    }
     touched.clear();
     mirror_touched.clear();
   }
@@ -804,6 +919,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     pair.image_id2 = candidate.image_id2;
     pair.kind = PairKind::kTrue;
     pair.num_candidates = candidate.count;
+    pair.match_rate = candidate.match_rate;
     pair_index[ImagePairToPairId(pair.image_id1, pair.image_id2)] =
         pairs.size();
     pairs.push_back(pair);
@@ -822,6 +938,7 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
     pair.image_id2 = candidate.image_id2;
     pair.kind = PairKind::kMirror;
     pair.num_candidates = candidate.count;
+    pair.match_rate = candidate.match_rate;
     const image_pair_t pair_id =
         ImagePairToPairId(pair.image_id1, pair.image_id2);
     const auto it = pair_index.find(pair_id);
@@ -991,14 +1108,19 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
     geometry.inlier_matches = pair.random_inliers;
   } else {
     geometry.inlier_matches = std::move(candidates);
-    if (pair.kind == PairKind::kMirror) {
-      // A false pair matches only part of what its geometry allows.
+    // A false pair matches only part of what its geometry allows; a pair
+    // with a viewpoint-dependent match rate only that part.
+    const double fraction =
+        (pair.kind == PairKind::kMirror ? options.false_pair_inlier_fraction
+                                        : 1.0) *
+        pair.match_rate;
+    if (pair.kind == PairKind::kMirror || fraction < 1) {
       std::shuffle(geometry.inlier_matches.begin(),
                    geometry.inlier_matches.end(), rng);
       const size_t keep = std::max<size_t>(
           options.min_num_inliers,
-          static_cast<size_t>(std::round(options.false_pair_inlier_fraction *
-                                         geometry.inlier_matches.size())));
+          static_cast<size_t>(
+              std::round(fraction * geometry.inlier_matches.size())));
       if (geometry.inlier_matches.size() > keep)
         geometry.inlier_matches.resize(keep);
       std::sort(geometry.inlier_matches.begin(), geometry.inlier_matches.end(),

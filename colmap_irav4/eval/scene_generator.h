@@ -85,6 +85,11 @@ struct SceneGeneratorOptions {
   // to the scale (a detector localises coarse keypoints less precisely).
   bool keypoint_scales = false;
   double noise_scale_exponent = 0.0;
+  // Detector repeatability: each image keeps a random subset of at most this
+  // many of the keypoints of the points it sees (before clutter), so that
+  // images seeing many points keep a smaller share of them and a pair's
+  // inliers are a varying fraction of its co-visible points. 0: all.
+  int max_keypoints_per_image = 0;
   // Keypoints of nothing (clutter), as a fraction of each image's keypoints.
   double clutter_fraction = 0.1;
   // A pair is written when it has at least this many inliers.
@@ -103,6 +108,18 @@ struct SceneGeneratorOptions {
   // A false pair matches only this fraction of the correspondences its
   // (false) geometry would allow.
   double false_pair_inlier_fraction = 0.4;
+  // Viewpoint-dependent match rates (PairMatchRate): a true or mirror pair
+  // keeps only a fraction of the correspondences its geometry allows, as
+  // descriptors match less across a viewpoint change, a scale change and at
+  // a distance. Fraction exp(-(a / match_angle_falloff_deg)^2) for the angle
+  // a (deg) between the two cameras' rays to the pair's shared points (0:
+  // no falloff), times (near / far distance to them) / (1 + mean distance /
+  // match_distance_falloff) (m; 0: no falloff), times a per-pair log-normal
+  // factor of this sigma (texture, lighting; capped at 1 overall). A pair
+  // left with fewer than min_num_inliers is not written.
+  double match_angle_falloff_deg = 0.0;
+  double match_distance_falloff = 0.0;
+  double match_rate_sigma = 0.0;
   // Store cam2_from_cam1 in two_view_geometries.qvec/tvec (COLMAP 3.8 leaves
   // them zero unless asked).
   bool store_relative_pose = false;
@@ -121,6 +138,9 @@ struct GeneratedPair {
   // Correspondences the pair's geometry allows (shared points of a true pair,
   // twin-shared points of a mirror pair), before thinning.
   int num_candidates = 0;
+  // Fraction of them the pair keeps (viewpoint-dependent match rate; mirror
+  // pairs then keep false_pair_inlier_fraction of that).
+  double match_rate = 1.0;
   // Random pairs only: their inliers (generated with the scene, since they
   // add clutter keypoints to image_id2).
   FeatureMatches random_inliers;

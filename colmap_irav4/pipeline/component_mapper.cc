@@ -55,6 +55,7 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
       continue;
     }
     PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.verified = true;
     // Failed verifications are stored with no inliers (config UNDEFINED).
     pair.num_inliers = geometry.config == TwoViewGeometry::UNDEFINED
                            ? 0
@@ -66,6 +67,7 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
       continue;
     }
     PairEvidence& pair = entry(geometry.image_id1, geometry.image_id2);
+    pair.verified = true;
     pair.has_rotation = true;
     // Oriented image_id1 -> image_id2 of the evidence (smaller id first).
     pair.R = geometry.image_id1 == pair.image_id1
@@ -406,6 +408,21 @@ bool ComponentMapper::SplitAtCut() {
 }
 
 void ComponentMapper::WriteFolded() {
+  // Flagged after positioning from weak pairs alone and nothing removed: that
+  // check sees only the tracks selected for positioning; the check after
+  // refinement (every track, adjusted) decides.
+  if (num_removed_ == 0 && !best_->fold().missing_fold && best_->Solve() &&
+      !best_->fold().folded) {
+    LOG(INFO) << prefix_
+              << "no fold after refinement (the check after positioning "
+                 "flagged weak pairs alone): "
+              << best_->fold().Describe();
+    notes_.push_back(prefix_ +
+                     "weak pairs flagged after positioning, clean after "
+                     "refinement");
+    Finish(std::move(best_), "clean after refinement");
+    return;
+  }
   LOG(WARNING) << prefix_
                << "fold not resolved and no cut found: the model is written "
                   "but is likely FOLDED: "

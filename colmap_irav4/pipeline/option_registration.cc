@@ -396,6 +396,12 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.weak_pair_ratio", &d.weak_pair_ratio,
                "a consistent pair with fewer inliers per predicted co-visible "
                "point than this fraction of the typical is weak (0: off)");
+  manager->Add("Fold.weak_pair_rate_model", &d.weak_pair_rate_model,
+               "judge a pair's ratio against its images' own match rates and "
+               "its view angle (0: one typical ratio for the model)");
+  manager->Add("Fold.missing_pair_inlier_factor", &d.missing_pair_inlier_factor,
+               "a predicted pair without matches is missing only where the "
+               "rate model expects this many times min_num_matches inliers");
   manager->Add("Fold.min_weak_cut_pairs", &d.min_weak_cut_pairs,
                "a cut with at least this many weak pairs across it...");
   manager->Add("Fold.min_weak_cut_fraction", &d.min_weak_cut_fraction,

@@ -14,6 +14,7 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/statistics.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -53,9 +54,10 @@ double MaxCenterDistanceFactor(double cos_max_angle, double max_scale_ratio) {
 
 // Whether `view` is expected to match the point X that `from` observes:
 // in front, inside the image, from a similar direction and distance.
+// *cos_angle: the cosine of the angle between the two rays, where expected.
 bool ExpectsPoint(const View& view, const Eigen::Vector3d& from_center,
                   const Eigen::Vector3d& X, double cos_max_angle,
-                  double max_scale_ratio) {
+                  double max_scale_ratio, double* cos_angle) {
   const Eigen::Vector3d x = view.R * X + view.t;
   if (x.z() <= 0) return false;
   const Eigen::Vector3d ray_view = view.center - X;
@@ -67,6 +69,7 @@ bool ExpectsPoint(const View& view, const Eigen::Vector3d& from_center,
   if (n_view > max_scale_ratio * n_from || n_from > max_scale_ratio * n_view) {
     return false;
   }
+  *cos_angle = ray_view.dot(ray_from) / (n_view * n_from);
   const Eigen::Vector2d pixel = CameraCameraToImage(
       *view.camera, Eigen::Vector2d(x.x() / x.z(), x.y() / x.z()));
   return pixel.allFinite() && pixel.x() >= 0 && pixel.y() >= 0 &&
@@ -78,11 +81,172 @@ std::pair<image_t, image_t> Ordered(image_t a, image_t b) {
   return a < b ? std::make_pair(a, b) : std::make_pair(b, a);
 }
 
+// The q-quantile of `values` (0 for none).
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  const size_t k =
+      std::min(values.size() - 1, static_cast<size_t>(q * values.size()));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[k];
+}
+
+// View-angle bins of the rate model (deg) and the fewest pairs a bin or an
+// image needs for an effect of its own.
+constexpr double kAngleBinDeg = 5.0;
+constexpr int kNumAngleBins = 6;
+constexpr int kMinBinPairs = 10;
+constexpr int kMinImagePairs = 3;
+// The fewest strong pairs that set an image's effect above its upper
+// quartile (FitPairRates).
+constexpr int kMinStrongPairs = 2;
+
+int AngleBin(double angle_deg) {
+  return std::clamp(static_cast<int>(angle_deg / kAngleBinDeg), 0,
+                    kNumAngleBins - 1);
+}
+
+// The typical inliers per predicted co-visible point of a pair
+// (weak_pair_rate_model): log ratio = image_effect[i] + image_effect[j] +
+// bin_effect[angle bin]. Without the model, the typical ratio of all pairs.
+struct RateModel {
+  std::vector<double> image_effect;  // by node
+  std::vector<double> bin_effect = std::vector<double>(kNumAngleBins, 0.0);
+  double typical = 0;  // > 0: the ratio of every pair (no model)
+  // Median of the fitted pairs' log ratios less the model's (the model
+  // follows upper quartiles; this brings it to the middle).
+  double median_residual = 0;
+  double Ratio(int i, int j, double angle_deg) const {
+    if (typical > 0) return typical;
+    return std::exp(image_effect[i] + image_effect[j] +
+                    bin_effect[AngleBin(angle_deg)]);
+  }
+};
+
+// Fits the rate model to the predicted pairs' ratios by alternating upper
+// quartiles of the residuals (robust to a minority of weak pairs at each
+// image and in each bin; where false pairs are the majority the upper
+// quartile still follows the true ones). The images' effects have median 0,
+// so that an image with too few pairs for its own is judged as a typical
+// one; bins with too few pairs share their neighbour's effect.
+RateModel FitPairRates(const std::vector<PairSupport>& pairs,
+                       const std::map<image_t, int>& index,
+                       double weak_pair_ratio) {
+  const int n = static_cast<int>(index.size());
+  std::vector<int> node1, node2, bin;
+  std::vector<double> log_ratio;
+  std::vector<size_t> fitted;  // indices into pairs
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    if (!pairs[k].predicted || !(pairs[k].ratio > 0)) continue;
+    fitted.push_back(k);
+  }
+  const auto angle_bin = AngleBin;
+  // Bins with too few pairs share their neighbour's effect (towards the
+  // populated middle): merged downwards, then upwards.
+  std::vector<int> bin_count(kNumAngleBins, 0);
+  for (const size_t k : fitted) ++bin_count[angle_bin(pairs[k].view_angle_deg)];
+  std::vector<int> merged(kNumAngleBins);
+  for (int b = 0; b < kNumAngleBins; ++b) merged[b] = b;
+  for (int b = kNumAngleBins - 1; b > 0; --b) {
+    if (bin_count[b] < kMinBinPairs) {
+      bin_count[b - 1] += bin_count[b];
+      bin_count[b] = 0;
+      for (int& m : merged) {
+        if (m == b) m = b - 1;
+      }
+    }
+  }
+  for (int b = 0; b + 1 < kNumAngleBins && bin_count[b] < kMinBinPairs; ++b) {
+    int next = b + 1;
+    while (next < kNumAngleBins && bin_count[next] == 0) ++next;
+    if (next == kNumAngleBins) break;
+    bin_count[next] += bin_count[b];
+    bin_count[b] = 0;
+    for (int& m : merged) {
+      if (m == b) m = next;
+    }
+  }
+  for (const size_t k : fitted) {
+    node1.push_back(index.at(pairs[k].image_id1));
+    node2.push_back(index.at(pairs[k].image_id2));
+    bin.push_back(merged[angle_bin(pairs[k].view_angle_deg)]);
+    log_ratio.push_back(std::log(pairs[k].ratio));
+  }
+  RateModel model;
+  model.image_effect.assign(n, 0.0);
+  std::vector<double>& image_effect = model.image_effect;
+  std::vector<double> bin_effect(kNumAngleBins, 0.0);
+  std::vector<std::vector<size_t>> image_pairs(n);
+  for (size_t m = 0; m < fitted.size(); ++m) {
+    image_pairs[node1[m]].push_back(m);
+    image_pairs[node2[m]].push_back(m);
+  }
+  // The weak band (log ratio) below a rate.
+  const double weak_gap =
+      weak_pair_ratio > 0 ? -std::log(weak_pair_ratio) : 0.0;
+  std::vector<std::vector<double>> residuals;
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    residuals.assign(kNumAngleBins, {});
+    for (size_t m = 0; m < fitted.size(); ++m) {
+      residuals[bin[m]].push_back(log_ratio[m] - image_effect[node1[m]] -
+                                  image_effect[node2[m]]);
+    }
+    for (int b = 0; b < kNumAngleBins; ++b) {
+      if (!residuals[b].empty()) bin_effect[b] = Quantile(residuals[b], 0.75);
+    }
+    std::vector<double> effects;
+    for (int i = 0; i < n; ++i) {
+      if (static_cast<int>(image_pairs[i].size()) < kMinImagePairs) continue;
+      std::vector<double> own;
+      for (const size_t m : image_pairs[i]) {
+        const int other = node1[m] == i ? node2[m] : node1[m];
+        own.push_back(log_ratio[m] - image_effect[other] - bin_effect[bin[m]]);
+      }
+      image_effect[i] = Quantile(own, 0.75);
+      // An image whose upper quartile is at the weak level while a few of
+      // its pairs are strong both at the typical level and above that
+      // quartile's weak band: most of its pairs are a fold's false ones (an
+      // image that keeps few of its points has them all low), and its
+      // effect follows the strong few, lest it absorb the fold's evidence.
+      if (weak_pair_ratio > 0 && image_effect[i] < -weak_gap) {
+        double lowest_strong = std::numeric_limits<double>::infinity();
+        int num_strong = 0;
+        for (const double r : own) {
+          if (r >= -weak_gap && r > image_effect[i] + weak_gap) {
+            ++num_strong;
+            lowest_strong = std::min(lowest_strong, r);
+          }
+        }
+        if (num_strong >= kMinStrongPairs) image_effect[i] = lowest_strong;
+      }
+      effects.push_back(image_effect[i]);
+    }
+    // Gauge: the median image has effect 0 (the bins take the level).
+    const double shift = Median(effects);
+    for (int i = 0; i < n; ++i) {
+      if (static_cast<int>(image_pairs[i].size()) >= kMinImagePairs) {
+        image_effect[i] -= shift;
+      }
+    }
+  }
+  for (int b = 0; b < kNumAngleBins; ++b) {
+    model.bin_effect[b] = bin_effect[merged[b]];
+  }
+  std::vector<double> final_residuals;
+  for (size_t m = 0; m < fitted.size(); ++m) {
+    final_residuals.push_back(log_ratio[m] - image_effect[node1[m]] -
+                              image_effect[node2[m]] - bin_effect[bin[m]]);
+  }
+  model.median_residual = Median(final_residuals);
+  return model;
+}
+
 // Marks the weak pairs of report->pair_support and finds the cut that best
 // separates the weak consistent predicted pairs from the strong ones
 // (FoldReport: typical_ratio ... weak_fold). `index`: image id -> node.
-void WeakPairCut(const FoldDetectionOptions& options,
-                 const std::map<image_t, int>& index, FoldReport* report) {
+// Returns the rate model (every effect 0 but the level, the typical ratio,
+// without weak_pair_rate_model).
+RateModel WeakPairCut(const FoldDetectionOptions& options,
+                      const std::map<image_t, int>& index, FoldReport* report) {
   std::vector<double> ratios;
   for (PairSupport& support : report->pair_support) {
     const double predicted =
@@ -93,23 +257,34 @@ void WeakPairCut(const FoldDetectionOptions& options,
     if (support.predicted) ratios.push_back(support.ratio);
   }
   report->num_support_pairs = static_cast<int>(ratios.size());
-  if (ratios.empty() || options.weak_pair_ratio <= 0) return;
-  const size_t k = ratios.size() * 3 / 4;
-  std::nth_element(ratios.begin(), ratios.begin() + k, ratios.end());
-  report->typical_ratio = ratios[k];
-  const double threshold = options.weak_pair_ratio * report->typical_ratio;
+  RateModel model;
+  model.image_effect.assign(index.size(), 0.0);
+  if (ratios.empty()) return model;
+  report->typical_ratio = Quantile(ratios, 0.75);
+  if (options.weak_pair_rate_model) {
+    model = FitPairRates(report->pair_support, index, options.weak_pair_ratio);
+  } else {
+    model.typical = report->typical_ratio;
+  }
+  for (PairSupport& support : report->pair_support) {
+    support.expected_ratio =
+        model.Ratio(index.at(support.image_id1), index.at(support.image_id2),
+                    support.view_angle_deg);
+  }
+  if (options.weak_pair_ratio <= 0) return model;
   // Signed graph over the images: strong predicted pairs pull together (+1),
   // weak ones push apart (scaled so that both kinds weigh the same).
   std::vector<std::tuple<int, int, double>> edges;
   int num_strong = 0;
   for (PairSupport& support : report->pair_support) {
-    support.weak = support.ratio < threshold;
+    support.weak =
+        support.ratio < options.weak_pair_ratio * support.expected_ratio;
     if (!support.predicted) continue;
     report->num_weak_pairs += support.weak;
     num_strong += !support.weak;
   }
   if (report->num_weak_pairs < options.min_weak_cut_pairs || num_strong == 0) {
-    return;
+    return model;
   }
   const double negative =
       static_cast<double>(num_strong) / report->num_weak_pairs;
@@ -136,6 +311,7 @@ void WeakPairCut(const FoldDetectionOptions& options,
       smaller_side_has_strong_pair &&
       report->num_weak_cut_pairs >= options.min_weak_cut_pairs &&
       report->num_weak_cut_pairs >= options.min_weak_cut_fraction * cut;
+  return model;
 }
 
 }  // namespace
@@ -191,6 +367,9 @@ void FoldDetectionOptions::Check() const {
     throw OptionError(&weak_pair_ratio, "Fold.weak_pair_ratio",
                       "must be in [0, 1)");
   }
+  if (!(missing_pair_inlier_factor >= 0)) {
+    throw InputError("--Fold.missing_pair_inlier_factor", "must be >= 0");
+  }
   if (min_weak_cut_pairs < 1) {
     throw OptionError(&min_weak_cut_pairs, "Fold.min_weak_cut_pairs",
                       "must be >= 1");
@@ -221,7 +400,8 @@ std::string FoldReport::Describe() const {
   std::ostringstream line;
   line << "fold score " << std::fixed << std::setprecision(3) << fold_score
        << " (" << num_missing_pairs << " of " << num_predicted_pairs
-       << " predicted overlapping pairs have no matches), "
+       << " predicted overlapping pairs have no matches; "
+       << num_unexpected_pairs << " more expected too few inliers), "
        << num_strong_inconsistent_pairs << " strong pairs of "
        << num_inconsistent_pairs << " contradicted, "
        << num_contradictory_tracks << " of " << num_tracks
@@ -298,8 +478,14 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     return it != by_pair.end() &&
            it->second->num_inliers >= options.min_num_matches;
   };
+  // Matching was attempted: verified (or at least its raw matches too few
+  // to verify); raw matches without a verification say nothing.
   auto tried = [&](image_t a, image_t b) {
-    return evidence.absent_pairs_were_tried || by_pair.count(Ordered(a, b));
+    const auto it = by_pair.find(Ordered(a, b));
+    if (it == by_pair.end()) return evidence.absent_pairs_were_tried;
+    const PairEvidence& pair = *it->second;
+    return pair.num_matches < options.min_num_matches || pair.verified ||
+           pair.has_rotation || pair.num_inliers > 0;
   };
 
   // Predicted overlap: expected[i][j] = points of i that j should match.
@@ -310,10 +496,16 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   // one of them sees (MaxCenterDistanceFactor): skip them cheaply, so that
   // the cost is images^2 distance tests plus the points of the pairs that
   // are near each other (exact: only pairs that expect no point are skipped).
-  // Sparse: expected[i] holds (j, points of i that j should match) > 0.
+  // Sparse: expected[i] holds (j, points of i that j should match) > 0,
+  // with the sum of the angles between the two rays to them.
   const double distance_factor =
       MaxCenterDistanceFactor(cos_max_angle, options.max_scale_ratio);
-  std::vector<std::vector<std::pair<int, int>>> expected(num_views);
+  struct Expected {
+    int j = 0;
+    int count = 0;
+    double angle_sum_deg = 0;
+  };
+  std::vector<std::vector<Expected>> expected(num_views);
   for (int i = 0; i < num_views; ++i) {
     if (views[i].points.empty()) continue;
     const double max_distance_squared =
@@ -327,27 +519,51 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
         continue;
       }
       if (views[i].axis.dot(views[j].axis) < -0.5) continue;
-      int count = 0;
+      Expected entry;
+      entry.j = j;
       for (const Eigen::Vector3d& X : views[i].points) {
-        count += ExpectsPoint(views[j], views[i].center, X, cos_max_angle,
-                              options.max_scale_ratio);
+        double cos_angle = 1;
+        if (ExpectsPoint(views[j], views[i].center, X, cos_max_angle,
+                         options.max_scale_ratio, &cos_angle)) {
+          ++entry.count;
+          entry.angle_sum_deg +=
+              std::acos(std::clamp(cos_angle, -1.0, 1.0)) / kDegToRad;
+        }
       }
-      if (count > 0) expected[i].emplace_back(j, count);
+      if (entry.count > 0) expected[i].push_back(entry);
     }
   }
+  auto find_expected = [&](int i, int j) -> const Expected* {
+    const auto it = std::lower_bound(
+        expected[i].begin(), expected[i].end(), j,
+        [](const Expected& entry, int key) { return entry.j < key; });
+    return it != expected[i].end() && it->j == j ? &*it : nullptr;
+  };
   auto expected_count = [&](int i, int j) {
-    const auto it = std::lower_bound(expected[i].begin(), expected[i].end(),
-                                     std::make_pair(j, 0));
-    return it != expected[i].end() && it->first == j ? it->second : 0;
+    const Expected* entry = find_expected(i, j);
+    return entry != nullptr ? entry->count : 0;
   };
   std::set<std::pair<int, int>> predicted;  // (i, j), i < j
   auto is_predicted = [&](int i, int j) {
     return predicted.count(i < j ? std::make_pair(i, j)
                                  : std::make_pair(j, i)) > 0;
   };
-  std::vector<std::vector<int>> predicted_neighbours(num_views);
+  // Points of i that j should match, scaled to all of i's points.
+  auto scaled_count = [&](int i, int j) {
+    return static_cast<double>(expected_count(i, j)) *
+           views[i].num_scaled_points / views[i].points.size();
+  };
+  auto mean_view_angle = [&](int i, int j) {
+    const Expected* ij = find_expected(i, j);
+    const Expected* ji = find_expected(j, i);
+    return (ij->angle_sum_deg + ji->angle_sum_deg) / (ij->count + ji->count);
+  };
+  // The pairs predicted to overlap (and tried); those without matches are
+  // judged below, once the rate model is known.
   for (int i = 0; i < num_views; ++i) {
-    for (const auto& [j, e_ij] : expected[i]) {
+    for (const Expected& entry : expected[i]) {
+      const int j = entry.j;
+      const int e_ij = entry.count;
       if (j <= i) continue;
       const int e_ji = expected_count(j, i);
       const double ni = static_cast<double>(views[i].points.size());
@@ -357,29 +573,10 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
           e_ji < options.min_overlap_fraction * nj) {
         continue;
       }
-      const image_t a = views[i].image_id;
-      const image_t b = views[j].image_id;
-      if (!tried(a, b)) continue;
+      if (!tried(views[i].image_id, views[j].image_id)) continue;
       predicted.insert({i, j});
-      predicted_neighbours[i].push_back(j);
-      predicted_neighbours[j].push_back(i);
-      ++report.num_predicted_pairs;
-      ++report.image_predicted_pairs[a];
-      ++report.image_predicted_pairs[b];
-      if (!matched(a, b)) {
-        ++report.num_missing_pairs;
-        ++report.image_missing_pairs[a];
-        ++report.image_missing_pairs[b];
-        report.missing_pairs.push_back(Ordered(a, b));
-      }
     }
   }
-  report.fold_score = report.num_predicted_pairs > 0
-                          ? static_cast<double>(report.num_missing_pairs) /
-                                report.num_predicted_pairs
-                          : 0.0;
-  report.folded = report.fold_score > options.max_fold_score &&
-                  report.num_missing_pairs >= options.min_missing_pairs;
 
   // Pairs the model agrees with or contradicts.
   std::vector<std::pair<int, int>> consistent;
@@ -406,13 +603,10 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
         support.image_id1 = pair->image_id1;
         support.image_id2 = pair->image_id2;
         support.num_inliers = pair->num_inliers;
-        support.num_predicted12 = static_cast<double>(e_ij) *
-                                  views[i].num_scaled_points /
-                                  views[i].points.size();
-        support.num_predicted21 = static_cast<double>(e_ji) *
-                                  views[j].num_scaled_points /
-                                  views[j].points.size();
+        support.num_predicted12 = scaled_count(i, j);
+        support.num_predicted21 = scaled_count(j, i);
         support.predicted = is_predicted(i, j);
+        support.view_angle_deg = mean_view_angle(i, j);
         report.pair_support.push_back(support);
       }
     } else {
@@ -422,7 +616,56 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     }
   }
   report.num_inconsistent_pairs = static_cast<int>(inconsistent_inliers.size());
-  WeakPairCut(options, index, &report);
+  const RateModel rates = WeakPairCut(options, index, &report);
+  // Missing pairs: predicted, tried, not matched, and (with the rate model)
+  // expected to keep enough inliers to pass the verification: where the
+  // images keep few of their points or the angle is wide, a true pair may
+  // fail it, and its absence says nothing.
+  std::vector<std::vector<int>> predicted_neighbours(num_views);
+  for (auto it = predicted.begin(); it != predicted.end();) {
+    const auto [i, j] = *it;
+    const image_t a = views[i].image_id;
+    const image_t b = views[j].image_id;
+    const bool is_matched = matched(a, b);
+    const double expected_inliers =
+        is_matched ? 0
+                   : std::sqrt(scaled_count(i, j) * scaled_count(j, i)) *
+                         rates.Ratio(i, j, mean_view_angle(i, j)) *
+                         std::exp(rates.median_residual);
+    VLOG_IF(2, !is_matched)
+        << "pair " << a << " " << b << " without matches: predicted "
+        << scaled_count(i, j) << " / " << scaled_count(j, i) << " points, "
+        << mean_view_angle(i, j) << " deg, expected " << expected_inliers
+        << " inliers";
+    if (!is_matched && options.weak_pair_rate_model &&
+        report.num_support_pairs > 0 &&
+        expected_inliers <
+            options.missing_pair_inlier_factor * options.min_num_matches) {
+      ++report.num_unexpected_pairs;
+      it = predicted.erase(it);
+      continue;
+    }
+    ++it;
+    predicted_neighbours[i].push_back(j);
+    predicted_neighbours[j].push_back(i);
+    ++report.num_predicted_pairs;
+    ++report.image_predicted_pairs[a];
+    ++report.image_predicted_pairs[b];
+    if (!is_matched) {
+      ++report.num_missing_pairs;
+      ++report.image_missing_pairs[a];
+      ++report.image_missing_pairs[b];
+      report.missing_pairs.push_back(Ordered(a, b));
+    }
+  }
+  std::sort(report.missing_pairs.begin(), report.missing_pairs.end());
+  report.fold_score = report.num_predicted_pairs > 0
+                          ? static_cast<double>(report.num_missing_pairs) /
+                                report.num_predicted_pairs
+                          : 0.0;
+  report.missing_fold = report.fold_score > options.max_fold_score &&
+                        report.num_missing_pairs >= options.min_missing_pairs;
+  report.folded = report.missing_fold;
   if (report.weak_fold) {
     report.fold_score = std::max(
         report.fold_score, static_cast<double>(report.num_weak_cut_pairs) /
@@ -430,7 +673,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     report.folded = true;
   }
   // Images weak alone: every consistent predicted pair at them weak, and
-  // verified pairs at them contradicted.
+  // verified pairs at them contradicted. Judged without the image's own
+  // effect of the rate model (which a turned camera's weak pairs set).
   std::vector<int> num_support(num_views, 0);
   std::vector<int> num_weak(num_views, 0);
   for (const PairSupport& support : report.pair_support) {
@@ -438,7 +682,9 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
     for (const image_t image_id : {support.image_id1, support.image_id2}) {
       const int i = index.at(image_id);
       ++num_support[i];
-      num_weak[i] += support.weak;
+      num_weak[i] += support.ratio < options.weak_pair_ratio *
+                                         support.expected_ratio /
+                                         std::exp(rates.image_effect[i]);
     }
   }
   for (int i = 0; i < num_views; ++i) {

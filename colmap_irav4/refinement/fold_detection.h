@@ -75,11 +75,24 @@ struct FoldDetectionOptions {
   int min_suspect_conflicts = 2;
   // A consistent predicted pair is weak when its verified inliers per
   // co-visible model point predicted for it fall below this fraction of the
-  // typical ratio (the 75th percentile over those pairs: false pairs may be
-  // the majority where the symmetry is strong). 0: weak pairs are not used.
-  // A false pair that keeps more than about this fraction of what a true
-  // pair matches cannot be told from a true one.
+  // typical ratio (upper quartiles: false pairs may be the majority where
+  // the symmetry is strong). 0: weak pairs are not used. A false pair that
+  // keeps more than about this fraction of what a true pair matches cannot
+  // be told from a true one.
   double weak_pair_ratio = 0.75;
+  // The typical ratio of a pair from a fit to the images' own match rates
+  // and the pair's view angle (log ratio = a_i + a_j + b(angle), upper
+  // quartiles: ExpectedPairRatios), not one figure for the whole model. A
+  // detector keeps fewer of the points an image sees where it sees many, and
+  // descriptors match less across wider angles: with one figure, the images
+  // that match less (a stretch of a long wall, the corners) form a cut of
+  // weak pairs in a correct model.
+  bool weak_pair_rate_model = true;
+  // With the rate model, a predicted pair without matches counts as missing
+  // only where the model expects at least this many times min_num_matches
+  // inliers for it: a true pair between images that keep few of their
+  // points, or across a wide angle, may fail the verification.
+  double missing_pair_inlier_factor = 2.0;
   // A model is folded when a cut separates at least this many weak pairs...
   int min_weak_cut_pairs = 10;
   // ... that make at least this fraction of the consistent predicted pairs
@@ -127,6 +140,11 @@ struct PairEvidence {
   int num_inliers = 0;
   // Raw (unverified) matches; -1 where the database does not say.
   int num_matches = -1;
+  // Whether the database holds its verification (a two_view_geometries row,
+  // or a measured rotation). A pair with raw matches but no verification
+  // (rows deleted, verification not run) was not tried as far as the fold
+  // check can tell: it is not a missing pair.
+  bool verified = false;
   // Measured relative rotation cam2_from_cam1 (the view graph's), if any.
   bool has_rotation = false;
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
@@ -153,9 +171,14 @@ struct PairSupport {
   double num_predicted21 = 0;
   // Whether the pair is one of the predicted overlapping pairs.
   bool predicted = false;
+  // Mean angle (deg) between the two cameras' rays to the predicted
+  // co-visible points.
+  double view_angle_deg = 0;
   // Inliers per predicted co-visible point (geometric mean of both
-  // directions), and whether that is below weak_pair_ratio of the typical.
+  // directions), the typical ratio for this pair (weak_pair_rate_model), and
+  // whether the ratio is below weak_pair_ratio of that.
   double ratio = 0;
+  double expected_ratio = 0;
   bool weak = false;
 };
 
@@ -163,9 +186,16 @@ struct FoldReport {
   // Fraction of the predicted-overlapping tried pairs without matches.
   double fold_score = 0;
   bool folded = false;
+  // Whether the missing pairs alone make it folded (max_fold_score,
+  // min_missing_pairs); folded is this or weak_fold.
+  bool missing_fold = false;
   int num_images = 0;
   int num_predicted_pairs = 0;
   int num_missing_pairs = 0;
+  // Predicted pairs without matches that the rate model expected too few
+  // inliers of (missing_pair_inlier_factor): counted neither predicted nor
+  // missing.
+  int num_unexpected_pairs = 0;
   // Verified pairs (with a rotation) the model contradicts, and those of them
   // with at least the median inlier count of the pairs the model agrees with.
   int num_inconsistent_pairs = 0;

@@ -25,9 +25,10 @@ int ColorPointsFromImages(const std::string& image_path,
   CHECK(downscale == 1 || downscale == 2 || downscale == 4 || downscale == 8)
       << downscale;
   // JPEG decoders scale by 2, 4 or 8 inside the DCT: much faster, and the
-  // colour of a point (a mean over its track) barely changes.
-  // The pixels as stored, as COLMAP's feature extraction saw them (no EXIF
-  // rotation).
+  // colour of a point (a mean over its track) barely changes. The pixels as
+  // stored, as COLMAP's feature extractor reads them: OpenCV would turn a
+  // photo by its EXIF orientation tag (phones store portrait shots turned),
+  // and the keypoints would then sample the wrong pixels.
   const int flags = (downscale == 1   ? cv::IMREAD_COLOR
                      : downscale == 2 ? cv::IMREAD_REDUCED_COLOR_2
                      : downscale == 4 ? cv::IMREAD_REDUCED_COLOR_4

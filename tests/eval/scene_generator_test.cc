@@ -166,6 +166,79 @@ TEST(SceneGenerator, DeterministicAndSeeded) {
   EXPECT_THROW(WriteSceneDatabase(a, temp.File("a.db")), InputError);
 }
 
+// Detector repeatability: no image keeps more keypoints of points than the
+// cap, the images that see more keep exactly the cap, and the tracks still
+// point at the right keypoints (their point ids).
+TEST(SceneGenerator, KeypointCapKeepsARandomSubsetPerImage) {
+  SceneGeneratorOptions options = SmallOptions(SceneLayout::kCourtyard);
+  options.point_density = 40;
+  auto points_of = [](const Image& image) {
+    int points = 0;
+    for (const Point2D& point2D : image.points2D) {
+      points += point2D.point3D_id != kInvalidPoint3DId;
+    }
+    return points;
+  };
+  int num_over = 0;
+  for (const auto& [image_id, image] : GenerateScene(options).truth.images) {
+    num_over += points_of(image) > 330;
+  }
+  EXPECT_GT(num_over, 10);
+  options.max_keypoints_per_image = 300;
+  const GeneratedScene capped = GenerateScene(options);
+  // 300 kept, then 10% clutter (a kept keypoint whose point no other image
+  // kept becomes clutter too).
+  int num_at_cap = 0;
+  for (const auto& [image_id, image] : capped.truth.images) {
+    EXPECT_LE(points_of(image), 300);
+    EXPECT_LE(image.points2D.size(), 330u);
+    num_at_cap += image.points2D.size() == 330u;
+  }
+  EXPECT_GT(num_at_cap, 10);
+  for (const auto& [point3D_id, point] : capped.truth.points3D) {
+    EXPECT_GE(point.track.size(), 2u);
+    for (const TrackElement& element : point.track) {
+      EXPECT_EQ(capped.truth.images.at(element.image_id)
+                    .points2D.at(element.point2D_idx)
+                    .point3D_id,
+                point3D_id);
+    }
+  }
+}
+
+// Viewpoint-dependent match rates: a true pair keeps a fraction of its
+// shared points that falls with the angle between the cameras' rays; the
+// stored inliers follow it; and without the options every rate is 1.
+TEST(SceneGenerator, MatchRatesFallWithTheViewAngle) {
+  SceneGeneratorOptions options = SmallOptions(SceneLayout::kCourtyard);
+  for (const GeneratedPair& pair : GenerateScene(options).pairs) {
+    EXPECT_EQ(pair.match_rate, 1.0);
+  }
+  options.match_angle_falloff_deg = 20;
+  const GeneratedScene scene = GenerateScene(options);
+  // Neighbours along the path keep more than pairs 4 images apart (wider
+  // angles).
+  double near_sum = 0, far_sum = 0;
+  int num_near = 0, num_far = 0;
+  for (const GeneratedPair& pair : scene.pairs) {
+    EXPECT_GT(pair.match_rate, 0.0);
+    EXPECT_LE(pair.match_rate, 1.0);
+    EXPECT_GE(pair.num_candidates * pair.match_rate,
+              options.min_num_inliers - 1e-9);
+    const int gap = static_cast<int>(pair.image_id2 - pair.image_id1);
+    if (gap == 1) near_sum += pair.match_rate, ++num_near;
+    if (gap == 4) far_sum += pair.match_rate, ++num_far;
+    const TwoViewGeometry geometry = PairGeometry(scene, pair, nullptr);
+    EXPECT_EQ(static_cast<int>(geometry.inlier_matches.size()),
+              std::max(options.min_num_inliers,
+                       static_cast<int>(
+                           std::round(pair.match_rate * pair.num_candidates))));
+  }
+  ASSERT_GT(num_near, 10);
+  ASSERT_GT(num_far, 10);
+  EXPECT_LT(far_sum / num_far, 0.9 * near_sum / num_near);
+}
+
 // Pairs across the middle of each side of the camera loop: the reference for
 // the pairs across its corners.
 std::vector<int> PairsAcrossSideMiddles(const GeneratedScene& scene) {

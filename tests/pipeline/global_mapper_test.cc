@@ -2,6 +2,7 @@
 // components of a pair list, point colours, options and the summary.
 
 #include <filesystem>
+#include <fstream>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -113,6 +114,25 @@ TEST(PointColors, MeanOfTheObservedPixelsGreyWithoutImage) {
   }
 }
 
+// Two views of the image file `name` (`width` x `height`) with keypoints at
+// `xy` (no points).
+Reconstruction TwoViewsOf(const std::string& name, int width, int height,
+                          const std::vector<Eigen::Vector2d>& xy) {
+  Reconstruction model;
+  model.cameras[1].camera_id = 1;
+  model.cameras[1].width = width;
+  model.cameras[1].height = height;
+  for (image_t id = 1; id <= 2; ++id) {
+    Image& view = model.images[id];
+    view.image_id = id;
+    view.camera_id = 1;
+    view.name = name;
+    view.points2D.resize(xy.size());
+    for (size_t k = 0; k < xy.size(); ++k) view.points2D[k].xy = xy[k];
+  }
+  return model;
+}
+
 TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
   test::TempDir temp;
   // Red = 10 * column.
@@ -121,19 +141,10 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
     image.col(col).setTo(cv::Scalar(0, 0, 10 * col));
   }
   cv::imwrite(temp.File("g.png"), image);
-  Reconstruction model;
-  model.cameras[1].camera_id = 1;
-  model.cameras[1].width = 16;
-  model.cameras[1].height = 16;
-  for (image_t id = 1; id <= 2; ++id) {
-    Image& view = model.images[id];
-    view.image_id = id;
-    view.camera_id = 1;
-    view.name = "g.png";
-    view.points2D.resize(2);
-    view.points2D[0].xy = Eigen::Vector2d(5.5, 2.5);  // centre of column 5
-    view.points2D[1].xy = Eigen::Vector2d(5.0, 2.5);  // between 4 and 5
-  }
+  Reconstruction model =
+      TwoViewsOf("g.png", 16, 16,
+                 {Eigen::Vector2d(5.5, 2.5),    // centre of column 5
+                  Eigen::Vector2d(5.0, 2.5)});  // between 4 and 5
   const point3D_t centre =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
   const point3D_t between =
@@ -141,6 +152,51 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
   ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model, 1), 0);
   EXPECT_EQ(static_cast<int>(model.points3D.at(centre).color[0]), 50);
   EXPECT_EQ(static_cast<int>(model.points3D.at(between).color[0]), 45);
+}
+
+// A phone's portrait photo is stored landscape with an EXIF orientation tag
+// ("Rotate 90 CW"); COLMAP's keypoints are in the stored pixels, so the
+// colours must be sampled there, not in the turned image.
+TEST(PointColors, SampledInTheStoredPixelsWhateverTheExifOrientation) {
+  test::TempDir temp;
+  // 32 x 16, left half red, right half blue (BGR).
+  cv::Mat stored(16, 32, CV_8UC3, cv::Scalar(0, 0, 255));
+  stored.colRange(16, 32).setTo(cv::Scalar(255, 0, 0));
+  std::vector<uchar> jpeg;
+  ASSERT_TRUE(
+      cv::imencode(".jpg", stored, jpeg, {cv::IMWRITE_JPEG_QUALITY, 100}));
+  // An APP1 Exif segment right after the SOI marker: a little-endian TIFF
+  // header and one IFD entry, Orientation (0x0112, SHORT) = 6.
+  const std::vector<uchar> app1 = {
+      0xFF, 0xE1, 0x00, 0x22, 'E',  'x',  'i',  'f',
+      0,    0,                                         // marker, length 34
+      'I',  'I',  0x2A, 0x00, 0x08, 0x00, 0x00, 0x00,  // TIFF header
+      0x01, 0x00,                                      // one entry
+      0x12, 0x01, 0x03, 0x00, 0x01, 0x00, 0x00, 0x00,  // tag, type, count
+      0x06, 0x00, 0x00, 0x00,                          // value 6
+      0x00, 0x00, 0x00, 0x00};                         // no next IFD
+  jpeg.insert(jpeg.begin() + 2, app1.begin(), app1.end());
+  {
+    std::ofstream file(temp.File("portrait.jpg"), std::ios::binary);
+    file.write(reinterpret_cast<const char*>(jpeg.data()), jpeg.size());
+  }
+  // OpenCV turns it by default: the test image does carry the tag.
+  ASSERT_EQ(cv::imread(temp.File("portrait.jpg")).cols, 16);
+  Reconstruction model =
+      TwoViewsOf("portrait.jpg", 32, 16,
+                 {Eigen::Vector2d(28.5, 8.5),    // right half: blue
+                  Eigen::Vector2d(4.5, 12.5)});  // left half: red
+  const point3D_t blue =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
+  const point3D_t red =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}}, &model);
+  ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model, 1), 0);
+  const auto& b = model.points3D.at(blue).color;
+  const auto& r = model.points3D.at(red).color;
+  EXPECT_GT(b[2], 200);
+  EXPECT_LT(b[0], 50);
+  EXPECT_GT(r[0], 200);
+  EXPECT_LT(r[2], 50);
 }
 
 TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {

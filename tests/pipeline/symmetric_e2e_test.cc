@@ -12,6 +12,8 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -126,14 +128,15 @@ SymmetricRun MapCourtyard(double mirror_pair_rate, uint64_t seed,
   return MapCourtyard(mirror_pair_rate, seed, fold);
 }
 
-// One model of every image, no camera turned, centres right, and the fold
-// check's outcome starting with `outcome` ("clean" or "resolved").
-void ExpectOneCorrectModel(const SymmetricRun& run,
-                           const std::string& outcome) {
+// One model of every image, no camera turned, centres right (median below
+// `max_center_error`, m), and the fold check's outcome starting with
+// `outcome` ("clean" or "resolved").
+void ExpectOneCorrectModel(const SymmetricRun& run, const std::string& outcome,
+                           double max_center_error = 0.01) {
   ASSERT_EQ(run.models.size(), 1u);
   EXPECT_EQ(run.num_registered, run.num_images);
   EXPECT_EQ(run.num_turned, 0);
-  EXPECT_LT(run.center_error_median, 0.01);
+  EXPECT_LT(run.center_error_median, max_center_error);
   ASSERT_EQ(run.summary.components.size(), 1u);
   EXPECT_FALSE(run.summary.components[0].folded);
   EXPECT_EQ(run.summary.components[0].fold_outcome.rfind(outcome, 0), 0u)
@@ -294,17 +297,147 @@ TEST(SymmetricScene, WeakPairsFlagOnlyACut) {
   EXPECT_GE(scattered.num_weak_pairs, options.min_weak_cut_pairs);
   EXPECT_FALSE(scattered.weak_fold) << scattered.Describe();
   EXPECT_FALSE(scattered.folded);
-  // Every pair across blocks of five images (1-5, 11-15, ... against 6-10,
-  // 16-20, ...) thinned: a cut.
+  // Every pair across blocks of ten images (1-10, 21-30 against 11-20,
+  // 31-40) thinned: a cut. (Blocks of five made every pair more than four
+  // images apart weak: the rate model takes that for wide angles matching
+  // less, as they do.)
   const FoldReport cut = DetectFold(
       options, scene.truth, evidence_with([](const GeneratedPair& pair) {
-        return ((pair.image_id1 - 1) / 5) % 2 != ((pair.image_id2 - 1) / 5) % 2;
+        return ((pair.image_id1 - 1) / 10) % 2 !=
+               ((pair.image_id2 - 1) / 10) % 2;
       }));
   EXPECT_GE(cut.num_weak_cut_pairs, options.min_weak_cut_pairs)
       << cut.Describe();
   EXPECT_TRUE(cut.weak_fold);
   EXPECT_TRUE(cut.folded);
   EXPECT_GT(cut.fold_score, 0.0);
+}
+
+// An image most of whose pairs are a fold's false ones (they keep 60% of
+// their inliers) but for two true ones: its upper quartile follows the
+// false pairs, and as its own rate they would not look weak (the folded
+// courtyard at 70% kept, FoldWithFewMissingPairsIsFoundFromWeakPairs, came
+// out with such an image on the wrong side of the cut). Its effect follows
+// the two strong pairs, and the thinned ones are weak.
+TEST(SymmetricScene, ImageEffectFollowsItsStrongFewPairs) {
+  const GeneratedScene scene = GenerateScene(CourtyardOptions(0.0, 3, 0.4));
+  const FoldDetectionOptions options;
+  ASSERT_TRUE(options.weak_pair_rate_model);
+  // `thin`: the pairs keeping 60% of their inliers.
+  auto detect = [&](const std::set<std::pair<image_t, image_t>>& thin) {
+    FoldEvidence evidence;
+    for (const GeneratedPair& pair : scene.pairs) {
+      PairEvidence entry;
+      entry.image_id1 = pair.image_id1;
+      entry.image_id2 = pair.image_id2;
+      entry.num_inliers = thin.count({std::min(pair.image_id1, pair.image_id2),
+                                      std::max(pair.image_id1, pair.image_id2)})
+                              ? pair.num_candidates * 6 / 10
+                              : pair.num_candidates;
+      entry.has_rotation = true;
+      entry.R = PairRelativePose(scene, pair).rotation.toRotationMatrix();
+      evidence.pairs.push_back(entry);
+    }
+    evidence.absent_pairs_were_tried = true;
+    return DetectFold(options, scene.truth, evidence);
+  };
+  const FoldReport clean = detect({});
+  ASSERT_EQ(clean.num_weak_pairs, 0) << clean.Describe();
+  // The image with the most predicted pairs; all of them thinned but the
+  // two to its nearest image ids.
+  std::map<image_t, std::vector<image_t>> partners;
+  for (const PairSupport& support : clean.pair_support) {
+    if (!support.predicted) continue;
+    partners[support.image_id1].push_back(support.image_id2);
+    partners[support.image_id2].push_back(support.image_id1);
+  }
+  image_t image = 0;
+  for (const auto& [image_id, others] : partners) {
+    if (image == 0 || others.size() > partners[image].size()) {
+      image = image_id;
+    }
+  }
+  std::vector<image_t> others = partners[image];
+  // More than 3 in 4 of the image's pairs thinned.
+  ASSERT_GE(others.size(), 9u);
+  std::sort(others.begin(), others.end(), [&](image_t a, image_t b) {
+    return std::abs(static_cast<int>(a) - static_cast<int>(image)) <
+           std::abs(static_cast<int>(b) - static_cast<int>(image));
+  });
+  std::set<std::pair<image_t, image_t>> thin;
+  for (size_t k = 2; k < others.size(); ++k) {
+    thin.emplace(std::min(image, others[k]), std::max(image, others[k]));
+  }
+  const FoldReport report = detect(thin);
+  int num_thinned_weak = 0;
+  int num_kept_weak = 0;
+  for (const PairSupport& support : report.pair_support) {
+    if (!support.predicted) continue;
+    if (support.image_id1 != image && support.image_id2 != image) continue;
+    const bool thinned = thin.count({support.image_id1, support.image_id2}) ||
+                         thin.count({support.image_id2, support.image_id1});
+    (thinned ? num_thinned_weak : num_kept_weak) += support.weak;
+  }
+  EXPECT_EQ(num_thinned_weak, static_cast<int>(thin.size()))
+      << report.Describe();
+  EXPECT_EQ(num_kept_weak, 0);
+  // One image is no cut.
+  EXPECT_FALSE(report.weak_fold) << report.Describe();
+}
+
+// Match counts that vary as on real captures (each image keeps at most 600
+// keypoints of the points it sees, a pair's matches fall with its view angle,
+// distance and a per-pair factor; 2% random false pairs): with one typical
+// inliers-per-point ratio for the whole model, the images that keep few of
+// their points and the wide-angle pairs looked weak and missing, and this
+// correct 100-image courtyard was flagged folded and split into 13 models
+// (exit 3, main 766c5e0). Judged against the images' own rates and the
+// pair's view angle (the default), it is one clean model.
+SceneGeneratorOptions VaryingRatesOptions(int num_images, uint64_t seed,
+                                          double mirror_pair_rate) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kCourtyard;
+  options.num_images = num_images;
+  options.random_pair_rate = mirror_pair_rate > 0 ? 0 : 0.02;
+  options.mirror_pair_rate = mirror_pair_rate;
+  options.max_keypoints_per_image = 600;
+  options.match_angle_falloff_deg = 20;
+  options.match_distance_falloff = 15;
+  options.match_rate_sigma = 0.5;
+  options.seed = seed;
+  return options;
+}
+
+TEST(SymmetricScene, VaryingMatchRatesGiveOneCleanModel) {
+  const SymmetricRun run =
+      MapScene(VaryingRatesOptions(100, 3, 0.0), FoldResolutionOptions());
+  // (600 keypoints an image: centres within 12 mm, not the 10 mm of the
+  // denser scenes.)
+  ExpectOneCorrectModel(run, "clean", 0.02);
+  EXPECT_EQ(run.summary.components[0].fold_outcome, "clean");
+  FoldResolutionOptions one_ratio;
+  one_ratio.detection.weak_pair_rate_model = false;
+  const SymmetricRun alarm =
+      MapScene(VaryingRatesOptions(100, 3, 0.0), one_ratio);
+  EXPECT_GT(alarm.models.size(), 1u);
+}
+
+// A fold under the same variation is still caught: 20% mirror pairs, not
+// resolved, written flagged folded; resolved, no camera turned (but the
+// resolution leaves 91 of the 100 images in 6 models: not asserted).
+TEST(SymmetricScene, FoldWithVaryingMatchRatesIsStillCaught) {
+  FoldResolutionOptions detect_only;
+  detect_only.resolve = false;
+  const SymmetricRun folded =
+      MapScene(VaryingRatesOptions(100, 1, 0.2), detect_only);
+  ASSERT_EQ(folded.models.size(), 1u);
+  EXPECT_GE(folded.num_turned, 10);
+  ASSERT_EQ(folded.summary.components.size(), 1u);
+  EXPECT_TRUE(folded.summary.components[0].folded);
+  const SymmetricRun resolved =
+      MapScene(VaryingRatesOptions(100, 1, 0.2), FoldResolutionOptions());
+  EXPECT_EQ(resolved.num_turned, 0);
+  EXPECT_GT(resolved.num_registered, resolved.num_images / 2);
 }
 
 // A street without false pairs (two facades, so two components) has no fold.
@@ -395,7 +528,10 @@ FoldEvidence ExactEvidence(const GeneratedScene& scene) {
 // are near those of the whole model and no weak cut is found. (Some weak
 // pairs remain: the selected tracks, the longest, are seen from more places
 // than the average track, so the overlap of the wider pairs is
-// over-predicted; the whole model has none.)
+// over-predicted; the whole model has none.) Shown with one typical ratio
+// for the model (weak_pair_rate_model off), the check this scaling was made
+// for; with the rate model (the default) the exact model and the scaled one
+// are not folded either.
 TEST(SymmetricScene, PositioningTracksArePredictedAsAllTracks) {
   const SceneGeneratorOptions options = StreetOptions(40, 0, 2);
   const GeneratedScene scene = GenerateScene(options);
@@ -426,7 +562,8 @@ TEST(SymmetricScene, PositioningTracksArePredictedAsAllTracks) {
   }
   ASSERT_LT(positioned.points3D.size(), scene.truth.points3D.size() / 2);
 
-  const FoldDetectionOptions fold;
+  FoldDetectionOptions fold;
+  fold.weak_pair_rate_model = false;
   const FoldReport whole = DetectFold(fold, scene.truth, evidence);
   const FoldReport scaled = DetectFold(fold, positioned, evidence, &tracks);
   const FoldReport unscaled = DetectFold(fold, positioned, evidence);
@@ -444,6 +581,22 @@ TEST(SymmetricScene, PositioningTracksArePredictedAsAllTracks) {
   EXPECT_GT(unscaled.typical_ratio, 2 * whole.typical_ratio)
       << unscaled.Describe();
   EXPECT_TRUE(unscaled.weak_fold) << unscaled.Describe();
+
+  // The rate model: judged against the images' own rates and the view
+  // angle, the exact model has a few weak pairs (7), fewer than a cut
+  // needs.
+  const FoldDetectionOptions rates;
+  ASSERT_TRUE(rates.weak_pair_rate_model);
+  const FoldReport whole_rates = DetectFold(rates, scene.truth, evidence);
+  const FoldReport scaled_rates =
+      DetectFold(rates, positioned, evidence, &tracks);
+  EXPECT_FALSE(whole_rates.folded) << whole_rates.Describe();
+  EXPECT_FALSE(whole_rates.weak_fold) << whole_rates.Describe();
+  EXPECT_LT(whole_rates.num_weak_pairs, rates.min_weak_cut_pairs)
+      << whole_rates.Describe();
+  EXPECT_FALSE(scaled_rates.folded) << scaled_rates.Describe();
+  EXPECT_FALSE(scaled_rates.weak_fold) << scaled_rates.Describe();
+  EXPECT_GT(scaled_rates.num_support_pairs, 30);
 }
 
 // The fold check skips camera pairs too far apart to share a point before

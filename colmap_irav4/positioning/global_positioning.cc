@@ -217,6 +217,44 @@ bool EstimatePriorFrameFromModel(
 
 namespace {
 
+// The solved parameters: copies of the centres (by image id), then of the
+// points (by id), so that each elimination group is in that order (see
+// ParameterBlockCopies).
+struct PositioningBlocks {
+  PositioningBlocks(std::map<image_t, Eigen::Vector3d>* centers,
+                    Reconstruction* reconstruction)
+      : copies(3 * (centers->size() + reconstruction->points3D.size())) {
+    for (auto& [image_id, center] : *centers) {
+      this->centers[image_id] = copies.Add(center.data(), 3);
+    }
+    points.reserve(reconstruction->points3D.size());
+    for (auto& [point3D_id, point] : reconstruction->points3D) {
+      points.emplace_back(point3D_id, copies.Add(point.xyz.data(), 3));
+    }
+  }
+
+  // The elimination ordering of `problem`: points, then centres.
+  std::shared_ptr<ceres::ParameterBlockOrdering> Ordering(
+      const ceres::Problem& problem) const {
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (const auto& [point3D_id, point] : points) {
+      if (problem.HasParameterBlock(point)) {
+        ordering->AddElementToGroup(point, 0);
+      }
+    }
+    for (const auto& [image_id, center] : centers) {
+      if (problem.HasParameterBlock(center)) {
+        ordering->AddElementToGroup(center, 1);
+      }
+    }
+    return ordering;
+  }
+
+  ParameterBlockCopies copies;
+  std::map<image_t, double*> centers;
+  std::vector<std::pair<point3D_t, double*>> points;  // by id
+};
+
 // The second solve of RunGlobalPositioning with position priors (see the
 // header): places the solved model (centres, points, rotations) in the
 // priors' frame, or leaves it as it is with summary->prior_problem set.
@@ -225,8 +263,9 @@ bool SolveWithPriors(
     const std::map<image_t, Eigen::Matrix3d>& world_from_cam,
     image_t gauge_image_id, const SolverOptions& solver,
     ceres::Problem* problem, std::unique_ptr<ceres::LossFunction>* prior_loss,
-    std::map<image_t, Eigen::Vector3d>* centers, Reconstruction* reconstruction,
-    GlobalPositionerSummary* summary, Sim3d* prior_from_model) {
+    PositioningBlocks* blocks, std::map<image_t, Eigen::Vector3d>* centers,
+    Reconstruction* reconstruction, GlobalPositionerSummary* summary,
+    Sim3d* prior_from_model) {
   std::map<image_t, Eigen::Matrix3d> cam_from_world;
   for (const auto& [image_id, R] : world_from_cam) {
     cam_from_world[image_id] = R.transpose();
@@ -259,24 +298,17 @@ bool SolveWithPriors(
         sim.scale *
         PositionPriorSqrtInformation(it->second, options.pose_priors) * sim.R;
     problem->AddResidualBlock(PositionPriorCost::Create(target, W),
-                              prior_loss->get(), center.data());
+                              prior_loss->get(),
+                              blocks->centers.at(image_id));
   }
-  problem->SetParameterBlockVariable(centers->at(gauge_image_id).data());
+  problem->SetParameterBlockVariable(blocks->centers.at(gauge_image_id));
   // A fresh elimination ordering: Ceres drops the constant gauge centre from
   // the first solve's.
   SolverOptions prior_solver = solver;
-  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (auto& [point3D_id, point] : reconstruction->points3D) {
-    if (problem->HasParameterBlock(point.xyz.data())) {
-      ordering->AddElementToGroup(point.xyz.data(), 0);
-    }
-  }
-  for (auto& [image_id, center] : *centers) {
-    ordering->AddElementToGroup(center.data(), 1);
-  }
-  prior_solver.ceres.linear_solver_ordering = ordering;
+  prior_solver.ceres.linear_solver_ordering = blocks->Ordering(*problem);
   const ceres::Solver::Summary solver_summary =
       SolveProblem("global positioning with priors", prior_solver, problem);
+  blocks->copies.CopyToModel();
   if (!solver_summary.IsSolutionUsable()) {
     summary->prior_problem =
         "the solve with priors failed: " + solver_summary.message;
@@ -422,19 +454,14 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (size_t k = 0; k < observations.size(); ++k) {
-    const Observation& observation = observations[k];
-    double* center = centers.at(observation.image_id).data();
-    double* point =
-        reconstruction->points3D.at(observation.point3D_id).xyz.data();
+  PositioningBlocks blocks(&centers, reconstruction);
+  for (const Observation& observation : observations) {
     problem.AddResidualBlock(
         ProjectedDirectionCost::Create(observation.direction), loss.get(),
-        center, point);
-    ordering->AddElementToGroup(point, 0);
-    ordering->AddElementToGroup(center, 1);
+        blocks.centers.at(observation.image_id),
+        FindBlock(blocks.points, observation.point3D_id));
   }
-  problem.SetParameterBlockConstant(centers.at(gauge_image_id).data());
+  problem.SetParameterBlockConstant(blocks.centers.at(gauge_image_id));
 
   SolverOptions solver = options.solver;
   // The scales are eliminated in the cost (ProjectedDirectionCost), so Schur
@@ -443,9 +470,10 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   // Cholesky, DENSE_SCHUR/SPARSE_SCHUR here.
   solver.ceres.linear_solver_type =
       centers.size() < 50 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
-  solver.ceres.linear_solver_ordering = ordering;
+  solver.ceres.linear_solver_ordering = blocks.Ordering(problem);
   const ceres::Solver::Summary solver_summary =
       SolveProblem("global positioning", solver, &problem);
+  blocks.copies.CopyToModel();
 
   local_summary.num_observations = observations.size();
   local_summary.num_iterations = solver_summary.iterations.size();
@@ -465,7 +493,7 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   const bool place =
       priors != nullptr && !priors->empty() &&
       SolveWithPriors(options, *priors, world_from_cam, gauge_image_id, solver,
-                      &problem, &prior_loss, &centers, reconstruction,
+                      &problem, &prior_loss, &blocks, &centers, reconstruction,
                       &local_summary, &prior_from_model);
   if (options.max_angular_error_deg > 0) {
     const double min_cos = std::cos(DegToRad(options.max_angular_error_deg));

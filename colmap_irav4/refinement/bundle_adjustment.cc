@@ -223,11 +223,13 @@ class BundleAdjustmentProblem {
     if (options_.refine_points) solver.ceres.linear_solver_ordering = ordering_;
     ceres::Solver::Summary summary =
         SolveProblem("bundle adjustment", solver, problem_.get());
-    // The model's poses from the solved centres (the filter and the
-    // reweighting read them).
+    // The model from the solved copies, its poses from the solved centres
+    // (the filter and the reweighting read them).
+    copies_->CopyToModel();
     for (const auto& [image_id, center] : centers_) {
-      if (!problem_->HasParameterBlock(center.data()) ||
-          problem_->IsParameterBlockConstant(center.data())) {
+      const double* block = poses_.at(image_id).position;
+      if (!problem_->HasParameterBlock(block) ||
+          problem_->IsParameterBlockConstant(block)) {
         continue;  // held: the model's pose stays as it was, bit for bit
       }
       Rigid3d& pose = reconstruction_->images.at(image_id).cam_from_world;
@@ -265,8 +267,9 @@ class BundleAdjustmentProblem {
         held_points_.push_back(point3D_id);
         held_this_pass.insert(point3D_id);
         for (const TrackElement& other : point.track) Unweigh(other);
-        if (problem_->HasParameterBlock(point.xyz.data())) {
-          problem_->SetParameterBlockConstant(point.xyz.data());
+        double* block = FindBlock(points_, point3D_id);
+        if (problem_->HasParameterBlock(block)) {
+          problem_->SetParameterBlockConstant(block);
         }
       }
       UnlinkObservation(element.image_id, element.point2D_idx, reconstruction_);
@@ -334,11 +337,33 @@ class BundleAdjustmentProblem {
     }
   }
 
-  // The position block of an image: its centre or its translation.
-  double* Position(image_t image_id) {
-    if (use_centers_) return centers_.at(image_id).data();
-    return reconstruction_->images.at(image_id)
-        .cam_from_world.translation.data();
+  // The parameters in copies_ (see ParameterBlockCopies): the poses by image
+  // id (rotation, then the centre or the translation), the cameras', then the
+  // points' in id order; each elimination group is ordered so.
+  void CopyParameters() {
+    size_t size = 3 * reconstruction_->points3D.size() +
+                  7 * reconstruction_->images.size();
+    for (const auto& [camera_id, camera] : reconstruction_->cameras) {
+      size += camera.params.size();
+    }
+    copies_ = std::make_unique<ParameterBlockCopies>(size);
+    for (auto& [image_id, image] : reconstruction_->images) {
+      double* rotation =
+          copies_->Add(image.cam_from_world.rotation.coeffs().data(), 4);
+      double* position =
+          copies_->Add(use_centers_ ? centers_.at(image_id).data()
+                                    : image.cam_from_world.translation.data(),
+                       3);
+      poses_[image_id] = {rotation, position};
+    }
+    for (auto& [camera_id, camera] : reconstruction_->cameras) {
+      cameras_[camera_id] =
+          copies_->Add(camera.params.data(), camera.params.size());
+    }
+    points_.reserve(reconstruction_->points3D.size());
+    for (auto& [point3D_id, point] : reconstruction_->points3D) {
+      points_.emplace_back(point3D_id, copies_->Add(point.xyz.data(), 3));
+    }
   }
 
   void Build() {
@@ -357,9 +382,12 @@ class BundleAdjustmentProblem {
         centers_[image_id] = image.ProjectionCenter();
       }
     }
+    CopyParameters();
     std::set<image_t> used_images;
     std::set<camera_t> used_cameras;
+    size_t point_index = 0;
     for (auto& [point3D_id, point] : reconstruction_->points3D) {
+      double* point_block = points_[point_index++].second;
       for (const TrackElement& element : point.track) {
         Image& image = reconstruction_->images.at(element.image_id);
         Camera& camera = reconstruction_->cameras.at(image.camera_id);
@@ -375,19 +403,20 @@ class BundleAdjustmentProblem {
           weights[element.point2D_idx] = 1.0;
           weight = &weights[element.point2D_idx];
         }
+        const PoseBlocks& pose = poses_.at(element.image_id);
         problem_->AddResidualBlock(
             CreateReprojectionCost(camera.model_id,
                                    image.points2D[element.point2D_idx].xy,
                                    weight, use_centers_),
-            loss_.get(), image.cam_from_world.rotation.coeffs().data(),
-            Position(element.image_id), point.xyz.data(), camera.params.data());
+            loss_.get(), pose.rotation, pose.position, point_block,
+            cameras_.at(image.camera_id));
         used_images.insert(element.image_id);
         used_cameras.insert(image.camera_id);
       }
-      if (problem_->HasParameterBlock(point.xyz.data())) {
-        ordering_->AddElementToGroup(point.xyz.data(), 0);
+      if (problem_->HasParameterBlock(point_block)) {
+        ordering_->AddElementToGroup(point_block, 0);
         if (!options_.refine_points) {
-          problem_->SetParameterBlockConstant(point.xyz.data());
+          problem_->SetParameterBlockConstant(point_block);
         }
       }
     }
@@ -409,9 +438,9 @@ class BundleAdjustmentProblem {
     std::vector<image_t> images(used_images.begin(), used_images.end());
     const bool prior_gauge = AddPosePriors(images);
     for (size_t k = 0; k < images.size(); ++k) {
-      Image& image = reconstruction_->images.at(images[k]);
-      double* rotation = image.cam_from_world.rotation.coeffs().data();
-      double* position = Position(images[k]);
+      const Image& image = reconstruction_->images.at(images[k]);
+      double* rotation = poses_.at(images[k]).rotation;
+      double* position = poses_.at(images[k]).position;
       ordering_->AddElementToGroup(rotation, 1);
       ordering_->AddElementToGroup(position, 1);
       problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
@@ -437,8 +466,9 @@ class BundleAdjustmentProblem {
 
     // Intrinsics.
     for (camera_t camera_id : used_cameras) {
-      Camera& camera = reconstruction_->cameras.at(camera_id);
-      ordering_->AddElementToGroup(camera.params.data(), 1);
+      const Camera& camera = reconstruction_->cameras.at(camera_id);
+      double* params = cameras_.at(camera_id);
+      ordering_->AddElementToGroup(params, 1);
       std::vector<int> constant;
       auto add = [&constant](const std::vector<int>& idxs) {
         constant.insert(constant.end(), idxs.begin(), idxs.end());
@@ -451,9 +481,9 @@ class BundleAdjustmentProblem {
         add(CameraModelExtraParamsIdxs(camera.model_id));
       const int num_params = camera.params.size();
       if (static_cast<int>(constant.size()) >= num_params) {
-        problem_->SetParameterBlockConstant(camera.params.data());
+        problem_->SetParameterBlockConstant(params);
       } else if (!constant.empty()) {
-        problem_->SetManifold(camera.params.data(),
+        problem_->SetManifold(params,
                               new ceres::SubsetManifold(num_params, constant));
       }
     }
@@ -469,19 +499,19 @@ class BundleAdjustmentProblem {
       const auto it = priors_->find(image_id);
       if (it == priors_->end()) continue;
       const PosePrior& prior = it->second;
-      Image& image = reconstruction_->images.at(image_id);
-      double* rotation = image.cam_from_world.rotation.coeffs().data();
+      double* rotation = poses_.at(image_id).rotation;
+      double* position = poses_.at(image_id).position;
       if (prior.HasPosition()) {
         const Eigen::Matrix3d W =
             PositionPriorSqrtInformation(prior, prior_options);
         if (use_centers_) {
           problem_->AddResidualBlock(
               PositionPriorCost::Create(prior.position, W), prior_loss_.get(),
-              Position(image_id));
+              position);
         } else {
           problem_->AddResidualBlock(
               PositionPriorFromTranslationCost::Create(prior.position, W),
-              prior_loss_.get(), rotation, Position(image_id));
+              prior_loss_.get(), rotation, position);
         }
         ++num_position_priors_;
       }
@@ -520,6 +550,15 @@ class BundleAdjustmentProblem {
   const bool use_centers_ =
       options_.parameterize_centers && options_.refine_poses;
   std::map<image_t, Eigen::Vector3d> centers_;
+  // The solved parameters (CopyParameters) and where each block's copy is.
+  std::unique_ptr<ParameterBlockCopies> copies_;
+  struct PoseBlocks {
+    double* rotation;
+    double* position;
+  };
+  std::unordered_map<image_t, PoseBlocks> poses_;
+  std::unordered_map<camera_t, double*> cameras_;
+  std::vector<std::pair<point3D_t, double*>> points_;  // by id
   std::unique_ptr<ceres::Problem> problem_;
   std::shared_ptr<ceres::ParameterBlockOrdering> ordering_;
   int num_images_ = 0;

@@ -1,5 +1,7 @@
 #include "colmap_irav4/util/ceres_solve.h"
 
+#include <algorithm>
+
 #include <glog/logging.h>
 
 #include "colmap_irav4/util/error.h"
@@ -57,6 +59,27 @@ void SolverOptions::Check(const std::string& prefix) const {
     // Set from the command's threads flag: named as the member.
     throw OptionError(&ceres.num_threads, "SolverOptions::ceres.num_threads",
                       "must be -1 (all cores) or > 0");
+  }
+}
+
+ParameterBlockCopies::ParameterBlockCopies(size_t capacity) {
+  values_.reserve(capacity);
+}
+
+double* ParameterBlockCopies::Add(double* model, int size) {
+  CHECK_LE(values_.size() + size, values_.capacity())
+      << "the copies would move";
+  const size_t offset = values_.size();
+  values_.insert(values_.end(), model, model + size);
+  blocks_.push_back({model, size});
+  return values_.data() + offset;
+}
+
+void ParameterBlockCopies::CopyToModel() const {
+  const double* value = values_.data();
+  for (const Block& block : blocks_) {
+    std::copy(value, value + block.size, block.model);
+    value += block.size;
   }
 }
 

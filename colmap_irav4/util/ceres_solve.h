@@ -1,8 +1,13 @@
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 
 #include "colmap_irav4/util/enum_names.h"
 
@@ -35,6 +40,41 @@ struct SolverOptions {
 ceres::Solver::Summary SolveProblem(const std::string& label,
                                     const SolverOptions& options,
                                     ceres::Problem* problem);
+
+// Copies of a problem's parameter blocks in one array, in the order they are
+// added, written back to the model on request. Ceres keeps each group of a
+// linear_solver_ordering as a std::set<double*>, so it orders a group's
+// blocks, and with them the solves' floating-point sums, by address: blocks
+// solved in the model's own storage (map nodes) would follow the heap's
+// layout, which differs between the mapper command and the Python module and
+// under another allocator. Copies here are in address order as added.
+class ParameterBlockCopies {
+ public:
+  // Room for `capacity` values: the addresses Add returns stay valid.
+  explicit ParameterBlockCopies(size_t capacity);
+  // A copy of the `size` values at `model` (written back by CopyToModel).
+  double* Add(double* model, int size);
+  // Writes every copy to its block of the model (after each solve).
+  void CopyToModel() const;
+
+ private:
+  std::vector<double> values_;
+  struct Block {
+    double* model;
+    int size;
+  };
+  std::vector<Block> blocks_;  // in the order of values_
+};
+
+// The block of `id` in `blocks`, sorted by id (copies of a model's points).
+template <typename Id>
+double* FindBlock(const std::vector<std::pair<Id, double*>>& blocks, Id id) {
+  const auto it = std::lower_bound(blocks.begin(), blocks.end(), id,
+                                   [](const std::pair<Id, double*>& entry,
+                                      Id key) { return entry.first < key; });
+  CHECK(it != blocks.end() && it->first == id) << "no block " << id;
+  return it->second;
+}
 
 // The robust losses every stage offers (--*.loss_function): huber, cauchy
 // (Ceres' losses at their scale) or trivial (least squares).

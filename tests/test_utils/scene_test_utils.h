@@ -46,5 +46,45 @@ inline double MaxUnalignedCenterError(const Reconstruction& estimate,
   return max_error;
 }
 
+// A copy of `model` whose cameras, images and points are allocated in
+// reverse id order, so laid out on the heap unlike the original: a solve must
+// give the same bits on both (Ceres orders blocks by address).
+inline Reconstruction CopyInReverseOrder(const Reconstruction& model) {
+  Reconstruction copy;
+  for (auto it = model.cameras.rbegin(); it != model.cameras.rend(); ++it) {
+    copy.cameras.emplace_hint(copy.cameras.begin(), it->first, it->second);
+  }
+  for (auto it = model.images.rbegin(); it != model.images.rend(); ++it) {
+    copy.images.emplace_hint(copy.images.begin(), it->first, it->second);
+  }
+  for (auto it = model.points3D.rbegin(); it != model.points3D.rend(); ++it) {
+    copy.points3D.emplace_hint(copy.points3D.begin(), it->first, it->second);
+  }
+  return copy;
+}
+
+// The same cameras, poses and points, bit for bit.
+inline void ExpectSameBits(const Reconstruction& a, const Reconstruction& b) {
+  ASSERT_EQ(a.cameras.size(), b.cameras.size());
+  for (const auto& [camera_id, camera] : a.cameras) {
+    EXPECT_EQ(camera.params, b.cameras.at(camera_id).params) << camera_id;
+  }
+  ASSERT_EQ(a.images.size(), b.images.size());
+  for (const auto& [image_id, image] : a.images) {
+    const Rigid3d& pose = b.images.at(image_id).cam_from_world;
+    EXPECT_TRUE(image.cam_from_world.rotation.coeffs() ==
+                pose.rotation.coeffs())
+        << image_id;
+    EXPECT_TRUE(image.cam_from_world.translation == pose.translation)
+        << image_id;
+  }
+  ASSERT_EQ(a.points3D.size(), b.points3D.size());
+  for (const auto& [point3D_id, point] : a.points3D) {
+    ASSERT_TRUE(b.points3D.count(point3D_id)) << point3D_id;
+    EXPECT_TRUE(point.xyz == b.points3D.at(point3D_id).xyz) << point3D_id;
+    EXPECT_EQ(point.track.size(), b.points3D.at(point3D_id).track.size());
+  }
+}
+
 }  // namespace test
 }  // namespace colmap_irav4

@@ -69,7 +69,8 @@ std::map<std::string, Eigen::Matrix3d> ReadGroundTruth(
   return truth;
 }
 
-int RunRotationAverager(int argc, char** argv) {
+// The command's own arguments: its files and the method.
+struct CommandArguments {
   std::string relpose_path;
   std::string database_path;
   std::string eg_path;
@@ -77,88 +78,89 @@ int RunRotationAverager(int argc, char** argv) {
   std::string output_path;
   std::string gt_path;
   std::string summary_path;
-  RotationAveragerOptions averager_options;
-  averager_options.log_progress = true;
-  ViewGraphBuilderOptions builder_options;
-  OptionManager options(
-      "rotation_averager",
-      "Estimates absolute rotations (cam_from_world) from relative ones.\n"
-      "Input: --relpose_path (lines 'IMG1 IMG2 QW QX QY QZ TX TY TZ "
-      "[INLIERS]',\nq = cam2_from_cam1, as written by view_graph) or "
-      "--eg_path (a 1DSfM scene\ndirectory: EGs.txt, list.txt, cc.txt, "
-      "gt_bundle.out if present).\nOutput: 'IMAGE_NAME QW QX QY QZ' per "
-      "line.");
-  options.Add("relpose_path", &relpose_path, "relative poses file");
-  options.Add("database_path", &database_path,
-              "COLMAP database (opened read-only)");
-  options.Add("eg_path", &eg_path, "1DSfM scene directory");
-  options.Add("method", &method,
-              "rotation averaging method: " + RotationAveragerMethodList());
-  options.Add("output_path", &output_path, "absolute rotations file to write");
-  options.Add("gt_path", &gt_path,
-              "ground-truth rotations to evaluate against: a file of "
-              "'IMAGE_NAME QW QX QY QZ' lines or a Strecha gt_cameras "
-              "directory");
-  options.Add("summary_path", &summary_path,
-              "JSON run summary to write: method, cameras and edges used, "
-              "seconds per stage, reference_size, cluster_sizes");
-  options.Add("log_progress", &averager_options.log_progress,
-              "progress lines during long runs");
-  // --database_path: the view graph's options (its threads are
-  // --RotationAveraging.num_threads).
-  AddViewGraphOptions(&options, &builder_options, "ViewGraph.min_num_inliers",
-                      /*with_threads_and_components=*/false);
-  AddRotationAveragerOptions(&options, &averager_options);
-  if (!options.Parse(argc, argv)) return 0;
-  // The user's thread count bounds every stage: the view graph's workers, the
-  // Ceres solves and any BLAS / OpenMP runtime loaded with them.
-  builder_options.num_threads = averager_options.irav4.engine.num_threads;
-  LimitBlasThreads(averager_options.irav4.engine.num_threads);
-  const int num_inputs =
-      !relpose_path.empty() + !database_path.empty() + !eg_path.empty();
+};
+
+// Registers the arguments (in the order --help lists them).
+void AddArguments(OptionManager* options, CommandArguments* arguments) {
+  options->Add("relpose_path", &arguments->relpose_path, "relative poses file");
+  options->Add("database_path", &arguments->database_path,
+               "COLMAP database (opened read-only)");
+  options->Add("eg_path", &arguments->eg_path, "1DSfM scene directory");
+  options->Add("method", &arguments->method,
+               "rotation averaging method: " + RotationAveragerMethodList());
+  options->Add("output_path", &arguments->output_path,
+               "absolute rotations file to write");
+  options->Add("gt_path", &arguments->gt_path,
+               "ground-truth rotations to evaluate against: a file of "
+               "'IMAGE_NAME QW QX QY QZ' lines or a Strecha gt_cameras "
+               "directory");
+  options->Add("summary_path", &arguments->summary_path,
+               "JSON run summary to write: method, cameras and edges used, "
+               "seconds per stage, reference_size, cluster_sizes");
+}
+
+// Exactly one input.
+void CheckOneInput(const CommandArguments& arguments) {
+  const int num_inputs = !arguments.relpose_path.empty() +
+                         !arguments.database_path.empty() +
+                         !arguments.eg_path.empty();
   if (num_inputs != 1) {
     throw InputError("rotation_averager",
                      "give exactly one of --relpose_path, --database_path "
                      "and --eg_path");
   }
-  options.Check([&] {
-    builder_options.Check();
-    averager_options.Check();
-  });
-  // Before any work; never over an input, nor both outputs in one file.
-  std::vector<std::string> inputs = {relpose_path, database_path, gt_path};
-  if (!eg_path.empty()) {
+}
+
+// Before any work: never an output over an input, nor both outputs in one
+// file.
+void CheckOutputs(const CommandArguments& arguments) {
+  std::vector<std::string> inputs = {
+      arguments.relpose_path, arguments.database_path, arguments.gt_path};
+  if (!arguments.eg_path.empty()) {
     for (const char* name :
          {"EGs.txt", "list.txt", "cc.txt", "gt_bundle.out"}) {
-      inputs.push_back(eg_path + "/" + name);
+      inputs.push_back(arguments.eg_path + "/" + name);
     }
   }
-  if (!output_path.empty()) CheckFileWritable(output_path, inputs);
-  if (!summary_path.empty()) {
-    inputs.push_back(output_path);
-    CheckFileWritable(summary_path, inputs);
+  if (!arguments.output_path.empty()) {
+    CheckFileWritable(arguments.output_path, inputs);
   }
-  if (output_path.empty() && gt_path.empty()) {
+  if (!arguments.summary_path.empty()) {
+    inputs.push_back(arguments.output_path);
+    CheckFileWritable(arguments.summary_path, inputs);
+  }
+  if (arguments.output_path.empty() && arguments.gt_path.empty()) {
     LOG(WARNING) << "neither --output_path nor --gt_path given: the result is "
                     "neither written nor evaluated";
   }
-  // Validates the method and its options before any long reading.
-  std::unique_ptr<RotationAverager> averager =
-      CreateRotationAverager(method, averager_options);
+}
 
+// The graph to average, and for a 1DSfM scene the Bundler ground truth of
+// its vertices.
+struct InputGraph {
   RotationGraph graph;
   std::vector<Eigen::Matrix3d> bundler_truth;
   std::vector<bool> has_bundler_truth;
+};
+
+// Reads the one input given, reduced to its largest connected component.
+InputGraph ReadInputGraph(const CommandArguments& arguments,
+                          const ViewGraphBuilderOptions& builder_options) {
+  InputGraph input;
+  RotationGraph& graph = input.graph;
+  std::vector<Eigen::Matrix3d>& bundler_truth = input.bundler_truth;
+  std::vector<bool>& has_bundler_truth = input.has_bundler_truth;
   const std::string input_path =
-      !relpose_path.empty()
-          ? relpose_path
-          : (!database_path.empty() ? database_path : eg_path);
-  if (!relpose_path.empty()) {
-    graph = ReadRelativePoses(relpose_path);
-  } else if (!database_path.empty()) {
-    graph = RotationGraphFromDatabase(database_path, builder_options);
+      !arguments.relpose_path.empty()
+          ? arguments.relpose_path
+          : (!arguments.database_path.empty() ? arguments.database_path
+                                              : arguments.eg_path);
+  if (!arguments.relpose_path.empty()) {
+    graph = ReadRelativePoses(arguments.relpose_path);
+  } else if (!arguments.database_path.empty()) {
+    graph = RotationGraphFromDatabase(arguments.database_path, builder_options);
   } else {
-    OneDsfmScene scene = ReadOneDsfmScene(eg_path);
+    OneDsfmScene scene = ReadOneDsfmScene(arguments.eg_path);
     graph = std::move(scene.graph);
     bundler_truth = std::move(scene.ground_truth);
     has_bundler_truth = std::move(scene.has_ground_truth);
@@ -184,6 +186,75 @@ int RunRotationAverager(int argc, char** argv) {
       has_bundler_truth = std::move(has_truth);
     }
   }
+  return input;
+}
+
+// Prints the estimate's errors against the ground truth of gt_path,
+// matched by image name.
+void EvaluateAgainstGroundTruth(const std::string& gt_path,
+                                const RotationGraph& graph,
+                                const RotationAveragingResult& result) {
+  const std::map<std::string, Eigen::Matrix3d> truth = ReadGroundTruth(gt_path);
+  std::map<std::string, Eigen::Matrix3d> estimate;
+  for (int v = 0; v < graph.NumVertices(); ++v) {
+    if (result.estimated[v]) estimate[graph.Name(v)] = result.rotations[v];
+  }
+  int num_unknown = 0;
+  std::string first_unknown;
+  for (const auto& [name, R] : truth) {
+    if (estimate.count(name) == 0) {
+      if (num_unknown++ == 0) first_unknown = name;
+    }
+  }
+  LOG_IF(WARNING, num_unknown > 0)
+      << gt_path << ": " << num_unknown
+      << " images not estimated or not in the graph (e.g. '" << first_unknown
+      << "'), not evaluated";
+  const RotationErrors errors = EvaluateRotations(estimate, truth);
+  if (errors.num_compared == 0) {
+    throw InputError(gt_path, "no image in common with the estimate");
+  }
+  PrintErrors(gt_path, errors);
+}
+
+int RunRotationAverager(int argc, char** argv) {
+  CommandArguments arguments;
+  RotationAveragerOptions averager_options;
+  averager_options.log_progress = true;
+  ViewGraphBuilderOptions builder_options;
+  OptionManager options(
+      "rotation_averager",
+      "Estimates absolute rotations (cam_from_world) from relative ones.\n"
+      "Input: --relpose_path (lines 'IMG1 IMG2 QW QX QY QZ TX TY TZ "
+      "[INLIERS]',\nq = cam2_from_cam1, as written by view_graph) or "
+      "--eg_path (a 1DSfM scene\ndirectory: EGs.txt, list.txt, cc.txt, "
+      "gt_bundle.out if present).\nOutput: 'IMAGE_NAME QW QX QY QZ' per "
+      "line.");
+  AddArguments(&options, &arguments);
+  options.Add("log_progress", &averager_options.log_progress,
+              "progress lines during long runs");
+  // --database_path: the view graph's options (its threads are
+  // --RotationAveraging.num_threads).
+  AddViewGraphOptions(&options, &builder_options, "ViewGraph.min_num_inliers",
+                      /*with_threads_and_components=*/false);
+  AddRotationAveragerOptions(&options, &averager_options);
+  if (!options.Parse(argc, argv)) return 0;
+  // The user's thread count bounds every stage: the view graph's workers, the
+  // Ceres solves and any BLAS / OpenMP runtime loaded with them.
+  builder_options.num_threads = averager_options.irav4.engine.num_threads;
+  LimitBlasThreads(averager_options.irav4.engine.num_threads);
+  CheckOneInput(arguments);
+  options.Check([&] {
+    builder_options.Check();
+    averager_options.Check();
+  });
+  CheckOutputs(arguments);
+  // Validates the method and its options before any long reading.
+  std::unique_ptr<RotationAverager> averager =
+      CreateRotationAverager(arguments.method, averager_options);
+
+  const InputGraph input = ReadInputGraph(arguments, builder_options);
+  const RotationGraph& graph = input.graph;
   LOG(INFO) << "Rotation averaging (" << averager->Name()
             << "): " << graph.NumVertices() << " images, " << graph.NumEdges()
             << " pairs";
@@ -201,47 +272,27 @@ int RunRotationAverager(int argc, char** argv) {
     }
     std::cout << std::endl;
   }
-  if (!summary_path.empty()) {
+  if (!arguments.summary_path.empty()) {
     // Complete or absent (rotation_averaging_summary.h).
-    WriteFileAtomically(
-        summary_path,
-        SummarizeRotationAveraging(method, graph, result, seconds, *averager)
-            .ToJson());
-    LOG(INFO) << "Wrote " << summary_path;
+    WriteFileAtomically(arguments.summary_path,
+                        SummarizeRotationAveraging(arguments.method, graph,
+                                                   result, seconds, *averager)
+                            .ToJson());
+    LOG(INFO) << "Wrote " << arguments.summary_path;
   }
-  if (!output_path.empty()) {
-    WriteAbsoluteRotations(output_path, graph.Names(), result.rotations,
-                           result.estimated);
-    LOG(INFO) << "Wrote " << output_path;
+  if (!arguments.output_path.empty()) {
+    WriteAbsoluteRotations(arguments.output_path, graph.Names(),
+                           result.rotations, result.estimated);
+    LOG(INFO) << "Wrote " << arguments.output_path;
   }
 
-  if (!bundler_truth.empty()) {
-    PrintErrors(eg_path + "/gt_bundle.out",
-                EvaluateRotations(result, bundler_truth, has_bundler_truth));
+  if (!input.bundler_truth.empty()) {
+    PrintErrors(arguments.eg_path + "/gt_bundle.out",
+                EvaluateRotations(result, input.bundler_truth,
+                                  input.has_bundler_truth));
   }
-  if (!gt_path.empty()) {
-    const std::map<std::string, Eigen::Matrix3d> truth =
-        ReadGroundTruth(gt_path);
-    std::map<std::string, Eigen::Matrix3d> estimate;
-    for (int v = 0; v < graph.NumVertices(); ++v) {
-      if (result.estimated[v]) estimate[graph.Name(v)] = result.rotations[v];
-    }
-    int num_unknown = 0;
-    std::string first_unknown;
-    for (const auto& [name, R] : truth) {
-      if (estimate.count(name) == 0) {
-        if (num_unknown++ == 0) first_unknown = name;
-      }
-    }
-    LOG_IF(WARNING, num_unknown > 0)
-        << gt_path << ": " << num_unknown
-        << " images not estimated or not in the graph (e.g. '" << first_unknown
-        << "'), not evaluated";
-    const RotationErrors errors = EvaluateRotations(estimate, truth);
-    if (errors.num_compared == 0) {
-      throw InputError(gt_path, "no image in common with the estimate");
-    }
-    PrintErrors(gt_path, errors);
+  if (!arguments.gt_path.empty()) {
+    EvaluateAgainstGroundTruth(arguments.gt_path, graph, result);
   }
   return 0;
 }

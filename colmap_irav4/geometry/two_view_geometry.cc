@@ -223,26 +223,18 @@ class CauchyCostSum {
   int count_ = 0;
 };
 
-// Robust refinement of a candidate on the matches that support it:
-// Levenberg-Marquardt on the Sampson error (or, for a pure rotation, the
-// transfer error) in pixels under a Cauchy loss, with analytic Jacobians
-// and the loss's curvature in the Hessian. The pose has 5 (3) degrees of
-// freedom, so each iteration is one pass over the matches and a 5x5 solve:
-// a general solver's per-residual bookkeeping and automatic differentiation
-// took most of the view-graph stage (300-image synthetic scene: ~60% of it).
-// Stops as soon as a step no longer lowers the cost noticeably, so a pose
-// that already explains its inliers costs one or two passes.
-void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
-            double focal, const RelativePoseOptions& options,
-            Candidate* candidate) {
+// The matches the refinement uses: those supporting the candidate, thinned
+// evenly to at most max_num_matches (<= 0: all) to bound a pair's cost.
+std::vector<size_t> SelectRefinementMatches(const Correspondences& corrs,
+                                            const std::vector<char>& supporting,
+                                            int max_num_matches) {
   std::vector<size_t> used;
   size_t num_supporting = 0;
   for (const char s : supporting) num_supporting += s;
   const double stride =
-      options.refine_max_num_matches > 0 &&
-              num_supporting >
-                  static_cast<size_t>(options.refine_max_num_matches)
-          ? static_cast<double>(num_supporting) / options.refine_max_num_matches
+      max_num_matches > 0 &&
+              num_supporting > static_cast<size_t>(max_num_matches)
+          ? static_cast<double>(num_supporting) / max_num_matches
           : 1.0;
   double next_sample = 0;
   size_t rank = 0;  // index among the supporting matches
@@ -252,69 +244,96 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
     next_sample += stride;
     used.push_back(i);
   }
-  const bool pure_rotation = candidate->pure_rotation;
-  if (used.size() < (pure_rotation ? 2u : 5u)) return;
-  const double b = options.refine_loss_scale_px * options.refine_loss_scale_px;
-  const int num_params = pure_rotation ? 3 : 5;
+  return used;
+}
 
-  // Robust cost (Cauchy: b log(1 + r^2 / b)), and optionally the normal
-  // equations at (R, t): the gradient J^T rho' r, and in JtJ the Gauss-Newton
-  // Hessian of the robust cost with each match's second-order term of the
-  // loss (Triggs et al.'s correction), clamped at zero where the loss bends
-  // down (r^2 > b). Iteratively reweighted least squares (rho' J^T J alone)
-  // over-estimates that Hessian for matches near the loss scale and
-  // converged linearly, halving the step each pass (8 passes per pair on the
-  // synthetic courtyards, 4 with the correction). JtJ_irls, when given, gets
-  // rho' J^T J: the information the rotation_std gate is defined on.
-  auto evaluate = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
-                      Eigen::Matrix<double, 5, 5>* JtJ,
-                      Eigen::Matrix<double, 5, 1>* Jtr,
-                      Eigen::Matrix<double, 5, 5>* JtJ_irls = nullptr) {
-    CauchyCostSum cost(b);
-    ++candidate->num_refine_passes;
+// The refinement's robust cost (Cauchy: b log(1 + r^2 / b)) over the used
+// matches, and optionally the normal equations at (R, t): the gradient
+// J^T rho' r, and in JtJ the Gauss-Newton Hessian of the robust cost with
+// each match's second-order term of the loss (Triggs et al.'s correction),
+// clamped at zero where the loss bends down (r^2 > b). Iteratively
+// reweighted least squares (rho' J^T J alone) over-estimates that Hessian
+// for matches near the loss scale and converged linearly, halving the step
+// each pass (8 passes per pair on the synthetic courtyards, 4 with the
+// correction). JtJ_irls, when given, gets rho' J^T J: the information the
+// rotation_std gate is defined on. Each evaluation counts one pass.
+class RefinementCost {
+ public:
+  RefinementCost(const Correspondences& corrs, const std::vector<size_t>& used,
+                 double focal, double b, bool pure_rotation, int* num_passes)
+      : corrs_(corrs),
+        used_(used),
+        focal_(focal),
+        b_(b),
+        pure_rotation_(pure_rotation),
+        num_passes_(num_passes) {}
+
+  double Evaluate(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                  Eigen::Matrix<double, 5, 5>* JtJ,
+                  Eigen::Matrix<double, 5, 1>* Jtr,
+                  Eigen::Matrix<double, 5, 5>* JtJ_irls = nullptr) const {
+    ++*num_passes_;
     if (JtJ != nullptr) {
       JtJ->setZero();
       Jtr->setZero();
     }
     if (JtJ_irls != nullptr) JtJ_irls->setZero();
-    if (pure_rotation) {
-      for (const size_t i : used) {
-        const Eigen::Vector3d p = R * corrs.x1[i].homogeneous();
-        if (!(p.z() > 1e-12)) {
-          cost.Add(1e6 * b);  // behind: a large, finite cost
-          continue;
-        }
-        const double inv_z = 1.0 / p.z();
-        const Eigen::Vector2d r =
-            focal *
-            (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - corrs.x2[i]);
-        const double r2 = r.squaredNorm();
-        cost.Add(r2);
-        if (JtJ == nullptr) continue;
-        const double weight = 1.0 / (1.0 + r2 / b);
-        Eigen::Matrix<double, 2, 3> dproj;
-        dproj << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z,
-            -p.y() * inv_z * inv_z;
-        // d(exp([w]x) p)/dw at 0 = -[p]x.
-        const Eigen::Matrix<double, 2, 3> J = -focal * dproj * CrossMatrix(p);
-        const Eigen::Matrix3d JtJ_i = J.transpose() * J;
-        // The loss's Hessian in r: rho' (I - 2 rho' / b r r^T); along r its
-        // eigenvalue rho' (1 - r^2/b) / (1 + r^2/b), clamped at zero.
-        const Eigen::Vector3d Jr = J.transpose() * r;
-        const double along_r =
-            weight * std::max(0.0, (1 - r2 / b) / (1 + r2 / b));
-        JtJ->topLeftCorner<3, 3>() += weight * JtJ_i;
-        if (r2 > 0) {
-          JtJ->topLeftCorner<3, 3>() +=
-              (along_r - weight) / r2 * Jr * Jr.transpose();
-        }
-        if (JtJ_irls != nullptr) {
-          JtJ_irls->topLeftCorner<3, 3>() += weight * JtJ_i;
-        }
-        Jtr->head<3>() += weight * Jr;
+    return pure_rotation_ ? EvaluateRotation(R, JtJ, Jtr, JtJ_irls)
+                          : EvaluateEssential(R, t, JtJ, Jtr, JtJ_irls);
+  }
+
+ private:
+  // Transfer error of a pure rotation; parameters: the rotation (3).
+  double EvaluateRotation(const Eigen::Matrix3d& R,
+                          Eigen::Matrix<double, 5, 5>* JtJ,
+                          Eigen::Matrix<double, 5, 1>* Jtr,
+                          Eigen::Matrix<double, 5, 5>* JtJ_irls) const {
+    CauchyCostSum cost(b_);
+    for (const size_t i : used_) {
+      const Eigen::Vector3d p = R * corrs_.x1[i].homogeneous();
+      if (!(p.z() > 1e-12)) {
+        cost.Add(1e6 * b_);  // behind: a large, finite cost
+        continue;
       }
-      return cost.Total();
+      const double inv_z = 1.0 / p.z();
+      const Eigen::Vector2d r =
+          focal_ *
+          (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - corrs_.x2[i]);
+      const double r2 = r.squaredNorm();
+      cost.Add(r2);
+      if (JtJ == nullptr) continue;
+      const double weight = 1.0 / (1.0 + r2 / b_);
+      Eigen::Matrix<double, 2, 3> dproj;
+      dproj << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z,
+          -p.y() * inv_z * inv_z;
+      // d(exp([w]x) p)/dw at 0 = -[p]x.
+      const Eigen::Matrix<double, 2, 3> J = -focal_ * dproj * CrossMatrix(p);
+      const Eigen::Matrix3d JtJ_i = J.transpose() * J;
+      // The loss's Hessian in r: rho' (I - 2 rho' / b r r^T); along r its
+      // eigenvalue rho' (1 - r^2/b) / (1 + r^2/b), clamped at zero.
+      const Eigen::Vector3d Jr = J.transpose() * r;
+      const double along_r =
+          weight * std::max(0.0, (1 - r2 / b_) / (1 + r2 / b_));
+      JtJ->topLeftCorner<3, 3>() += weight * JtJ_i;
+      if (r2 > 0) {
+        JtJ->topLeftCorner<3, 3>() +=
+            (along_r - weight) / r2 * Jr * Jr.transpose();
+      }
+      if (JtJ_irls != nullptr) {
+        JtJ_irls->topLeftCorner<3, 3>() += weight * JtJ_i;
+      }
+      Jtr->head<3>() += weight * Jr;
     }
+    return cost.Total();
+  }
+
+  // Sampson error of the essential matrix of (R, t); parameters: the
+  // rotation (3) and the translation on its tangent plane (2).
+  double EvaluateEssential(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                           Eigen::Matrix<double, 5, 5>* JtJ,
+                           Eigen::Matrix<double, 5, 1>* Jtr,
+                           Eigen::Matrix<double, 5, 5>* JtJ_irls) const {
+    CauchyCostSum cost(b_);
     const Eigen::Matrix3d E = EssentialFromPose(R, t);
     // dE/dparam: rotation exp([w]x) R (3), translation on its tangent
     // plane (2).
@@ -331,24 +350,24 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
       }
       dE.col(k) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(D.data());
     }
-    for (const size_t i : used) {
-      const Eigen::Vector3d x1 = corrs.x1[i].homogeneous();
-      const Eigen::Vector3d x2 = corrs.x2[i].homogeneous();
+    for (const size_t i : used_) {
+      const Eigen::Vector3d x1 = corrs_.x1[i].homogeneous();
+      const Eigen::Vector3d x2 = corrs_.x2[i].homogeneous();
       const Eigen::Vector3d Ex1 = E * x1;
       const Eigen::Vector3d Etx2 = E.transpose() * x2;
       const double n = x2.dot(Ex1);
       const double d = Ex1(0) * Ex1(0) + Ex1(1) * Ex1(1) + Etx2(0) * Etx2(0) +
                        Etx2(1) * Etx2(1) + 1e-30;
       const double inv_sqrt_d = 1.0 / std::sqrt(d);
-      const double r = focal * n * inv_sqrt_d;
+      const double r = focal_ * n * inv_sqrt_d;
       const double r2 = r * r;
       cost.Add(r2);
       if (JtJ == nullptr) continue;
-      const double weight = 1.0 / (1.0 + r2 / b);
+      const double weight = 1.0 / (1.0 + r2 / b_);
       // dr/dE (column-major, as dE's rows): E(a, c) at a + 3 c.
       Eigen::Matrix<double, 9, 1> drdE;
-      const double k_n = focal * inv_sqrt_d;
-      const double k_d = -0.5 * focal * n * inv_sqrt_d / d;
+      const double k_n = focal_ * inv_sqrt_d;
+      const double k_d = -0.5 * focal_ * n * inv_sqrt_d / d;
       for (int c = 0; c < 3; ++c) {
         for (int a = 0; a < 3; ++a) {
           double dd = 0;
@@ -361,63 +380,73 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
       const Eigen::Matrix<double, 5, 5> JJt = J * J.transpose();
       // The loss's second derivative in r: rho' (1 - r^2/b) / (1 + r^2/b).
       const double hessian_weight =
-          weight * std::max(0.0, (1 - r2 / b) / (1 + r2 / b));
+          weight * std::max(0.0, (1 - r2 / b_) / (1 + r2 / b_));
       *JtJ += hessian_weight * JJt;
       if (JtJ_irls != nullptr) *JtJ_irls += weight * JJt;
       *Jtr += weight * r * J;
     }
     return cost.Total();
-  };
-  auto update = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
-                    const Eigen::Matrix<double, 5, 1>& step,
-                    Eigen::Matrix3d* R_new, Eigen::Vector3d* t_new) {
-    *R_new = AngleAxisToRotation(step.head<3>()) * R;
-    if (pure_rotation) {
-      *t_new = t;
-      return;
-    }
-    const Eigen::Vector3d b1 = t.unitOrthogonal();
-    const Eigen::Vector3d b2 = t.cross(b1);
-    *t_new = (t + step(3) * b1 + step(4) * b2).normalized();
-  };
-
-  Eigen::Matrix3d R = candidate->R;
-  Eigen::Vector3d t = candidate->t;
-  Eigen::Matrix<double, 5, 5> JtJ, JtJ_irls;
-  Eigen::Matrix<double, 5, 1> Jtr;
-  double cost = evaluate(R, t, &JtJ, &Jtr, &JtJ_irls);
-  // How well the inliers determine the rotation: the largest standard
-  // deviation of the rotation (first-order covariance at the start, the
-  // translation marginalised, noise estimated from the residuals). Where it
-  // is large the cost is flat along a valley (a near-planar scene, a short
-  // baseline with few matches) and minimising it fits the noise: on the
-  // 100-image synthetic courtyard every refined pose more than 5 deg off (29
-  // of 1,043) came from such a walk away from an exact start.
-  {
-    double sum_weighted_sq = 0;
-    // Cauchy IRLS residuals at the start: b (exp(cost_i / b) - 1) = r_i^2;
-    // the weighted squared residual is approximated by the robust cost.
-    sum_weighted_sq = cost;
-    const double dof = std::max<double>(1.0, used.size() - num_params);
-    const double sigma_sq = std::max(sum_weighted_sq / dof, 1e-12);
-    const Eigen::MatrixXd information =
-        JtJ_irls.topLeftCorner(num_params, num_params) / sigma_sq;
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
-    double std_rad = std::numeric_limits<double>::infinity();
-    if (eigen.info() == Eigen::Success && eigen.eigenvalues()(0) > 0) {
-      const Eigen::MatrixXd covariance = information.inverse();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation_eigen(
-          covariance.topLeftCorner<3, 3>());
-      std_rad = std::sqrt(std::max(0.0, rotation_eigen.eigenvalues()(2)));
-    }
-    candidate->rotation_std_deg = RadToDeg(std_rad);
-    if (!(candidate->rotation_std_deg <= options.refine_max_rotation_std_deg)) {
-      return;
-    }
   }
+
+  const Correspondences& corrs_;
+  const std::vector<size_t>& used_;
+  const double focal_;
+  const double b_;
+  const bool pure_rotation_;
+  int* const num_passes_;
+};
+
+// The pose after a step: the rotation by exp([w]x), the translation (unless
+// a pure rotation) along its tangent plane, renormalised.
+void StepPose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+              const Eigen::Matrix<double, 5, 1>& step, bool pure_rotation,
+              Eigen::Matrix3d* R_new, Eigen::Vector3d* t_new) {
+  *R_new = AngleAxisToRotation(step.head<3>()) * R;
+  if (pure_rotation) {
+    *t_new = t;
+    return;
+  }
+  const Eigen::Vector3d b1 = t.unitOrthogonal();
+  const Eigen::Vector3d b2 = t.cross(b1);
+  *t_new = (t + step(3) * b1 + step(4) * b2).normalized();
+}
+
+// How well the inliers determine the rotation (deg): the largest standard
+// deviation of the rotation (first-order covariance from the IRLS
+// information at the start, the translation marginalised, noise estimated
+// from the residuals); infinite where the information is singular.
+double RotationStdDeg(double cost, const Eigen::Matrix<double, 5, 5>& JtJ_irls,
+                      size_t num_used, int num_params) {
+  // Cauchy IRLS residuals at the start: b (exp(cost_i / b) - 1) = r_i^2;
+  // the weighted squared residual is approximated by the robust cost.
+  const double sum_weighted_sq = cost;
+  const double dof = std::max<double>(1.0, num_used - num_params);
+  const double sigma_sq = std::max(sum_weighted_sq / dof, 1e-12);
+  const Eigen::MatrixXd information =
+      JtJ_irls.topLeftCorner(num_params, num_params) / sigma_sq;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(information);
+  double std_rad = std::numeric_limits<double>::infinity();
+  if (eigen.info() == Eigen::Success && eigen.eigenvalues()(0) > 0) {
+    const Eigen::MatrixXd covariance = information.inverse();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation_eigen(
+        covariance.topLeftCorner<3, 3>());
+    std_rad = std::sqrt(std::max(0.0, rotation_eigen.eigenvalues()(2)));
+  }
+  return RadToDeg(std_rad);
+}
+
+// Levenberg-Marquardt from (R, t), whose cost and normal equations are
+// given; leaves the last accepted pose in (R, t).
+void MinimizeRefinementCost(const RefinementCost& refinement_cost,
+                            int max_num_iterations, int num_params,
+                            bool pure_rotation, double cost,
+                            Eigen::Matrix<double, 5, 5> JtJ,
+                            Eigen::Matrix<double, 5, 1> Jtr,
+                            Eigen::Matrix3d* R_out, Eigen::Vector3d* t_out) {
+  Eigen::Matrix3d R = *R_out;
+  Eigen::Vector3d t = *t_out;
   double lambda = 1e-4;
-  for (int iteration = 0; iteration < options.refine_max_num_iterations;
-       ++iteration) {
+  for (int iteration = 0; iteration < max_num_iterations; ++iteration) {
     Eigen::Matrix<double, 5, 5> A = JtJ;
     for (int k = 0; k < num_params; ++k) A(k, k) += lambda * (1.0 + JtJ(k, k));
     Eigen::Matrix<double, 5, 1> step = Eigen::Matrix<double, 5, 1>::Zero();
@@ -433,7 +462,7 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
     const double predicted_decrease = -2 * Jtr.dot(step) - step.dot(JtJ * step);
     Eigen::Matrix3d R_new;
     Eigen::Vector3d t_new;
-    update(R, t, step, &R_new, &t_new);
+    StepPose(R, t, step, pure_rotation, &R_new, &t_new);
     if (predicted_decrease <= 1e-6 * cost) {
       R = R_new;
       t = t_new;
@@ -443,7 +472,8 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
     // steps are accepted, so this saves a pass per iteration.
     Eigen::Matrix<double, 5, 5> JtJ_new;
     Eigen::Matrix<double, 5, 1> Jtr_new;
-    const double new_cost = evaluate(R_new, t_new, &JtJ_new, &Jtr_new);
+    const double new_cost =
+        refinement_cost.Evaluate(R_new, t_new, &JtJ_new, &Jtr_new);
     if (new_cost < cost) {
       const double decrease = cost - new_cost;
       R = R_new;
@@ -460,6 +490,48 @@ void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
       if (lambda > 1e10) break;
     }
   }
+  *R_out = R;
+  *t_out = t;
+}
+
+// Robust refinement of a candidate on the matches that support it:
+// Levenberg-Marquardt on the Sampson error (or, for a pure rotation, the
+// transfer error) in pixels under a Cauchy loss, with analytic Jacobians
+// and the loss's curvature in the Hessian. The pose has 5 (3) degrees of
+// freedom, so each iteration is one pass over the matches and a 5x5 solve:
+// a general solver's per-residual bookkeeping and automatic differentiation
+// took most of the view-graph stage (300-image synthetic scene: ~60% of it).
+// Stops as soon as a step no longer lowers the cost noticeably, so a pose
+// that already explains its inliers costs one or two passes.
+void Refine(const Correspondences& corrs, const std::vector<char>& supporting,
+            double focal, const RelativePoseOptions& options,
+            Candidate* candidate) {
+  const std::vector<size_t> used = SelectRefinementMatches(
+      corrs, supporting, options.refine_max_num_matches);
+  const bool pure_rotation = candidate->pure_rotation;
+  if (used.size() < (pure_rotation ? 2u : 5u)) return;
+  const double b = options.refine_loss_scale_px * options.refine_loss_scale_px;
+  const int num_params = pure_rotation ? 3 : 5;
+  const RefinementCost refinement_cost(corrs, used, focal, b, pure_rotation,
+                                       &candidate->num_refine_passes);
+
+  Eigen::Matrix3d R = candidate->R;
+  Eigen::Vector3d t = candidate->t;
+  Eigen::Matrix<double, 5, 5> JtJ, JtJ_irls;
+  Eigen::Matrix<double, 5, 1> Jtr;
+  const double cost = refinement_cost.Evaluate(R, t, &JtJ, &Jtr, &JtJ_irls);
+  // Where the rotation is poorly determined the cost is flat along a valley
+  // (a near-planar scene, a short baseline with few matches) and minimising
+  // it fits the noise: on the 100-image synthetic courtyard every refined
+  // pose more than 5 deg off (29 of 1,043) came from such a walk away from
+  // an exact start.
+  candidate->rotation_std_deg =
+      RotationStdDeg(cost, JtJ_irls, used.size(), num_params);
+  if (!(candidate->rotation_std_deg <= options.refine_max_rotation_std_deg)) {
+    return;
+  }
+  MinimizeRefinementCost(refinement_cost, options.refine_max_num_iterations,
+                         num_params, pure_rotation, cost, JtJ, Jtr, &R, &t);
   candidate->R = R;
   if (!pure_rotation) candidate->t = t;
 }

@@ -780,22 +780,21 @@ Camera ResetCameraIntrinsics(const Camera& camera) {
   return reset;
 }
 
-DatabaseContents ReadDatabase(const std::string& path,
-                              const DatabaseReadOptions& options) {
-  Database database(path, options);
-  DatabaseContents contents;
-  contents.path = path;
-  contents.schema = database.Schema();
-  auto warn = [&](const std::string& message) {
-    LOG(WARNING) << path << ": " << message;
-    contents.warnings.push_back(message);
-  };
-  for (Camera& camera : database.ReadAllCameras()) {
-    contents.cameras[camera.camera_id] = std::move(camera);
-  }
+namespace {
+
+// Logs a warning about the database and keeps it for the summary.
+void Warn(const std::string& message, DatabaseContents* contents) {
+  LOG(WARNING) << contents->path << ": " << message;
+  contents->warnings.push_back(message);
+}
+
+// Reads the images, whose names identify them in the model (and in COLMAP):
+// unique, non-empty, without a NUL byte (it ends a name in images.bin), each
+// on a camera of the cameras table. Returns the cameras the images use.
+std::set<camera_t> ReadImages(const Database& database,
+                              DatabaseContents* contents) {
+  const std::string& path = contents->path;
   std::set<camera_t> used_cameras;
-  // Names identify images in the model (and in COLMAP): unique, non-empty,
-  // without a NUL byte (it ends a name in images.bin).
   std::map<std::string, image_t> names;
   for (DatabaseImage& image : database.ReadAllImages()) {
     const std::string id = "image " + std::to_string(image.image_id);
@@ -813,42 +812,58 @@ DatabaseContents ReadDatabase(const std::string& path,
                                  "' (the images table's UNIQUE constraint "
                                  "on name is missing?)");
     }
-    if (contents.cameras.count(image.camera_id) == 0) {
+    if (contents->cameras.count(image.camera_id) == 0) {
       throw InputError(path, "image " + std::to_string(image.image_id) + " '" +
                                  image.name + "' refers to camera " +
                                  std::to_string(image.camera_id) +
                                  ", which is not in the cameras table");
     }
     used_cameras.insert(image.camera_id);
-    contents.images[image.image_id] = std::move(image);
+    contents->images[image.image_id] = std::move(image);
   }
-  // Intrinsics of the cameras the images use: an invalid camera gives a
-  // wrong model (mirrored, rotated) rather than none, so it is an error.
+  return used_cameras;
+}
+
+// Intrinsics of the cameras the images use: an invalid camera gives a
+// wrong model (mirrored, rotated) rather than none, so it is an error
+// unless the options reset it.
+void CheckUsedCameras(const std::set<camera_t>& used_cameras,
+                      const DatabaseReadOptions& options,
+                      DatabaseContents* contents) {
   for (const camera_t camera_id : used_cameras) {
-    Camera& camera = contents.cameras.at(camera_id);
+    Camera& camera = contents->cameras.at(camera_id);
     const std::string problem = CameraIntrinsicsProblem(camera);
     if (problem.empty()) continue;
     const std::string what = "camera " + std::to_string(camera_id) + " (" +
                              CameraModelIdToName(camera.model_id) + "): ";
     if (!options.reset_invalid_cameras) {
-      throw InputError(path, what + problem +
-                                 "; fix the camera, or pass "
-                                 "--Mapper.reset_invalid_cameras 1 to start "
-                                 "it from a default focal and refine it");
+      throw InputError(contents->path,
+                       what + problem +
+                           "; fix the camera, or pass "
+                           "--Mapper.reset_invalid_cameras 1 to start "
+                           "it from a default focal and refine it");
     }
     camera = ResetCameraIntrinsics(camera);
-    contents.reset_cameras.push_back(camera_id);
-    warn(what + problem + "; reset to focal " +
-         std::to_string(
-             camera.params[CameraModelFocalLengthIdxs(camera.model_id)[0]]) +
-         " px, centred principal point, no distortion");
+    contents->reset_cameras.push_back(camera_id);
+    Warn(
+        what + problem + "; reset to focal " +
+            std::to_string(
+                camera.params[CameraModelFocalLengthIdxs(camera.model_id)[0]]) +
+            " px, centred principal point, no distortion",
+        contents);
   }
-  // Keypoints: non-finite or outside the image can never be an observation.
+}
+
+// Reads the keypoints of the images. Returns, per image that has any, which
+// keypoints are invalid: non-finite or outside the image, never an
+// observation.
+std::map<image_t, std::vector<char>> ReadCheckedKeypoints(
+    const Database& database, DatabaseContents* contents) {
   std::map<image_t, std::vector<char>> invalid_keypoints;
-  for (const auto& [image_id, image] : contents.images) {
+  for (const auto& [image_id, image] : contents->images) {
     std::vector<float> scales;
     FeatureKeypoints keypoints = database.ReadKeypoints(image_id, &scales);
-    const Camera& camera = contents.cameras.at(image.camera_id);
+    const Camera& camera = contents->cameras.at(image.camera_id);
     // COLMAP's keypoints lie in [0, width] x [0, height]; one pixel of slack.
     const double max_x = static_cast<double>(camera.width) + 1;
     const double max_y = static_cast<double>(camera.height) + 1;
@@ -868,33 +883,47 @@ DatabaseContents ReadDatabase(const std::string& path,
       nonfinite ? ++num_nonfinite : ++num_outside;
     }
     if (num_nonfinite > 0) {
-      contents.num_keypoints_invalid["non-finite keypoint"] += num_nonfinite;
-      warn("image " + std::to_string(image_id) + " '" + image.name +
-           "': " + std::to_string(num_nonfinite) +
-           " non-finite keypoints, never used as observations");
+      contents->num_keypoints_invalid["non-finite keypoint"] += num_nonfinite;
+      Warn("image " + std::to_string(image_id) + " '" + image.name +
+               "': " + std::to_string(num_nonfinite) +
+               " non-finite keypoints, never used as observations",
+           contents);
     }
     if (num_outside > 0) {
-      contents.num_keypoints_invalid["keypoint outside the image"] +=
+      contents->num_keypoints_invalid["keypoint outside the image"] +=
           num_outside;
-      warn("image " + std::to_string(image_id) + " '" + image.name +
-           "': " + std::to_string(num_outside) + " keypoints outside the " +
-           std::to_string(camera.width) + " x " +
-           std::to_string(camera.height) +
-           " image, never used as observations");
+      Warn("image " + std::to_string(image_id) + " '" + image.name +
+               "': " + std::to_string(num_outside) + " keypoints outside the " +
+               std::to_string(camera.width) + " x " +
+               std::to_string(camera.height) +
+               " image, never used as observations",
+           contents);
     }
-    contents.keypoints[image_id] = std::move(keypoints);
-    if (!scales.empty()) contents.keypoint_scales[image_id] = std::move(scales);
+    contents->keypoints[image_id] = std::move(keypoints);
+    if (!scales.empty()) {
+      contents->keypoint_scales[image_id] = std::move(scales);
+    }
   }
-  // Verified pairs: self-pairs skipped, pairs stored with their images
-  // swapped turned round (and merged when also stored in COLMAP's order).
+  return invalid_keypoints;
+}
+
+// What a pair's messages call it, its images in the order stored.
+std::string GeometryName(const TwoViewGeometry& geometry) {
+  return "two_view_geometries of pair (" + std::to_string(geometry.image_id1) +
+         ", " + std::to_string(geometry.image_id2) + ")";
+}
+
+// Reads the verified pairs: self-pairs skipped, pairs stored with their
+// images swapped turned round (and merged when also stored in COLMAP's
+// order).
+std::map<image_pair_t, TwoViewGeometry> ReadPairs(const Database& database,
+                                                  DatabaseContents* contents) {
   std::map<image_pair_t, TwoViewGeometry> pairs;
   for (TwoViewGeometry& geometry : database.ReadAllTwoViewGeometries()) {
-    const std::string what = "two_view_geometries of pair (" +
-                             std::to_string(geometry.image_id1) + ", " +
-                             std::to_string(geometry.image_id2) + ")";
+    const std::string what = GeometryName(geometry);
     if (geometry.image_id1 == geometry.image_id2) {
-      ++contents.num_pairs_dropped["image paired with itself"];
-      warn(what + ": an image paired with itself, skipped");
+      ++contents->num_pairs_dropped["image paired with itself"];
+      Warn(what + ": an image paired with itself, skipped", contents);
       continue;
     }
     const bool swapped = geometry.image_id1 > geometry.image_id2;
@@ -902,23 +931,32 @@ DatabaseContents ReadDatabase(const std::string& path,
     const image_pair_t pair_id =
         ImagePairToPairId(geometry.image_id1, geometry.image_id2);
     if (pairs.count(pair_id) > 0) {
-      ++contents.num_pairs_dropped["stored in both orders"];
-      warn(what +
-           ": the pair is stored in both orders; the row in COLMAP's "
-           "order (smaller image id first) is used");
+      ++contents->num_pairs_dropped["stored in both orders"];
+      Warn(what +
+               ": the pair is stored in both orders; the row in COLMAP's "
+               "order (smaller image id first) is used",
+           contents);
       if (!swapped) pairs[pair_id] = std::move(geometry);
       continue;
     }
     pairs.emplace(pair_id, std::move(geometry));
   }
-  for (auto& [pair_id, geometry] : pairs) {
-    const std::string what = "two_view_geometries of pair (" +
-                             std::to_string(geometry.image_id1) + ", " +
-                             std::to_string(geometry.image_id2) + ")";
-    const auto keypoints1 = contents.keypoints.find(geometry.image_id1);
-    const auto keypoints2 = contents.keypoints.find(geometry.image_id2);
-    if (keypoints1 == contents.keypoints.end() ||
-        keypoints2 == contents.keypoints.end()) {
+  return pairs;
+}
+
+// Adds the pairs to the contents: each must be between known images with
+// matches in range of their keypoints; matches on invalid keypoints are
+// dropped.
+void AddPairs(const std::map<image_t, std::vector<char>>& invalid_keypoints,
+              std::map<image_pair_t, TwoViewGeometry>* pairs,
+              DatabaseContents* contents) {
+  const std::string& path = contents->path;
+  for (auto& [pair_id, geometry] : *pairs) {
+    const std::string what = GeometryName(geometry);
+    const auto keypoints1 = contents->keypoints.find(geometry.image_id1);
+    const auto keypoints2 = contents->keypoints.find(geometry.image_id2);
+    if (keypoints1 == contents->keypoints.end() ||
+        keypoints2 == contents->keypoints.end()) {
       throw InputError(path, what +
                                  ": refers to an image that is not in "
                                  "the images table");
@@ -949,11 +987,31 @@ DatabaseContents ReadDatabase(const std::string& path,
                                    invalid2->second[match.point2D_idx2]);
                          }),
           matches.end());
-      contents.num_matches_dropped_invalid_keypoint +=
+      contents->num_matches_dropped_invalid_keypoint +=
           static_cast<int>(before - matches.size());
     }
-    contents.two_view_geometries.push_back(std::move(geometry));
+    contents->two_view_geometries.push_back(std::move(geometry));
   }
+}
+
+}  // namespace
+
+DatabaseContents ReadDatabase(const std::string& path,
+                              const DatabaseReadOptions& options) {
+  Database database(path, options);
+  DatabaseContents contents;
+  contents.path = path;
+  contents.schema = database.Schema();
+  for (Camera& camera : database.ReadAllCameras()) {
+    contents.cameras[camera.camera_id] = std::move(camera);
+  }
+  const std::set<camera_t> used_cameras = ReadImages(database, &contents);
+  CheckUsedCameras(used_cameras, options, &contents);
+  const std::map<image_t, std::vector<char>> invalid_keypoints =
+      ReadCheckedKeypoints(database, &contents);
+  std::map<image_pair_t, TwoViewGeometry> pairs =
+      ReadPairs(database, &contents);
+  AddPairs(invalid_keypoints, &pairs, &contents);
   contents.num_matches = database.ReadNumMatches();
   database.CheckUnchanged();
   return contents;

@@ -298,8 +298,7 @@ bool SolveWithPriors(
         sim.scale *
         PositionPriorSqrtInformation(it->second, options.pose_priors) * sim.R;
     problem->AddResidualBlock(PositionPriorCost::Create(target, W),
-                              prior_loss->get(),
-                              blocks->centers.at(image_id));
+                              prior_loss->get(), blocks->centers.at(image_id));
   }
   problem->SetParameterBlockVariable(blocks->centers.at(gauge_image_id));
   // A fresh elimination ordering: Ceres drops the constant gauge centre from
@@ -354,6 +353,131 @@ void TransformModel(const Sim3d& sim,
   }
 }
 
+// Drops the tracks seen by fewer than min_track_length images of the
+// reconstruction, then the images no remaining track sees.
+void DropShortTracks(int min_track_length, Reconstruction* reconstruction,
+                     GlobalPositionerSummary* summary) {
+  std::vector<point3D_t> dropped_points;
+  std::unordered_map<image_t, int> num_image_observations;
+  for (const auto& [point3D_id, point] : reconstruction->points3D) {
+    int num_valid = 0;
+    for (const TrackElement& element : point.track) {
+      num_valid += reconstruction->images.count(element.image_id);
+    }
+    if (num_valid < min_track_length) {
+      dropped_points.push_back(point3D_id);
+      continue;
+    }
+    for (const TrackElement& element : point.track) {
+      ++num_image_observations[element.image_id];
+    }
+  }
+  for (point3D_t point3D_id : dropped_points)
+    DeletePoint3D(point3D_id, reconstruction);
+  summary->num_points_dropped = dropped_points.size();
+  std::vector<image_t> dropped_images;
+  for (const auto& [image_id, image] : reconstruction->images) {
+    if (!num_image_observations.count(image_id))
+      dropped_images.push_back(image_id);
+  }
+  for (image_t image_id : dropped_images) DeleteImage(image_id, reconstruction);
+  summary->num_images_dropped = dropped_images.size();
+}
+
+// The starting centres (own storage) and points (in place): the model's, or
+// random in the initialisation box; translated so that the gauge image (the
+// first), returned, is at the origin. Also each image's world_from_cam.
+image_t InitializeCenters(const GlobalPositionerOptions& options,
+                          Reconstruction* reconstruction,
+                          std::map<image_t, Eigen::Vector3d>* centers,
+                          std::map<image_t, Eigen::Matrix3d>* world_from_cam) {
+  std::mt19937_64 rng(options.random_seed);
+  std::uniform_real_distribution<double> uniform(-options.initialization_box,
+                                                 options.initialization_box);
+  for (const auto& [image_id, image] : reconstruction->images) {
+    (*world_from_cam)[image_id] =
+        image.cam_from_world.rotation.toRotationMatrix().transpose();
+    (*centers)[image_id] = options.random_initialization
+                               ? RandomVector<3>(uniform, rng)
+                               : image.ProjectionCenter();
+  }
+  const image_t gauge_image_id = centers->begin()->first;
+  if (options.random_initialization) {
+    (*centers)[gauge_image_id].setZero();
+    for (auto& [point3D_id, point] : reconstruction->points3D) {
+      point.xyz = RandomVector<3>(uniform, rng);
+    }
+  }
+  const Eigen::Vector3d gauge_offset = (*centers)[gauge_image_id];
+  for (auto& [image_id, center] : *centers) center -= gauge_offset;
+  if (!options.random_initialization) {
+    for (auto& [point3D_id, point] : reconstruction->points3D)
+      point.xyz -= gauge_offset;
+  }
+  return gauge_image_id;
+}
+
+// One observation of a point: its bearing in the world frame.
+struct Observation {
+  point3D_t point3D_id;
+  image_t image_id;
+  point2D_t point2D_idx;
+  Eigen::Vector3d direction;
+};
+
+// The observations of the points whose normalised coordinates are finite.
+std::vector<Observation> CollectObservations(
+    const Reconstruction& reconstruction,
+    const std::map<image_t, Eigen::Matrix3d>& world_from_cam) {
+  std::vector<Observation> observations;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    for (const TrackElement& element : point.track) {
+      const Image& image = reconstruction.images.at(element.image_id);
+      const Camera& camera = reconstruction.cameras.at(image.camera_id);
+      const Eigen::Vector2d normalized =
+          CameraImageToCamera(camera, image.points2D[element.point2D_idx].xy);
+      if (!normalized.allFinite()) continue;
+      observations.push_back({point3D_id, element.image_id, element.point2D_idx,
+                              world_from_cam.at(element.image_id) *
+                                  normalized.homogeneous().normalized()});
+    }
+  }
+  return observations;
+}
+
+// Adds one residual per observation on its centre's and point's copies.
+void AddObservationResiduals(const std::vector<Observation>& observations,
+                             ceres::LossFunction* loss,
+                             const PositioningBlocks& blocks,
+                             ceres::Problem* problem) {
+  for (const Observation& observation : observations) {
+    problem->AddResidualBlock(
+        ProjectedDirectionCost::Create(observation.direction), loss,
+        blocks.centers.at(observation.image_id),
+        FindBlock(blocks.points, observation.point3D_id));
+  }
+}
+
+// Deletes the observations whose bearing is more than max_angular_error_deg
+// from the ray from the solved centre to the solved point.
+void FilterObservationsByAngle(
+    double max_angular_error_deg, const std::vector<Observation>& observations,
+    const std::map<image_t, Eigen::Vector3d>& centers,
+    Reconstruction* reconstruction, GlobalPositionerSummary* summary) {
+  const double min_cos = std::cos(DegToRad(max_angular_error_deg));
+  for (const Observation& observation : observations) {
+    auto point_it = reconstruction->points3D.find(observation.point3D_id);
+    if (point_it == reconstruction->points3D.end()) continue;
+    const Eigen::Vector3d ray =
+        point_it->second.xyz - centers.at(observation.image_id);
+    if (ray.dot(observation.direction) < min_cos * ray.norm()) {
+      DeleteObservation(observation.image_id, observation.point2D_idx,
+                        reconstruction);
+      ++summary->num_observations_filtered;
+    }
+  }
+}
+
 }  // namespace
 
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
@@ -364,32 +488,7 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   Timer timer;
   GlobalPositionerSummary local_summary;
 
-  // Tracks long enough, and the images they see.
-  std::vector<point3D_t> dropped_points;
-  std::unordered_map<image_t, int> num_image_observations;
-  for (const auto& [point3D_id, point] : reconstruction->points3D) {
-    int num_valid = 0;
-    for (const TrackElement& element : point.track) {
-      num_valid += reconstruction->images.count(element.image_id);
-    }
-    if (num_valid < options.min_track_length) {
-      dropped_points.push_back(point3D_id);
-      continue;
-    }
-    for (const TrackElement& element : point.track) {
-      ++num_image_observations[element.image_id];
-    }
-  }
-  for (point3D_t point3D_id : dropped_points)
-    DeletePoint3D(point3D_id, reconstruction);
-  local_summary.num_points_dropped = dropped_points.size();
-  std::vector<image_t> dropped_images;
-  for (const auto& [image_id, image] : reconstruction->images) {
-    if (!num_image_observations.count(image_id))
-      dropped_images.push_back(image_id);
-  }
-  for (image_t image_id : dropped_images) DeleteImage(image_id, reconstruction);
-  local_summary.num_images_dropped = dropped_images.size();
+  DropShortTracks(options.min_track_length, reconstruction, &local_summary);
   if (reconstruction->images.size() < 2) {
     LOG(WARNING) << "Global positioning: fewer than two images are observed by "
                     "tracks of "
@@ -400,52 +499,12 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
 
   // Parameters: centres (own storage), points (in place), one scale per
   // observation.
-  std::mt19937_64 rng(options.random_seed);
-  std::uniform_real_distribution<double> uniform(-options.initialization_box,
-                                                 options.initialization_box);
   std::map<image_t, Eigen::Vector3d> centers;
   std::map<image_t, Eigen::Matrix3d> world_from_cam;
-  for (const auto& [image_id, image] : reconstruction->images) {
-    world_from_cam[image_id] =
-        image.cam_from_world.rotation.toRotationMatrix().transpose();
-    centers[image_id] = options.random_initialization
-                            ? RandomVector<3>(uniform, rng)
-                            : image.ProjectionCenter();
-  }
-  const image_t gauge_image_id = centers.begin()->first;
-  if (options.random_initialization) {
-    centers[gauge_image_id].setZero();
-    for (auto& [point3D_id, point] : reconstruction->points3D) {
-      point.xyz = RandomVector<3>(uniform, rng);
-    }
-  }
-  // The gauge image's centre is at the origin in the result.
-  const Eigen::Vector3d gauge_offset = centers[gauge_image_id];
-  for (auto& [image_id, center] : centers) center -= gauge_offset;
-  if (!options.random_initialization) {
-    for (auto& [point3D_id, point] : reconstruction->points3D)
-      point.xyz -= gauge_offset;
-  }
-
-  struct Observation {
-    point3D_t point3D_id;
-    image_t image_id;
-    point2D_t point2D_idx;
-    Eigen::Vector3d direction;
-  };
-  std::vector<Observation> observations;
-  for (const auto& [point3D_id, point] : reconstruction->points3D) {
-    for (const TrackElement& element : point.track) {
-      const Image& image = reconstruction->images.at(element.image_id);
-      const Camera& camera = reconstruction->cameras.at(image.camera_id);
-      const Eigen::Vector2d normalized =
-          CameraImageToCamera(camera, image.points2D[element.point2D_idx].xy);
-      if (!normalized.allFinite()) continue;
-      observations.push_back({point3D_id, element.image_id, element.point2D_idx,
-                              world_from_cam.at(element.image_id) *
-                                  normalized.homogeneous().normalized()});
-    }
-  }
+  const image_t gauge_image_id =
+      InitializeCenters(options, reconstruction, &centers, &world_from_cam);
+  const std::vector<Observation> observations =
+      CollectObservations(*reconstruction, world_from_cam);
   // One loss for all residuals (Ceres evaluates it per residual): not one
   // allocation per observation. Declared first: it outlives the problem.
   const std::unique_ptr<ceres::LossFunction> loss(
@@ -455,12 +514,7 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   PositioningBlocks blocks(&centers, reconstruction);
-  for (const Observation& observation : observations) {
-    problem.AddResidualBlock(
-        ProjectedDirectionCost::Create(observation.direction), loss.get(),
-        blocks.centers.at(observation.image_id),
-        FindBlock(blocks.points, observation.point3D_id));
-  }
+  AddObservationResiduals(observations, loss.get(), blocks, &problem);
   problem.SetParameterBlockConstant(blocks.centers.at(gauge_image_id));
 
   SolverOptions solver = options.solver;
@@ -496,18 +550,8 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                       &problem, &prior_loss, &blocks, &centers, reconstruction,
                       &local_summary, &prior_from_model);
   if (options.max_angular_error_deg > 0) {
-    const double min_cos = std::cos(DegToRad(options.max_angular_error_deg));
-    for (const Observation& observation : observations) {
-      auto point_it = reconstruction->points3D.find(observation.point3D_id);
-      if (point_it == reconstruction->points3D.end()) continue;
-      const Eigen::Vector3d ray =
-          point_it->second.xyz - centers.at(observation.image_id);
-      if (ray.dot(observation.direction) < min_cos * ray.norm()) {
-        DeleteObservation(observation.image_id, observation.point2D_idx,
-                          reconstruction);
-        ++local_summary.num_observations_filtered;
-      }
-    }
+    FilterObservationsByAngle(options.max_angular_error_deg, observations,
+                              centers, reconstruction, &local_summary);
   }
   if (place) TransformModel(prior_from_model, &centers, reconstruction);
   for (auto& [image_id, image] : reconstruction->images) {

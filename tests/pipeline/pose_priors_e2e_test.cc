@@ -20,6 +20,16 @@
 namespace colmap_irav4 {
 namespace {
 
+// The mapper on one thread, with or without the database's priors.
+GlobalMapperSummary MapDatabase(const std::string& database, bool use_priors,
+                                const std::string& output) {
+  GlobalMapperOptions options;
+  options.num_threads = 1;
+  options.use_pose_priors = use_priors;
+  std::filesystem::create_directories(output);
+  return RunGlobalMapperOnDatabase(options, database, "", output, "BIN");
+}
+
 TEST(PosePriorsEndToEnd, ModelWrittenInThePriorFrame) {
   SceneGeneratorOptions scene_options;
   scene_options.num_images = 60;
@@ -35,13 +45,9 @@ TEST(PosePriorsEndToEnd, ModelWrittenInThePriorFrame) {
 
   for (const bool use_priors : {true, false}) {
     SCOPED_TRACE(use_priors ? "with priors" : "without");
-    GlobalMapperOptions options;
-    options.num_threads = 1;
-    options.use_pose_priors = use_priors;
     const std::string output = temp.File(use_priors ? "with" : "without");
-    std::filesystem::create_directories(output);
     const GlobalMapperSummary summary =
-        RunGlobalMapperOnDatabase(options, database, "", output, "BIN");
+        MapDatabase(database, use_priors, output);
     ASSERT_EQ(summary.components.size(), 1u);
     EXPECT_EQ(summary.components[0].in_prior_frame, use_priors);
     EXPECT_EQ(summary.pose_priors.num_positions, use_priors ? 60 : 0);
@@ -118,13 +124,9 @@ TEST(PosePriorsEndToEnd, DisconnectedPartsEachPlacedInThePriorFrame) {
 
   for (const bool use_priors : {true, false}) {
     SCOPED_TRACE(use_priors ? "with priors" : "without");
-    GlobalMapperOptions options;
-    options.num_threads = 1;
-    options.use_pose_priors = use_priors;
     const std::string output = temp.File(use_priors ? "with" : "without");
-    std::filesystem::create_directories(output);
     const GlobalMapperSummary summary =
-        RunGlobalMapperOnDatabase(options, database, "", output, "BIN");
+        MapDatabase(database, use_priors, output);
     ASSERT_EQ(summary.components.size(), 2u);
     EXPECT_FALSE(std::filesystem::exists(output + "/2"));
     for (int k = 0; k < 2; ++k) {

@@ -104,7 +104,7 @@ TEST(PosePriorsEndToEnd, DisconnectedPartsEachPlacedInThePriorFrame) {
   WriteSceneDatabase(scene, database);
   WritePosePriorsToDatabase(database, PosePriorSchema::kColmap4, priors.wgs84);
   {
-    // Cut every verified pair between images 1..18 and 19..36 (the two
+    // Cut every verified pair between images 1..20 and 21..40 (the two
     // halves of the loop).
     test::SqliteWriter writer(database);
     writer.Exec(

@@ -433,19 +433,37 @@ std::vector<int> PairsAcrossCorners(const GeneratedScene& scene) {
   return counts;
 }
 
-GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
-  options.Check();
-  std::mt19937_64 rng(options.seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  const int n = options.num_images;
-  const double path_length = n * options.image_spacing;
+namespace {
 
-  // Walls and the camera placement rule of the layout.
+// Street layout: half the street's width and the length of a facade module (m).
+constexpr double kStreetHalfWidth = 6;
+constexpr double kModuleLength = 6;
+
+// The one random stream of a scene. The steps draw from it in a fixed order
+// (a seed's scene depends on it), all through one normal distribution: the
+// standard library's may keep a second value for its next call.
+struct SceneRandom {
+  explicit SceneRandom(uint64_t seed) : rng(seed) {}
+  double Unit() { return unit(rng); }
+  double Normal() { return normal(rng); }
+  std::mt19937_64 rng;
+  std::uniform_real_distribution<double> unit{0.0, 1.0};
+  std::normal_distribution<double> normal{0.0, 1.0};
+};
+
+// The walls and the camera path of a layout.
+struct SceneGeometry {
   Layout layout;
+  RectLoop loop;                  // the camera loop (courtyard, tower)
+  double street_half_length = 0;  // street: half the camera path
+};
+
+SceneGeometry BuildGeometry(const SceneGeneratorOptions& options) {
+  const double path_length = options.num_images * options.image_spacing;
+  SceneGeometry geometry;
+  Layout& layout = geometry.layout;
+  RectLoop& loop = geometry.loop;
   layout.path_length = path_length;
-  RectLoop loop;
-  double street_half_length = 0, street_half_width = 6, module_length = 6;
   switch (options.layout) {
     case SceneLayout::kCourtyard: {
       // Cameras walk a loop ~5 m inside the walls.
@@ -467,486 +485,610 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
       break;
     }
     case SceneLayout::kStreet: {
-      street_half_length = std::max(15.0, 0.5 * path_length);
+      geometry.street_half_length = std::max(15.0, 0.5 * path_length);
       for (int side : {-1, 1}) {
         Wall wall;
-        wall.a = {-street_half_length - 10, side * street_half_width};
-        wall.b = {street_half_length + 10, side * street_half_width};
+        wall.a = {-geometry.street_half_length - 10, side * kStreetHalfWidth};
+        wall.b = {geometry.street_half_length + 10, side * kStreetHalfWidth};
         wall.y0 = 0;
         wall.y1 = 12.0;
         wall.normal = {0, -side};
         layout.walls.push_back(wall);
       }
-      layout.path_length = 2 * street_half_length;
+      layout.path_length = 2 * geometry.street_half_length;
       break;
     }
   }
+  return geometry;
+}
 
-  // Density along the walls (uneven with density_skew): a slow wave.
-  auto density_factor = [&](double arc) {
-    return (1 - options.density_skew) +
-           options.density_skew * 0.5 * (1 + std::sin(2 * kPi * arc / 23.0));
-  };
+// Density along the walls (uneven with density_skew): a slow wave.
+double DensityFactor(const SceneGeneratorOptions& options, double arc) {
+  return (1 - options.density_skew) +
+         options.density_skew * 0.5 * (1 + std::sin(2 * kPi * arc / 23.0));
+}
 
-  // Points: twins X, M X (the wall set is symmetric under M), then the unique
-  // fraction without twins.
-  PointCloud cloud;
-  std::vector<double> wall_cumulative_area;
-  double total_area = 0;
-  for (const Wall& wall : layout.walls) {
-    total_area += wall.Length() * (wall.y1 - wall.y0);
-    wall_cumulative_area.push_back(total_area);
+Eigen::Vector3d SampleWallPoint(const SceneGeneratorOptions& options,
+                                const Wall& wall, double along,
+                                SceneRandom* random) {
+  const Eigen::Vector2d dir = (wall.b - wall.a).normalized();
+  const Eigen::Vector2d ground = wall.a + along * dir;
+  const double y = wall.y0 + random->Unit() * (wall.y1 - wall.y0);
+  // Relief behind the wall plane (away from the viewers).
+  const double depth = options.wall_relief * random->Unit();
+  const Eigen::Vector2d p = ground - depth * wall.normal;
+  return Eigen::Vector3d(p.x(), y, p.y());
+}
+
+// Index of the wall M maps `wall` onto.
+int MirrorWall(const Layout& layout, int wall) {
+  const Eigen::Vector2d mid =
+      0.5 * (layout.walls[wall].a + layout.walls[wall].b);
+  for (size_t k = 0; k < layout.walls.size(); ++k) {
+    const Eigen::Vector2d other = 0.5 * (layout.walls[k].a + layout.walls[k].b);
+    if ((other + mid).norm() < 1e-6) return static_cast<int>(k);
   }
-  auto sample_wall_point = [&](int wall_idx, double along,
-                               Eigen::Vector3d* xyz) {
-    const Wall& wall = layout.walls[wall_idx];
-    const Eigen::Vector2d dir = (wall.b - wall.a).normalized();
-    const Eigen::Vector2d ground = wall.a + along * dir;
-    const double y = wall.y0 + unit(rng) * (wall.y1 - wall.y0);
-    // Relief behind the wall plane (away from the viewers).
-    const double depth = options.wall_relief * unit(rng);
-    const Eigen::Vector2d p = ground - depth * wall.normal;
-    *xyz = Eigen::Vector3d(p.x(), y, p.y());
-  };
+  LOG(FATAL) << "walls not symmetric";
+  return -1;
+}
+
+// Walls drawn in proportion to their area.
+class WallPicker {
+ public:
+  explicit WallPicker(const Layout& layout) {
+    for (const Wall& wall : layout.walls) {
+      total_area_ += wall.Length() * (wall.y1 - wall.y0);
+      cumulative_area_.push_back(total_area_);
+    }
+  }
+  double TotalArea() const { return total_area_; }
+  int Pick(SceneRandom* random) const {
+    return static_cast<int>(std::lower_bound(cumulative_area_.begin(),
+                                             cumulative_area_.end(),
+                                             random->Unit() * total_area_) -
+                            cumulative_area_.begin());
+  }
+
+ private:
+  std::vector<double> cumulative_area_;
+  double total_area_ = 0;
+};
+
+void AddPoint(const Eigen::Vector3d& xyz, int wall, int twin,
+              PointCloud* cloud) {
+  cloud->xyz.push_back(xyz);
+  cloud->wall.push_back(wall);
+  cloud->twin.push_back(twin);
+}
+
+// Street: repeated facade modules on the south wall, their twins on the north.
+void AddStreetTwins(const SceneGeneratorOptions& options, const Layout& layout,
+                    int64_t num_twin_pairs, SceneRandom* random,
+                    PointCloud* cloud) {
+  const Wall& south = layout.walls[0];
+  const double length = south.Length();
+  const int num_modules = static_cast<int>(std::ceil(length / kModuleLength));
+  const int per_module = static_cast<int>(
+      std::round(static_cast<double>(num_twin_pairs) / num_modules));
+  std::vector<Eigen::Vector3d> module_points;
+  for (int k = 0; k < per_module; ++k) {
+    module_points.push_back(SampleWallPoint(
+        options, south, random->Unit() * kModuleLength, random));
+  }
+  for (int m = 0; m < num_modules; ++m) {
+    for (const Eigen::Vector3d& base : module_points) {
+      const Eigen::Vector3d xyz =
+          base + Eigen::Vector3d(m * kModuleLength, 0, 0);
+      if (xyz.x() > south.b.x()) continue;
+      if (random->Unit() > DensityFactor(options, xyz.x() - south.a.x())) {
+        continue;
+      }
+      const int index = static_cast<int>(cloud->xyz.size());
+      AddPoint(xyz, 0, index + 1, cloud);
+      AddPoint(Mirror(xyz), 1, index, cloud);
+    }
+  }
+}
+
+void AddWallTwins(const SceneGeneratorOptions& options, const Layout& layout,
+                  const WallPicker& walls, int64_t num_twin_pairs,
+                  SceneRandom* random, PointCloud* cloud) {
+  for (int64_t k = 0; k < num_twin_pairs; ++k) {
+    const int wall = walls.Pick(random);
+    const double along = random->Unit() * layout.walls[wall].Length();
+    const Eigen::Vector3d xyz =
+        SampleWallPoint(options, layout.walls[wall], along, random);
+    if (random->Unit() > DensityFactor(options, along + 7.0 * wall)) continue;
+    const int index = static_cast<int>(cloud->xyz.size());
+    AddPoint(xyz, wall, index + 1, cloud);
+    AddPoint(Mirror(xyz), MirrorWall(layout, wall), index, cloud);
+  }
+}
+
+// Points: twins X, M X (the wall set is symmetric under M), then the unique
+// fraction without twins.
+PointCloud SamplePointCloud(const SceneGeneratorOptions& options,
+                            const Layout& layout, SceneRandom* random) {
+  const WallPicker walls(layout);
   // The tower's faces are seen whole from afar: a third of the density keeps
   // its images' keypoints comparable with the other layouts'.
   const double expected_points =
-      options.point_density * total_area *
+      options.point_density * walls.TotalArea() *
       (options.layout == SceneLayout::kTower ? 0.3 : 1.0);
   const int64_t num_twin_pairs = static_cast<int64_t>(
       std::round(0.5 * expected_points * (1 - options.unique_point_fraction)));
   const int64_t num_unique = static_cast<int64_t>(
       std::round(expected_points * options.unique_point_fraction));
-  auto add_point = [&](const Eigen::Vector3d& xyz, int wall, int twin) {
-    cloud.xyz.push_back(xyz);
-    cloud.wall.push_back(wall);
-    cloud.twin.push_back(twin);
-  };
-  // Index of the wall M maps `wall` onto.
-  auto mirror_wall = [&](int wall) {
-    const Eigen::Vector2d mid =
-        0.5 * (layout.walls[wall].a + layout.walls[wall].b);
-    for (size_t k = 0; k < layout.walls.size(); ++k) {
-      const Eigen::Vector2d other =
-          0.5 * (layout.walls[k].a + layout.walls[k].b);
-      if ((other + mid).norm() < 1e-6) return static_cast<int>(k);
-    }
-    LOG(FATAL) << "walls not symmetric";
-    return -1;
-  };
+  PointCloud cloud;
   if (options.layout == SceneLayout::kStreet) {
-    // Repeated facade modules on the south wall, their twins on the north.
-    const Wall& south = layout.walls[0];
-    const double length = south.Length();
-    const int num_modules = static_cast<int>(std::ceil(length / module_length));
-    const int per_module = static_cast<int>(
-        std::round(static_cast<double>(num_twin_pairs) / num_modules));
-    std::vector<Eigen::Vector3d> module_points;
-    for (int k = 0; k < per_module; ++k) {
-      Eigen::Vector3d xyz;
-      sample_wall_point(0, unit(rng) * module_length, &xyz);
-      module_points.push_back(xyz);
-    }
-    for (int m = 0; m < num_modules; ++m) {
-      for (const Eigen::Vector3d& base : module_points) {
-        const Eigen::Vector3d xyz =
-            base + Eigen::Vector3d(m * module_length, 0, 0);
-        if (xyz.x() > south.b.x()) continue;
-        if (unit(rng) > density_factor(xyz.x() - south.a.x())) continue;
-        const int index = static_cast<int>(cloud.xyz.size());
-        add_point(xyz, 0, index + 1);
-        add_point(Mirror(xyz), 1, index);
-      }
-    }
+    AddStreetTwins(options, layout, num_twin_pairs, random, &cloud);
   } else {
-    for (int64_t k = 0; k < num_twin_pairs; ++k) {
-      const int wall = static_cast<int>(
-          std::lower_bound(wall_cumulative_area.begin(),
-                           wall_cumulative_area.end(), unit(rng) * total_area) -
-          wall_cumulative_area.begin());
-      const double along = unit(rng) * layout.walls[wall].Length();
-      Eigen::Vector3d xyz;
-      sample_wall_point(wall, along, &xyz);
-      if (unit(rng) > density_factor(along + 7.0 * wall)) continue;
-      const int index = static_cast<int>(cloud.xyz.size());
-      add_point(xyz, wall, index + 1);
-      add_point(Mirror(xyz), mirror_wall(wall), index);
-    }
+    AddWallTwins(options, layout, walls, num_twin_pairs, random, &cloud);
   }
   for (int64_t k = 0; k < num_unique; ++k) {
-    const int wall = static_cast<int>(
-        std::lower_bound(wall_cumulative_area.begin(),
-                         wall_cumulative_area.end(), unit(rng) * total_area) -
-        wall_cumulative_area.begin());
-    Eigen::Vector3d xyz;
-    sample_wall_point(wall, unit(rng) * layout.walls[wall].Length(), &xyz);
-    add_point(xyz, wall, -1);
+    const int wall = walls.Pick(random);
+    const Eigen::Vector3d xyz =
+        SampleWallPoint(options, layout.walls[wall],
+                        random->Unit() * layout.walls[wall].Length(), random);
+    AddPoint(xyz, wall, -1, &cloud);
   }
-  const int64_t num_cloud_points = static_cast<int64_t>(cloud.xyz.size());
+  return cloud;
+}
 
-  // Grid over the ground plane for visibility queries.
-  const double cell = 4.0;
+// The cloud's points by cell of a grid over the ground plane, for
+// visibility queries.
+class VisibilityGrid {
+ public:
+  static constexpr double kCell = 4.0;
+
+  explicit VisibilityGrid(const PointCloud& cloud) {
+    for (size_t k = 0; k < cloud.xyz.size(); ++k) {
+      cells_[Key(CellIndex(cloud.xyz[k].x()), CellIndex(cloud.xyz[k].z()))]
+          .push_back(static_cast<int>(k));
+    }
+  }
+  static int64_t CellIndex(double coordinate) {
+    return static_cast<int64_t>(std::floor(coordinate / kCell));
+  }
+  // The points of cell (ix, iz); null if none.
+  const std::vector<int>* Find(int64_t ix, int64_t iz) const {
+    const auto it = cells_.find(Key(ix, iz));
+    return it == cells_.end() ? nullptr : &it->second;
+  }
+
+ private:
   // In unsigned arithmetic: a left shift of a negative cell index is
   // undefined behaviour (same bits as before where it was defined).
-  auto cell_key = [](int64_t ix, int64_t iz) {
+  static int64_t Key(int64_t ix, int64_t iz) {
     return static_cast<int64_t>((static_cast<uint64_t>(ix) << 32) ^
                                 (static_cast<uint64_t>(iz) & 0xffffffffu));
-  };
-  std::unordered_map<int64_t, std::vector<int>> grid;
-  for (int64_t k = 0; k < num_cloud_points; ++k) {
-    const int64_t ix =
-        static_cast<int64_t>(std::floor(cloud.xyz[k].x() / cell));
-    const int64_t iz =
-        static_cast<int64_t>(std::floor(cloud.xyz[k].z() / cell));
-    grid[cell_key(ix, iz)].push_back(static_cast<int>(k));
   }
+  std::unordered_map<int64_t, std::vector<int>> cells_;
+};
 
-  GeneratedScene scene;
-  scene.options = options;
-  Reconstruction& truth = scene.truth;
-  for (int c = 1; c <= options.num_cameras; ++c) {
-    truth.cameras[c] = MakeCamera(options, c, &rng);
-  }
-
-  // Camera path parameters: uniform, plus hot spots with density_skew.
+// Camera path parameters of the images, sorted: uniform, plus hot spots with
+// density_skew.
+std::vector<double> SamplePathParameters(const SceneGeneratorOptions& options,
+                                         double path_length,
+                                         SceneRandom* random) {
+  const int n = options.num_images;
   std::vector<double> hotspots;
   for (int h = 0; h < options.num_hotspots; ++h) {
-    hotspots.push_back(unit(rng) * layout.path_length);
+    hotspots.push_back(random->Unit() * path_length);
   }
   std::vector<double> params(n);
   for (int i = 0; i < n; ++i) {
-    if (unit(rng) < options.density_skew) {
+    if (random->Unit() < options.density_skew) {
       const double centre = hotspots[i % hotspots.size()];
-      params[i] = centre + normal(rng) * std::max(2.0, layout.path_length / 60);
+      params[i] = centre + random->Normal() * std::max(2.0, path_length / 60);
     } else {
-      params[i] = (i + unit(rng)) / n * layout.path_length;
+      params[i] = (i + random->Unit()) / n * path_length;
     }
   }
   std::sort(params.begin(), params.end());
-  scene.path_length = layout.path_length;
-  scene.image_path_positions.resize(n);
-  for (int i = 0; i < n; ++i) {
-    double along = std::fmod(params[i], layout.path_length);
-    if (along < 0) along += layout.path_length;
-    scene.image_path_positions[i] = along;
+  return params;
+}
+
+void RecordImagePathPositions(const SceneGeneratorOptions& options,
+                              const SceneGeometry& geometry,
+                              const std::vector<double>& params,
+                              GeneratedScene* scene) {
+  const double path_length = geometry.layout.path_length;
+  scene->path_length = path_length;
+  scene->image_path_positions.resize(params.size());
+  for (size_t i = 0; i < params.size(); ++i) {
+    double along = std::fmod(params[i], path_length);
+    if (along < 0) along += path_length;
+    scene->image_path_positions[i] = along;
   }
   if (options.layout != SceneLayout::kStreet) {
-    scene.path_corners = loop.Corners();
+    scene->path_corners = geometry.loop.Corners();
   }
+}
 
-  // Observations per point: (image, keypoint index).
-  std::vector<std::vector<TrackElement>> observations(num_cloud_points);
-  std::uniform_int_distribution<int> camera_pick(1, options.num_cameras);
-  for (int i = 0; i < n; ++i) {
-    const double s = params[i];
-    Eigen::Vector3d center;
-    Eigen::Vector3d forward;
-    const double yaw =
-        DegToRad(options.layout == SceneLayout::kTower ? 25.0 : 40.0) *
-        (2 * unit(rng) - 1);
-    double pitch = DegToRad(5 + 15 * unit(rng));
-    Eigen::Vector2d ground = Eigen::Vector2d::Zero();
-    Eigen::Vector2d facing = Eigen::Vector2d::UnitX();
-    switch (options.layout) {
-      case SceneLayout::kCourtyard: {
-        Eigen::Vector2d outward;
-        loop.At(s, &ground, &outward);
-        ground += 1.0 * (2 * unit(rng) - 1) * outward;
-        // Look at the nearest wall, turning gradually at the corners.
-        facing = loop.TurningOutward(s, options.corner_turn_length);
-        break;
-      }
-      case SceneLayout::kTower: {
-        Eigen::Vector2d outward;
-        loop.At(s, &ground, &outward);
-        // 8-30 m from the walls (the loop is 16 m out).
-        ground += (-8 + 22 * unit(rng)) * outward;
-        // (Seen whole from afar, the tower ties its loop's sides together
-        // at an abrupt turn too: no gradual turn needed.)
-        facing = -outward;
-        pitch = DegToRad(10 + 20 * unit(rng));
-        break;
-      }
-      case SceneLayout::kStreet: {
-        const double side = unit(rng) < 0.5 ? -1 : 1;
-        ground = {std::fmod(s, layout.path_length) - street_half_length,
-                  (2 * unit(rng) - 1) * 0.4 * street_half_width};
-        facing = {0, side};
-        break;
-      }
+// Image `image_id` at path parameter s: its camera, its pose, and (out) its
+// centre and viewing direction.
+Image PlaceImage(const SceneGeneratorOptions& options,
+                 const SceneGeometry& geometry, image_t image_id, double s,
+                 SceneRandom* random, Eigen::Vector3d* center,
+                 Eigen::Vector3d* forward) {
+  const double yaw =
+      DegToRad(options.layout == SceneLayout::kTower ? 25.0 : 40.0) *
+      (2 * random->Unit() - 1);
+  double pitch = DegToRad(5 + 15 * random->Unit());
+  Eigen::Vector2d ground = Eigen::Vector2d::Zero();
+  Eigen::Vector2d facing = Eigen::Vector2d::UnitX();
+  switch (options.layout) {
+    case SceneLayout::kCourtyard: {
+      Eigen::Vector2d outward;
+      geometry.loop.At(s, &ground, &outward);
+      ground += 1.0 * (2 * random->Unit() - 1) * outward;
+      // Look at the nearest wall, turning gradually at the corners.
+      facing = geometry.loop.TurningOutward(s, options.corner_turn_length);
+      break;
     }
-    const Eigen::Vector2d dir(
-        std::cos(yaw) * facing.x() - std::sin(yaw) * facing.y(),
-        std::sin(yaw) * facing.x() + std::cos(yaw) * facing.y());
-    center = Eigen::Vector3d(ground.x(), 1.6 + 0.3 * normal(rng), ground.y());
-    forward = Eigen::Vector3d(std::cos(pitch) * dir.x(), std::sin(pitch),
-                              std::cos(pitch) * dir.y());
-    Image image;
-    image.image_id = i + 1;
-    image.name = "image" + std::to_string(i + 1) + ".jpg";
-    image.camera_id = options.num_cameras == 1 ? 1 : camera_pick(rng);
-    const Camera& camera = truth.cameras.at(image.camera_id);
-    image.cam_from_world.rotation =
-        Eigen::Quaterniond(LookAlong(forward, DegToRad(3.0) * normal(rng)));
-    image.cam_from_world.translation =
-        -(image.cam_from_world.rotation * center);
-    const Eigen::Matrix3d R = image.cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Vector3d& t = image.cam_from_world.translation;
-    const double focal = CameraMeanFocalLength(camera);
-    const double max_u = 0.5 * camera.width / focal * 1.2;
-    const double max_v = 0.5 * camera.height / focal * 1.2;
-    const double range = options.max_view_distance;
-    const int64_t ix0 =
-        static_cast<int64_t>(std::floor((center.x() - range) / cell));
-    const int64_t ix1 =
-        static_cast<int64_t>(std::floor((center.x() + range) / cell));
-    const int64_t iz0 =
-        static_cast<int64_t>(std::floor((center.z() - range) / cell));
-    const int64_t iz1 =
-        static_cast<int64_t>(std::floor((center.z() + range) / cell));
-    const Eigen::Vector2d forward_ground(forward.x(), forward.z());
-    // Half the horizontal field of view plus 25 deg (roll, pitch, cell size).
-    const double min_cos =
-        std::cos(std::min(DegToRad(89.0), std::atan(max_u) + DegToRad(25.0)));
-    for (int64_t ix = ix0; ix <= ix1; ++ix) {
-      for (int64_t iz = iz0; iz <= iz1; ++iz) {
-        // Skip cells wholly behind the camera.
-        const Eigen::Vector2d cell_centre((ix + 0.5) * cell - center.x(),
-                                          (iz + 0.5) * cell - center.z());
-        if (cell_centre.dot(forward_ground.normalized()) < -cell) continue;
-        // ... and cells far outside the horizontal field of view.
-        if (cell_centre.norm() > 2 * cell &&
-            cell_centre.normalized().dot(forward_ground.normalized()) <
-                min_cos) {
+    case SceneLayout::kTower: {
+      Eigen::Vector2d outward;
+      geometry.loop.At(s, &ground, &outward);
+      // 8-30 m from the walls (the loop is 16 m out).
+      ground += (-8 + 22 * random->Unit()) * outward;
+      // (Seen whole from afar, the tower ties its loop's sides together
+      // at an abrupt turn too: no gradual turn needed.)
+      facing = -outward;
+      pitch = DegToRad(10 + 20 * random->Unit());
+      break;
+    }
+    case SceneLayout::kStreet: {
+      const double side = random->Unit() < 0.5 ? -1 : 1;
+      ground = {std::fmod(s, geometry.layout.path_length) -
+                    geometry.street_half_length,
+                (2 * random->Unit() - 1) * 0.4 * kStreetHalfWidth};
+      facing = {0, side};
+      break;
+    }
+  }
+  const Eigen::Vector2d dir(
+      std::cos(yaw) * facing.x() - std::sin(yaw) * facing.y(),
+      std::sin(yaw) * facing.x() + std::cos(yaw) * facing.y());
+  *center =
+      Eigen::Vector3d(ground.x(), 1.6 + 0.3 * random->Normal(), ground.y());
+  *forward = Eigen::Vector3d(std::cos(pitch) * dir.x(), std::sin(pitch),
+                             std::cos(pitch) * dir.y());
+  Image image;
+  image.image_id = image_id;
+  image.name = "image" + std::to_string(image_id) + ".jpg";
+  std::uniform_int_distribution<int> camera_pick(1, options.num_cameras);
+  image.camera_id = options.num_cameras == 1 ? 1 : camera_pick(random->rng);
+  image.cam_from_world.rotation =
+      Eigen::Quaterniond(LookAlong(*forward, DegToRad(3.0) * random->Normal()));
+  image.cam_from_world.translation = -(image.cam_from_world.rotation * *center);
+  return image;
+}
+
+// Keypoints of the cloud points `image` detects (within range, in front,
+// seen from the walls' front side); observations[k] gets (image, keypoint)
+// for cloud point k.
+void DetectPoints(const SceneGeneratorOptions& options, const Layout& layout,
+                  const PointCloud& cloud, const VisibilityGrid& grid,
+                  const Camera& camera, const Eigen::Vector3d& center,
+                  const Eigen::Vector3d& forward, SceneRandom* random,
+                  Image* image,
+                  std::vector<std::vector<TrackElement>>* observations) {
+  constexpr double cell = VisibilityGrid::kCell;
+  const Eigen::Matrix3d R = image->cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Vector3d& t = image->cam_from_world.translation;
+  const double focal = CameraMeanFocalLength(camera);
+  const double max_u = 0.5 * camera.width / focal * 1.2;
+  const double max_v = 0.5 * camera.height / focal * 1.2;
+  const double range = options.max_view_distance;
+  const int64_t ix0 = VisibilityGrid::CellIndex(center.x() - range);
+  const int64_t ix1 = VisibilityGrid::CellIndex(center.x() + range);
+  const int64_t iz0 = VisibilityGrid::CellIndex(center.z() - range);
+  const int64_t iz1 = VisibilityGrid::CellIndex(center.z() + range);
+  const Eigen::Vector2d forward_ground(forward.x(), forward.z());
+  // Half the horizontal field of view plus 25 deg (roll, pitch, cell size).
+  const double min_cos =
+      std::cos(std::min(DegToRad(89.0), std::atan(max_u) + DegToRad(25.0)));
+  for (int64_t ix = ix0; ix <= ix1; ++ix) {
+    for (int64_t iz = iz0; iz <= iz1; ++iz) {
+      // Skip cells wholly behind the camera.
+      const Eigen::Vector2d cell_centre((ix + 0.5) * cell - center.x(),
+                                        (iz + 0.5) * cell - center.z());
+      if (cell_centre.dot(forward_ground.normalized()) < -cell) continue;
+      // ... and cells far outside the horizontal field of view.
+      if (cell_centre.norm() > 2 * cell &&
+          cell_centre.normalized().dot(forward_ground.normalized()) < min_cos) {
+        continue;
+      }
+      const std::vector<int>* points = grid.Find(ix, iz);
+      if (points == nullptr) continue;
+      for (const int k : *points) {
+        const Eigen::Vector3d& X = cloud.xyz[k];
+        const Eigen::Vector3d in_cam = R * X + t;
+        if (in_cam.z() < 0.5 || in_cam.norm() > range) continue;
+        const Wall& wall = layout.walls[cloud.wall[k]];
+        if ((center.x() - X.x()) * wall.normal.x() +
+                (center.z() - X.z()) * wall.normal.y() <=
+            0) {
+          continue;  // seen from behind the wall
+        }
+        const Eigen::Vector2d uv = in_cam.hnormalized();
+        if (std::abs(uv.x()) > max_u || std::abs(uv.y()) > max_v) continue;
+        const Eigen::Vector2d xy = CameraCameraToImage(camera, uv);
+        if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera.width ||
+            xy.y() > camera.height) {
           continue;
         }
-        const auto it = grid.find(cell_key(ix, iz));
-        if (it == grid.end()) continue;
-        for (const int k : it->second) {
-          const Eigen::Vector3d& X = cloud.xyz[k];
-          const Eigen::Vector3d in_cam = R * X + t;
-          if (in_cam.z() < 0.5 || in_cam.norm() > range) continue;
-          const Wall& wall = layout.walls[cloud.wall[k]];
-          if ((center.x() - X.x()) * wall.normal.x() +
-                  (center.z() - X.z()) * wall.normal.y() <=
-              0) {
-            continue;  // seen from behind the wall
-          }
-          const Eigen::Vector2d uv = in_cam.hnormalized();
-          if (std::abs(uv.x()) > max_u || std::abs(uv.y()) > max_v) continue;
-          const Eigen::Vector2d xy = CameraCameraToImage(camera, uv);
-          if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera.width ||
-              xy.y() > camera.height) {
-            continue;
-          }
-          if (unit(rng) >= options.detection_probability) continue;
-          Point2D point2D = NoisyPoint2D(xy, options, camera, &rng);
-          point2D.point3D_id = static_cast<point3D_t>(k) + 1;
-          observations[k].push_back(
-              {image.image_id, static_cast<point2D_t>(image.points2D.size())});
-          image.points2D.push_back(point2D);
-        }
+        if (random->Unit() >= options.detection_probability) continue;
+        Point2D point2D = NoisyPoint2D(xy, options, camera, &random->rng);
+        point2D.point3D_id = static_cast<point3D_t>(k) + 1;
+        (*observations)[k].push_back(
+            {image->image_id, static_cast<point2D_t>(image->points2D.size())});
+        image->points2D.push_back(point2D);
       }
     }
-    SubsampleKeypoints(options, &image, &observations);
-    // Clutter keypoints: features of nothing.
-    const int num_clutter = static_cast<int>(
-        std::round(options.clutter_fraction * image.points2D.size()));
-    for (int k = 0; k < num_clutter; ++k) {
-      Point2D point2D;
-      point2D.xy = RandomVector<2>(unit, rng).cwiseProduct(
-          Eigen::Vector2d(camera.width, camera.height));
-      if (options.keypoint_scales) {
-        point2D.scale = static_cast<float>(
-            kMinKeypointScale +
-            (kMaxKeypointScale - kMinKeypointScale) * unit(rng));
-      }
-      image.points2D.push_back(point2D);
-    }
-    truth.images[image.image_id] = std::move(image);
   }
+}
 
-  // Points seen at least twice enter the model (id = cloud index + 1); the
-  // keypoints of the others become clutter.
-  scene.twin_of_point.assign(num_cloud_points + 1, kInvalidPoint3DId);
+// Clutter keypoints: features of nothing.
+void AddClutterKeypoints(const SceneGeneratorOptions& options,
+                         const Camera& camera, SceneRandom* random,
+                         Image* image) {
+  const int num_clutter = static_cast<int>(
+      std::round(options.clutter_fraction * image->points2D.size()));
+  for (int k = 0; k < num_clutter; ++k) {
+    Point2D point2D;
+    point2D.xy =
+        RandomVector<2>(random->unit, random->rng)
+            .cwiseProduct(Eigen::Vector2d(camera.width, camera.height));
+    if (options.keypoint_scales) {
+      point2D.scale = static_cast<float>(
+          kMinKeypointScale +
+          (kMaxKeypointScale - kMinKeypointScale) * random->Unit());
+    }
+    image->points2D.push_back(point2D);
+  }
+}
+
+// The images of `truth` (its cameras set), one per path parameter; returns
+// the observations of each cloud point: (image, keypoint index).
+std::vector<std::vector<TrackElement>> ObserveImages(
+    const SceneGeneratorOptions& options, const SceneGeometry& geometry,
+    const PointCloud& cloud, const std::vector<double>& params,
+    SceneRandom* random, Reconstruction* truth) {
+  const VisibilityGrid grid(cloud);
+  std::vector<std::vector<TrackElement>> observations(cloud.xyz.size());
+  for (int i = 0; i < options.num_images; ++i) {
+    Eigen::Vector3d center, forward;
+    Image image = PlaceImage(options, geometry, i + 1, params[i], random,
+                             &center, &forward);
+    const Camera& camera = truth->cameras.at(image.camera_id);
+    DetectPoints(options, geometry.layout, cloud, grid, camera, center, forward,
+                 random, &image, &observations);
+    SubsampleKeypoints(options, &image, &observations);
+    AddClutterKeypoints(options, camera, random, &image);
+    truth->images[image.image_id] = std::move(image);
+  }
+  return observations;
+}
+
+// Points seen at least twice enter the model (id = cloud index + 1), with
+// their twins in scene->twin_of_point; the keypoints of the others become
+// clutter.
+void KeepTrackedPoints(const PointCloud& cloud,
+                       std::vector<std::vector<TrackElement>>* observations,
+                       GeneratedScene* scene) {
+  Reconstruction& truth = scene->truth;
+  const int64_t num_cloud_points = static_cast<int64_t>(cloud.xyz.size());
+  scene->twin_of_point.assign(num_cloud_points + 1, kInvalidPoint3DId);
   for (int64_t k = 0; k < num_cloud_points; ++k) {
-    if (observations[k].size() < 2) {
-      for (const TrackElement& element : observations[k]) {
+    std::vector<TrackElement>& track = (*observations)[k];
+    if (track.size() < 2) {
+      for (const TrackElement& element : track) {
         truth.images.at(element.image_id)
             .points2D[element.point2D_idx]
             .point3D_id = kInvalidPoint3DId;
       }
-      observations[k].clear();
-      observations[k].shrink_to_fit();
+      track.clear();
+      track.shrink_to_fit();
       continue;
     }
     Point3D point;
     point.xyz = cloud.xyz[k];
     point.color = Eigen::Matrix<uint8_t, 3, 1>(128, 128, 128);
-    point.track = std::move(observations[k]);
+    point.track = std::move(track);
     truth.points3D.emplace_hint(truth.points3D.end(), k + 1, std::move(point));
   }
   for (const auto& [point3D_id, point] : truth.points3D) {
     const int twin = cloud.twin[point3D_id - 1];
     if (twin >= 0 && truth.points3D.count(twin + 1)) {
-      scene.twin_of_point[point3D_id] = twin + 1;
+      scene->twin_of_point[point3D_id] = twin + 1;
     }
   }
-  observations.clear();
+}
 
-  // Pairs from the tracks: shared points (true) and twin-shared points
-  // (mirror: image i sees M X where image j sees X), counted per first image
-  // with dense counters.
-  struct Candidate {
-    image_t image_id1, image_id2;
-    int count;
-    double match_rate = 1.0;
-  };
-  std::vector<const std::vector<TrackElement>*> track_of(num_cloud_points + 1,
+struct Candidate {
+  image_t image_id1, image_id2;
+  int count;
+  double match_rate = 1.0;
+};
+
+struct PairCandidates {
+  std::vector<Candidate> true_pairs;
+  std::vector<Candidate> mirror;
+};
+
+// Dense counters of the points one first image shares with each later image,
+// reset after each first image; with viewpoint-dependent match rates also
+// their sums (PairMatchRate).
+struct SharedPointCounts {
+  SharedPointCounts(int num_images, bool with_sums) : count(num_images + 1, 0) {
+    if (with_sums) sum.assign(num_images + 1, Eigen::Vector3d::Zero());
+  }
+  void Add(image_t other, const Eigen::Vector3d& xyz) {
+    if (count[other]++ == 0) touched.push_back(other);
+    if (!sum.empty()) sum[other] += xyz;
+  }
+  void Clear() {
+    for (const image_t other : touched) {
+      count[other] = 0;
+      if (!sum.empty()) sum[other].setZero();
+    }
+    touched.clear();
+  }
+  std::vector<int> count;
+  std::vector<Eigen::Vector3d> sum;
+  std::vector<image_t> touched;
+};
+
+// Pairs from the tracks: shared points (true) and twin-shared points
+// (mirror: image i sees M X where image j sees X), counted per first image.
+PairCandidates FindCandidatePairs(const SceneGeneratorOptions& options,
+                                  const PointCloud& cloud,
+                                  const GeneratedScene& scene) {
+  const int n = options.num_images;
+  const Reconstruction& truth = scene.truth;
+  std::vector<const std::vector<TrackElement>*> track_of(cloud.xyz.size() + 1,
                                                          nullptr);
   for (const auto& [point3D_id, point] : truth.points3D)
     track_of[point3D_id] = &point.track;
-  std::vector<Candidate> true_pairs, mirror_candidates;
-  std::vector<int> count(n + 1, 0), mirror_count(n + 1, 0);
-  std::vector<image_t> touched, mirror_touched;
   // With viewpoint-dependent match rates: the sums of the shared (true) and
   // twin-shared (mirror: the points the second image sees) points, and the
   // camera centres (PairMatchRate).
   const bool viewpoint_rates = ViewpointMatchRates(options);
-  std::vector<Eigen::Vector3d> shared_sum, mirror_sum, centers(n + 1);
+  std::vector<Eigen::Vector3d> centers(n + 1);
   if (viewpoint_rates) {
-    shared_sum.assign(n + 1, Eigen::Vector3d::Zero());
-    mirror_sum.assign(n + 1, Eigen::Vector3d::Zero());
     for (const auto& [image_id, image] : truth.images) {
       centers[image_id] = image.cam_from_world.Inverse().translation;
     }
   }
+  SharedPointCounts shared(n, viewpoint_rates), mirrored(n, viewpoint_rates);
+  PairCandidates candidates;
   for (const auto& [image_id, image] : truth.images) {
     for (const Point2D& point2D : image.points2D) {
       if (point2D.point3D_id == kInvalidPoint3DId) continue;
       for (const TrackElement& element : *track_of[point2D.point3D_id]) {
         if (element.image_id <= image_id) continue;
-        if (count[element.image_id]++ == 0) touched.push_back(element.image_id);
-        if (viewpoint_rates) {
-          shared_sum[element.image_id] += cloud.xyz[point2D.point3D_id - 1];
-        }
+        shared.Add(element.image_id, cloud.xyz[point2D.point3D_id - 1]);
       }
       const point3D_t twin = scene.twin_of_point[point2D.point3D_id];
       if (twin == kInvalidPoint3DId) continue;
       for (const TrackElement& element : *track_of[twin]) {
         if (element.image_id <= image_id) continue;
-        if (mirror_count[element.image_id]++ == 0) {
-          mirror_touched.push_back(element.image_id);
-        }
-        if (viewpoint_rates)
-          mirror_sum[element.image_id] += cloud.xyz[twin - 1];
+        mirrored.Add(element.image_id, cloud.xyz[twin - 1]);
       }
     }
-    std::sort(touched.begin(), touched.end());
-    std::sort(mirror_touched.begin(), mirror_touched.end());
-    for (const image_t other : touched) {
+    std::sort(shared.touched.begin(), shared.touched.end());
+    std::sort(mirrored.touched.begin(), mirrored.touched.end());
+    for (const image_t other : shared.touched) {
+      const double rate =
+          viewpoint_rates
+              ? PairMatchRate(options, centers[image_id], centers[other],
+                              shared.sum[other] / shared.count[other],
+                              ImagePairToPairId(image_id, other))
+              : 1.0;
+      if (shared.count[other] * rate >= options.min_num_inliers) {
+        candidates.true_pairs.push_back(
+            {image_id, other, shared.count[other], rate});
+      }
+    }
+    for (const image_t other : mirrored.touched) {
       // A mirror pair is the true pair of image_id's twin (centre M c) and
       // other, on the points other sees.
       const double rate =
           viewpoint_rates
-              ? PairMatchRate(options, centers[image_id], centers[other],
-                              shared_sum[other] / count[other],
-                              ImagePairToPairId(image_id, other))
-              : 1.0;
-      if (count[other] * rate >= options.min_num_inliers) {
-        true_pairs.push_back({image_id, other, count[other], rate});
-      }
-    }
-    for (const image_t other : mirror_touched) {
-      const double rate =
-          viewpoint_rates
               ? PairMatchRate(options, Mirror(centers[image_id]),
                               centers[other],
-                              mirror_sum[other] / mirror_count[other],
+                              mirrored.sum[other] / mirrored.count[other],
                               ImagePairToPairId(image_id, other))
               : 1.0;
-      if (mirror_count[other] * options.false_pair_inlier_fraction * rate >=
+      if (mirrored.count[other] * options.false_pair_inlier_fraction * rate >=
               options.min_num_inliers &&
-          mirror_count[other] > count[other]) {
-        mirror_candidates.push_back(
-            {image_id, other, mirror_count[other], rate});
+          mirrored.count[other] > shared.count[other]) {
+        candidates.mirror.push_back(
+            {image_id, other, mirrored.count[other], rate});
       }
     }
-    for (const image_t other : touched) {
-      count[other] = 0;
-      if (viewpoint_rates) shared_sum[other].setZero();
-    }
-    for (const image_t other : mirror_touched) {
-      mirror_count[other] = 0;
-      if (viewpoint_rates) mirror_sum[other].setZero();
-    }
-    touched.clear();
-    mirror_touched.clear();
+    shared.Clear();
+    mirrored.Clear();
   }
+  return candidates;
+}
 
-  // Each image's best pairs only, if asked.
-  if (options.max_pairs_per_image > 0) {
-    std::vector<std::vector<std::pair<int, size_t>>> by_image(n + 1);
-    for (size_t k = 0; k < true_pairs.size(); ++k) {
-      by_image[true_pairs[k].image_id1].push_back({true_pairs[k].count, k});
-      by_image[true_pairs[k].image_id2].push_back({true_pairs[k].count, k});
-    }
-    std::vector<char> keep(true_pairs.size(), 0);
-    for (auto& list : by_image) {
-      std::sort(list.begin(), list.end(), [](const auto& a, const auto& b) {
-        return a.first != b.first ? a.first > b.first : a.second < b.second;
-      });
-      for (size_t k = 0; k < list.size() &&
-                         k < static_cast<size_t>(options.max_pairs_per_image);
-           ++k) {
-        keep[list[k].second] = 1;
-      }
-    }
-    std::vector<Candidate> kept;
-    for (size_t k = 0; k < true_pairs.size(); ++k) {
-      if (keep[k]) kept.push_back(true_pairs[k]);
-    }
-    true_pairs.swap(kept);
+// Each image's best max_pairs_per_image pairs only (by count, then order).
+void KeepBestPairsPerImage(int num_images, int max_pairs_per_image,
+                           std::vector<Candidate>* pairs) {
+  std::vector<std::vector<std::pair<int, size_t>>> by_image(num_images + 1);
+  for (size_t k = 0; k < pairs->size(); ++k) {
+    by_image[(*pairs)[k].image_id1].push_back({(*pairs)[k].count, k});
+    by_image[(*pairs)[k].image_id2].push_back({(*pairs)[k].count, k});
   }
+  std::vector<char> keep(pairs->size(), 0);
+  for (auto& list : by_image) {
+    std::sort(list.begin(), list.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    for (size_t k = 0;
+         k < list.size() && k < static_cast<size_t>(max_pairs_per_image); ++k) {
+      keep[list[k].second] = 1;
+    }
+  }
+  std::vector<Candidate> kept;
+  for (size_t k = 0; k < pairs->size(); ++k) {
+    if (keep[k]) kept.push_back((*pairs)[k]);
+  }
+  pairs->swap(kept);
+}
 
-  // Mirror pairs: random candidates until they make mirror_pair_rate of all
-  // pairs; one replaces the true pair of the same images if there is one.
-  std::unordered_map<image_pair_t, size_t> pair_index;
+// The written pairs so far and where each is in `pairs`.
+struct PairList {
   std::vector<GeneratedPair> pairs;
+  std::unordered_map<image_pair_t, size_t> index;
+};
+
+GeneratedPair PairFromCandidate(const Candidate& candidate, PairKind kind) {
+  GeneratedPair pair;
+  pair.image_id1 = candidate.image_id1;
+  pair.image_id2 = candidate.image_id2;
+  pair.kind = kind;
+  pair.num_candidates = candidate.count;
+  pair.match_rate = candidate.match_rate;
+  return pair;
+}
+
+PairList TruePairs(const std::vector<Candidate>& true_pairs) {
+  PairList list;
   for (const Candidate& candidate : true_pairs) {
-    GeneratedPair pair;
-    pair.image_id1 = candidate.image_id1;
-    pair.image_id2 = candidate.image_id2;
-    pair.kind = PairKind::kTrue;
-    pair.num_candidates = candidate.count;
-    pair.match_rate = candidate.match_rate;
-    pair_index[ImagePairToPairId(pair.image_id1, pair.image_id2)] =
-        pairs.size();
-    pairs.push_back(pair);
+    const GeneratedPair pair = PairFromCandidate(candidate, PairKind::kTrue);
+    list.index[ImagePairToPairId(pair.image_id1, pair.image_id2)] =
+        list.pairs.size();
+    list.pairs.push_back(pair);
   }
-  scene.num_mirror_candidates = static_cast<int>(mirror_candidates.size());
-  std::shuffle(mirror_candidates.begin(), mirror_candidates.end(), rng);
+  return list;
+}
+
+// Mirror pairs: random candidates until they make mirror_pair_rate of all
+// pairs; one replaces the true pair of the same images if there is one.
+void AddMirrorPairs(const SceneGeneratorOptions& options,
+                    std::vector<Candidate> mirror_candidates,
+                    SceneRandom* random, PairList* list) {
+  std::shuffle(mirror_candidates.begin(), mirror_candidates.end(), random->rng);
   int num_mirror = 0;
-  int64_t num_pairs = static_cast<int64_t>(pairs.size());
+  int64_t num_pairs = static_cast<int64_t>(list->pairs.size());
   for (const Candidate& candidate : mirror_candidates) {
     if (num_pairs == 0 ||
         num_mirror >= options.mirror_pair_rate * num_pairs - 1e-9) {
       break;
     }
-    GeneratedPair pair;
-    pair.image_id1 = candidate.image_id1;
-    pair.image_id2 = candidate.image_id2;
-    pair.kind = PairKind::kMirror;
-    pair.num_candidates = candidate.count;
-    pair.match_rate = candidate.match_rate;
+    const GeneratedPair pair = PairFromCandidate(candidate, PairKind::kMirror);
     const image_pair_t pair_id =
         ImagePairToPairId(pair.image_id1, pair.image_id2);
-    const auto it = pair_index.find(pair_id);
-    if (it != pair_index.end()) {
-      pairs[it->second] = pair;
+    const auto it = list->index.find(pair_id);
+    if (it != list->index.end()) {
+      list->pairs[it->second] = pair;
     } else {
-      pair_index[pair_id] = pairs.size();
-      pairs.push_back(pair);
+      list->index[pair_id] = list->pairs.size();
+      list->pairs.push_back(pair);
       ++num_pairs;
     }
     ++num_mirror;
@@ -956,73 +1098,91 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
                  << mirror_candidates.size() << " candidates), fewer than "
                  << options.mirror_pair_rate * 100 << "% of " << num_pairs;
   }
+}
 
-  // Random false pairs: inliers consistent with a random relative pose, whose
-  // second keypoints are new clutter keypoints of image_id2.
+// Up to `target` inliers of a random false pair consistent with its relative
+// pose: keypoints of image1 and, for each, a new clutter keypoint of image2.
+void AddRandomPairInliers(const SceneGeneratorOptions& options,
+                          const Image& image1, const Camera& camera1,
+                          const Camera& camera2, int target,
+                          SceneRandom* random, Image* image2,
+                          GeneratedPair* pair) {
+  const Rigid3d& pose = pair->random_cam2_from_cam1;
+  std::uniform_int_distribution<point2D_t> keypoint_pick(
+      0, image1.points2D.size() - 1);
+  std::unordered_set<point2D_t> used;
+  for (int tries = 0; tries < 20 * target &&
+                      static_cast<int>(pair->random_inliers.size()) < target;
+       ++tries) {
+    const point2D_t idx1 = keypoint_pick(random->rng);
+    if (!used.insert(idx1).second) continue;
+    const Eigen::Vector2d x1 =
+        CameraImageToCamera(camera1, image1.points2D[idx1].xy);
+    const Eigen::Vector3d X1 = (3 + 27 * random->Unit()) * x1.homogeneous();
+    const Eigen::Vector3d X2 = pose * X1;
+    if (X2.z() < 0.5) continue;
+    const Eigen::Vector2d uv = X2.hnormalized();
+    if (std::abs(uv.x()) > 1.5 || std::abs(uv.y()) > 1.5) continue;
+    Eigen::Vector2d xy = CameraCameraToImage(camera2, uv);
+    if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera2.width ||
+        xy.y() > camera2.height) {
+      continue;
+    }
+    const Point2D point2D = NoisyPoint2D(xy, options, camera2, &random->rng);
+    pair->random_inliers.push_back(
+        {idx1, static_cast<point2D_t>(image2->points2D.size())});
+    image2->points2D.push_back(point2D);
+  }
+}
+
+// Random false pairs (random_pair_rate of all pairs): inliers consistent with
+// a random relative pose, whose second keypoints are new clutter keypoints of
+// image_id2.
+void AddRandomPairs(const SceneGeneratorOptions& options, SceneRandom* random,
+                    Reconstruction* truth, PairList* list) {
+  const int64_t num_pairs = static_cast<int64_t>(list->pairs.size());
   const int64_t num_random = static_cast<int64_t>(std::round(
       options.random_pair_rate * num_pairs / (1 - options.random_pair_rate)));
-  std::uniform_int_distribution<image_t> image_pick(1, n);
+  std::uniform_int_distribution<image_t> image_pick(1, options.num_images);
   for (int64_t r = 0, attempts = 0;
        r < num_random && attempts < 100 * num_random + 100; ++attempts) {
-    image_t id1 = image_pick(rng), id2 = image_pick(rng);
+    image_t id1 = image_pick(random->rng), id2 = image_pick(random->rng);
     if (id1 == id2) continue;
     if (id1 > id2) std::swap(id1, id2);
     const image_pair_t pair_id = ImagePairToPairId(id1, id2);
-    if (pair_index.count(pair_id)) continue;
-    Image& image1 = truth.images.at(id1);
-    Image& image2 = truth.images.at(id2);
+    if (list->index.count(pair_id)) continue;
+    Image& image1 = truth->images.at(id1);
+    Image& image2 = truth->images.at(id2);
     if (image1.points2D.empty()) continue;
-    const Camera& camera1 = truth.cameras.at(image1.camera_id);
-    const Camera& camera2 = truth.cameras.at(image2.camera_id);
     // Random rotation up to 30 deg, random unit translation.
-    const Eigen::Vector3d axis = RandomVector<3>(normal, rng);
-    Rigid3d pose;
-    pose.rotation = Eigen::Quaterniond(
-        Eigen::AngleAxisd(DegToRad(30.0) * unit(rng), axis.normalized()));
-    pose.translation = RandomVector<3>(normal, rng).normalized();
-    const int target =
-        options.min_num_inliers +
-        static_cast<int>(unit(rng) * 2 * options.min_num_inliers);
+    const Eigen::Vector3d axis = RandomVector<3>(random->normal, random->rng);
     GeneratedPair pair;
     pair.image_id1 = id1;
     pair.image_id2 = id2;
     pair.kind = PairKind::kRandom;
-    pair.random_cam2_from_cam1 = pose;
-    std::uniform_int_distribution<point2D_t> keypoint_pick(
-        0, image1.points2D.size() - 1);
-    std::unordered_set<point2D_t> used;
-    for (int tries = 0; tries < 20 * target &&
-                        static_cast<int>(pair.random_inliers.size()) < target;
-         ++tries) {
-      const point2D_t idx1 = keypoint_pick(rng);
-      if (!used.insert(idx1).second) continue;
-      const Eigen::Vector2d x1 =
-          CameraImageToCamera(camera1, image1.points2D[idx1].xy);
-      const Eigen::Vector3d X1 = (3 + 27 * unit(rng)) * x1.homogeneous();
-      const Eigen::Vector3d X2 = pose * X1;
-      if (X2.z() < 0.5) continue;
-      const Eigen::Vector2d uv = X2.hnormalized();
-      if (std::abs(uv.x()) > 1.5 || std::abs(uv.y()) > 1.5) continue;
-      Eigen::Vector2d xy = CameraCameraToImage(camera2, uv);
-      if (xy.x() < 0 || xy.y() < 0 || xy.x() > camera2.width ||
-          xy.y() > camera2.height) {
-        continue;
-      }
-      const Point2D point2D = NoisyPoint2D(xy, options, camera2, &rng);
-      pair.random_inliers.push_back(
-          {idx1, static_cast<point2D_t>(image2.points2D.size())});
-      image2.points2D.push_back(point2D);
-    }
+    pair.random_cam2_from_cam1.rotation = Eigen::Quaterniond(
+        Eigen::AngleAxisd(DegToRad(30.0) * random->Unit(), axis.normalized()));
+    pair.random_cam2_from_cam1.translation =
+        RandomVector<3>(random->normal, random->rng).normalized();
+    const int target =
+        options.min_num_inliers +
+        static_cast<int>(random->Unit() * 2 * options.min_num_inliers);
+    AddRandomPairInliers(options, image1, truth->cameras.at(image1.camera_id),
+                         truth->cameras.at(image2.camera_id), target, random,
+                         &image2, &pair);
     if (static_cast<int>(pair.random_inliers.size()) <
         options.min_num_inliers) {
       continue;  // its clutter keypoints stay: harmless
     }
     pair.num_candidates = static_cast<int>(pair.random_inliers.size());
-    pair_index[pair_id] = pairs.size();
-    pairs.push_back(std::move(pair));
+    list->index[pair_id] = list->pairs.size();
+    list->pairs.push_back(std::move(pair));
     ++r;
   }
+}
 
+// The pairs in (image_id1, image_id2) order, counted by kind.
+void SetScenePairs(std::vector<GeneratedPair> pairs, GeneratedScene* scene) {
   std::sort(pairs.begin(), pairs.end(),
             [](const GeneratedPair& a, const GeneratedPair& b) {
               return a.image_id1 != b.image_id1 ? a.image_id1 < b.image_id1
@@ -1031,17 +1191,50 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   for (const GeneratedPair& pair : pairs) {
     switch (pair.kind) {
       case PairKind::kTrue:
-        ++scene.num_true_pairs;
+        ++scene->num_true_pairs;
         break;
       case PairKind::kMirror:
-        ++scene.num_mirror_pairs;
+        ++scene->num_mirror_pairs;
         break;
       case PairKind::kRandom:
-        ++scene.num_random_pairs;
+        ++scene->num_random_pairs;
         break;
     }
   }
-  scene.pairs = std::move(pairs);
+  scene->pairs = std::move(pairs);
+}
+
+}  // namespace
+
+GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
+  options.Check();
+  SceneRandom random(options.seed);
+  const SceneGeometry geometry = BuildGeometry(options);
+  const PointCloud cloud = SamplePointCloud(options, geometry.layout, &random);
+
+  GeneratedScene scene;
+  scene.options = options;
+  for (int c = 1; c <= options.num_cameras; ++c) {
+    scene.truth.cameras[c] = MakeCamera(options, c, &random.rng);
+  }
+  const std::vector<double> params =
+      SamplePathParameters(options, geometry.layout.path_length, &random);
+  RecordImagePathPositions(options, geometry, params, &scene);
+  std::vector<std::vector<TrackElement>> observations =
+      ObserveImages(options, geometry, cloud, params, &random, &scene.truth);
+  KeepTrackedPoints(cloud, &observations, &scene);
+  observations.clear();
+
+  PairCandidates candidates = FindCandidatePairs(options, cloud, scene);
+  if (options.max_pairs_per_image > 0) {
+    KeepBestPairsPerImage(options.num_images, options.max_pairs_per_image,
+                          &candidates.true_pairs);
+  }
+  PairList pairs = TruePairs(candidates.true_pairs);
+  scene.num_mirror_candidates = static_cast<int>(candidates.mirror.size());
+  AddMirrorPairs(options, std::move(candidates.mirror), &random, &pairs);
+  AddRandomPairs(options, &random, &scene.truth, &pairs);
+  SetScenePairs(std::move(pairs.pairs), &scene);
   return scene;
 }
 

@@ -314,6 +314,446 @@ RateModel WeakPairCut(const FoldDetectionOptions& options,
   return model;
 }
 
+// The verified pairs the model agrees with (consistent) or contradicts.
+struct JudgedPairs {
+  std::vector<std::pair<int, int>> consistent;  // (node, node)
+  std::vector<int> consistent_inliers;
+  std::vector<int> inconsistent_inliers;
+  std::vector<int> contradicted;  // per node: contradicted pairs at it
+};
+
+// One fold check's registered images (views, by node), its verified pairs
+// and the overlap the model predicts between the views; its steps fill a
+// FoldReport (DetectFold).
+class FoldDetector {
+ public:
+  FoldDetector(const FoldDetectionOptions& options,
+               const Reconstruction& reconstruction,
+               const FoldEvidence& evidence, const std::vector<Track>* tracks);
+
+  int NumViews() const { return static_cast<int>(views_.size()); }
+  // Image id -> node.
+  const std::map<image_t, int>& Index() const { return index_; }
+
+  // expected_ and predicted_: the points of each view another should match,
+  // and the pairs predicted to overlap (and tried).
+  void PredictOverlap();
+  // The verified pairs with a rotation and enough inliers, judged against
+  // the model's rotations; report->pair_support for the consistent ones.
+  JudgedPairs JudgeVerifiedPairs(FoldReport* report) const;
+  // Counts the predicted pairs without matches (report's missing and
+  // predicted pairs) and drops those not expected to pass verification;
+  // returns each node's predicted neighbours.
+  std::vector<std::vector<int>> CountMissingPairs(const RateModel& rates,
+                                                  FoldReport* report);
+  void FindWeakAloneImages(const RateModel& rates,
+                           const std::vector<int>& contradicted,
+                           FoldReport* report) const;
+  void FindSuspectPairs(
+      const std::vector<std::pair<int, int>>& consistent,
+      const std::vector<std::vector<int>>& predicted_neighbours,
+      FoldReport* report) const;
+  void CountContradictoryTracks(FoldReport* report) const;
+
+ private:
+  // Of view i: the points of i that view j should match, with the sum of
+  // the angles between the two rays to them.
+  struct Expected {
+    int j = 0;
+    int count = 0;
+    double angle_sum_deg = 0;
+  };
+
+  void CollectViews(const std::vector<Track>* tracks);
+  void ComputeExpectedOverlap();
+  bool Matched(image_t a, image_t b) const;
+  bool Tried(image_t a, image_t b) const;
+  const Expected* FindExpected(int i, int j) const;
+  int ExpectedCount(int i, int j) const;
+  bool IsPredicted(int i, int j) const;
+  double ScaledCount(int i, int j) const;
+  double MeanViewAngle(int i, int j) const;
+
+  const FoldDetectionOptions& options_;
+  const Reconstruction& reconstruction_;
+  const FoldEvidence& evidence_;
+  std::vector<View> views_;
+  std::map<image_t, int> index_;
+  std::map<std::pair<image_t, image_t>, const PairEvidence*> by_pair_;
+  // Sparse: expected_[i] holds the views j with points of i that j should
+  // match, by increasing j.
+  std::vector<std::vector<Expected>> expected_;
+  std::set<std::pair<int, int>> predicted_;  // (i, j), i < j
+};
+
+FoldDetector::FoldDetector(const FoldDetectionOptions& options,
+                           const Reconstruction& reconstruction,
+                           const FoldEvidence& evidence,
+                           const std::vector<Track>* tracks)
+    : options_(options), reconstruction_(reconstruction), evidence_(evidence) {
+  CollectViews(tracks);
+  for (const PairEvidence& pair : evidence.pairs) {
+    if (!index_.count(pair.image_id1) || !index_.count(pair.image_id2)) {
+      continue;
+    }
+    by_pair_[Ordered(pair.image_id1, pair.image_id2)] = &pair;
+  }
+}
+
+// The registered images with a sample of their model points.
+void FoldDetector::CollectViews(const std::vector<Track>* tracks) {
+  std::map<image_t, int> track_points;  // image -> observations in tracks
+  if (tracks != nullptr) {
+    for (const Track& track : *tracks) {
+      for (const TrackElement& element : track) {
+        ++track_points[element.image_id];
+      }
+    }
+  }
+  for (const auto& [image_id, image] : reconstruction_.images) {
+    View view;
+    view.image_id = image_id;
+    view.camera = &reconstruction_.cameras.at(image.camera_id);
+    view.R = image.cam_from_world.rotation.normalized().toRotationMatrix();
+    view.t = image.cam_from_world.translation;
+    view.center = -view.R.transpose() * view.t;
+    view.axis = view.R.row(2).transpose();
+    std::vector<point3D_t> ids;
+    for (const Point2D& point2D : image.points2D) {
+      if (point2D.point3D_id != kInvalidPoint3DId &&
+          reconstruction_.points3D.count(point2D.point3D_id)) {
+        ids.push_back(point2D.point3D_id);
+      }
+    }
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    view.num_points = static_cast<int>(ids.size());
+    const auto image_track_points = track_points.find(image_id);
+    view.num_scaled_points =
+        image_track_points != track_points.end()
+            ? std::max(image_track_points->second, view.num_points)
+            : view.num_points;
+    const size_t n =
+        std::min<size_t>(ids.size(), options_.max_points_per_image);
+    for (size_t k = 0; k < n; ++k) {
+      // Evenly spaced over the sorted ids: deterministic.
+      view.points.push_back(
+          reconstruction_.points3D.at(ids[k * ids.size() / n]).xyz);
+      view.radius =
+          std::max(view.radius, (view.points.back() - view.center).norm());
+    }
+    index_[image_id] = static_cast<int>(views_.size());
+    views_.push_back(std::move(view));
+  }
+}
+
+bool FoldDetector::Matched(image_t a, image_t b) const {
+  const auto it = by_pair_.find(Ordered(a, b));
+  return it != by_pair_.end() &&
+         it->second->num_inliers >= options_.min_num_matches;
+}
+
+// Matching was attempted: verified (or at least its raw matches too few
+// to verify); raw matches without a verification say nothing.
+bool FoldDetector::Tried(image_t a, image_t b) const {
+  const auto it = by_pair_.find(Ordered(a, b));
+  if (it == by_pair_.end()) return evidence_.absent_pairs_were_tried;
+  const PairEvidence& pair = *it->second;
+  return pair.num_matches < options_.min_num_matches || pair.verified ||
+         pair.has_rotation || pair.num_inliers > 0;
+}
+
+// Two cameras whose optical axes are further apart than the view angle
+// plus both half fields of view cannot share a point, nor can two cameras
+// further apart than the view angle and scale ratio allow for the points
+// one of them sees (MaxCenterDistanceFactor): skip them cheaply, so that
+// the cost is images^2 distance tests plus the points of the pairs that
+// are near each other (exact: only pairs that expect no point are skipped).
+void FoldDetector::ComputeExpectedOverlap() {
+  const int num_views = NumViews();
+  const double cos_max_angle =
+      std::cos(options_.max_view_angle_deg * kDegToRad);
+  const double distance_factor =
+      MaxCenterDistanceFactor(cos_max_angle, options_.max_scale_ratio);
+  expected_.assign(num_views, {});
+  for (int i = 0; i < num_views; ++i) {
+    if (views_[i].points.empty()) continue;
+    const double max_distance_squared =
+        options_.skip_distant_pairs
+            ? std::pow(distance_factor * views_[i].radius * (1 + 1e-9), 2)
+            : std::numeric_limits<double>::infinity();
+    for (int j = 0; j < num_views; ++j) {
+      if (i == j) continue;
+      if ((views_[i].center - views_[j].center).squaredNorm() >
+          max_distance_squared) {
+        continue;
+      }
+      if (views_[i].axis.dot(views_[j].axis) < -0.5) continue;
+      Expected entry;
+      entry.j = j;
+      for (const Eigen::Vector3d& X : views_[i].points) {
+        double cos_angle = 1;
+        if (ExpectsPoint(views_[j], views_[i].center, X, cos_max_angle,
+                         options_.max_scale_ratio, &cos_angle)) {
+          ++entry.count;
+          entry.angle_sum_deg +=
+              std::acos(std::clamp(cos_angle, -1.0, 1.0)) / kDegToRad;
+        }
+      }
+      if (entry.count > 0) expected_[i].push_back(entry);
+    }
+  }
+}
+
+const FoldDetector::Expected* FoldDetector::FindExpected(int i, int j) const {
+  const auto it = std::lower_bound(
+      expected_[i].begin(), expected_[i].end(), j,
+      [](const Expected& entry, int key) { return entry.j < key; });
+  return it != expected_[i].end() && it->j == j ? &*it : nullptr;
+}
+
+int FoldDetector::ExpectedCount(int i, int j) const {
+  const Expected* entry = FindExpected(i, j);
+  return entry != nullptr ? entry->count : 0;
+}
+
+bool FoldDetector::IsPredicted(int i, int j) const {
+  return predicted_.count(i < j ? std::make_pair(i, j) : std::make_pair(j, i)) >
+         0;
+}
+
+// Points of i that j should match, scaled to all of i's points.
+double FoldDetector::ScaledCount(int i, int j) const {
+  return static_cast<double>(ExpectedCount(i, j)) *
+         views_[i].num_scaled_points / views_[i].points.size();
+}
+
+double FoldDetector::MeanViewAngle(int i, int j) const {
+  const Expected* ij = FindExpected(i, j);
+  const Expected* ji = FindExpected(j, i);
+  return (ij->angle_sum_deg + ji->angle_sum_deg) / (ij->count + ji->count);
+}
+
+// Those without matches are judged later (CountMissingPairs), once the rate
+// model is known.
+void FoldDetector::PredictOverlap() {
+  ComputeExpectedOverlap();
+  for (int i = 0; i < NumViews(); ++i) {
+    for (const Expected& entry : expected_[i]) {
+      const int j = entry.j;
+      const int e_ij = entry.count;
+      if (j <= i) continue;
+      const int e_ji = ExpectedCount(j, i);
+      const double ni = static_cast<double>(views_[i].points.size());
+      const double nj = static_cast<double>(views_[j].points.size());
+      if (std::min(e_ij, e_ji) < options_.min_overlap_points) continue;
+      if (e_ij < options_.min_overlap_fraction * ni ||
+          e_ji < options_.min_overlap_fraction * nj) {
+        continue;
+      }
+      if (!Tried(views_[i].image_id, views_[j].image_id)) continue;
+      predicted_.insert({i, j});
+    }
+  }
+}
+
+JudgedPairs FoldDetector::JudgeVerifiedPairs(FoldReport* report) const {
+  JudgedPairs judged;
+  judged.contradicted.assign(NumViews(), 0);
+  for (const auto& [key, pair] : by_pair_) {
+    if (!pair->has_rotation || pair->num_inliers < options_.min_num_matches) {
+      continue;
+    }
+    const int i = index_.at(pair->image_id1);
+    const int j = index_.at(pair->image_id2);
+    const double error =
+        AngularDistanceDeg(pair->R, views_[j].R * views_[i].R.transpose());
+    if (!(error <= options_.max_rotation_error_deg)) {  // NaN: contradicted
+      judged.inconsistent_inliers.push_back(pair->num_inliers);
+      ++judged.contradicted[i];
+      ++judged.contradicted[j];
+      continue;
+    }
+    judged.consistent.emplace_back(i, j);
+    judged.consistent_inliers.push_back(pair->num_inliers);
+    if (ExpectedCount(i, j) > 0 && ExpectedCount(j, i) > 0) {
+      PairSupport support;
+      support.image_id1 = pair->image_id1;
+      support.image_id2 = pair->image_id2;
+      support.num_inliers = pair->num_inliers;
+      support.num_predicted12 = ScaledCount(i, j);
+      support.num_predicted21 = ScaledCount(j, i);
+      support.predicted = IsPredicted(i, j);
+      support.view_angle_deg = MeanViewAngle(i, j);
+      report->pair_support.push_back(support);
+    }
+  }
+  return judged;
+}
+
+// Missing pairs: predicted, tried, not matched, and (with the rate model)
+// expected to keep enough inliers to pass the verification: where the
+// images keep few of their points or the angle is wide, a true pair may
+// fail it, and its absence says nothing.
+std::vector<std::vector<int>> FoldDetector::CountMissingPairs(
+    const RateModel& rates, FoldReport* report) {
+  std::vector<std::vector<int>> predicted_neighbours(NumViews());
+  for (auto it = predicted_.begin(); it != predicted_.end();) {
+    const auto [i, j] = *it;
+    const image_t a = views_[i].image_id;
+    const image_t b = views_[j].image_id;
+    const bool is_matched = Matched(a, b);
+    const double expected_inliers =
+        is_matched ? 0
+                   : std::sqrt(ScaledCount(i, j) * ScaledCount(j, i)) *
+                         rates.Ratio(i, j, MeanViewAngle(i, j)) *
+                         std::exp(rates.median_residual);
+    VLOG_IF(2, !is_matched)
+        << "pair " << a << " " << b << " without matches: predicted "
+        << ScaledCount(i, j) << " / " << ScaledCount(j, i) << " points, "
+        << MeanViewAngle(i, j) << " deg, expected " << expected_inliers
+        << " inliers";
+    if (!is_matched && options_.weak_pair_rate_model &&
+        report->num_support_pairs > 0 &&
+        expected_inliers <
+            options_.missing_pair_inlier_factor * options_.min_num_matches) {
+      ++report->num_unexpected_pairs;
+      it = predicted_.erase(it);
+      continue;
+    }
+    ++it;
+    predicted_neighbours[i].push_back(j);
+    predicted_neighbours[j].push_back(i);
+    ++report->num_predicted_pairs;
+    ++report->image_predicted_pairs[a];
+    ++report->image_predicted_pairs[b];
+    if (!is_matched) {
+      ++report->num_missing_pairs;
+      ++report->image_missing_pairs[a];
+      ++report->image_missing_pairs[b];
+      report->missing_pairs.push_back(Ordered(a, b));
+    }
+  }
+  std::sort(report->missing_pairs.begin(), report->missing_pairs.end());
+  return predicted_neighbours;
+}
+
+// Images weak alone: every consistent predicted pair at them weak, and
+// verified pairs at them contradicted. Judged without the image's own
+// effect of the rate model (which a turned camera's weak pairs set).
+void FoldDetector::FindWeakAloneImages(const RateModel& rates,
+                                       const std::vector<int>& contradicted,
+                                       FoldReport* report) const {
+  std::vector<int> num_support(NumViews(), 0);
+  std::vector<int> num_weak(NumViews(), 0);
+  for (const PairSupport& support : report->pair_support) {
+    if (!support.predicted) continue;
+    for (const image_t image_id : {support.image_id1, support.image_id2}) {
+      const int i = index_.at(image_id);
+      ++num_support[i];
+      num_weak[i] += support.ratio < options_.weak_pair_ratio *
+                                         support.expected_ratio /
+                                         std::exp(rates.image_effect[i]);
+    }
+  }
+  for (int i = 0; i < NumViews(); ++i) {
+    if (num_support[i] >= options_.min_weak_alone_pairs &&
+        num_weak[i] == num_support[i] &&
+        contradicted[i] >= options_.min_weak_alone_pairs) {
+      report->weak_alone_images.push_back(views_[i].image_id);
+    }
+  }
+}
+
+// Suspects: consistent pairs (a, b) whose common predicted neighbours
+// mostly match only one of them. A true pair's neighbours see what both
+// see and match both; a false pair joins images of two different places
+// that the fold has put together.
+void FoldDetector::FindSuspectPairs(
+    const std::vector<std::pair<int, int>>& consistent,
+    const std::vector<std::vector<int>>& predicted_neighbours,
+    FoldReport* report) const {
+  for (const auto& [i, j] : consistent) {
+    if (!IsPredicted(i, j)) continue;
+    int support = 0;
+    int conflict = 0;
+    for (const int c : predicted_neighbours[i]) {
+      if (c == j || !IsPredicted(j, c)) continue;
+      const bool mi = Matched(views_[i].image_id, views_[c].image_id);
+      const bool mj = Matched(views_[j].image_id, views_[c].image_id);
+      if (mi && mj) {
+        ++support;
+      } else if (mi != mj) {
+        ++conflict;
+      }
+    }
+    if (conflict >= options_.min_suspect_conflicts && conflict > support) {
+      report->suspect_pairs.push_back(
+          Ordered(views_[i].image_id, views_[j].image_id));
+    }
+  }
+  std::sort(report->suspect_pairs.begin(), report->suspect_pairs.end());
+}
+
+// Tracks seen from contradictory sides.
+void FoldDetector::CountContradictoryTracks(FoldReport* report) const {
+  const double cos_contradictory =
+      std::cos(options_.contradictory_ray_angle_deg * kDegToRad);
+  for (const auto& [point3D_id, point] : reconstruction_.points3D) {
+    if (point.track.size() < 2) continue;
+    ++report->num_tracks;
+    std::vector<Eigen::Vector3d> rays;
+    for (const TrackElement& element : point.track) {
+      const auto it = index_.find(element.image_id);
+      if (it == index_.end()) continue;
+      const Eigen::Vector3d ray = views_[it->second].center - point.xyz;
+      if (ray.norm() > 0) rays.push_back(ray.normalized());
+      if (rays.size() >= 32) break;  // long tracks: a sample is enough
+    }
+    bool contradictory = false;
+    for (size_t a = 0; a < rays.size() && !contradictory; ++a) {
+      for (size_t b = a + 1; b < rays.size(); ++b) {
+        if (rays[a].dot(rays[b]) < cos_contradictory) {
+          contradictory = true;
+          break;
+        }
+      }
+    }
+    report->num_contradictory_tracks += contradictory;
+  }
+}
+
+// The fold score and verdict from the missing pairs and the weak pairs' cut.
+void ScoreFold(const FoldDetectionOptions& options, FoldReport* report) {
+  report->fold_score = report->num_predicted_pairs > 0
+                           ? static_cast<double>(report->num_missing_pairs) /
+                                 report->num_predicted_pairs
+                           : 0.0;
+  report->missing_fold = report->fold_score > options.max_fold_score &&
+                         report->num_missing_pairs >= options.min_missing_pairs;
+  report->folded = report->missing_fold;
+  if (report->weak_fold) {
+    report->fold_score = std::max(
+        report->fold_score, static_cast<double>(report->num_weak_cut_pairs) /
+                                report->num_support_pairs);
+    report->folded = true;
+  }
+}
+
+// Contradicted pairs with at least the median inliers of the consistent ones.
+int CountStrongInconsistentPairs(const JudgedPairs& judged) {
+  if (judged.consistent_inliers.empty()) return 0;
+  std::vector<int> sorted = judged.consistent_inliers;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
+                   sorted.end());
+  const int median = sorted[sorted.size() / 2];
+  int count = 0;
+  for (const int inliers : judged.inconsistent_inliers) {
+    count += inliers >= median;
+  }
+  return count;
+}
+
 }  // namespace
 
 void FoldDetectionOptions::Check() const {
@@ -420,340 +860,20 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
                       const FoldEvidence& evidence,
                       const std::vector<Track>* tracks) {
   FoldReport report;
-  std::map<image_t, int> track_points;  // image -> observations in tracks
-  if (tracks != nullptr) {
-    for (const Track& track : *tracks) {
-      for (const TrackElement& element : track) {
-        ++track_points[element.image_id];
-      }
-    }
-  }
-  // The registered images with a sample of their model points.
-  std::vector<View> views;
-  std::map<image_t, int> index;
-  for (const auto& [image_id, image] : reconstruction.images) {
-    View view;
-    view.image_id = image_id;
-    view.camera = &reconstruction.cameras.at(image.camera_id);
-    view.R = image.cam_from_world.rotation.normalized().toRotationMatrix();
-    view.t = image.cam_from_world.translation;
-    view.center = -view.R.transpose() * view.t;
-    view.axis = view.R.row(2).transpose();
-    std::vector<point3D_t> ids;
-    for (const Point2D& point2D : image.points2D) {
-      if (point2D.point3D_id != kInvalidPoint3DId &&
-          reconstruction.points3D.count(point2D.point3D_id)) {
-        ids.push_back(point2D.point3D_id);
-      }
-    }
-    std::sort(ids.begin(), ids.end());
-    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-    view.num_points = static_cast<int>(ids.size());
-    const auto image_track_points = track_points.find(image_id);
-    view.num_scaled_points =
-        image_track_points != track_points.end()
-            ? std::max(image_track_points->second, view.num_points)
-            : view.num_points;
-    const size_t n = std::min<size_t>(ids.size(), options.max_points_per_image);
-    for (size_t k = 0; k < n; ++k) {
-      // Evenly spaced over the sorted ids: deterministic.
-      view.points.push_back(
-          reconstruction.points3D.at(ids[k * ids.size() / n]).xyz);
-      view.radius =
-          std::max(view.radius, (view.points.back() - view.center).norm());
-    }
-    index[image_id] = static_cast<int>(views.size());
-    views.push_back(std::move(view));
-  }
-  const int num_views = static_cast<int>(views.size());
-  report.num_images = num_views;
-
-  std::map<std::pair<image_t, image_t>, const PairEvidence*> by_pair;
-  for (const PairEvidence& pair : evidence.pairs) {
-    if (!index.count(pair.image_id1) || !index.count(pair.image_id2)) continue;
-    by_pair[Ordered(pair.image_id1, pair.image_id2)] = &pair;
-  }
-  auto matched = [&](image_t a, image_t b) {
-    const auto it = by_pair.find(Ordered(a, b));
-    return it != by_pair.end() &&
-           it->second->num_inliers >= options.min_num_matches;
-  };
-  // Matching was attempted: verified (or at least its raw matches too few
-  // to verify); raw matches without a verification say nothing.
-  auto tried = [&](image_t a, image_t b) {
-    const auto it = by_pair.find(Ordered(a, b));
-    if (it == by_pair.end()) return evidence.absent_pairs_were_tried;
-    const PairEvidence& pair = *it->second;
-    return pair.num_matches < options.min_num_matches || pair.verified ||
-           pair.has_rotation || pair.num_inliers > 0;
-  };
-
-  // Predicted overlap: expected[i][j] = points of i that j should match.
-  const double cos_max_angle = std::cos(options.max_view_angle_deg * kDegToRad);
-  // Two cameras whose optical axes are further apart than the view angle
-  // plus both half fields of view cannot share a point, nor can two cameras
-  // further apart than the view angle and scale ratio allow for the points
-  // one of them sees (MaxCenterDistanceFactor): skip them cheaply, so that
-  // the cost is images^2 distance tests plus the points of the pairs that
-  // are near each other (exact: only pairs that expect no point are skipped).
-  // Sparse: expected[i] holds (j, points of i that j should match) > 0,
-  // with the sum of the angles between the two rays to them.
-  const double distance_factor =
-      MaxCenterDistanceFactor(cos_max_angle, options.max_scale_ratio);
-  struct Expected {
-    int j = 0;
-    int count = 0;
-    double angle_sum_deg = 0;
-  };
-  std::vector<std::vector<Expected>> expected(num_views);
-  for (int i = 0; i < num_views; ++i) {
-    if (views[i].points.empty()) continue;
-    const double max_distance_squared =
-        options.skip_distant_pairs
-            ? std::pow(distance_factor * views[i].radius * (1 + 1e-9), 2)
-            : std::numeric_limits<double>::infinity();
-    for (int j = 0; j < num_views; ++j) {
-      if (i == j) continue;
-      if ((views[i].center - views[j].center).squaredNorm() >
-          max_distance_squared) {
-        continue;
-      }
-      if (views[i].axis.dot(views[j].axis) < -0.5) continue;
-      Expected entry;
-      entry.j = j;
-      for (const Eigen::Vector3d& X : views[i].points) {
-        double cos_angle = 1;
-        if (ExpectsPoint(views[j], views[i].center, X, cos_max_angle,
-                         options.max_scale_ratio, &cos_angle)) {
-          ++entry.count;
-          entry.angle_sum_deg +=
-              std::acos(std::clamp(cos_angle, -1.0, 1.0)) / kDegToRad;
-        }
-      }
-      if (entry.count > 0) expected[i].push_back(entry);
-    }
-  }
-  auto find_expected = [&](int i, int j) -> const Expected* {
-    const auto it = std::lower_bound(
-        expected[i].begin(), expected[i].end(), j,
-        [](const Expected& entry, int key) { return entry.j < key; });
-    return it != expected[i].end() && it->j == j ? &*it : nullptr;
-  };
-  auto expected_count = [&](int i, int j) {
-    const Expected* entry = find_expected(i, j);
-    return entry != nullptr ? entry->count : 0;
-  };
-  std::set<std::pair<int, int>> predicted;  // (i, j), i < j
-  auto is_predicted = [&](int i, int j) {
-    return predicted.count(i < j ? std::make_pair(i, j)
-                                 : std::make_pair(j, i)) > 0;
-  };
-  // Points of i that j should match, scaled to all of i's points.
-  auto scaled_count = [&](int i, int j) {
-    return static_cast<double>(expected_count(i, j)) *
-           views[i].num_scaled_points / views[i].points.size();
-  };
-  auto mean_view_angle = [&](int i, int j) {
-    const Expected* ij = find_expected(i, j);
-    const Expected* ji = find_expected(j, i);
-    return (ij->angle_sum_deg + ji->angle_sum_deg) / (ij->count + ji->count);
-  };
-  // The pairs predicted to overlap (and tried); those without matches are
-  // judged below, once the rate model is known.
-  for (int i = 0; i < num_views; ++i) {
-    for (const Expected& entry : expected[i]) {
-      const int j = entry.j;
-      const int e_ij = entry.count;
-      if (j <= i) continue;
-      const int e_ji = expected_count(j, i);
-      const double ni = static_cast<double>(views[i].points.size());
-      const double nj = static_cast<double>(views[j].points.size());
-      if (std::min(e_ij, e_ji) < options.min_overlap_points) continue;
-      if (e_ij < options.min_overlap_fraction * ni ||
-          e_ji < options.min_overlap_fraction * nj) {
-        continue;
-      }
-      if (!tried(views[i].image_id, views[j].image_id)) continue;
-      predicted.insert({i, j});
-    }
-  }
-
-  // Pairs the model agrees with or contradicts.
-  std::vector<std::pair<int, int>> consistent;
-  std::vector<int> consistent_inliers;
-  std::vector<int> inconsistent_inliers;
-  std::vector<int> contradicted(num_views, 0);  // per image
-  for (const auto& [key, pair] : by_pair) {
-    if (!pair->has_rotation || pair->num_inliers < options.min_num_matches) {
-      continue;
-    }
-    const View& v1 = views[index.at(pair->image_id1)];
-    const View& v2 = views[index.at(pair->image_id2)];
-    const double error = AngularDistanceDeg(pair->R, v2.R * v1.R.transpose());
-    if (error <= options.max_rotation_error_deg) {
-      consistent.emplace_back(index.at(pair->image_id1),
-                              index.at(pair->image_id2));
-      consistent_inliers.push_back(pair->num_inliers);
-      const int i = index.at(pair->image_id1);
-      const int j = index.at(pair->image_id2);
-      const int e_ij = expected_count(i, j);
-      const int e_ji = expected_count(j, i);
-      if (e_ij > 0 && e_ji > 0) {
-        PairSupport support;
-        support.image_id1 = pair->image_id1;
-        support.image_id2 = pair->image_id2;
-        support.num_inliers = pair->num_inliers;
-        support.num_predicted12 = scaled_count(i, j);
-        support.num_predicted21 = scaled_count(j, i);
-        support.predicted = is_predicted(i, j);
-        support.view_angle_deg = mean_view_angle(i, j);
-        report.pair_support.push_back(support);
-      }
-    } else {
-      inconsistent_inliers.push_back(pair->num_inliers);
-      ++contradicted[index.at(pair->image_id1)];
-      ++contradicted[index.at(pair->image_id2)];
-    }
-  }
-  report.num_inconsistent_pairs = static_cast<int>(inconsistent_inliers.size());
-  const RateModel rates = WeakPairCut(options, index, &report);
-  // Missing pairs: predicted, tried, not matched, and (with the rate model)
-  // expected to keep enough inliers to pass the verification: where the
-  // images keep few of their points or the angle is wide, a true pair may
-  // fail it, and its absence says nothing.
-  std::vector<std::vector<int>> predicted_neighbours(num_views);
-  for (auto it = predicted.begin(); it != predicted.end();) {
-    const auto [i, j] = *it;
-    const image_t a = views[i].image_id;
-    const image_t b = views[j].image_id;
-    const bool is_matched = matched(a, b);
-    const double expected_inliers =
-        is_matched ? 0
-                   : std::sqrt(scaled_count(i, j) * scaled_count(j, i)) *
-                         rates.Ratio(i, j, mean_view_angle(i, j)) *
-                         std::exp(rates.median_residual);
-    VLOG_IF(2, !is_matched)
-        << "pair " << a << " " << b << " without matches: predicted "
-        << scaled_count(i, j) << " / " << scaled_count(j, i) << " points, "
-        << mean_view_angle(i, j) << " deg, expected " << expected_inliers
-        << " inliers";
-    if (!is_matched && options.weak_pair_rate_model &&
-        report.num_support_pairs > 0 &&
-        expected_inliers <
-            options.missing_pair_inlier_factor * options.min_num_matches) {
-      ++report.num_unexpected_pairs;
-      it = predicted.erase(it);
-      continue;
-    }
-    ++it;
-    predicted_neighbours[i].push_back(j);
-    predicted_neighbours[j].push_back(i);
-    ++report.num_predicted_pairs;
-    ++report.image_predicted_pairs[a];
-    ++report.image_predicted_pairs[b];
-    if (!is_matched) {
-      ++report.num_missing_pairs;
-      ++report.image_missing_pairs[a];
-      ++report.image_missing_pairs[b];
-      report.missing_pairs.push_back(Ordered(a, b));
-    }
-  }
-  std::sort(report.missing_pairs.begin(), report.missing_pairs.end());
-  report.fold_score = report.num_predicted_pairs > 0
-                          ? static_cast<double>(report.num_missing_pairs) /
-                                report.num_predicted_pairs
-                          : 0.0;
-  report.missing_fold = report.fold_score > options.max_fold_score &&
-                        report.num_missing_pairs >= options.min_missing_pairs;
-  report.folded = report.missing_fold;
-  if (report.weak_fold) {
-    report.fold_score = std::max(
-        report.fold_score, static_cast<double>(report.num_weak_cut_pairs) /
-                               report.num_support_pairs);
-    report.folded = true;
-  }
-  // Images weak alone: every consistent predicted pair at them weak, and
-  // verified pairs at them contradicted. Judged without the image's own
-  // effect of the rate model (which a turned camera's weak pairs set).
-  std::vector<int> num_support(num_views, 0);
-  std::vector<int> num_weak(num_views, 0);
-  for (const PairSupport& support : report.pair_support) {
-    if (!support.predicted) continue;
-    for (const image_t image_id : {support.image_id1, support.image_id2}) {
-      const int i = index.at(image_id);
-      ++num_support[i];
-      num_weak[i] += support.ratio < options.weak_pair_ratio *
-                                         support.expected_ratio /
-                                         std::exp(rates.image_effect[i]);
-    }
-  }
-  for (int i = 0; i < num_views; ++i) {
-    if (num_support[i] >= options.min_weak_alone_pairs &&
-        num_weak[i] == num_support[i] &&
-        contradicted[i] >= options.min_weak_alone_pairs) {
-      report.weak_alone_images.push_back(views[i].image_id);
-    }
-  }
-  if (!consistent_inliers.empty()) {
-    std::vector<int> sorted = consistent_inliers;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
-                     sorted.end());
-    const int median = sorted[sorted.size() / 2];
-    for (const int inliers : inconsistent_inliers) {
-      report.num_strong_inconsistent_pairs += inliers >= median;
-    }
-  }
-
-  // Suspects: consistent pairs (a, b) whose common predicted neighbours
-  // mostly match only one of them. A true pair's neighbours see what both
-  // see and match both; a false pair joins images of two different places
-  // that the fold has put together.
-  for (const auto& [i, j] : consistent) {
-    if (!is_predicted(i, j)) continue;
-    int support = 0;
-    int conflict = 0;
-    for (const int c : predicted_neighbours[i]) {
-      if (c == j || !is_predicted(j, c)) continue;
-      const bool mi = matched(views[i].image_id, views[c].image_id);
-      const bool mj = matched(views[j].image_id, views[c].image_id);
-      if (mi && mj) {
-        ++support;
-      } else if (mi != mj) {
-        ++conflict;
-      }
-    }
-    if (conflict >= options.min_suspect_conflicts && conflict > support) {
-      report.suspect_pairs.push_back(
-          Ordered(views[i].image_id, views[j].image_id));
-    }
-  }
-  std::sort(report.suspect_pairs.begin(), report.suspect_pairs.end());
-
-  // Tracks seen from contradictory sides.
-  const double cos_contradictory =
-      std::cos(options.contradictory_ray_angle_deg * kDegToRad);
-  for (const auto& [point3D_id, point] : reconstruction.points3D) {
-    if (point.track.size() < 2) continue;
-    ++report.num_tracks;
-    std::vector<Eigen::Vector3d> rays;
-    for (const TrackElement& element : point.track) {
-      const auto it = index.find(element.image_id);
-      if (it == index.end()) continue;
-      const Eigen::Vector3d ray = views[it->second].center - point.xyz;
-      if (ray.norm() > 0) rays.push_back(ray.normalized());
-      if (rays.size() >= 32) break;  // long tracks: a sample is enough
-    }
-    bool contradictory = false;
-    for (size_t a = 0; a < rays.size() && !contradictory; ++a) {
-      for (size_t b = a + 1; b < rays.size(); ++b) {
-        if (rays[a].dot(rays[b]) < cos_contradictory) {
-          contradictory = true;
-          break;
-        }
-      }
-    }
-    report.num_contradictory_tracks += contradictory;
-  }
+  FoldDetector detector(options, reconstruction, evidence, tracks);
+  report.num_images = detector.NumViews();
+  detector.PredictOverlap();
+  const JudgedPairs judged = detector.JudgeVerifiedPairs(&report);
+  report.num_inconsistent_pairs =
+      static_cast<int>(judged.inconsistent_inliers.size());
+  const RateModel rates = WeakPairCut(options, detector.Index(), &report);
+  const std::vector<std::vector<int>> predicted_neighbours =
+      detector.CountMissingPairs(rates, &report);
+  ScoreFold(options, &report);
+  detector.FindWeakAloneImages(rates, judged.contradicted, &report);
+  report.num_strong_inconsistent_pairs = CountStrongInconsistentPairs(judged);
+  detector.FindSuspectPairs(judged.consistent, predicted_neighbours, &report);
+  detector.CountContradictoryTracks(&report);
   return report;
 }
 

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <sstream>
 
 #include <glog/logging.h>
@@ -189,12 +190,60 @@ void DisarmCleanup() {
   if (g_handles_term) sigaction(SIGTERM, &g_old_term, nullptr);
 }
 
+// A file's path must end in a name: "x/", "x/." and "x/.." are directories.
+void ThrowUnlessFileName(const std::string& path) {
+  const fs::path last = fs::path(path).filename();
+  if (last.empty() || last == "." || last == "..") {
+    throw InputError(path,
+                     "ends in a directory (\"/\", \".\" or \"..\"), not a "
+                     "file name");
+  }
+}
+
+// The system stops at a file named as a directory on the way: "db.db/../x"
+// names nothing it can open, while resolved lexically it would name x
+// beside db.db (a link to the database, say). Refused, naming the file.
+void ThrowIfThroughAFile(const std::string& path) {
+  const fs::path raw(path);
+  fs::path prefix;
+  for (auto it = raw.begin(); it != raw.end(); ++it) {
+    prefix /= *it;
+    if (std::next(it) == raw.end()) break;
+    struct stat status;
+    if (stat(prefix.c_str(), &status) == 0 && !S_ISDIR(status.st_mode)) {
+      throw InputError(path, prefix.string() + " is a file, not a directory");
+    }
+  }
+}
+
+// `path` as the system resolves it once its missing directories exist:
+// each existing prefix made canonical (links and ".." followed), ".." after
+// a missing name back to that name's parent, as after creating it.
+// weakly_canonical stops following links at the first missing name, so
+// "missing/../link.db" would stay the link, not the file it names.
+fs::path ResolveAsSystem(const std::string& path) {
+  std::error_code error;
+  fs::path resolved;
+  for (const fs::path& name : fs::absolute(path, error)) {
+    if (name.empty() || name == ".") continue;
+    if (name == "..") {
+      resolved = resolved.parent_path();
+      continue;
+    }
+    resolved /= name;
+    const fs::path canonical = fs::canonical(resolved, error);
+    if (!error) resolved = canonical;
+  }
+  return resolved;
+}
+
 // The missing directories of `path` created top-down; returns them in that
 // order (absolute). Throws InputError if one cannot be created.
 // The directory `path` names as the system resolves it: the links and
 // ".." of its existing part followed, so that every later operation sees
 // the same directory. A dangling link on the way is an error.
 fs::path ResolvedDirectory(const std::string& path) {
+  ThrowIfThroughAFile(path);
   std::error_code error;
   const fs::path raw = fs::absolute(path, error);
   for (fs::path p = raw; !p.empty(); p = p.parent_path()) {
@@ -207,8 +256,7 @@ fs::path ResolvedDirectory(const std::string& path) {
     }
     if (p == p.parent_path()) break;
   }
-  fs::path dir = fs::weakly_canonical(raw, error);
-  if (error) dir = raw.lexically_normal();  // a link loop: fails later
+  fs::path dir = ResolveAsSystem(path);
   if (!dir.empty() && !dir.has_filename()) dir = dir.parent_path();
   return dir;
 }
@@ -548,12 +596,13 @@ bool IsOwnOutputFileName(const std::string& name) {
 void CheckNotAnInput(const std::string& output,
                      const std::vector<std::string>& inputs) {
   if (output.empty()) return;
+  // Resolved first: "missing/../hard.db" is the hard link once "missing"
+  // exists.
+  const fs::path output_path = ResolveAsSystem(output);
   struct stat out;
-  const bool exists = stat(output.c_str(), &out) == 0;
+  const bool exists = stat(output_path.c_str(), &out) == 0;
   // A pipe or device may well be both (two outputs to /dev/stdout).
   if (exists && !S_ISREG(out.st_mode)) return;
-  std::error_code error;
-  const fs::path output_path = fs::weakly_canonical(output, error);
   for (const std::string& input : inputs) {
     if (input.empty()) continue;
     for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
@@ -562,8 +611,7 @@ void CheckNotAnInput(const std::string& output,
       const bool same =
           exists ? stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
                        in.st_ino == out.st_ino
-                 : !output_path.empty() &&
-                       fs::weakly_canonical(path, error) == output_path;
+                 : !output_path.empty() && ResolveAsSystem(path) == output_path;
       if (same) {
         throw InputError(output, "is the same file as " + path +
                                      " (an input, or another output of this "
@@ -575,13 +623,15 @@ void CheckNotAnInput(const std::string& output,
 }
 
 void WriteFileAtomically(const std::string& path, const std::string& bytes) {
+  ThrowUnlessFileName(path);
+  ThrowIfThroughAFile(path);
   const OutputKind kind = KindOf(path);
   ThrowUnlessWritableKind(path, kind);
   if (kind == OutputKind::kStream) {
     WriteIntoStream(path, bytes);
     return;
   }
-  const fs::path target(FollowLinks(path));
+  const fs::path target(FollowLinks(ResolveAsSystem(path).string()));
   WriteFilesAtomically(target.parent_path().string(),
                        {{target.filename().string(), bytes}});
 }
@@ -644,6 +694,8 @@ void WriteFilesAtomically(
 
 void CheckFileWritable(const std::string& path,
                        const std::vector<std::string>& inputs) {
+  ThrowUnlessFileName(path);
+  ThrowIfThroughAFile(path);
   CheckNotAnInput(path, inputs);
   const OutputKind kind = KindOf(path);
   ThrowUnlessWritableKind(path, kind);
@@ -660,7 +712,7 @@ void CheckFileWritable(const std::string& path,
   // a new file; the missing ones are created when the file is written.
   std::error_code error;
   fs::path dir =
-      fs::absolute(FollowLinks(path), error).lexically_normal().parent_path();
+      fs::path(FollowLinks(ResolveAsSystem(path).string())).parent_path();
   while (!fs::exists(fs::symlink_status(dir, error)) &&
          dir != dir.parent_path()) {
     dir = dir.parent_path();

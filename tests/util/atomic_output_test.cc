@@ -178,6 +178,33 @@ TEST(AtomicOutput, OutputThatIsAnInputIsRefused) {
         temp.File("sub/../db.db"), input + "-wal"}) {
     EXPECT_THROW(CheckFileWritable(output, {input}), InputError) << output;
   }
+  // Through the database as if it were a directory: the system refuses
+  // "db.db/../link.db"; lexically it is the link, which stays a link (found
+  // by output_paths_fuzzer).
+  for (const std::string& output :
+       {temp.File("db.db/../link.db"), temp.File("db.db/../new.txt")}) {
+    EXPECT_THROW(CheckFileWritable(output, {input}), InputError) << output;
+    EXPECT_THROW(WriteFileAtomically(output, "x"), InputError) << output;
+    EXPECT_THROW(OutputTransaction(output, {input}, CheckWordModel), InputError)
+        << output;
+  }
+  EXPECT_TRUE(fs::is_symlink(temp.File("link.db")));
+  EXPECT_FALSE(fs::exists(temp.File("new.txt")));
+  // Through a name that does not exist: once created, "missing/.." is the
+  // directory itself, so these are the database, its link and hard link.
+  for (const char* name : {"db.db", "link.db", "hard.db"}) {
+    const std::string output = temp.File(std::string("missing/../") + name);
+    EXPECT_THROW(CheckFileWritable(output, {input}), InputError) << output;
+  }
+  EXPECT_TRUE(fs::is_symlink(temp.File("link.db")));
+  EXPECT_FALSE(fs::exists(temp.File("missing")));
+  // A file's path that ends in a directory.
+  for (const char* name : {"x.txt/", "x.txt/.", "sub/.."}) {
+    EXPECT_THROW(WriteFileAtomically(temp.File(name), "x"), InputError) << name;
+    EXPECT_THROW(CheckFileWritable(temp.File(name), {input}), InputError)
+        << name;
+  }
+  EXPECT_FALSE(fs::exists(temp.File("x.txt")));
   // Two outputs in one file that does not exist yet.
   EXPECT_THROW(CheckNotAnInput(temp.File("x.txt"), {temp.File("./x.txt")}),
                InputError);

@@ -389,6 +389,13 @@ bool GlobalMapper::Positioning() {
           static_cast<double>(positioner_summary.num_position_prior_inliers));
       stage.Add("gravity priors",
                 static_cast<double>(positioner_summary.num_gravity_priors));
+      // Logged as a warning by positioning: a fold or poor priors.
+      if (positioner_summary.priors_disagree) {
+        stage.Add(
+            "warning: position priors off the model",
+            static_cast<double>(positioner_summary.num_position_priors -
+                                positioner_summary.num_position_prior_inliers));
+      }
     }
     stage.Add("iterations",
               static_cast<double>(positioner_summary.num_iterations));

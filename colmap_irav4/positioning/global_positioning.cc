@@ -327,6 +327,18 @@ bool SolveWithPriors(
   }
   *prior_from_model = sim;
   summary->in_prior_frame = true;
+  summary->priors_disagree =
+      summary->num_position_priors >= 10 &&
+      summary->num_position_prior_inliers < 0.8 * summary->num_position_priors;
+  if (summary->priors_disagree) {
+    LOG(WARNING) << "Global positioning: only "
+                 << summary->num_position_prior_inliers << " of "
+                 << summary->num_position_priors
+                 << " position priors are within 3 standard deviations of "
+                    "the model: the priors are poorer than their covariance "
+                    "says, or part of the model is turned (a fold); compare "
+                    "the model with the map";
+  }
   LOG(INFO) << "Global positioning: placed in the priors' frame (scale "
             << sim.scale << ") with " << summary->num_position_priors
             << " position priors (" << inliers.size() << " RANSAC inliers, "

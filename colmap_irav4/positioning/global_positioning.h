@@ -82,6 +82,11 @@ struct GlobalPositionerSummary {
   int num_position_prior_inliers = 0;
   int num_gravity_priors = 0;
   bool in_prior_frame = false;
+  // At least 10 position priors, fewer than 80% of them within 3 standard
+  // deviations: the priors are poorer than their covariance says, or part of
+  // the model is turned (a fold the images did not settle). Logged as a
+  // warning; GPS with 5% outliers keeps about 95%.
+  bool priors_disagree = false;
   // Why it was not placed ("" when it was or no priors were given).
   std::string prior_problem;
 };

@@ -86,6 +86,7 @@ TEST(GlobalPositioningPriors, PlacesTheModelInThePriorFrameDespiteAnOutlier) {
   EXPECT_TRUE(summary.in_prior_frame) << summary.prior_problem;
   EXPECT_EQ(summary.num_position_priors, 15);
   EXPECT_EQ(summary.num_position_prior_inliers, 14);
+  EXPECT_FALSE(summary.priors_disagree);
   // No alignment: the model is in the truth's (the priors') frame, and the
   // outlier's camera stays where its observations put it, 54 m from its
   // prior (radius 10: positioning, before bundle adjustment, is within
@@ -112,6 +113,26 @@ TEST(GlobalPositioningPriors, PlacesTheModelInThePriorFrameDespiteAnOutlier) {
   EXPECT_GT(MaxUnalignedCenterError(least_squares.reconstruction,
                                     least_squares.scene.truth),
             1.0);
+}
+
+TEST(GlobalPositioningPriors, ManyPriorsOffTheModelAreReported) {
+  // 6 of 15 priors 30-60 m off, in different directions: the model is still
+  // placed by the 9 others, and the disagreement is reported.
+  PriorScene setup = MakeSetup(0.05, Eigen::Vector3d::Zero(), false);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> distance(30.0, 60.0);
+  for (const image_t image_id : {2, 5, 8, 10, 12, 14}) {
+    setup.priors.at(image_id).position +=
+        distance(rng) * RandomVector<3>(normal, rng).normalized();
+  }
+  GlobalPositionerSummary summary;
+  ASSERT_TRUE(RunGlobalPositioning(GlobalPositionerOptions(),
+                                   &setup.reconstruction, &summary,
+                                   &setup.priors));
+  EXPECT_TRUE(summary.in_prior_frame) << summary.prior_problem;
+  EXPECT_EQ(summary.num_position_prior_inliers, 9);
+  EXPECT_TRUE(summary.priors_disagree);
 }
 
 TEST(GlobalPositioningPriors, GravitySetsTheTiltWhenPositionsCannot) {

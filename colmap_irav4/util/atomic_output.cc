@@ -190,16 +190,6 @@ void DisarmCleanup() {
   if (g_handles_term) sigaction(SIGTERM, &g_old_term, nullptr);
 }
 
-// A file's path must end in a name: "x/", "x/." and "x/.." are directories.
-void ThrowUnlessFileName(const std::string& path) {
-  const fs::path last = fs::path(path).filename();
-  if (last.empty() || last == "." || last == "..") {
-    throw InputError(path,
-                     "ends in a directory (\"/\", \".\" or \"..\"), not a "
-                     "file name");
-  }
-}
-
 // The system stops at a file named as a directory on the way: "db.db/../x"
 // names nothing it can open, while resolved lexically it would name x
 // beside db.db (a link to the database, say). Refused, naming the file.
@@ -214,6 +204,18 @@ void ThrowIfThroughAFile(const std::string& path) {
       throw InputError(path, prefix.string() + " is a file, not a directory");
     }
   }
+}
+
+// A file's path: it ends in a name ("x/", "x/." and "x/.." are
+// directories) and runs through no file.
+void ThrowUnlessFilePath(const std::string& path) {
+  const fs::path last = fs::path(path).filename();
+  if (last.empty() || last == "." || last == "..") {
+    throw InputError(path,
+                     "ends in a directory (\"/\", \".\" or \"..\"), not a "
+                     "file name");
+  }
+  ThrowIfThroughAFile(path);
 }
 
 // `path` as the system resolves it once its missing directories exist:
@@ -623,8 +625,7 @@ void CheckNotAnInput(const std::string& output,
 }
 
 void WriteFileAtomically(const std::string& path, const std::string& bytes) {
-  ThrowUnlessFileName(path);
-  ThrowIfThroughAFile(path);
+  ThrowUnlessFilePath(path);
   const OutputKind kind = KindOf(path);
   ThrowUnlessWritableKind(path, kind);
   if (kind == OutputKind::kStream) {
@@ -694,8 +695,7 @@ void WriteFilesAtomically(
 
 void CheckFileWritable(const std::string& path,
                        const std::vector<std::string>& inputs) {
-  ThrowUnlessFileName(path);
-  ThrowIfThroughAFile(path);
+  ThrowUnlessFilePath(path);
   CheckNotAnInput(path, inputs);
   const OutputKind kind = KindOf(path);
   ThrowUnlessWritableKind(path, kind);

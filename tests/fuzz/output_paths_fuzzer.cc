@@ -122,10 +122,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Require(fs::is_symlink(root / "dangling"));
   Require(fs::is_symlink(root / "dir_link"));
   // A user's file changes only as the one file the single-file writer was
-  // asked to write: after a write, every name of the path exists (the
-  // missing directories were created), so the system's own resolution
-  // (canonical) says which file that is.
-  const fs::path written = wrote_file ? fs::canonical(path, error) : fs::path();
+  // asked to write: the file the path names once its missing directories
+  // exist ("dir/new/../x" is dir/x), so they are created here and the
+  // system's own resolution (canonical) says which file that is.
+  fs::path written;
+  if (wrote_file) {
+    fs::create_directories(fs::path(path).parent_path(), error);
+    written = fs::canonical(path, error);
+  }
   for (const auto& [file, text] :
        {std::pair<std::string, std::string>{"dir/cameras.bin", "user's"},
         {"model/0/notes.txt", "mine"}}) {

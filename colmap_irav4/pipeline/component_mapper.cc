@@ -41,9 +41,8 @@ std::vector<ImagePairGeometry> PairsReorientedAcrossCut(
   for (const ImagePairGeometry& pair : pairs) {
     const bool in_model = reconstruction.images.count(pair.image_id1) &&
                           reconstruction.images.count(pair.image_id2);
-    const bool cross =
-        in_model &&
-        in_side.count(pair.image_id1) != in_side.count(pair.image_id2);
+    const bool cross = in_model && in_side.count(pair.image_id1) !=
+                                       in_side.count(pair.image_id2);
     const bool contradicted =
         ContradictedByModel(pair, reconstruction, max_rotation_error_deg);
     if (cross ? contradicted
@@ -251,10 +250,10 @@ bool ComponentMapper::SettleFoldWithPriors(
   const std::string failure = failure_;
   for (const auto& [name, side] : candidates) {
     // Only the pairs the model with `side` turned agrees with.
-    const std::vector<ImagePairGeometry> reoriented = PairsReorientedAcrossCut(
-        pairs, first.reconstruction(), side,
-        options_.fold.detection.max_rotation_error_deg,
-        /*drop_contradicted_within=*/true);
+    const std::vector<ImagePairGeometry> reoriented =
+        PairsReorientedAcrossCut(pairs, first.reconstruction(), side,
+                                 options_.fold.detection.max_rotation_error_deg,
+                                 /*drop_contradicted_within=*/true);
     const size_t num_removed = pairs.size() - reoriented.size();
     const std::vector<std::vector<image_t>> components =
         PairComponents(reoriented);
@@ -286,18 +285,17 @@ bool ComponentMapper::SettleFoldWithPriors(
       failure_ = failure;
       continue;
     }
-    const PriorAgreement after =
-        MeasurePriorAgreement(attempt->reconstruction(), database_.pose_priors,
-                              options_.pose_priors);
+    const PriorAgreement after = MeasurePriorAgreement(
+        attempt->reconstruction(), database_.pose_priors, options_.pose_priors);
     if (!PriorsAgreeBetter(before, after)) {
       LOG(INFO) << prefix_ << "pose priors: re-mapped " << after.Describe()
                 << ": not clearly better, not taken";
       continue;
     }
-    const std::string outcome =
-        "resolved by pose priors (" + std::to_string(side.size()) +
-        " images turned back, " + std::to_string(num_removed) +
-        " pairs removed)";
+    const std::string outcome = "resolved by pose priors (" +
+                                std::to_string(side.size()) +
+                                " images turned back, " +
+                                std::to_string(num_removed) + " pairs removed)";
     LOG(WARNING) << prefix_
                  << "the model was FOLDED (the images alone did not show "
                     "it): the pose priors agree far better with it re-mapped ("

@@ -22,10 +22,9 @@ PriorAgreement MeasurePriorAgreement(const Reconstruction& reconstruction,
   for (const auto& [image_id, image] : reconstruction.images) {
     const auto it = priors.find(image_id);
     if (it == priors.end() || !it->second.HasPosition()) continue;
-    const double r =
-        (PositionPriorSqrtInformation(it->second, options) *
-         (image.ProjectionCenter() - it->second.position))
-            .norm();
+    const double r = (PositionPriorSqrtInformation(it->second, options) *
+                      (image.ProjectionCenter() - it->second.position))
+                         .norm();
     agreement.residuals[image_id] = r;
     ++agreement.num_priors;
     agreement.num_within += r < 3.0;
@@ -56,9 +55,9 @@ std::vector<image_t> PriorOutlierGroups(
   for (const auto& [image_id, r] : agreement.residuals) {
     if (r >= 3.0) outliers.insert(image_id);
   }
-  const size_t min_size = std::max<size_t>(
-      static_cast<size_t>(std::max(min_group_size, 1)),
-      static_cast<size_t>(0.1 * agreement.num_priors + 0.5));
+  const size_t min_size =
+      std::max<size_t>(static_cast<size_t>(std::max(min_group_size, 1)),
+                       static_cast<size_t>(0.1 * agreement.num_priors + 0.5));
   std::vector<image_t> group;
   for (const std::vector<image_t>& component :
        PairComponents(PairsWithin(pairs, outliers))) {

@@ -261,6 +261,16 @@ bool ComponentMapper::SettleFoldWithPriors(
         static_cast<int>(components[0].size()) < options_.min_model_size) {
       continue;
     }
+    // Mapping again costs a whole mapping: only across a cut whose pairs
+    // the priors already contradict (a correct model's weakest cut is no
+    // fold).
+    const double contrast =
+        PriorPairContrast(first.reconstruction(), database_.pose_priors,
+                          options_.pose_priors, first.pairs(), side);
+    LOG(INFO) << prefix_ << "pose priors: the pairs across the cut of "
+              << side.size() << " images (" << name << ") are " << contrast
+              << " times as far off the priors as those within";
+    if (contrast < kMinPriorPairContrast) continue;
     LOG(INFO) << prefix_ << "pose priors: " << side.size() << " images ("
               << name << ") turned back: " << num_removed
               << " pairs the model so turned contradicts are removed, "

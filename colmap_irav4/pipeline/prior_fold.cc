@@ -1,6 +1,7 @@
 #include "colmap_irav4/pipeline/prior_fold.h"
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <sstream>
 
@@ -66,6 +67,59 @@ std::vector<image_t> PriorOutlierGroups(
   }
   std::sort(group.begin(), group.end());
   return group;
+}
+
+namespace {
+
+// The prior covariance of an image (the stored one, or position_std^2 I).
+Eigen::Matrix3d PriorCovariance(const PosePrior& prior,
+                                const PosePriorOptions& options) {
+  if (prior.HasPositionCovariance()) return prior.position_covariance;
+  return Eigen::Matrix3d::Identity() * options.position_std *
+         options.position_std;
+}
+
+double Median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2,
+                   values.end());
+  return values[values.size() / 2];
+}
+
+}  // namespace
+
+double PriorPairContrast(const Reconstruction& reconstruction,
+                         const PosePriors& priors,
+                         const PosePriorOptions& options,
+                         const std::vector<ImagePairGeometry>& pairs,
+                         const std::vector<image_t>& side) {
+  const std::set<image_t> in_side(side.begin(), side.end());
+  std::vector<double> across, within;
+  for (const ImagePairGeometry& pair : pairs) {
+    const auto image1 = reconstruction.images.find(pair.image_id1);
+    const auto image2 = reconstruction.images.find(pair.image_id2);
+    const auto prior1 = priors.find(pair.image_id1);
+    const auto prior2 = priors.find(pair.image_id2);
+    if (image1 == reconstruction.images.end() ||
+        image2 == reconstruction.images.end() || prior1 == priors.end() ||
+        prior2 == priors.end() || !prior1->second.HasPosition() ||
+        !prior2->second.HasPosition()) {
+      continue;
+    }
+    const Eigen::Vector3d residual =
+        (image2->second.ProjectionCenter() -
+         image1->second.ProjectionCenter()) -
+        (prior2->second.position - prior1->second.position);
+    const Eigen::Matrix3d covariance =
+        PriorCovariance(prior1->second, options) +
+        PriorCovariance(prior2->second, options);
+    const double r = std::sqrt(residual.dot(covariance.ldlt().solve(residual)));
+    (in_side.count(pair.image_id1) != in_side.count(pair.image_id2) ? across
+                                                                    : within)
+        .push_back(r);
+  }
+  if (across.size() < 5 || within.size() < 5) return 0;
+  const double median_within = Median(within);
+  return median_within > 0 ? Median(across) / median_within : 0;
 }
 
 }  // namespace colmap_irav4

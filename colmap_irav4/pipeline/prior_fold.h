@@ -69,4 +69,26 @@ std::vector<image_t> PriorOutlierGroups(
     const PriorAgreement& agreement,
     const std::vector<ImagePairGeometry>& pairs, int min_group_size);
 
+// How much worse the priors agree with the relative positions of the pairs
+// across a cut (one image in `side`) than with those of the pairs on either
+// side: the median whitened residual of (c_j - c_i) - (p_j - p_i) over the
+// pairs across, divided by that over the pairs within (`pairs`: those the
+// model agrees with; covariance: the two priors' summed). The offset and
+// most of a poor similarity to the priors cancel in a difference. Across a
+// fold the pairs the model agrees with are false: each puts a camera at its
+// twin's place, metres from where its fix says; in a correct model the
+// pairs across any cut are as true as those within (about 1). 0 when
+// fewer than 5 pairs across or within have priors.
+// The least contrast of a cut worth mapping again across: measured 1.7-3.8
+// across the folds of the symmetric suite (tower 60, courtyard 100, seeds
+// 1-3), 0.97-1.12 across the weakest cut of correct courtyards of 100
+// images (docs/notes/2026-12-03-priors-components-and-folds.md).
+constexpr double kMinPriorPairContrast = 1.4;
+
+double PriorPairContrast(const Reconstruction& reconstruction,
+                         const PosePriors& priors,
+                         const PosePriorOptions& options,
+                         const std::vector<ImagePairGeometry>& pairs,
+                         const std::vector<image_t>& side);
+
 }  // namespace colmap_irav4

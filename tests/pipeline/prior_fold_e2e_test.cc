@@ -24,8 +24,8 @@ namespace {
 
 struct TowerRun {
   GlobalMapperSummary summary;
-  Reconstruction model;  // the first (only) model
-  int num_turned = 0;    // rotation error > 30 deg, similarity-aligned
+  Reconstruction model;      // the first (only) model
+  int num_turned = 0;        // rotation error > 30 deg, similarity-aligned
   PoseComparison unaligned;  // in the priors' frame as written
 };
 
@@ -43,7 +43,8 @@ class PriorFoldTest : public ::testing::Test {
     scene_ = new GeneratedScene(GenerateScene(options));
     PosePriorGeneratorOptions prior_options;
     prior_options.seed = options.seed;
-    priors_ = new GeneratedPosePriors(GeneratePosePriors(*scene_, prior_options));
+    priors_ =
+        new GeneratedPosePriors(GeneratePosePriors(*scene_, prior_options));
     temp_ = new test::TempDir();
     database_ = temp_->File("database.db");
     WriteSceneDatabase(*scene_, database_);

@@ -42,10 +42,10 @@ PosePriors Priors() {
   for (image_t image_id = 1; image_id <= kNumImages; ++image_id) {
     PosePrior& prior = priors[image_id];
     // A fixed offset of about half a standard deviation, different per image.
-    prior.position = TrueCenter(image_id) +
-                     0.5 * Eigen::Vector3d(std::sin(3.0 * image_id),
-                                           std::cos(5.0 * image_id),
-                                           std::sin(7.0 * image_id));
+    prior.position =
+        TrueCenter(image_id) + 0.5 * Eigen::Vector3d(std::sin(3.0 * image_id),
+                                                     std::cos(5.0 * image_id),
+                                                     std::sin(7.0 * image_id));
     prior.position_covariance = Eigen::Matrix3d::Identity();
   }
   return priors;
@@ -118,14 +118,12 @@ TEST(PriorFold, PairContrastAcrossAFold) {
   const std::vector<ImagePairGeometry> pairs = NeighbourPairs();
   // Across the turned group's cut the pairs are 10 std off, within it the
   // priors' own offsets: far above the threshold.
-  const double folded = PriorPairContrast(Model(true), priors,
-                                          PosePriorOptions(), pairs,
-                                          TurnedGroup());
+  const double folded = PriorPairContrast(
+      Model(true), priors, PosePriorOptions(), pairs, TurnedGroup());
   EXPECT_GT(folded, 5 * kMinPriorPairContrast);
   // The same cut of the correct model: no contrast worth a second mapping.
-  const double right = PriorPairContrast(Model(false), priors,
-                                         PosePriorOptions(), pairs,
-                                         TurnedGroup());
+  const double right = PriorPairContrast(
+      Model(false), priors, PosePriorOptions(), pairs, TurnedGroup());
   EXPECT_GT(right, 0);
   EXPECT_LT(right, kMinPriorPairContrast);
   // Too few pairs across (a cut of one image has 6): no figure.
@@ -140,7 +138,8 @@ TEST(PriorFold, PairsReorientedAcrossACut) {
   // model contradicts it), a false pair (1, 3) across it (the model agrees),
   // a false pair (1, 4)... within the side none; (3, 4) true, right side.
   Reconstruction model;
-  const Eigen::Quaterniond turn(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
+  const Eigen::Quaterniond turn(
+      Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
   for (image_t id = 1; id <= 4; ++id) {
     model.images[id].image_id = id;
     if (id <= 2) model.images[id].cam_from_world.rotation = turn;
@@ -160,7 +159,7 @@ TEST(PriorFold, PairsReorientedAcrossACut) {
       pair(2, 3, I),  // true, across: the model contradicts (it says T^T)
       pair(1, 3, T.transpose()),  // false, across: the model agrees
       pair(3, 4, I),              // true, within the rest
-      pair(1, 2, T)};  // false, within: the model contradicts
+      pair(1, 2, T)};             // false, within: the model contradicts
   const std::vector<image_t> side = {1, 2};
   std::vector<ImagePairGeometry> kept =
       PairsReorientedAcrossCut(pairs, model, side, 5.0);

@@ -10,8 +10,7 @@ namespace test {
 // Relative rotations on a random connected graph of n vertices and m edges:
 // noise of sigma_deg, a fraction outlier_ratio of them outliers.
 inline SyntheticProblem MakeRandomProblem(int n, int m, double sigma_deg,
-                                          double outlier_ratio,
-                                          uint64_t seed) {
+                                          double outlier_ratio, uint64_t seed) {
   SyntheticOptions options;
   options.noise_sigma_deg = sigma_deg;
   options.outlier_ratio = outlier_ratio;

@@ -292,7 +292,6 @@ bool ComponentMapper::SettleFoldWithPriors(
                               std::to_string(
                                   attempt->reconstruction().images.size()) +
                               " images; " + attempt->fold().Describe() + ")");
-      failure_ = failure;
       continue;
     }
     const PriorAgreement after = MeasurePriorAgreement(

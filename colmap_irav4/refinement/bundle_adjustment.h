@@ -45,6 +45,11 @@ template <>
 const EnumNames<BundleAdjustmentLinearSolver>&
 NamesOf<BundleAdjustmentLinearSolver>();
 
+enum class BundleAdjustmentSolverBackend { kAuto, kCeres, kSchur };
+template <>
+const EnumNames<BundleAdjustmentSolverBackend>&
+NamesOf<BundleAdjustmentSolverBackend>();
+
 struct BundleAdjustmentOptions {
   // Intrinsics to refine (COLMAP's ba_refine_* options).
   bool refine_focal_length = true;
@@ -83,6 +88,15 @@ struct BundleAdjustmentOptions {
   // (docs/notes/2026-12-01-results-2b39f55.md).
   BundleAdjustmentLinearSolver linear_solver =
       BundleAdjustmentLinearSolver::kAuto;
+  // Who solves: ceres (the problem above), schur (SchurBundleAdjuster: the
+  // same Levenberg-Marquardt with no stored Jacobian nor residual blocks,
+  // a fraction of Ceres' memory; one thread) or auto (schur from
+  // schur_min_num_observations observations). Problems schur cannot hold
+  // (pose priors, huber_ceres or cauchy losses) go to Ceres whatever this
+  // says; ChooseBackend's reason is logged.
+  BundleAdjustmentSolverBackend solver_backend =
+      BundleAdjustmentSolverBackend::kCeres;
+  int schur_min_num_observations = 500000;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
@@ -139,6 +153,9 @@ struct BundleAdjustmentSummary {
   double linear_solver_seconds = 0;
   int num_solves = 0;
   std::string linear_solver;  // Ceres' name, of the last solve
+  // The backend that solved (ceres or schur) and why (ChooseBackend).
+  std::string backend;
+  std::string backend_reason;
   // Why it was chosen (ChooseLinearSolver), and the fraction of the image
   // pairs of the problem that share a point (-1: not computed).
   std::string linear_solver_reason;
@@ -172,6 +189,14 @@ std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
 // be small).
 double SchurDensity(const std::vector<const Track*>& tracks,
                     int max_num_images = 30000);
+
+// Whether `options.solver_backend` sends a bundle adjustment of
+// `num_observations` observations to the Schur solver, with `priors` (by
+// image id, may be null; only applied when poses are refined); `reason` (may
+// be null): why, e.g. "schur: 2270000 observations (auto from 500000)".
+bool ChooseSchurBackend(const BundleAdjustmentOptions& options,
+                        size_t num_observations, const PosePriors* priors,
+                        std::string* reason);
 
 // Returns false if Ceres failed (no usable solution). `priors` (by image id,
 // may be null): pose priors of a model in their frame (see above).

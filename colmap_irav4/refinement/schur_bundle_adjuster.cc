@@ -5,10 +5,10 @@
 #include <limits>
 #include <unordered_set>
 
+#include <glog/logging.h>
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
-#include <glog/logging.h>
 
 #include "colmap_irav4/refinement/reprojection_cost.h"
 #include "colmap_irav4/util/interrupt.h"
@@ -100,8 +100,7 @@ void SchurBundleAdjuster::SetCameraConstant(int camera,
   }
 }
 
-int SchurBundleAdjuster::AddPose(double* rotation, double* position,
-                                 int camera,
+int SchurBundleAdjuster::AddPose(double* rotation, double* position, int camera,
                                  const std::vector<Point2D>* points2D,
                                  const std::vector<double>* weights) {
   CHECK(camera >= 0 && camera < static_cast<int>(cameras_.size()));
@@ -310,8 +309,8 @@ void SchurBundleAdjuster::BuildStructure() {
     const int column = static_cast<int>(cell >> 32);
     const int row = static_cast<int>(cell & 0xffffffffu);
     for (int c = 0; c < block_size_[column]; ++c) {
-      int* rows = &inner_[column_begin_[column] + c * column_height_[column] +
-                          offset];
+      int* rows =
+          &inner_[column_begin_[column] + c * column_height_[column] + offset];
       for (int r = 0; r < block_size_[row]; ++r) {
         rows[r] = block_offset_[row] + r;
       }
@@ -347,9 +346,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   Timer linear_timer;
   // The parameters: poses (7 each), cameras (kMaxNumParams each), points.
   const size_t num_points = point_blocks_.size();
-  std::vector<double> poses(7 * poses_.size()), cameras(kMaxNumParams *
-                                                        cameras_.size()),
-      points(3 * num_points);
+  std::vector<double> poses(7 * poses_.size()),
+      cameras(kMaxNumParams * cameras_.size()), points(3 * num_points);
   for (size_t i = 0; i < poses_.size(); ++i) {
     std::copy(poses_[i].rotation, poses_[i].rotation + 4, &poses[7 * i]);
     std::copy(poses_[i].position, poses_[i].position + 3, &poses[7 * i + 4]);
@@ -598,7 +596,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       }
       for (const Linearization& lin : lins) {
         model_cost +=
-            0.5 * (lin.r + lin.A * gather(lin, step) + lin.B * dx).squaredNorm();
+            0.5 *
+            (lin.r + lin.A * gather(lin, step) + lin.B * dx).squaredNorm();
       }
     }
     for (size_t i = 0; i < poses_.size(); ++i) {
@@ -610,7 +609,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       }
       ceres::EigenQuaternionManifold().Plus(&poses[7 * i], delta.data(),
                                             &candidate_poses[7 * i]);
-      for (int j = 0; j < 3; ++j) candidate_poses[7 * i + 4 + j] += delta[3 + j];
+      for (int j = 0; j < 3; ++j)
+        candidate_poses[7 * i + 4 + j] += delta[3 + j];
       for (int j = 0; j < 7; ++j) {
         const double d = candidate_poses[7 * i + j] - poses[7 * i + j];
         step_norm2 += d * d;
@@ -626,7 +626,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         step_norm2 += d * d;
       }
       for (int j = 0; j < cameras_[i].num_params; ++j) {
-        x_norm2 += cameras[kMaxNumParams * i + j] * cameras[kMaxNumParams * i + j];
+        x_norm2 +=
+            cameras[kMaxNumParams * i + j] * cameras[kMaxNumParams * i + j];
       }
     }
     const double x_norm = std::sqrt(x_norm2);
@@ -648,17 +649,17 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     const double rho = (cost - candidate_cost) / model_cost_change;
     VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
             << ": cost " << cost << " -> " << candidate_cost << " (model "
-            << model_cost << "), step " << std::sqrt(step_norm2)
-            << ", radius " << radius;
+            << model_cost << "), step " << std::sqrt(step_norm2) << ", radius "
+            << radius;
     if (std::isfinite(candidate_cost) && model_cost_change > 0 &&
         rho > options.min_relative_decrease) {
       poses.swap(candidate_poses);
       cameras.swap(candidate_cameras);
       points.swap(candidate_points);
       cost = candidate_cost;
-      radius = std::min(options.max_trust_region_radius,
-                        radius / std::max(1.0 / 3.0,
-                                          1.0 - std::pow(2 * rho - 1, 3)));
+      radius = std::min(
+          options.max_trust_region_radius,
+          radius / std::max(1.0 / 3.0, 1.0 - std::pow(2 * rho - 1, 3)));
       decrease_factor = 2;
       check_gradient = true;
     } else {

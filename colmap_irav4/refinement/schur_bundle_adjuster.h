@@ -60,7 +60,7 @@ class SchurBundleAdjuster {
   struct Summary {
     ceres::TerminationType termination = ceres::NO_CONVERGENCE;
     std::string message;
-    int num_iterations = 0;  // as Ceres counts them (iteration 0 included)
+    int num_iterations = 0;   // as Ceres counts them (iteration 0 included)
     double initial_cost = 0;  // 1/2 the sum of squared weighted residuals
     double final_cost = 0;
     double linear_solver_seconds = 0;  // factorisations and solves

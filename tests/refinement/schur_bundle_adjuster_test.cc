@@ -79,9 +79,8 @@ Difference Compare(const Reconstruction& a, const Reconstruction& b) {
     d.center = std::max(
         d.center, (image.ProjectionCenter() - other.ProjectionCenter()).norm());
     d.rotation_deg = std::max(
-        d.rotation_deg,
-        RadToDeg(image.cam_from_world.rotation.angularDistance(
-            other.cam_from_world.rotation)));
+        d.rotation_deg, RadToDeg(image.cam_from_world.rotation.angularDistance(
+                            other.cam_from_world.rotation)));
   }
   EXPECT_EQ(a.points3D.size(), b.points3D.size());
   for (const auto& [point3D_id, point] : a.points3D) {
@@ -92,8 +91,9 @@ Difference Compare(const Reconstruction& a, const Reconstruction& b) {
   for (const auto& [camera_id, camera] : a.cameras) {
     const Camera& other = b.cameras.at(camera_id);
     for (size_t i = 0; i < camera.params.size(); ++i) {
-      d.param = std::max(d.param, std::abs(camera.params[i] - other.params[i]) /
-                                      std::max(1.0, std::abs(camera.params[i])));
+      d.param =
+          std::max(d.param, std::abs(camera.params[i] - other.params[i]) /
+                                std::max(1.0, std::abs(camera.params[i])));
     }
   }
   return d;

@@ -57,30 +57,18 @@ class ReprojectionCostFunction final
   const ReprojectionCost<kNumParams> cost_;
 };
 
-template <int kNumParams>
-ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy,
-                              const double* weight, bool center) {
-  return new ReprojectionCostFunction<kNumParams>(
-      ReprojectionCost<kNumParams>(model_id, xy, weight, center));
-}
-
 ceres::CostFunction* CreateReprojectionCost(int model_id,
                                             const Eigen::Vector2d& xy,
                                             const double* weight, bool center) {
-  switch (CameraModelNumParams(model_id)) {
-    case 3:
-      return MakeCost<3>(model_id, xy, weight, center);
-    case 4:
-      return MakeCost<4>(model_id, xy, weight, center);
-    case 5:
-      return MakeCost<5>(model_id, xy, weight, center);
-    case 8:
-      return MakeCost<8>(model_id, xy, weight, center);
-    case 12:
-      return MakeCost<12>(model_id, xy, weight, center);
-  }
-  LOG(FATAL) << "unsupported camera model " << model_id;
-  return nullptr;
+  ceres::CostFunction* cost = nullptr;
+  CHECK(WithNumCameraParams(
+      CameraModelNumParams(model_id),
+      [&](auto n) {
+        cost = new ReprojectionCostFunction<decltype(n)::value>(
+            ReprojectionCost<decltype(n)::value>(model_id, xy, weight, center));
+      }))
+      << "unsupported camera model " << model_id;
+  return cost;
 }
 
 // The Ceres problem of one bundle adjustment, built once and kept for all

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <type_traits>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -44,5 +46,30 @@ struct ReprojectionCost {
   const double* weight_;
   const bool center_;
 };
+
+// Calls f(std::integral_constant<int, N>()) with N = num_params, one of the
+// camera models' parameter counts (3, 4, 5, 8, 12): the size of
+// ReprojectionCost's camera block. Returns false for another count.
+template <typename F>
+bool WithNumCameraParams(int num_params, F&& f) {
+  switch (num_params) {
+    case 3:
+      f(std::integral_constant<int, 3>());
+      return true;
+    case 4:
+      f(std::integral_constant<int, 4>());
+      return true;
+    case 5:
+      f(std::integral_constant<int, 5>());
+      return true;
+    case 8:
+      f(std::integral_constant<int, 8>());
+      return true;
+    case 12:
+      f(std::integral_constant<int, 12>());
+      return true;
+  }
+  return false;
+}
 
 }  // namespace colmap_irav4

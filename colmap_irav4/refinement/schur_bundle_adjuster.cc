@@ -53,25 +53,15 @@ bool EvaluateReprojection(int num_params, int model_id,
                           const Eigen::Vector2d& xy, bool center,
                           double const* const* parameters, double* residual,
                           double** jacobians) {
-  switch (num_params) {
-    case 3:
-      return EvaluateModel<3>(model_id, xy, center, parameters, residual,
-                              jacobians);
-    case 4:
-      return EvaluateModel<4>(model_id, xy, center, parameters, residual,
-                              jacobians);
-    case 5:
-      return EvaluateModel<5>(model_id, xy, center, parameters, residual,
-                              jacobians);
-    case 8:
-      return EvaluateModel<8>(model_id, xy, center, parameters, residual,
-                              jacobians);
-    case 12:
-      return EvaluateModel<12>(model_id, xy, center, parameters, residual,
-                               jacobians);
-  }
-  LOG(FATAL) << "unsupported camera model " << model_id;
-  return false;
+  bool ok = false;
+  CHECK(WithNumCameraParams(num_params,
+                            [&](auto n) {
+                              ok = EvaluateModel<decltype(n)::value>(
+                                  model_id, xy, center, parameters, residual,
+                                  jacobians);
+                            }))
+      << "unsupported camera model " << model_id;
+  return ok;
 }
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;

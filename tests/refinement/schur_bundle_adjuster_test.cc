@@ -14,34 +14,12 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/random.h"
+#include "tests/test_utils/scene_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
 
-// Poses rotated by ~angle_deg, centres moved by ~center_noise, points by
-// ~point_noise, focal lengths scaled by focal_factor.
-void Perturb(double angle_deg, double center_noise, double point_noise,
-             double focal_factor, uint64_t seed,
-             Reconstruction* reconstruction) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  for (auto& [image_id, image] : reconstruction->images) {
-    const Eigen::Vector3d center =
-        image.ProjectionCenter() + center_noise * RandomVector<3>(normal, rng);
-    image.cam_from_world.rotation =
-        Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(angle_deg), &rng)) *
-        image.cam_from_world.rotation;
-    image.cam_from_world.translation =
-        -(image.cam_from_world.rotation * center);
-  }
-  for (auto& [point3D_id, point] : reconstruction->points3D) {
-    point.xyz += point_noise * RandomVector<3>(normal, rng);
-  }
-  for (auto& [camera_id, camera] : reconstruction->cameras) {
-    for (int idx : CameraModelFocalLengthIdxs(camera.model_id))
-      camera.params[idx] *= focal_factor;
-  }
-}
+using test::PerturbModel;
 
 SyntheticScene Scene(int camera_model_id = 1, bool shared_camera = true) {
   SyntheticSceneOptions options;
@@ -126,7 +104,7 @@ TEST(SchurBundleAdjuster, SameOptimumAsCeresWithTheDefaultLoss) {
       if (uniform(rng) < 0.05) point2D.xy += Eigen::Vector2d(40, -30);
     }
   }
-  Perturb(1.0, 0.1, 0.05, 1.03, 5, &start);
+  PerturbModel(1.0, 0.1, 0.05, 1.03, 5, &start);
   Reconstruction ceres_model = start, schur_model = start;
   const auto [ceres_summary, schur_summary] =
       RunBoth(TightOptions(), &ceres_model, &schur_model);
@@ -151,7 +129,7 @@ TEST(SchurBundleAdjuster, SameOptimumWithDistortionAndTranslations) {
   const SyntheticScene scene =
       Scene(CameraModelNameToId("SIMPLE_RADIAL"), /*shared_camera=*/false);
   Reconstruction start = scene.truth;
-  Perturb(0.3, 0.05, 0.02, 1.02, 6, &start);
+  PerturbModel(0.3, 0.05, 0.02, 1.02, 6, &start);
   for (auto& [camera_id, camera] : start.cameras) camera.params[3] = 0.0;
   BundleAdjustmentOptions options = TightOptions();
   options.loss_function = BundleAdjustmentLoss::kTrivial;
@@ -176,7 +154,7 @@ TEST(SchurBundleAdjuster, SameOptimumWithDistortionAndTranslations) {
 TEST(SchurBundleAdjuster, HoldsTheGaugeAndTheHeldParameters) {
   const SyntheticScene scene = Scene(CameraModelNameToId("SIMPLE_RADIAL"));
   Reconstruction start = scene.truth;
-  Perturb(0.5, 0.05, 0.02, 1.0, 7, &start);
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &start);
   BundleAdjustmentOptions options = TightOptions();
   options.refine_focal_length = false;
   options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
@@ -200,7 +178,7 @@ TEST(SchurBundleAdjuster, HoldsTheGaugeAndTheHeldParameters) {
   options.refine_poses = false;
   options.refine_extra_params = false;
   Reconstruction points_start = scene.truth;
-  Perturb(0.0, 0.0, 0.1, 1.0, 8, &points_start);
+  PerturbModel(0.0, 0.0, 0.1, 1.0, 8, &points_start);
   Reconstruction points_only = points_start;
   ASSERT_TRUE(RunBundleAdjustment(options, &points_only));
   for (const auto& [image_id, image] : points_only.images) {

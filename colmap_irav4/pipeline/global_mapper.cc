@@ -458,6 +458,7 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         stage.Add("keypoint noise px (coarsest scales)",
                   ba_summary.scale_bin_noise_px.back());
       }
+      stage.AddText("solver backend", ba_summary.backend_reason);
       stage.AddText("linear solver", ba_summary.linear_solver_reason);
       if (ba_summary.schur_density >= 0) {
         stage.Add("pairs sharing a point (fraction)", ba_summary.schur_density);
@@ -465,6 +466,7 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       // Where its time goes (wall seconds; not figures: they vary by run).
       LOG(INFO) << log_prefix_ << "bundle adjustment "
                 << std::to_string(iteration + 1) << ": "
+                << ba_summary.backend_reason << "; "
                 << (ba_summary.linear_solver_reason.empty()
                         ? ba_summary.linear_solver
                         : ba_summary.linear_solver_reason)

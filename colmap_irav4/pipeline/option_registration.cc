@@ -327,6 +327,12 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "observations over this error are removed between rounds (px)");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
                EnumNameList<BundleAdjustmentLinearSolver>());
+  manager->Add("BundleAdjustment.solver_backend", &ba.solver_backend,
+               EnumNameList<BundleAdjustmentSolverBackend>());
+  manager->Add("BundleAdjustment.schur_min_num_observations",
+               &ba.schur_min_num_observations,
+               "solver_backend auto: the Schur solver from this many "
+               "observations");
   manager->Add("BundleAdjustment.iterative_schur_min_num_images",
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "

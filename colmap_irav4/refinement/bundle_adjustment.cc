@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <memory>
+#include <numeric>
 #include <set>
 #include <sstream>
 #include <unordered_map>
@@ -17,6 +18,8 @@
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/refinement/filtering.h"
 #include "colmap_irav4/refinement/model_rigidity.h"
+#include "colmap_irav4/refinement/reprojection_cost.h"
+#include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
@@ -26,43 +29,6 @@
 
 namespace colmap_irav4 {
 namespace {
-
-// Reprojection residual; blocks: quaternion (x, y, z, w), translation (or,
-// with `center`, the projection centre), point, camera params (kNumParams).
-// With a weight, the residual is scaled by it when evaluated (the weight may
-// change between solves).
-template <int kNumParams>
-struct ReprojectionCost {
-  ReprojectionCost(int model_id, const Eigen::Vector2d& xy,
-                   const double* weight, bool center)
-      : model_id_(model_id), xy_(xy), weight_(weight), center_(center) {}
-
-  template <typename T>
-  bool operator()(const T* rotation, const T* position, const T* point,
-                  const T* params, T* residuals) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> q(rotation);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> xyz(point);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> p(position);
-    const Eigen::Matrix<T, 3, 1> in_cam =
-        center_ ? Eigen::Matrix<T, 3, 1>(q * (xyz - p))
-                : Eigen::Matrix<T, 3, 1>(q * xyz + p);
-    T x, y;
-    CameraModelImgFromCam<T>(model_id_, params, in_cam[0], in_cam[1], in_cam[2],
-                             &x, &y);
-    residuals[0] = x - T(xy_[0]);
-    residuals[1] = y - T(xy_[1]);
-    if (weight_ != nullptr) {
-      residuals[0] *= *weight_;
-      residuals[1] *= *weight_;
-    }
-    return true;
-  }
-
-  const int model_id_;
-  const Eigen::Vector2d xy_;
-  const double* weight_;
-  const bool center_;
-};
 
 // ceres::AutoDiffCostFunction with the functor held in place: one
 // allocation per observation instead of two (48 bytes less each; a model's
@@ -92,30 +58,18 @@ class ReprojectionCostFunction final
   const ReprojectionCost<kNumParams> cost_;
 };
 
-template <int kNumParams>
-ceres::CostFunction* MakeCost(int model_id, const Eigen::Vector2d& xy,
-                              const double* weight, bool center) {
-  return new ReprojectionCostFunction<kNumParams>(
-      ReprojectionCost<kNumParams>(model_id, xy, weight, center));
-}
-
 ceres::CostFunction* CreateReprojectionCost(int model_id,
                                             const Eigen::Vector2d& xy,
                                             const double* weight, bool center) {
-  switch (CameraModelNumParams(model_id)) {
-    case 3:
-      return MakeCost<3>(model_id, xy, weight, center);
-    case 4:
-      return MakeCost<4>(model_id, xy, weight, center);
-    case 5:
-      return MakeCost<5>(model_id, xy, weight, center);
-    case 8:
-      return MakeCost<8>(model_id, xy, weight, center);
-    case 12:
-      return MakeCost<12>(model_id, xy, weight, center);
-  }
-  LOG(FATAL) << "unsupported camera model " << model_id;
-  return nullptr;
+  ceres::CostFunction* cost = nullptr;
+  CHECK(WithNumCameraParams(
+      CameraModelNumParams(model_id),
+      [&](auto n) {
+        cost = new ReprojectionCostFunction<decltype(n)::value>(
+            ReprojectionCost<decltype(n)::value>(model_id, xy, weight, center));
+      }))
+      << "unsupported camera model " << model_id;
+  return cost;
 }
 
 // The poses that hold the gauge of a model whose parts may share no point
@@ -204,9 +158,14 @@ class BundleAdjustmentProblem {
         reconstruction_(reconstruction),
         priors_(priors),
         huber_(options.loss_function == BundleAdjustmentLoss::kHuber),
-        weighted_(huber_ || options.weight_by_keypoint_scale ||
+        schur_(ChooseSchurBackend(options, NumObservations(*reconstruction),
+                                  priors, &backend_reason_)),
+        weighted_(huber_ || options.weight_by_keypoint_scale || schur_ ||
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
+    if (schur_) {
+      schur_adjuster_ = std::make_unique<SchurBundleAdjuster>(use_centers_);
+    }
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_ = std::make_unique<ceres::Problem>(problem_options);
@@ -221,7 +180,12 @@ class BundleAdjustmentProblem {
     }
   }
 
-  bool Empty() const { return problem_->NumResidualBlocks() == 0; }
+  bool Empty() const {
+    return schur_ ? schur_adjuster_->NumObservations() == 0
+                  : problem_->NumResidualBlocks() == 0;
+  }
+  bool Schur() const { return schur_; }
+  const std::string& BackendReason() const { return backend_reason_; }
   int NumPositionPriors() const { return num_position_priors_; }
   int NumGravityPriors() const { return num_gravity_priors_; }
   // Parts of the model that share no point, and parts joined to the rest
@@ -290,20 +254,53 @@ class BundleAdjustmentProblem {
         });
   }
 
-  ceres::Solver::Summary Solve() {
-    SolverOptions solver = options_.solver;
-    linear_solver_reason_ = ChooseLinearSolver(options_, num_images_,
-                                               schur_density_, &solver.ceres);
-    if (options_.refine_points) solver.ceres.linear_solver_ordering = ordering_;
-    ceres::Solver::Summary summary =
-        SolveProblem("bundle adjustment", solver, problem_.get());
+  // One solve's outcome, whoever solved.
+  struct SolveSummary {
+    ceres::TerminationType termination = ceres::FAILURE;
+    std::string message;
+    int num_iterations = 0;  // Ceres' count (iteration 0 included)
+    double preprocessor_seconds = 0;
+    double linear_solver_seconds = 0;
+    std::string linear_solver;
+  };
+
+  SolveSummary Solve() {
+    SolveSummary summary;
+    if (schur_) {
+      const SchurBundleAdjuster::Summary schur =
+          schur_adjuster_->Solve(options_.solver.ceres);
+      summary.termination = schur.termination;
+      summary.message = schur.message;
+      summary.num_iterations = schur.num_iterations;
+      summary.linear_solver_seconds = schur.linear_solver_seconds;
+      summary.linear_solver = "SCHUR_SIMPLICIAL_LLT";
+      linear_solver_reason_ =
+          "schur (ours): " + std::to_string(schur.num_reduced_parameters) +
+          " reduced parameters, " + std::to_string(schur.num_reduced_nonzeros) +
+          " stored entries";
+    } else {
+      SolverOptions solver = options_.solver;
+      linear_solver_reason_ = ChooseLinearSolver(options_, num_images_,
+                                                 schur_density_, &solver.ceres);
+      if (options_.refine_points) {
+        solver.ceres.linear_solver_ordering = ordering_;
+      }
+      const ceres::Solver::Summary ceres_summary =
+          SolveProblem("bundle adjustment", solver, problem_.get());
+      summary.termination = ceres_summary.termination_type;
+      summary.message = ceres_summary.message;
+      summary.num_iterations = ceres_summary.iterations.size();
+      summary.preprocessor_seconds = ceres_summary.preprocessor_time_in_seconds;
+      summary.linear_solver_seconds =
+          ceres_summary.linear_solver_time_in_seconds;
+      summary.linear_solver = ceres::LinearSolverTypeToString(
+          ceres_summary.linear_solver_type_used);
+    }
     // The model from the solved copies, its poses from the solved centres
     // (the filter and the reweighting read them).
     copies_->CopyToModel();
     for (const auto& [image_id, center] : centers_) {
-      const double* block = poses_.at(image_id).position;
-      if (!problem_->HasParameterBlock(block) ||
-          problem_->IsParameterBlockConstant(block)) {
+      if (refined_poses_.count(image_id) == 0) {
         continue;  // held: the model's pose stays as it was, bit for bit
       }
       Rigid3d& pose = reconstruction_->images.at(image_id).cam_from_world;
@@ -428,7 +425,7 @@ class BundleAdjustmentProblem {
           copies_->Add(use_centers_ ? centers_.at(image_id).data()
                                     : image.cam_from_world.translation.data(),
                        3);
-      poses_[image_id] = {rotation, position};
+      poses_[image_id] = {rotation, position, -1};
     }
     for (auto& [camera_id, camera] : reconstruction_->cameras) {
       cameras_[camera_id] =
@@ -457,11 +454,14 @@ class BundleAdjustmentProblem {
       }
     }
     CopyParameters();
+    if (schur_) AddSchurPosesAndCameras();
+    std::vector<std::pair<int, point2D_t>> schur_observations;
     std::set<image_t> used_images;
     std::set<camera_t> used_cameras;
     size_t point_index = 0;
     for (auto& [point3D_id, point] : reconstruction_->points3D) {
       double* point_block = points_[point_index++].second;
+      schur_observations.clear();
       for (const TrackElement& element : point.track) {
         Image& image = reconstruction_->images.at(element.image_id);
         Camera& camera = reconstruction_->cameras.at(image.camera_id);
@@ -478,16 +478,26 @@ class BundleAdjustmentProblem {
           weight = &weights[element.point2D_idx];
         }
         const PoseBlocks& pose = poses_.at(element.image_id);
-        problem_->AddResidualBlock(
-            CreateReprojectionCost(camera.model_id,
-                                   image.points2D[element.point2D_idx].xy,
-                                   weight, use_centers_),
-            loss_.get(), pose.rotation, pose.position, point_block,
-            cameras_.at(image.camera_id));
+        if (schur_) {
+          schur_observations.emplace_back(pose.schur_index,
+                                          element.point2D_idx);
+        } else {
+          problem_->AddResidualBlock(
+              CreateReprojectionCost(camera.model_id,
+                                     image.points2D[element.point2D_idx].xy,
+                                     weight, use_centers_),
+              loss_.get(), pose.rotation, pose.position, point_block,
+              cameras_.at(image.camera_id));
+        }
         used_images.insert(element.image_id);
         used_cameras.insert(image.camera_id);
       }
-      if (problem_->HasParameterBlock(point_block)) {
+      if (schur_) {
+        if (!schur_observations.empty()) {
+          schur_adjuster_->AddPoint(point_block, !options_.refine_points,
+                                    schur_observations);
+        }
+      } else if (problem_->HasParameterBlock(point_block)) {
         ordering_->AddElementToGroup(point_block, 0);
         if (!options_.refine_points) {
           problem_->SetParameterBlockConstant(point_block);
@@ -497,7 +507,8 @@ class BundleAdjustmentProblem {
     num_images_ = static_cast<int>(used_images.size());
     if (Empty()) return;
     // Only auto's choice needs it (a pass over the tracks).
-    if (options_.linear_solver == BundleAdjustmentLinearSolver::kAuto &&
+    if (!schur_ &&
+        options_.linear_solver == BundleAdjustmentLinearSolver::kAuto &&
         num_images_ >= 50) {
       std::vector<const Track*> tracks;
       tracks.reserve(reconstruction_->points3D.size());
@@ -519,27 +530,29 @@ class BundleAdjustmentProblem {
     num_pieces_ = holds.num_pieces;
     num_joints_ = holds.num_joints;
     for (size_t k = 0; k < images.size(); ++k) {
-      const Image& image = reconstruction_->images.at(images[k]);
-      double* rotation = poses_.at(images[k]).rotation;
-      double* position = poses_.at(images[k]).position;
+      const PoseBlocks& pose = poses_.at(images[k]);
+      double* rotation = pose.rotation;
+      double* position = pose.position;
+      const bool held =
+          !options_.refine_poses || holds.held.count(images[k]) > 0;
+      const auto scale_hold = holds.scale_about.find(images[k]);
+      const int fixed_coordinate =
+          !held && scale_hold != holds.scale_about.end()
+              ? GaugeCoordinate(images[k], scale_hold->second)
+              : -1;
+      if (!held) refined_poses_.insert(images[k]);
+      if (schur_) {
+        schur_adjuster_->SetPoseConstant(pose.schur_index, held,
+                                         fixed_coordinate);
+        continue;
+      }
       ordering_->AddElementToGroup(rotation, 1);
       ordering_->AddElementToGroup(position, 1);
       problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
-      const auto scale_hold = holds.scale_about.find(images[k]);
-      if (!options_.refine_poses || holds.held.count(images[k]) > 0) {
+      if (held) {
         problem_->SetParameterBlockConstant(rotation);
         problem_->SetParameterBlockConstant(position);
-      } else if (scale_hold != holds.scale_about.end()) {
-        // The coordinate of the position along which a scaling about the
-        // image its part turns on moves this one most.
-        const Image& first = reconstruction_->images.at(scale_hold->second);
-        Eigen::Vector3d baseline =
-            image.ProjectionCenter() - first.ProjectionCenter();
-        if (!use_centers_) {
-          baseline = image.cam_from_world.rotation * baseline;
-        }
-        int fixed_coordinate = 0;
-        baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
+      } else if (fixed_coordinate >= 0) {
         problem_->SetManifold(position,
                               new ceres::SubsetManifold(3, {fixed_coordinate}));
       }
@@ -549,7 +562,6 @@ class BundleAdjustmentProblem {
     for (camera_t camera_id : used_cameras) {
       const Camera& camera = reconstruction_->cameras.at(camera_id);
       double* params = cameras_.at(camera_id);
-      ordering_->AddElementToGroup(params, 1);
       std::vector<int> constant;
       auto add = [&constant](const std::vector<int>& idxs) {
         constant.insert(constant.end(), idxs.begin(), idxs.end());
@@ -560,6 +572,12 @@ class BundleAdjustmentProblem {
         add(CameraModelPrincipalPointIdxs(camera.model_id));
       if (!options_.refine_extra_params)
         add(CameraModelExtraParamsIdxs(camera.model_id));
+      if (schur_) {
+        schur_adjuster_->SetCameraConstant(schur_cameras_.at(camera_id),
+                                           constant);
+        continue;
+      }
+      ordering_->AddElementToGroup(params, 1);
       const int num_params = camera.params.size();
       if (static_cast<int>(constant.size()) >= num_params) {
         problem_->SetParameterBlockConstant(params);
@@ -567,6 +585,43 @@ class BundleAdjustmentProblem {
         problem_->SetManifold(params,
                               new ceres::SubsetManifold(num_params, constant));
       }
+    }
+  }
+
+  // A gauge's scale: the coordinate of the image's position along which a
+  // scaling about the image `about` moves it most.
+  int GaugeCoordinate(image_t image_id, image_t about) const {
+    const Image& first = reconstruction_->images.at(about);
+    const Image& image = reconstruction_->images.at(image_id);
+    Eigen::Vector3d baseline =
+        image.ProjectionCenter() - first.ProjectionCenter();
+    if (!use_centers_) {
+      baseline = image.cam_from_world.rotation * baseline;
+    }
+    int fixed_coordinate = 0;
+    baseline.cwiseAbs().maxCoeff(&fixed_coordinate);
+    return fixed_coordinate;
+  }
+
+  // The Schur solver's cameras and poses: every one of the model, held
+  // until Build finds it observed (the weights of every image sized now).
+  void AddSchurPosesAndCameras() {
+    for (const auto& [camera_id, camera] : reconstruction_->cameras) {
+      const int index =
+          schur_adjuster_->AddCamera(cameras_.at(camera_id), camera.model_id);
+      std::vector<int> all(camera.params.size());
+      std::iota(all.begin(), all.end(), 0);
+      schur_adjuster_->SetCameraConstant(index, all);
+      schur_cameras_[camera_id] = index;
+    }
+    for (auto& [image_id, image] : reconstruction_->images) {
+      std::vector<double>& weights = weights_[image_id];
+      weights.assign(image.points2D.size(), 0.0);
+      PoseBlocks& pose = poses_.at(image_id);
+      pose.schur_index = schur_adjuster_->AddPose(
+          pose.rotation, pose.position, schur_cameras_.at(image.camera_id),
+          &image.points2D, &weights);
+      schur_adjuster_->SetPoseConstant(pose.schur_index, true, -1);
     }
   }
 
@@ -613,7 +668,9 @@ class BundleAdjustmentProblem {
   int num_position_priors_ = 0;
   int num_gravity_priors_ = 0;
   const bool huber_;
-  const bool weighted_;  // residuals reweighted or filtered: weights_
+  std::string backend_reason_;  // ChooseSchurBackend's
+  const bool schur_;            // solved by SchurBundleAdjuster
+  const bool weighted_;         // residuals reweighted or filtered: weights_
   // Keypoint scale bins (FindScaleBins); the bins' median errors are
   // estimated from a few thousand observations at least.
   static constexpr int kNumKeypointScaleBins = 8;
@@ -636,11 +693,16 @@ class BundleAdjustmentProblem {
   struct PoseBlocks {
     double* rotation;
     double* position;
+    int schur_index = -1;  // the Schur solver's pose
   };
   std::unordered_map<image_t, PoseBlocks> poses_;
   std::unordered_map<camera_t, double*> cameras_;
   std::vector<std::pair<point3D_t, double*>> points_;  // by id
   std::unique_ptr<ceres::Problem> problem_;
+  std::unique_ptr<SchurBundleAdjuster> schur_adjuster_;
+  std::unordered_map<camera_t, int> schur_cameras_;  // the solver's index
+  // Images whose pose the solves move (the others stay bit for bit).
+  std::unordered_set<image_t> refined_poses_;
   std::shared_ptr<ceres::ParameterBlockOrdering> ordering_;
   int num_images_ = 0;
   int num_pieces_ = 0;
@@ -739,6 +801,48 @@ const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>() {
 }
 
 template <>
+const EnumNames<BundleAdjustmentSolverBackend>&
+NamesOf<BundleAdjustmentSolverBackend>() {
+  static const EnumNames<BundleAdjustmentSolverBackend> names = {
+      {BundleAdjustmentSolverBackend::kAuto, "auto"},
+      {BundleAdjustmentSolverBackend::kCeres, "ceres"},
+      {BundleAdjustmentSolverBackend::kSchur, "schur"}};
+  return names;
+}
+
+bool ChooseSchurBackend(const BundleAdjustmentOptions& options,
+                        size_t num_observations, const PosePriors* priors,
+                        std::string* reason) {
+  using Backend = BundleAdjustmentSolverBackend;
+  std::string why;
+  bool schur = false;
+  if (options.solver_backend == Backend::kCeres) {
+    why = "ceres: asked";
+  } else if (priors != nullptr && !priors->empty() && options.refine_poses) {
+    why = "ceres: pose priors (the Schur solver has no prior residuals)";
+  } else if (options.loss_function != BundleAdjustmentLoss::kHuber &&
+             options.loss_function != BundleAdjustmentLoss::kTrivial) {
+    why = "ceres: loss " + EnumName(options.loss_function) +
+          " (the Schur solver takes weights only)";
+  } else if (options.solver_backend == Backend::kSchur) {
+    schur = true;
+    why = "schur: asked";
+  } else if (num_observations >=
+             static_cast<size_t>(options.schur_min_num_observations)) {
+    schur = true;
+    why = "schur: " + std::to_string(num_observations) +
+          " observations (auto from " +
+          std::to_string(options.schur_min_num_observations) + ")";
+  } else {
+    why = "ceres: " + std::to_string(num_observations) +
+          " observations (auto: schur from " +
+          std::to_string(options.schur_min_num_observations) + ")";
+  }
+  if (reason != nullptr) *reason = why;
+  return schur;
+}
+
+template <>
 const EnumNames<BundleAdjustmentLinearSolver>&
 NamesOf<BundleAdjustmentLinearSolver>() {
   static const EnumNames<BundleAdjustmentLinearSolver> names = {
@@ -778,6 +882,11 @@ void BundleAdjustmentOptions::Check() const {
                       "BundleAdjustment.iterative_schur_min_density",
                       "must be positive (above 1: never by density)");
   }
+  if (schur_min_num_observations < 0) {
+    throw OptionError(&schur_min_num_observations,
+                      "BundleAdjustment.schur_min_num_observations",
+                      "must be >= 0");
+  }
   if (iterative_schur_min_num_images < 1) {
     throw OptionError(&iterative_schur_min_num_images,
                       "BundleAdjustment.iterative_schur_min_num_images",
@@ -803,6 +912,9 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
   {
     Timer build_timer;
     BundleAdjustmentProblem problem(options, reconstruction, priors);
+    local_summary.backend = problem.Schur() ? "schur" : "ceres";
+    local_summary.backend_reason = problem.BackendReason();
+    VLOG(1) << "Bundle adjustment backend " << problem.BackendReason();
     local_summary.num_position_priors = problem.NumPositionPriors();
     local_summary.num_gravity_priors = problem.NumGravityPriors();
     local_summary.num_pieces = problem.NumPieces();
@@ -820,31 +932,30 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
       // Huber by reweighting: a few solves, each from the last one's errors.
       const int num_solves =
           options.loss_function == BundleAdjustmentLoss::kHuber ? 3 : 1;
-      ceres::Solver::Summary solver_summary;
+      BundleAdjustmentProblem::SolveSummary solver_summary;
       for (int solve = 0; solve < num_solves; ++solve) {
         build_timer.Restart();
         problem.Reweight();
         local_summary.problem_seconds += build_timer.ElapsedSeconds();
         solver_summary = problem.Solve();
-        local_summary.num_iterations += solver_summary.iterations.size();
+        local_summary.num_iterations += solver_summary.num_iterations;
         ++local_summary.num_solves;
         local_summary.preprocessor_seconds +=
-            solver_summary.preprocessor_time_in_seconds;
+            solver_summary.preprocessor_seconds;
         local_summary.linear_solver_seconds +=
-            solver_summary.linear_solver_time_in_seconds;
-        local_summary.linear_solver = ceres::LinearSolverTypeToString(
-            solver_summary.linear_solver_type_used);
+            solver_summary.linear_solver_seconds;
+        local_summary.linear_solver = solver_summary.linear_solver;
         local_summary.linear_solver_reason = problem.LinearSolverReason();
         local_summary.schur_density = problem.SchurDensity();
-        if (solver_summary.termination_type == ceres::FAILURE ||
-            solver_summary.iterations.size() <= 2) {
+        if (solver_summary.termination == ceres::FAILURE ||
+            solver_summary.num_iterations <= 2) {
           break;
         }
       }
       ++local_summary.num_rounds;
       local_summary.converged =
-          solver_summary.termination_type == ceres::CONVERGENCE;
-      if (solver_summary.termination_type == ceres::FAILURE) {
+          solver_summary.termination == ceres::CONVERGENCE;
+      if (solver_summary.termination == ceres::FAILURE) {
         LOG(WARNING) << "Bundle adjustment: " << solver_summary.message;
         success = false;
         break;

@@ -45,6 +45,11 @@ template <>
 const EnumNames<BundleAdjustmentLinearSolver>&
 NamesOf<BundleAdjustmentLinearSolver>();
 
+enum class BundleAdjustmentSolverBackend { kAuto, kCeres, kSchur };
+template <>
+const EnumNames<BundleAdjustmentSolverBackend>&
+NamesOf<BundleAdjustmentSolverBackend>();
+
 struct BundleAdjustmentOptions {
   // Intrinsics to refine (COLMAP's ba_refine_* options).
   bool refine_focal_length = true;
@@ -83,6 +88,17 @@ struct BundleAdjustmentOptions {
   // (docs/notes/2026-12-01-results-2b39f55.md).
   BundleAdjustmentLinearSolver linear_solver =
       BundleAdjustmentLinearSolver::kAuto;
+  // Who solves: ceres (the problem above), schur (SchurBundleAdjuster: the
+  // same Levenberg-Marquardt without a stored Jacobian or residual blocks;
+  // one thread) or auto: schur from schur_min_num_observations
+  // observations, where it was measured to reach the same models with less
+  // CPU time and half the peak memory (300 and 1,000 images,
+  // docs/notes/2026-12-03-schur-bundle-adjustment.md). Pose priors and the
+  // huber_ceres and cauchy losses go to Ceres whatever this says
+  // (ChooseSchurBackend; the reason is in the log and summary.json).
+  BundleAdjustmentSolverBackend solver_backend =
+      BundleAdjustmentSolverBackend::kAuto;
+  int schur_min_num_observations = 500000;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
@@ -143,6 +159,9 @@ struct BundleAdjustmentSummary {
   double linear_solver_seconds = 0;
   int num_solves = 0;
   std::string linear_solver;  // Ceres' name, of the last solve
+  // The backend that solved (ceres or schur) and why (ChooseBackend).
+  std::string backend;
+  std::string backend_reason;
   // Why it was chosen (ChooseLinearSolver), and the fraction of the image
   // pairs of the problem that share a point (-1: not computed).
   std::string linear_solver_reason;
@@ -176,6 +195,14 @@ std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
 // be small).
 double SchurDensity(const std::vector<const Track*>& tracks,
                     int max_num_images = 30000);
+
+// Whether `options.solver_backend` sends a bundle adjustment of
+// `num_observations` observations to the Schur solver, with `priors` (by
+// image id, may be null; only applied when poses are refined); `reason` (may
+// be null): why, e.g. "schur: 2270000 observations (auto from 500000)".
+bool ChooseSchurBackend(const BundleAdjustmentOptions& options,
+                        size_t num_observations, const PosePriors* priors,
+                        std::string* reason);
 
 // Returns false if Ceres failed (no usable solution). `priors` (by image id,
 // may be null): pose priors of a model in their frame (see above).

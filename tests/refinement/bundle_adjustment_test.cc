@@ -17,30 +17,7 @@
 namespace colmap_irav4 {
 namespace {
 
-// Poses rotated by ~angle_deg, centres moved by ~center_noise, points moved
-// by ~point_noise, focal lengths scaled by focal_factor.
-void Perturb(double angle_deg, double center_noise, double point_noise,
-             double focal_factor, uint64_t seed,
-             Reconstruction* reconstruction) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  for (auto& [image_id, image] : reconstruction->images) {
-    const Eigen::Vector3d center =
-        image.ProjectionCenter() + center_noise * RandomVector<3>(normal, rng);
-    image.cam_from_world.rotation =
-        Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(angle_deg), &rng)) *
-        image.cam_from_world.rotation;
-    image.cam_from_world.translation =
-        -(image.cam_from_world.rotation * center);
-  }
-  for (auto& [point3D_id, point] : reconstruction->points3D) {
-    point.xyz += point_noise * RandomVector<3>(normal, rng);
-  }
-  for (auto& [camera_id, camera] : reconstruction->cameras) {
-    for (int idx : CameraModelFocalLengthIdxs(camera.model_id))
-      camera.params[idx] *= focal_factor;
-  }
-}
+using test::PerturbModel;
 
 struct Errors {
   double max_center_error = 0;  // after similarity alignment
@@ -96,7 +73,7 @@ TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
   Reconstruction truth = scene.truth;
   Reconstruction reconstruction = scene.truth;
-  Perturb(1.0, 0.1, 0.05, 1.03, 5, &reconstruction);
+  PerturbModel(1.0, 0.1, 0.05, 1.03, 5, &reconstruction);
   BundleAdjustmentOptions options;
   options.refine_extra_params = false;  // PINHOLE has none
   BundleAdjustmentSummary summary;
@@ -119,7 +96,7 @@ TEST(BundleAdjustment, ConvergesToTruthFromPerturbedStart) {
   exact_options.max_reproj_error = 0;
   exact_options.solver.ceres.function_tolerance = 1e-12;
   Reconstruction from_perturbed = scene.truth;
-  Perturb(1.0, 0.1, 0.05, 1.03, 5, &from_perturbed);
+  PerturbModel(1.0, 0.1, 0.05, 1.03, 5, &from_perturbed);
   ASSERT_TRUE(RunBundleAdjustment(exact_options, &from_perturbed));
   Reconstruction from_truth = scene.truth;
   ASSERT_TRUE(RunBundleAdjustment(exact_options, &from_truth));
@@ -138,7 +115,7 @@ TEST(BundleAdjustment, RefinesDistortionOfPerImageCameras) {
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   Reconstruction reconstruction = scene.truth;
   ASSERT_EQ(reconstruction.cameras.size(), 12u);
-  Perturb(0.3, 0.05, 0.02, 1.0, 6, &reconstruction);
+  PerturbModel(0.3, 0.05, 0.02, 1.0, 6, &reconstruction);
   for (auto& [camera_id, camera] : reconstruction.cameras)
     camera.params[3] = 0.0;
   BundleAdjustmentOptions options;
@@ -170,7 +147,7 @@ TEST(BundleAdjustment, RoundsRemoveWrongObservations) {
       }
     }
   }
-  Perturb(0.5, 0.05, 0.02, 1.0, 7, &reconstruction);
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &reconstruction);
   BundleAdjustmentSummary summary;
   BundleAdjustmentOptions options;
   ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
@@ -195,7 +172,7 @@ TEST(BundleAdjustment, KeptProblemSolvesTheFilteredObservations) {
       if (uniform(rng) < 0.1) point2D.xy += Eigen::Vector2d(40, -30);
     }
   }
-  Perturb(0.5, 0.05, 0.02, 1.0, 3, &reconstruction);
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 3, &reconstruction);
   const size_t num_points_before = reconstruction.points3D.size();
   BundleAdjustmentOptions options;
   options.loss_function = BundleAdjustmentLoss::kTrivial;
@@ -228,7 +205,7 @@ TEST(BundleAdjustment, KeptProblemSolvesTheFilteredObservations) {
 TEST(BundleAdjustment, FixedPosesMoveOnlyPoints) {
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
   Reconstruction reconstruction = scene.truth;
-  Perturb(0.0, 0.0, 0.1, 1.0, 8, &reconstruction);
+  PerturbModel(0.0, 0.0, 0.1, 1.0, 8, &reconstruction);
   const Reconstruction start = reconstruction;
   BundleAdjustmentOptions options;
   options.refine_poses = false;
@@ -317,7 +294,7 @@ TEST(BundleAdjustment, IterativeSchurAboveTheThresholdReachesTheSameOptimum) {
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   BundleAdjustmentOptions options = LeastSquaresOptions();
   Reconstruction direct = scene.truth;
-  Perturb(0.5, 0.05, 0.02, 1.0, 7, &direct);
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &direct);
   Reconstruction iterative = direct;
   BundleAdjustmentSummary summary;
   // (Its reduced camera system is dense: auto would choose the iterative
@@ -354,7 +331,7 @@ TEST(BundleAdjustment, CentreParameterisationConvergesFarFromTheOrigin) {
   Reconstruction start = scene.truth;
   TransformReconstruction(shift, &start);
   TransformReconstruction(shift, &optimum);
-  Perturb(0.5, 0.05, 0.02, 1.0, 11, &start);
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 11, &start);
 
   Reconstruction by_translation = start;
   BundleAdjustmentSummary translation_summary;
@@ -439,7 +416,7 @@ TEST(BundleAdjustment, SameBitsWhereverTheModelIsOnTheHeap) {
   // place, a copy laid out otherwise would differ in the last bits.
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
   Reconstruction model = scene.truth;
-  Perturb(2.0, 0.05, 0.05, 1.05, 3, &model);
+  PerturbModel(2.0, 0.05, 0.05, 1.05, 3, &model);
   Reconstruction copy = test::CopyInReverseOrder(model);
   for (const bool centers : {false, true}) {
     BundleAdjustmentOptions options;
@@ -510,17 +487,19 @@ Reconstruction SplitIntoTwoPieces(const Reconstruction& truth,
 // Adjusts the two parts of SplitIntoTwoPieces from a perturbed start: each
 // in its own gauge, converged, and at the optimum reached from the truth.
 void ExpectPartsAdjustedInTheirOwnGauge(bool joined, int num_pieces,
-                                        int num_joints) {
+                                        int num_joints,
+                                        BundleAdjustmentSolverBackend backend) {
   const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
   const image_t last_of_first = scene.truth.images.begin()->first + 5;
   const Reconstruction split =
       SplitIntoTwoPieces(scene.truth, last_of_first, joined);
   ASSERT_GT(split.points3D.size(), 500u);
   Reconstruction reconstruction = split;
-  Perturb(0.5, 0.05, 0.02, 1.0, 7, &reconstruction);
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &reconstruction);
   BundleAdjustmentOptions options = LeastSquaresOptions();
   // Sparse Cholesky (CHOLMOD), as from 50 images.
   options.linear_solver = BundleAdjustmentLinearSolver::kSparseSchur;
+  options.solver_backend = backend;
   BundleAdjustmentSummary summary;
   ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
   EXPECT_EQ(summary.num_pieces, num_pieces);
@@ -543,12 +522,18 @@ void ExpectPartsAdjustedInTheirOwnGauge(bool joined, int num_pieces,
 // by false pairs, once their observations are filtered): each has a free
 // similarity, which left free makes the reduced camera system singular.
 TEST(BundleAdjustment, PiecesSharingNoPointEachHoldTheirGauge) {
-  ExpectPartsAdjustedInTheirOwnGauge(/*joined=*/false, 2, 0);
+  for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
+                             BundleAdjustmentSolverBackend::kSchur}) {
+    ExpectPartsAdjustedInTheirOwnGauge(/*joined=*/false, 2, 0, backend);
+  }
 }
 
 // Two parts joined through one image: the second has a free scale about it.
 TEST(BundleAdjustment, PartJoinedThroughOneImageHoldsItsScale) {
-  ExpectPartsAdjustedInTheirOwnGauge(/*joined=*/true, 1, 1);
+  for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
+                             BundleAdjustmentSolverBackend::kSchur}) {
+    ExpectPartsAdjustedInTheirOwnGauge(/*joined=*/true, 1, 1, backend);
+  }
 }
 
 TEST(BundleAdjustment, OptionsCheck) {

@@ -1,15 +1,45 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
+#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/eval/model_alignment.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/util/random.h"
 
 namespace colmap_irav4 {
 namespace test {
+
+// Poses rotated by ~angle_deg, centres moved by ~center_noise, points moved
+// by ~point_noise, focal lengths scaled by focal_factor.
+inline void PerturbModel(double angle_deg, double center_noise,
+                         double point_noise, double focal_factor, uint64_t seed,
+                         Reconstruction* reconstruction) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (auto& [image_id, image] : reconstruction->images) {
+    const Eigen::Vector3d center =
+        image.ProjectionCenter() + center_noise * RandomVector<3>(normal, rng);
+    image.cam_from_world.rotation =
+        Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(angle_deg), &rng)) *
+        image.cam_from_world.rotation;
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation * center);
+  }
+  for (auto& [point3D_id, point] : reconstruction->points3D) {
+    point.xyz += point_noise * RandomVector<3>(normal, rng);
+  }
+  for (auto& [camera_id, camera] : reconstruction->cameras) {
+    for (int idx : CameraModelFocalLengthIdxs(camera.model_id))
+      camera.params[idx] *= focal_factor;
+  }
+}
 
 // Largest distance between the estimated camera centres, aligned onto the
 // true ones by a least-squares similarity, and the true centres, relative to

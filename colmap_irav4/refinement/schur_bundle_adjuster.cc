@@ -1,0 +1,683 @@
+#include "colmap_irav4/refinement/schur_bundle_adjuster.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_set>
+
+#include <glog/logging.h>
+#include <Eigen/Cholesky>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include "colmap_irav4/refinement/reprojection_cost.h"
+#include "colmap_irav4/util/interrupt.h"
+#include "colmap_irav4/util/timer.h"
+
+namespace colmap_irav4 {
+
+// One observation linearised: weighted residual r, its Jacobian B by the
+// point and A by the reduced system's variables of its pose block and its
+// camera block (A's columns: the blocks' free variables in that order).
+struct SchurBundleAdjuster::Linearization {
+  static constexpr int kMaxCols = 6 + 12;
+  Eigen::Vector2d r;
+  Eigen::Matrix<double, 2, 3> B;
+  Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor, 2, kMaxCols> A;
+  int num_blocks = 0;
+  int blocks[2];
+  int cols[2];  // first column of each block in A
+};
+
+namespace {
+
+constexpr int kMaxNumParams = 12;
+
+// The residual and (with `jacobians`) its Jacobians by the four blocks of
+// ReprojectionCost, as Ceres' AutoDiffCostFunction evaluates them.
+template <int kNumParams>
+bool EvaluateModel(int model_id, const Eigen::Vector2d& xy, bool center,
+                   double const* const* parameters, double* residual,
+                   double** jacobians) {
+  const ReprojectionCost<kNumParams> cost(model_id, xy, nullptr, center);
+  if (jacobians == nullptr) {
+    return cost(parameters[0], parameters[1], parameters[2], parameters[3],
+                residual);
+  }
+  return ceres::internal::AutoDifferentiate<
+      2, ceres::internal::StaticParameterDims<4, 3, 3, kNumParams>>(
+      cost, parameters, 2, residual, jacobians);
+}
+
+bool EvaluateReprojection(int num_params, int model_id,
+                          const Eigen::Vector2d& xy, bool center,
+                          double const* const* parameters, double* residual,
+                          double** jacobians) {
+  bool ok = false;
+  CHECK(WithNumCameraParams(num_params,
+                            [&](auto n) {
+                              ok = EvaluateModel<decltype(n)::value>(
+                                  model_id, xy, center, parameters, residual,
+                                  jacobians);
+                            }))
+      << "unsupported camera model " << model_id;
+  return ok;
+}
+
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+}  // namespace
+
+int SchurBundleAdjuster::AddCamera(double* params, int model_id) {
+  CameraBlock camera;
+  camera.params = params;
+  camera.model_id = model_id;
+  camera.num_params = CameraModelNumParams(model_id);
+  CHECK(camera.num_params > 0 && camera.num_params <= kMaxNumParams);
+  cameras_.push_back(std::move(camera));
+  SetCameraConstant(static_cast<int>(cameras_.size()) - 1, {});
+  return static_cast<int>(cameras_.size()) - 1;
+}
+
+void SchurBundleAdjuster::SetCameraConstant(int camera,
+                                            const std::vector<int>& constant) {
+  CameraBlock& block = cameras_.at(camera);
+  block.free.clear();
+  for (int i = 0; i < block.num_params; ++i) {
+    if (std::find(constant.begin(), constant.end(), i) == constant.end()) {
+      block.free.push_back(i);
+    }
+  }
+}
+
+int SchurBundleAdjuster::AddPose(double* rotation, double* position, int camera,
+                                 const std::vector<Point2D>* points2D,
+                                 const std::vector<double>* weights) {
+  CHECK(camera >= 0 && camera < static_cast<int>(cameras_.size()));
+  poses_.push_back({rotation, position, camera, points2D, weights, {}});
+  SetPoseConstant(static_cast<int>(poses_.size()) - 1, false, -1);
+  return static_cast<int>(poses_.size()) - 1;
+}
+
+void SchurBundleAdjuster::SetPoseConstant(int pose, bool constant,
+                                          int fixed_coordinate) {
+  CHECK(values_.empty()) << "after the first solve";
+  PoseBlock& block = poses_.at(pose);
+  block.free.clear();
+  if (constant) return;
+  for (int i = 0; i < 6; ++i) {
+    if (fixed_coordinate < 0 || i != 3 + fixed_coordinate) {
+      block.free.push_back(i);
+    }
+  }
+}
+
+void SchurBundleAdjuster::AddPoint(
+    double* xyz, bool constant,
+    const std::vector<std::pair<int, point2D_t>>& observations) {
+  point_blocks_.push_back(xyz);
+  point_constant_.push_back(constant);
+  for (const auto& [pose, idx] : observations) {
+    CHECK(pose >= 0 && pose < static_cast<int>(poses_.size()));
+    observations_.push_back(
+        {static_cast<uint32_t>(pose), static_cast<uint32_t>(idx)});
+  }
+  point_begin_.push_back(static_cast<uint32_t>(observations_.size()));
+}
+
+double SchurBundleAdjuster::Weight(const Observation& observation) const {
+  return (*poses_[observation.pose].weights)[observation.point2D_idx];
+}
+
+bool SchurBundleAdjuster::Evaluate(const Observation& observation,
+                                   const double* point,
+                                   const std::vector<double>& poses,
+                                   const std::vector<double>& cameras,
+                                   double residual[2],
+                                   Linearization* lin) const {
+  const PoseBlock& pose = poses_[observation.pose];
+  const CameraBlock& camera = cameras_[pose.camera];
+  const double* parameters[4] = {&poses[7 * observation.pose],
+                                 &poses[7 * observation.pose + 4], point,
+                                 &cameras[kMaxNumParams * pose.camera]};
+  const Eigen::Vector2d& xy = (*pose.points2D)[observation.point2D_idx].xy;
+  const double weight = Weight(observation);
+  if (lin == nullptr) {
+    if (!EvaluateReprojection(camera.num_params, camera.model_id, xy, center_,
+                              parameters, residual, nullptr)) {
+      return false;
+    }
+    residual[0] *= weight;
+    residual[1] *= weight;
+    return std::isfinite(residual[0]) && std::isfinite(residual[1]);
+  }
+  Eigen::Matrix<double, 2, 4, Eigen::RowMajor> dq;
+  Eigen::Matrix<double, 2, 3, Eigen::RowMajor> dp, dx;
+  Eigen::Matrix<double, 2, kMaxNumParams, Eigen::RowMajor> dc;
+  double* jacobians[4] = {dq.data(), dp.data(), dx.data(), dc.data()};
+  if (!EvaluateReprojection(camera.num_params, camera.model_id, xy, center_,
+                            parameters, residual, jacobians)) {
+    return false;
+  }
+  // dc holds num_params columns per row, packed (row stride num_params).
+  const Eigen::Map<const Eigen::Matrix<double, 2, Eigen::Dynamic,
+                                       Eigen::RowMajor, 2, kMaxNumParams>>
+      dcam(dc.data(), 2, camera.num_params);
+  lin->r = weight * Eigen::Vector2d(residual[0], residual[1]);
+  residual[0] = lin->r[0];
+  residual[1] = lin->r[1];
+  lin->B = weight * dx;
+  lin->num_blocks = 0;
+  const int pose_block = pose_block_[observation.pose];
+  const int camera_block = camera_block_[pose.camera];
+  int num_cols = 0;
+  if (pose_block >= 0) num_cols += static_cast<int>(pose.free.size());
+  if (camera_block >= 0) num_cols += static_cast<int>(camera.free.size());
+  lin->A.resize(2, num_cols);
+  int col = 0;
+  if (pose_block >= 0) {
+    // Tangent of the quaternion: Ceres' EigenQuaternionManifold.
+    Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus;
+    ceres::EigenQuaternionManifold().PlusJacobian(parameters[0], plus.data());
+    Eigen::Matrix<double, 2, 6> tangent;
+    tangent.leftCols<3>() = dq * plus;
+    tangent.rightCols<3>() = dp;
+    lin->blocks[lin->num_blocks] = pose_block;
+    lin->cols[lin->num_blocks++] = col;
+    for (const int i : pose.free) lin->A.col(col++) = weight * tangent.col(i);
+  }
+  if (camera_block >= 0) {
+    lin->blocks[lin->num_blocks] = camera_block;
+    lin->cols[lin->num_blocks++] = col;
+    for (const int i : camera.free) lin->A.col(col++) = weight * dcam.col(i);
+  }
+  return std::isfinite(residual[0]) && std::isfinite(residual[1]) &&
+         lin->A.allFinite() && lin->B.allFinite();
+}
+
+double SchurBundleAdjuster::Cost(const std::vector<double>& poses,
+                                 const std::vector<double>& cameras,
+                                 const std::vector<double>& points) const {
+  double cost = 0;
+  for (size_t p = 0; p + 1 < point_begin_.size(); ++p) {
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      if (!(Weight(observations_[k]) > 0)) continue;
+      double residual[2];
+      if (!Evaluate(observations_[k], &points[3 * p], poses, cameras, residual,
+                    nullptr)) {
+        return std::numeric_limits<double>::infinity();
+      }
+      cost += 0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
+    }
+  }
+  return cost;
+}
+
+void SchurBundleAdjuster::NumberBlocks() {
+  block_size_.clear();
+  block_offset_.clear();
+  num_scalars_ = 0;
+  auto add = [this](int size) {
+    if (size == 0) return -1;
+    block_size_.push_back(size);
+    block_offset_.push_back(num_scalars_);
+    num_scalars_ += size;
+    return static_cast<int>(block_size_.size()) - 1;
+  };
+  pose_block_.clear();
+  for (const PoseBlock& pose : poses_) {
+    pose_block_.push_back(add(static_cast<int>(pose.free.size())));
+  }
+  // The cameras last: shared by many images, they are the dense rows.
+  camera_block_.clear();
+  for (const CameraBlock& camera : cameras_) {
+    camera_block_.push_back(add(static_cast<int>(camera.free.size())));
+  }
+}
+
+void SchurBundleAdjuster::BuildStructure() {
+  // Cells (row block <= column block) coupled by an observation or a point.
+  std::unordered_set<uint64_t> cells;
+  auto key = [](int a, int b) {
+    return static_cast<uint64_t>(std::min(a, b)) << 32 |
+           static_cast<uint32_t>(std::max(a, b));
+  };
+  for (size_t b = 0; b < block_size_.size(); ++b) cells.insert(key(b, b));
+  std::vector<int> blocks;
+  for (size_t p = 0; p + 1 < point_begin_.size(); ++p) {
+    blocks.clear();
+    int num_live = 0;
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      if (!(Weight(observations_[k]) > 0)) continue;
+      ++num_live;
+      const PoseBlock& pose = poses_[observations_[k].pose];
+      const int a = pose_block_[observations_[k].pose];
+      const int c = camera_block_[pose.camera];
+      if (a >= 0 && c >= 0) cells.insert(key(a, c));
+      if (a >= 0) blocks.push_back(a);
+      if (c >= 0) blocks.push_back(c);
+    }
+    if (point_constant_[p] || num_live < 2) continue;
+    std::sort(blocks.begin(), blocks.end());
+    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      for (size_t j = i + 1; j < blocks.size(); ++j) {
+        cells.insert(key(blocks[i], blocks[j]));
+      }
+    }
+  }
+  cell_offset_.assign(cells.size(), {0, 0});
+  std::transform(cells.begin(), cells.end(), cell_offset_.begin(),
+                 [](uint64_t cell) {
+                   // Sorted by column block, then row block.
+                   return std::make_pair(cell << 32 | cell >> 32, 0);
+                 });
+  cells = {};
+  std::sort(cell_offset_.begin(), cell_offset_.end());
+  const int num_blocks = static_cast<int>(block_size_.size());
+  column_begin_.assign(num_blocks, 0);
+  column_height_.assign(num_blocks, 0);
+  for (auto& [cell, offset] : cell_offset_) {
+    const int column = static_cast<int>(cell >> 32);
+    const int row = static_cast<int>(cell & 0xffffffffu);
+    offset = column_height_[column];
+    column_height_[column] += block_size_[row];
+  }
+  outer_.assign(num_scalars_ + 1, 0);
+  size_t num_values = 0;
+  for (int b = 0; b < num_blocks; ++b) {
+    column_begin_[b] = num_values;
+    for (int c = 0; c < block_size_[b]; ++c) {
+      outer_[block_offset_[b] + c] = static_cast<int>(num_values);
+      num_values += column_height_[b];
+    }
+  }
+  CHECK_LT(num_values, static_cast<size_t>(std::numeric_limits<int>::max()));
+  outer_[num_scalars_] = static_cast<int>(num_values);
+  inner_.assign(num_values, 0);
+  for (const auto& [cell, offset] : cell_offset_) {
+    const int column = static_cast<int>(cell >> 32);
+    const int row = static_cast<int>(cell & 0xffffffffu);
+    for (int c = 0; c < block_size_[column]; ++c) {
+      int* rows =
+          &inner_[column_begin_[column] + c * column_height_[column] + offset];
+      for (int r = 0; r < block_size_[row]; ++r) {
+        rows[r] = block_offset_[row] + r;
+      }
+    }
+  }
+  values_.assign(num_values, 0.0);
+  column_cells_.assign(num_blocks + 1, 0);
+  for (const auto& [cell, offset] : cell_offset_) {
+    ++column_cells_[(cell >> 32) + 1];
+  }
+  for (int b = 0; b < num_blocks; ++b) {
+    column_cells_[b + 1] += column_cells_[b];
+  }
+}
+
+size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
+  // The column's cells, by row block.
+  const auto begin = cell_offset_.begin() + column_cells_[col_block];
+  const auto end = cell_offset_.begin() + column_cells_[col_block + 1];
+  const uint64_t cell =
+      static_cast<uint64_t>(col_block) << 32 | static_cast<uint32_t>(row_block);
+  const auto it =
+      std::lower_bound(begin, end, cell,
+                       [](const std::pair<uint64_t, int>& entry,
+                          uint64_t value) { return entry.first < value; });
+  CHECK(it != end && it->first == cell);
+  return column_begin_[col_block] + it->second;
+}
+
+SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
+    const ceres::Solver::Options& options) {
+  Summary summary;
+  Timer linear_timer;
+  // The parameters: poses (7 each), cameras (kMaxNumParams each), points.
+  const size_t num_points = point_blocks_.size();
+  std::vector<double> poses(7 * poses_.size()),
+      cameras(kMaxNumParams * cameras_.size()), points(3 * num_points);
+  for (size_t i = 0; i < poses_.size(); ++i) {
+    std::copy(poses_[i].rotation, poses_[i].rotation + 4, &poses[7 * i]);
+    std::copy(poses_[i].position, poses_[i].position + 3, &poses[7 * i + 4]);
+  }
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    std::copy(cameras_[i].params, cameras_[i].params + cameras_[i].num_params,
+              &cameras[kMaxNumParams * i]);
+  }
+  for (size_t i = 0; i < num_points; ++i) {
+    std::copy(point_blocks_[i], point_blocks_[i] + 3, &points[3 * i]);
+  }
+  // Which points are eliminated (the others are held in this solve).
+  std::vector<bool> active(num_points, false);
+  for (size_t p = 0; p < num_points; ++p) {
+    if (point_constant_[p]) continue;
+    int num_live = 0;
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      num_live += Weight(observations_[k]) > 0;
+    }
+    active[p] = num_live >= 2;
+  }
+  if (values_.empty()) {
+    NumberBlocks();
+    BuildStructure();
+  }
+  const int n = num_scalars_;
+  summary.num_reduced_parameters = n;
+  summary.num_reduced_nonzeros = values_.size();
+  const Eigen::Map<const SparseMatrix> reduced(
+      n, n, static_cast<int>(values_.size()), outer_.data(), inner_.data(),
+      values_.data());
+  Eigen::SimplicialLLT<SparseMatrix, Eigen::Upper> llt;
+  if (n > 0) llt.analyzePattern(reduced);
+
+  auto damped = [&options](double diagonal, double radius) {
+    return std::clamp(diagonal, options.min_lm_diagonal,
+                      options.max_lm_diagonal) /
+           radius;
+  };
+  // S(row_block, col_block) += sign * M (row_block <= col_block).
+  auto add_cell = [this](int row_block, int col_block, const auto& m) {
+    double* values = &values_[ValueIndex(row_block, col_block)];
+    const int height = column_height_[col_block];
+    for (int c = 0; c < m.cols(); ++c) {
+      for (int r = 0; r < m.rows(); ++r) values[c * height + r] += m(r, c);
+    }
+  };
+  // Adds M (rows: lin_k's variables, columns: lin_l's) of a pair k < l (or
+  // k == l with `same`) and its transpose to the upper block triangle.
+  auto add_pair = [&](const Linearization& k, const Linearization& l,
+                      const auto& m, bool same) {
+    for (int i = 0; i < k.num_blocks; ++i) {
+      const int rb = k.blocks[i];
+      const int rows = block_size_[rb];
+      for (int j = 0; j < l.num_blocks; ++j) {
+        const int cb = l.blocks[j];
+        const int cols = block_size_[cb];
+        const auto sub = m.block(k.cols[i], l.cols[j], rows, cols);
+        if (same) {
+          if (rb <= cb) add_cell(rb, cb, sub);
+        } else if (rb < cb) {
+          add_cell(rb, cb, sub);
+        } else if (rb > cb) {
+          add_cell(cb, rb, sub.transpose());
+        } else {
+          add_cell(rb, cb, sub + sub.transpose());
+        }
+      }
+    }
+  };
+  auto block_vector = [this](const Linearization& lin, Eigen::VectorXd* v,
+                             const auto& local, double sign) {
+    for (int i = 0; i < lin.num_blocks; ++i) {
+      const int b = lin.blocks[i];
+      v->segment(block_offset_[b], block_size_[b]) +=
+          sign * local.segment(lin.cols[i], block_size_[b]);
+    }
+  };
+  auto gather = [this](const Linearization& lin, const Eigen::VectorXd& v) {
+    Eigen::Matrix<double, Eigen::Dynamic, 1, 0, Linearization::kMaxCols, 1>
+        local(lin.A.cols());
+    for (int i = 0; i < lin.num_blocks; ++i) {
+      const int b = lin.blocks[i];
+      local.segment(lin.cols[i], block_size_[b]) =
+          v.segment(block_offset_[b], block_size_[b]);
+    }
+    return local;
+  };
+  using Matrix3 = Eigen::Matrix3d;
+  // A point's damped 3x3 block inverted (a pseudo-inverse if singular).
+  auto invert = [](const Matrix3& v) -> Matrix3 {
+    const Eigen::LLT<Matrix3> llt(v);
+    if (llt.info() == Eigen::Success) return llt.solve(Matrix3::Identity());
+    return v.completeOrthogonalDecomposition().pseudoInverse();
+  };
+
+  std::vector<Linearization> lins;
+  using Wmat =
+      Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
+  std::vector<Wmat> w, q;
+  Eigen::VectorXd rhs(n), diagonal(n), step(n);
+  double cost = Cost(poses, cameras, points);
+  summary.initial_cost = cost;
+  double radius = options.initial_trust_region_radius;
+  double decrease_factor = 2;
+  int num_invalid = 0;
+  std::vector<double> candidate_poses, candidate_cameras, candidate_points;
+  summary.num_iterations = 1;
+  if (!std::isfinite(cost)) {
+    summary.termination = ceres::FAILURE;
+    summary.message = "residual not finite at the initial point";
+    return summary;
+  }
+  bool check_gradient = true;
+  summary.termination = ceres::NO_CONVERGENCE;
+  summary.message = "maximum number of iterations reached";
+  while (summary.num_iterations <= options.max_num_iterations) {
+    ThrowIfInterrupted();
+    // Linearise at x and eliminate the points (damped by the radius).
+    std::fill(values_.begin(), values_.end(), 0.0);
+    rhs.setZero();
+    diagonal.setZero();
+    double gradient_max_norm = 0;
+    Eigen::VectorXd camera_gradient = Eigen::VectorXd::Zero(n);
+    bool finite = true;
+    for (size_t p = 0; p < num_points && finite; ++p) {
+      lins.clear();
+      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+        if (!(Weight(observations_[k]) > 0)) continue;
+        lins.emplace_back();
+        double residual[2];
+        if (!Evaluate(observations_[k], &points[3 * p], poses, cameras,
+                      residual, &lins.back())) {
+          finite = false;
+          break;
+        }
+      }
+      Matrix3 v = Matrix3::Zero();
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      for (const Linearization& lin : lins) {
+        const auto ata = (lin.A.transpose() * lin.A).eval();
+        add_pair(lin, lin, ata, /*same=*/true);
+        const auto atr = (lin.A.transpose() * lin.r).eval();
+        block_vector(lin, &camera_gradient, atr, 1.0);
+        block_vector(lin, &diagonal, ata.diagonal(), 1.0);
+        v += lin.B.transpose() * lin.B;
+        g += lin.B.transpose() * lin.r;
+      }
+      if (!active[p]) continue;
+      gradient_max_norm = std::max(gradient_max_norm, g.cwiseAbs().maxCoeff());
+      for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), radius);
+      const Matrix3 v_inv = invert(v);
+      // W_k = A_k^T B_k; Q_k = W_k V^-1; S -= Q_k W_l^T; rhs += Q_k g.
+      w.resize(lins.size());
+      q.resize(lins.size());
+      for (size_t k = 0; k < lins.size(); ++k) {
+        w[k] = lins[k].A.transpose() * lins[k].B;
+        q[k] = w[k] * v_inv;
+        block_vector(lins[k], &rhs, (q[k] * g).eval(), 1.0);
+      }
+      for (size_t k = 0; k < lins.size(); ++k) {
+        for (size_t l = k; l < lins.size(); ++l) {
+          const auto m = (-(q[k] * w[l].transpose())).eval();
+          add_pair(lins[k], lins[l], m, k == l);
+        }
+      }
+    }
+    if (!finite) {
+      summary.termination = ceres::FAILURE;
+      summary.message = "residual or Jacobian not finite";
+      break;
+    }
+    rhs -= camera_gradient;
+    if (n > 0) {
+      gradient_max_norm =
+          std::max(gradient_max_norm, camera_gradient.cwiseAbs().maxCoeff());
+    }
+    if (check_gradient && gradient_max_norm <= options.gradient_tolerance) {
+      summary.termination = ceres::CONVERGENCE;
+      summary.message = "gradient tolerance reached";
+      break;
+    }
+    // Damping; a variable no weighed observation sees is held (its row and
+    // column are empty).
+    for (int b = 0; b < static_cast<int>(block_size_.size()); ++b) {
+      double* cell = &values_[ValueIndex(b, b)];
+      for (int i = 0; i < block_size_[b]; ++i) {
+        const int s = block_offset_[b] + i;
+        double& d = cell[i * column_height_[b] + i];
+        d += diagonal[s] > 0 ? damped(diagonal[s], radius) : 1.0;
+      }
+    }
+    ++summary.num_iterations;
+    linear_timer.Restart();
+    bool solved = true;
+    if (n > 0) {
+      llt.factorize(reduced);
+      solved = llt.info() == Eigen::Success;
+      if (solved) step = llt.solve(rhs);
+      solved = solved && step.allFinite();
+    }
+    summary.linear_solver_seconds += linear_timer.ElapsedSeconds();
+    check_gradient = false;
+    if (!solved) {
+      if (++num_invalid > options.max_num_consecutive_invalid_steps) {
+        summary.termination = ceres::FAILURE;
+        summary.message = "too many consecutive failed linear solves";
+        break;
+      }
+      radius /= decrease_factor;
+      decrease_factor *= 2;
+      continue;
+    }
+    num_invalid = 0;
+    // Back-substitution: each point's step from its Jacobians (evaluated
+    // again) and the cameras' step; the linear model's cost on the way.
+    candidate_poses = poses;
+    candidate_cameras = cameras;
+    candidate_points = points;
+    double model_cost = 0;
+    double step_norm2 = 0, x_norm2 = 0;
+    for (size_t p = 0; p < num_points; ++p) {
+      lins.clear();
+      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+        if (!(Weight(observations_[k]) > 0)) continue;
+        lins.emplace_back();
+        double residual[2];
+        Evaluate(observations_[k], &points[3 * p], poses, cameras, residual,
+                 &lins.back());
+      }
+      Eigen::Vector3d dx = Eigen::Vector3d::Zero();
+      if (active[p]) {
+        Matrix3 v = Matrix3::Zero();
+        Eigen::Vector3d g = Eigen::Vector3d::Zero();
+        for (const Linearization& lin : lins) {
+          v += lin.B.transpose() * lin.B;
+          g += lin.B.transpose() * (lin.r + lin.A * gather(lin, step));
+        }
+        for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), radius);
+        dx = -invert(v) * g;
+        for (int i = 0; i < 3; ++i) {
+          candidate_points[3 * p + i] += dx[i];
+          x_norm2 += points[3 * p + i] * points[3 * p + i];
+        }
+        step_norm2 += dx.squaredNorm();
+      }
+      for (const Linearization& lin : lins) {
+        model_cost +=
+            0.5 *
+            (lin.r + lin.A * gather(lin, step) + lin.B * dx).squaredNorm();
+      }
+    }
+    for (size_t i = 0; i < poses_.size(); ++i) {
+      const int b = pose_block_[i];
+      if (b < 0) continue;
+      Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+      for (size_t j = 0; j < poses_[i].free.size(); ++j) {
+        delta[poses_[i].free[j]] = step[block_offset_[b] + j];
+      }
+      ceres::EigenQuaternionManifold().Plus(&poses[7 * i], delta.data(),
+                                            &candidate_poses[7 * i]);
+      for (int j = 0; j < 3; ++j)
+        candidate_poses[7 * i + 4 + j] += delta[3 + j];
+      for (int j = 0; j < 7; ++j) {
+        const double d = candidate_poses[7 * i + j] - poses[7 * i + j];
+        step_norm2 += d * d;
+        x_norm2 += poses[7 * i + j] * poses[7 * i + j];
+      }
+    }
+    for (size_t i = 0; i < cameras_.size(); ++i) {
+      const int b = camera_block_[i];
+      if (b < 0) continue;
+      for (size_t j = 0; j < cameras_[i].free.size(); ++j) {
+        const double d = step[block_offset_[b] + j];
+        candidate_cameras[kMaxNumParams * i + cameras_[i].free[j]] += d;
+        step_norm2 += d * d;
+      }
+      for (int j = 0; j < cameras_[i].num_params; ++j) {
+        x_norm2 +=
+            cameras[kMaxNumParams * i + j] * cameras[kMaxNumParams * i + j];
+      }
+    }
+    const double x_norm = std::sqrt(x_norm2);
+    if (std::sqrt(step_norm2) <=
+        options.parameter_tolerance * (x_norm + options.parameter_tolerance)) {
+      summary.termination = ceres::CONVERGENCE;
+      summary.message = "parameter tolerance reached";
+      break;
+    }
+    const double candidate_cost =
+        Cost(candidate_poses, candidate_cameras, candidate_points);
+    if (std::isfinite(candidate_cost) &&
+        std::abs(cost - candidate_cost) <= options.function_tolerance * cost) {
+      summary.termination = ceres::CONVERGENCE;
+      summary.message = "function tolerance reached";
+      break;
+    }
+    const double model_cost_change = cost - model_cost;
+    const double rho = (cost - candidate_cost) / model_cost_change;
+    VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
+            << ": cost " << cost << " -> " << candidate_cost << " (model "
+            << model_cost << "), step " << std::sqrt(step_norm2) << ", radius "
+            << radius;
+    if (std::isfinite(candidate_cost) && model_cost_change > 0 &&
+        rho > options.min_relative_decrease) {
+      poses.swap(candidate_poses);
+      cameras.swap(candidate_cameras);
+      points.swap(candidate_points);
+      cost = candidate_cost;
+      radius = std::min(
+          options.max_trust_region_radius,
+          radius / std::max(1.0 / 3.0, 1.0 - std::pow(2 * rho - 1, 3)));
+      decrease_factor = 2;
+      check_gradient = true;
+    } else {
+      radius /= decrease_factor;
+      decrease_factor *= 2;
+      if (radius < options.min_trust_region_radius) {
+        summary.termination = ceres::CONVERGENCE;
+        summary.message = "minimum trust region radius reached";
+        break;
+      }
+    }
+  }
+  summary.final_cost = cost;
+  if (summary.termination != ceres::FAILURE) {
+    for (size_t i = 0; i < poses_.size(); ++i) {
+      std::copy(&poses[7 * i], &poses[7 * i + 4], poses_[i].rotation);
+      std::copy(&poses[7 * i + 4], &poses[7 * i + 7], poses_[i].position);
+    }
+    for (size_t i = 0; i < cameras_.size(); ++i) {
+      std::copy(&cameras[kMaxNumParams * i],
+                &cameras[kMaxNumParams * i + cameras_[i].num_params],
+                cameras_[i].params);
+    }
+    for (size_t i = 0; i < num_points; ++i) {
+      std::copy(&points[3 * i], &points[3 * i + 3], point_blocks_[i]);
+    }
+  }
+  return summary;
+}
+
+}  // namespace colmap_irav4

@@ -1,0 +1,137 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <ceres/ceres.h>
+
+#include "colmap_irav4/scene/reconstruction.h"
+
+namespace colmap_irav4 {
+
+// One weighted least-squares bundle adjustment solve without Ceres' problem:
+// Levenberg-Marquardt as Ceres' trust region minimizer runs it (the same
+// radius updates, initial radius, tolerances and damping diag(J^T J) /
+// radius), where each iteration loops over the points, evaluates each
+// observation's residual and Jacobian on the fly (ReprojectionCost through
+// Ceres' automatic differentiation; rotation steps in the tangent space of
+// ceres::EigenQuaternionManifold), eliminates the point's 3x3 block while it
+// accumulates the reduced camera system (poses and refined intrinsics) in a
+// block-sparse matrix, factors that with Eigen's sparse Cholesky (AMD
+// ordering), and back-substitutes the points (their Jacobians evaluated
+// again). Nothing is stored per observation but its image and keypoint (8
+// bytes): no Jacobian, no residual block objects, no per-point chunks.
+//
+// The parameter blocks are the caller's (e.g. ParameterBlockCopies); the
+// solve reads them when it starts and writes the result back when it ends.
+// Residuals are each observation's weight (read when the solve starts; 0:
+// not in this solve) times its reprojection error; a point with fewer than
+// two weighed observations is held in that solve (its step would be along
+// its rays alone).
+class SchurBundleAdjuster {
+ public:
+  // `center`: poses as rotation and projection centre (R (X - C)).
+  explicit SchurBundleAdjuster(bool center) : center_(center) {}
+
+  // A camera's intrinsics (model_id's parameters at `params`), all refined
+  // unless SetCameraConstant says otherwise. Returns its index.
+  int AddCamera(double* params, int model_id);
+  // Holds the parameters of camera `camera` at indexes `constant`.
+  void SetCameraConstant(int camera, const std::vector<int>& constant);
+  // An image's pose (quaternion x, y, z, w and centre or translation) seen
+  // through camera `camera` (AddCamera's index), its keypoints and their
+  // weights (by keypoint index; both must outlive the solves), refined unless
+  // SetPoseConstant says otherwise. Returns its index.
+  int AddPose(double* rotation, double* position, int camera,
+              const std::vector<Point2D>* points2D,
+              const std::vector<double>* weights);
+  // `constant`: the pose is held; `fixed_coordinate` (0-2, or -1): one
+  // coordinate of the position held (the gauge's scale). Before the first
+  // solve.
+  void SetPoseConstant(int pose, bool constant, int fixed_coordinate);
+  // A point (3 values at xyz; `constant`: held) and its observations (pose
+  // index, keypoint index).
+  void AddPoint(double* xyz, bool constant,
+                const std::vector<std::pair<int, point2D_t>>& observations);
+
+  size_t NumObservations() const { return observations_.size(); }
+
+  struct Summary {
+    ceres::TerminationType termination = ceres::NO_CONVERGENCE;
+    std::string message;
+    int num_iterations = 0;   // as Ceres counts them (iteration 0 included)
+    double initial_cost = 0;  // 1/2 the sum of squared weighted residuals
+    double final_cost = 0;
+    double linear_solver_seconds = 0;  // factorisations and solves
+    int num_reduced_parameters = 0;    // size of the reduced camera system
+    size_t num_reduced_nonzeros = 0;   // its stored (upper block) entries
+  };
+  // Reads max_num_iterations, function/gradient/parameter_tolerance,
+  // initial/max/min_trust_region_radius, min_relative_decrease,
+  // min/max_lm_diagonal and max_num_consecutive_invalid_steps.
+  Summary Solve(const ceres::Solver::Options& options);
+
+ private:
+  struct CameraBlock {
+    double* params;
+    int model_id;
+    int num_params;
+    std::vector<int> free;  // indexes of the refined parameters
+  };
+  struct PoseBlock {
+    double* rotation;
+    double* position;
+    int camera;
+    const std::vector<Point2D>* points2D;
+    const std::vector<double>* weights;
+    std::vector<int> free;  // tangent indexes refined: 0-2 rotation, 3-5
+  };
+  struct Observation {
+    uint32_t pose;
+    uint32_t point2D_idx;
+  };
+  struct Linearization;
+
+  // Variable blocks of the reduced camera system: the poses' (index = pose
+  // index when it has free parameters), then the cameras'; -1: held.
+  void NumberBlocks();
+  // The block structure of the reduced camera system (upper block triangle)
+  // for the observations weighed now, and its scalar column layout.
+  void BuildStructure();
+  double Weight(const Observation& observation) const;
+  // Residual (and, with `lin`, Jacobians) of one observation at `x`.
+  bool Evaluate(const Observation& observation, const double* point,
+                const std::vector<double>& poses,
+                const std::vector<double>& cameras, double residual[2],
+                Linearization* lin) const;
+  // 1/2 the sum of squared residuals at the given parameters.
+  double Cost(const std::vector<double>& poses,
+              const std::vector<double>& cameras,
+              const std::vector<double>& points) const;
+  size_t ValueIndex(int row_block, int col_block) const;
+
+  const bool center_;
+  std::vector<CameraBlock> cameras_;
+  std::vector<PoseBlock> poses_;
+  std::vector<double*> point_blocks_;
+  std::vector<bool> point_constant_;
+  std::vector<uint32_t> point_begin_ = {0};  // observations by point (CSR)
+  std::vector<Observation> observations_;
+
+  // Reduced camera system: block b's size, scalar offset, and the column
+  // layout (upper block triangle, full diagonal blocks) by block column.
+  std::vector<int> pose_block_, camera_block_;  // -1: held
+  std::vector<int> block_size_, block_offset_;
+  int num_scalars_ = 0;
+  std::vector<size_t> column_begin_;  // by block: first value of its column
+  std::vector<int> column_height_;    // by block: rows stored per column
+  // (column block << 32 | row block) -> row offset within the block
+  // column, sorted; column_cells_: each column's first cell in it.
+  std::vector<std::pair<uint64_t, int>> cell_offset_;
+  std::vector<size_t> column_cells_;
+  std::vector<int> outer_, inner_;  // CSC of the scalar matrix
+  std::vector<double> values_;
+};
+
+}  // namespace colmap_irav4

@@ -1,0 +1,239 @@
+// The Schur solver (BundleAdjustmentOptions::solver_backend schur) against
+// the Ceres path: the same optimum on small synthetic scenes, the gauge and
+// the held parameters kept, and the problems it cannot hold sent to Ceres.
+
+#include "colmap_irav4/refinement/schur_bundle_adjuster.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/refinement/bundle_adjustment.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/random.h"
+#include "tests/test_utils/scene_test_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+using test::PerturbModel;
+
+SyntheticScene Scene(int camera_model_id = 1, bool shared_camera = true) {
+  SyntheticSceneOptions options;
+  options.num_images = 12;
+  options.num_points = 600;
+  options.visibility = 0.7;
+  options.noise_px = 1.0;
+  options.camera_model_id = camera_model_id;
+  if (camera_model_id != 1) options.extra_param = -0.05;
+  options.shared_camera = shared_camera;
+  return GenerateSyntheticScene(options);
+}
+
+// Converged tightly: the optimum, whatever the path.
+BundleAdjustmentOptions TightOptions() {
+  BundleAdjustmentOptions options;
+  options.solver.ceres.function_tolerance = 1e-14;
+  options.solver.ceres.gradient_tolerance = 1e-14;
+  options.solver.ceres.parameter_tolerance = 1e-14;
+  options.solver.ceres.num_threads = 1;
+  return options;
+}
+
+struct Difference {
+  double center = 0;        // largest, no alignment (same gauge)
+  double rotation_deg = 0;  // largest
+  double point = 0;         // largest
+  double param = 0;         // largest relative camera parameter difference
+};
+
+Difference Compare(const Reconstruction& a, const Reconstruction& b) {
+  Difference d;
+  for (const auto& [image_id, image] : a.images) {
+    const Image& other = b.images.at(image_id);
+    d.center = std::max(
+        d.center, (image.ProjectionCenter() - other.ProjectionCenter()).norm());
+    d.rotation_deg = std::max(
+        d.rotation_deg, RadToDeg(image.cam_from_world.rotation.angularDistance(
+                            other.cam_from_world.rotation)));
+  }
+  EXPECT_EQ(a.points3D.size(), b.points3D.size());
+  for (const auto& [point3D_id, point] : a.points3D) {
+    const auto it = b.points3D.find(point3D_id);
+    if (it == b.points3D.end()) continue;
+    d.point = std::max(d.point, (point.xyz - it->second.xyz).norm());
+  }
+  for (const auto& [camera_id, camera] : a.cameras) {
+    const Camera& other = b.cameras.at(camera_id);
+    for (size_t i = 0; i < camera.params.size(); ++i) {
+      d.param =
+          std::max(d.param, std::abs(camera.params[i] - other.params[i]) /
+                                std::max(1.0, std::abs(camera.params[i])));
+    }
+  }
+  return d;
+}
+
+// Both backends from the same start; returns their summaries.
+std::pair<BundleAdjustmentSummary, BundleAdjustmentSummary> RunBoth(
+    BundleAdjustmentOptions options, Reconstruction* ceres_model,
+    Reconstruction* schur_model) {
+  BundleAdjustmentSummary ceres_summary, schur_summary;
+  options.solver_backend = BundleAdjustmentSolverBackend::kCeres;
+  EXPECT_TRUE(RunBundleAdjustment(options, ceres_model, &ceres_summary));
+  options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
+  EXPECT_TRUE(RunBundleAdjustment(options, schur_model, &schur_summary));
+  EXPECT_EQ(ceres_summary.backend, "ceres");
+  EXPECT_EQ(schur_summary.backend, "schur");
+  return {ceres_summary, schur_summary};
+}
+
+// Default options (IRLS Huber, three rounds of filtering, keypoint scale
+// weighting off: the scene has no scales) on a perturbed model with wrong
+// observations: the same observations filtered and the same optimum.
+TEST(SchurBundleAdjuster, SameOptimumAsCeresWithTheDefaultLoss) {
+  const SyntheticScene scene = Scene();
+  Reconstruction start = scene.truth;
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (auto& [image_id, image] : start.images) {
+    for (Point2D& point2D : image.points2D) {
+      if (uniform(rng) < 0.05) point2D.xy += Eigen::Vector2d(40, -30);
+    }
+  }
+  PerturbModel(1.0, 0.1, 0.05, 1.03, 5, &start);
+  Reconstruction ceres_model = start, schur_model = start;
+  const auto [ceres_summary, schur_summary] =
+      RunBoth(TightOptions(), &ceres_model, &schur_model);
+  EXPECT_GT(ceres_summary.num_observations_filtered, 100);
+  EXPECT_EQ(schur_summary.num_observations_filtered,
+            ceres_summary.num_observations_filtered);
+  EXPECT_EQ(schur_summary.num_rounds, ceres_summary.num_rounds);
+  EXPECT_NEAR(schur_summary.final_mean_reproj_error,
+              ceres_summary.final_mean_reproj_error, 1e-9);
+  const Difference d = Compare(ceres_model, schur_model);
+  EXPECT_LT(d.center, 1e-7);  // scene radius 10
+  EXPECT_LT(d.rotation_deg, 1e-7);
+  EXPECT_LT(d.point, 1e-6);
+  EXPECT_LT(d.param, 1e-9);
+  // The focal length moved back from 3% off.
+  EXPECT_NEAR(CameraMeanFocalLength(schur_model.cameras.at(1)), 1200.0, 3.0);
+}
+
+// A camera model with distortion, one camera per image, principal points
+// refined too, poses as rotation and translation; least squares.
+TEST(SchurBundleAdjuster, SameOptimumWithDistortionAndTranslations) {
+  const SyntheticScene scene =
+      Scene(CameraModelNameToId("SIMPLE_RADIAL"), /*shared_camera=*/false);
+  Reconstruction start = scene.truth;
+  PerturbModel(0.3, 0.05, 0.02, 1.02, 6, &start);
+  for (auto& [camera_id, camera] : start.cameras) camera.params[3] = 0.0;
+  BundleAdjustmentOptions options = TightOptions();
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
+  options.max_reproj_error = 0;
+  options.refine_principal_point = true;
+  options.parameterize_centers = false;
+  Reconstruction ceres_model = start, schur_model = start;
+  RunBoth(options, &ceres_model, &schur_model);
+  const Difference d = Compare(ceres_model, schur_model);
+  EXPECT_LT(d.center, 1e-7);
+  EXPECT_LT(d.rotation_deg, 1e-7);
+  EXPECT_LT(d.point, 1e-6);
+  EXPECT_LT(d.param, 1e-8);
+  for (const auto& [camera_id, camera] : schur_model.cameras) {
+    EXPECT_NEAR(camera.params[3], -0.05, 0.02);
+  }
+}
+
+// The gauge: the first image's pose bit for bit, and the coordinate of the
+// second image's centre that Ceres holds; with held intrinsics and poses
+// only the points move.
+TEST(SchurBundleAdjuster, HoldsTheGaugeAndTheHeldParameters) {
+  const SyntheticScene scene = Scene(CameraModelNameToId("SIMPLE_RADIAL"));
+  Reconstruction start = scene.truth;
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &start);
+  BundleAdjustmentOptions options = TightOptions();
+  options.refine_focal_length = false;
+  options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
+  Reconstruction model = start;
+  ASSERT_TRUE(RunBundleAdjustment(options, &model));
+  const Image& first = model.images.begin()->second;
+  const Image& first_start = start.images.begin()->second;
+  EXPECT_EQ(first.cam_from_world.rotation.coeffs(),
+            first_start.cam_from_world.rotation.coeffs());
+  EXPECT_EQ(first.cam_from_world.translation,
+            first_start.cam_from_world.translation);
+  const Image& second = std::next(model.images.begin())->second;
+  const Image& second_start = std::next(start.images.begin())->second;
+  const Eigen::Vector3d moved =
+      (second.ProjectionCenter() - second_start.ProjectionCenter()).cwiseAbs();
+  EXPECT_LT(moved.minCoeff(), 1e-12);  // the held coordinate
+  EXPECT_GT(moved.maxCoeff(), 1e-4);
+  EXPECT_EQ(model.cameras.at(1).params[0], start.cameras.at(1).params[0]);
+  EXPECT_NE(model.cameras.at(1).params[3], start.cameras.at(1).params[3]);
+
+  options.refine_poses = false;
+  options.refine_extra_params = false;
+  Reconstruction points_start = scene.truth;
+  PerturbModel(0.0, 0.0, 0.1, 1.0, 8, &points_start);
+  Reconstruction points_only = points_start;
+  ASSERT_TRUE(RunBundleAdjustment(options, &points_only));
+  for (const auto& [image_id, image] : points_only.images) {
+    EXPECT_EQ(image.cam_from_world.translation,
+              points_start.images.at(image_id).cam_from_world.translation);
+  }
+  EXPECT_EQ(points_only.cameras.at(1).params,
+            points_start.cameras.at(1).params);
+  double max_point_error = 0;
+  for (const auto& [point3D_id, point] : points_only.points3D) {
+    max_point_error =
+        std::max(max_point_error,
+                 (point.xyz - scene.truth.points3D.at(point3D_id).xyz).norm());
+  }
+  EXPECT_LT(max_point_error, 0.05);
+  EXPECT_GT(max_point_error, 0.0);
+}
+
+// Pose priors and Ceres' losses are the Ceres path's, whatever is asked;
+// auto takes the Schur solver from the size on.
+TEST(SchurBundleAdjuster, FallsBackToCeresForPriorsAndLosses) {
+  const SyntheticScene scene = Scene();
+  BundleAdjustmentOptions options = TightOptions();
+  options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
+  PosePriors priors;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    priors[image_id].position = image.ProjectionCenter();
+  }
+  Reconstruction model = scene.truth;
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &model, &summary, &priors));
+  EXPECT_EQ(summary.backend, "ceres");
+  EXPECT_NE(summary.backend_reason.find("prior"), std::string::npos);
+  EXPECT_GT(summary.num_position_priors, 0);
+
+  options.loss_function = BundleAdjustmentLoss::kCauchy;
+  model = scene.truth;
+  ASSERT_TRUE(RunBundleAdjustment(options, &model, &summary));
+  EXPECT_EQ(summary.backend, "ceres");
+  EXPECT_NE(summary.backend_reason.find("cauchy"), std::string::npos);
+
+  std::string reason;
+  options.loss_function = BundleAdjustmentLoss::kHuber;
+  options.solver_backend = BundleAdjustmentSolverBackend::kAuto;
+  options.schur_min_num_observations = 1000;
+  EXPECT_FALSE(ChooseSchurBackend(options, 999, nullptr, &reason));
+  EXPECT_TRUE(ChooseSchurBackend(options, 1000, nullptr, &reason));
+  EXPECT_TRUE(ChooseSchurBackend(options, 1000, &priors, &reason) == false);
+  options.refine_poses = false;  // priors unused: no reason for Ceres
+  EXPECT_TRUE(ChooseSchurBackend(options, 1000, &priors, &reason));
+  options.solver_backend = BundleAdjustmentSolverBackend::kCeres;
+  EXPECT_FALSE(ChooseSchurBackend(options, 1000000, nullptr, &reason));
+  options.schur_min_num_observations = -1;
+  EXPECT_THROW(options.Check(), InputError);
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -402,6 +402,9 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.within_observed_depth", &d.within_observed_depth,
                "expect a camera to match only points no farther from it than "
                "the farthest model point it observes");
+  manager->Add("Fold.within_rigid_parts", &d.within_rigid_parts,
+               "predict overlap only between images of one rigid part of the "
+               "model (parts joined through single images have a free scale)");
   manager->Add("Fold.missing_pair_inlier_factor", &d.missing_pair_inlier_factor,
                "a predicted pair without matches is missing only where the "
                "rate model expects this many times min_num_matches inliers");

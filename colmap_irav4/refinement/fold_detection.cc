@@ -11,6 +11,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -669,6 +670,19 @@ double FoldDetector::MeanLogScale(int i, int j) const {
 // model is known.
 void FoldDetector::PredictOverlap() {
   ComputeExpectedOverlap();
+  // Rigid part of each view (-1: tied to no other image): across parts the
+  // model does not determine where one camera is relative to another.
+  std::vector<int> part(NumViews(), 0);
+  if (options_.within_rigid_parts) {
+    std::fill(part.begin(), part.end(), -1);
+    const ModelRigidity rigidity = AnalyzeModelRigidity(
+        ModelRigidityOptions(), reconstruction_, /*min_model_size=*/1);
+    for (size_t b = 0; b < rigidity.blocks.size(); ++b) {
+      for (const image_t image_id : rigidity.blocks[b]) {
+        part[index_.at(image_id)] = static_cast<int>(b);
+      }
+    }
+  }
   for (int i = 0; i < NumViews(); ++i) {
     for (const Expected& entry : expected_[i]) {
       const int j = entry.j;
@@ -683,6 +697,7 @@ void FoldDetector::PredictOverlap() {
         continue;
       }
       if (!Tried(views_[i].image_id, views_[j].image_id)) continue;
+      if (part[i] != part[j] || part[i] < 0) continue;
       predicted_.insert({i, j});
     }
   }

@@ -54,6 +54,12 @@ struct FoldDetectionOptions {
   // points say where; beyond it the geometry alone over-predicts the overlap
   // (the far walls of a courtyard).
   bool within_observed_depth = true;
+  // Predict overlap only between images of one rigid part of the model
+  // (refinement/model_rigidity.h): parts joined through a single image have
+  // a free scale about it, and the model places their cameras relative to
+  // each other arbitrarily (a correct sparse model's pairs across such a
+  // joint looked missing although their images were tens of metres apart).
+  bool within_rigid_parts = true;
   // A pair is predicted to overlap when each image expects at least this
   // fraction of the other's model points.
   double min_overlap_fraction = 0.3;

@@ -11,6 +11,13 @@
 #       [--global_mapper BINARY] [--global_mapper_max_images 1000]
 #       [--timeout SECONDS]
 #
+# --layout photo: photo collections (scene_generator --layout photo, with
+# 10% random false pairs, 5% mirror-twin pairs and detector repeatability:
+# $photo_args below); each mapper's models are also scored against the
+# landmarks by scripts/evaluate_photo_models.py into DIR/photo.csv
+# (registered images a true pair connects and false registrations, models
+# against parts, rotation, centre and focal medians, each model aligned on
+# its own).
 # --large adds 3000 and 5000 images. --seeds maps a scene of each size per
 # generator seed (--seed S: one seed); with more than one the scenes are named
 # *_N_sS and accuracy_summary.csv gives the error ratios over the seeds (one
@@ -69,7 +76,7 @@ while [ $# -gt 0 ]; do
     --global_mapper_max_images) global_mapper_max_images=$2; shift 2 ;;
     --timeout) timeout_seconds=$2; shift 2 ;;
     --data_dir) data_dir=$2; shift 2 ;;
-    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,39p' "$0"; exit 0 ;;
     *) echo "ERROR: unknown option $1 (see $0 --help)" >&2; exit 2 ;;
   esac
 done
@@ -246,6 +253,12 @@ if [ "$run_strecha" = 1 ]; then
   done
 fi
 
+# The photo-collection protocol (docs/notes/2026-12-03-photo-collection-scenes.md).
+photo_args=(--random_pair_rate 0.1 --mirror_pair_rate 0.05
+  --max_keypoints_per_image 3000 --match_angle_falloff_deg 40
+  --match_distance_falloff 60 --match_rate_sigma 0.5)
+[ "$layout" = photo ] && generator_args+=("${photo_args[@]}")
+
 IFS=',' read -r -a size_list <<< "$sizes"
 IFS=',' read -r -a seed_list <<< "$seeds"
 for n in "${size_list[@]}"; do
@@ -260,6 +273,16 @@ for n in "${size_list[@]}"; do
     mkdir -p "$scene_dir/images"  # no pixels: grey points
     bench_scene "$scene" synthetic "$n" "$scene_dir/database.db" "$scene_dir/images" \
       --input_path2 "$scene_dir/gt"
+    if [ "$layout" = photo ]; then
+      for mapper in irav4 colmap global; do
+        [ -d "$out/runs/$scene/$mapper" ] || continue
+        header=()
+        [ -f "$out/photo.csv" ] || header=(--header)
+        "$python" "$root/scripts/evaluate_photo_models.py" "${header[@]}" \
+          --scene "$scene_dir" --models "$out/runs/$scene/$mapper" \
+          --binary "$binary" --label "$scene/$mapper" >> "$out/photo.csv"
+      done
+    fi
   done
 done
 

@@ -39,7 +39,10 @@ int RunMapper(int argc, char** argv, bool colmap4_names) {
       "with 3+ position priors is placed in their frame (robust to outliers;\n"
       "gravity sets the up axis), refined with them and written there:\n"
       "metres, WGS84 as east-north-up at the origin in OUTPUT/k/\n"
-      "prior_frame.txt; no normalisation. --Mapper.use_pose_priors 0: ignore.");
+      "prior_frame.txt; no normalisation. A fold the images leave silent\n"
+      "is settled by them: candidate turned groups are mapped again and kept\n"
+      "where the priors agree clearly better (--Fold.settle_with_priors).\n"
+      "--Mapper.use_pose_priors 0: ignore.");
   manager.AddRequired("database_path", &database_path,
                       "COLMAP database (opened read-only)");
   manager.Add("image_path", &image_path,

@@ -5,8 +5,9 @@
 // Model 1 is aligned onto the reference with a robust similarity (RANSAC
 // over the camera centres, then least squares on the inliers); then the
 // registered-image counts, rotation and centre errors (median, max; centre
-// errors in the reference's units) and each model's points and mean
-// reprojection error are printed.
+// errors in the reference's units), the relative focal length errors
+// (against a reference model: e.g. the true cameras of a generated scene)
+// and each model's points and mean reprojection error are printed.
 
 #include <algorithm>
 #include <cmath>
@@ -47,9 +48,11 @@ void PrintModel(const std::string& label, const std::string& path,
 // One line per common image, worst rotation first (rotation-only alignment:
 // free of the centre alignment's small common rotation; ties: larger centre
 // error first), so that the cameras to doubt stand at the top.
-// `rotation_only_deg`: per common image, in comparison.names' order.
+// `rotation_only_deg`: per common image, in comparison.names' order;
+// `focal_errors`: by name (none against Strecha cameras).
 void PrintPerImage(const PoseComparison& comparison,
-                   const std::vector<double>& rotation_only_deg) {
+                   const std::vector<double>& rotation_only_deg,
+                   const std::map<std::string, double>& focal_errors) {
   CHECK_EQ(rotation_only_deg.size(), comparison.names.size());
   std::vector<size_t> order(comparison.names.size());
   std::iota(order.begin(), order.end(), 0);
@@ -61,12 +64,16 @@ void PrintPerImage(const PoseComparison& comparison,
   });
   std::cout << "per image, worst first: name, rotation error [deg] "
                "(rotation-only alignment, similarity alignment), centre "
-               "error\n";
+               "error"
+            << (focal_errors.empty() ? "" : ", relative focal error") << "\n";
   for (const size_t k : order) {
     std::cout << "  " << comparison.names[k] << std::setprecision(4) << " "
               << rotation_only_deg[k] << " "
               << comparison.rotation_errors_deg[k] << std::setprecision(6)
-              << " " << comparison.center_errors[k] << "\n";
+              << " " << comparison.center_errors[k];
+    const auto focal = focal_errors.find(comparison.names[k]);
+    if (focal != focal_errors.end()) std::cout << " " << focal->second;
+    std::cout << "\n";
   }
 }
 
@@ -103,6 +110,7 @@ int RunModelComparer(int argc, char** argv) {
 
   Reconstruction model1 = ReadReconstruction(input_path1);
   std::map<std::string, Rigid3d> reference;
+  FocalErrors focal;
   PrintModel("model 1", input_path1, &model1);
   if (!gt_path.empty()) {
     for (const auto& [name, camera] : ReadStrechaGroundTruth(gt_path)) {
@@ -115,6 +123,7 @@ int RunModelComparer(int argc, char** argv) {
     Reconstruction model2 = ReadReconstruction(input_path2);
     PrintModel("model 2", input_path2, &model2);
     reference = PosesByName(model2);
+    focal = CompareFocalLengths(model1, model2);
   }
 
   PoseComparison comparison;
@@ -160,7 +169,14 @@ int RunModelComparer(int argc, char** argv) {
             << "rotation error, rotation-only alignment [deg]: median "
             << rotation_only.median_deg << ", max " << rotation_only.max_deg
             << "\n";
-  if (per_image) PrintPerImage(comparison, rotation_only.errors_deg);
+  if (!focal.relative_errors.empty()) {
+    std::cout << "focal length relative error: median " << focal.median
+              << ", max " << focal.max << " (" << focal.relative_errors.size()
+              << " images)\n";
+  }
+  if (per_image) {
+    PrintPerImage(comparison, rotation_only.errors_deg, focal.relative_errors);
+  }
   return 0;
 }
 

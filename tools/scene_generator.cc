@@ -6,13 +6,16 @@
 //       [--mirror_pair_rate 0.1] [--random_pair_rate 0.02] [--seed 3] ...
 // writes OUT/database.db, OUT/gt/{cameras,images,points3D}.bin and
 // OUT/pairs.txt (one line per written pair: IMAGE_ID1 IMAGE_ID2 KIND
-// NUM_INLIERS, KIND true|mirror|random); with --pose_priors 1 also GPS-like
+// NUM_INLIERS, KIND true|mirror|random); the photo layout also
+// OUT/image_parts.txt (IMAGE_NAME PART, its landmark); with --pose_priors 1
+// also GPS-like
 // priors and gravity (database_colmap311.db, database_colmap4.db,
 // pose_priors_enu.txt, pose_priors_wgs84.txt, gt_prior: the truth in their
 // frame).
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -38,6 +41,16 @@ std::vector<std::string> SplitComma(const std::string& text) {
     if (!part.empty()) parts.push_back(part);
   }
   return parts;
+}
+
+// Writes `path` through `write`, to a temporary name renamed when complete.
+void WriteTextFile(const std::string& path,
+                   const std::function<void(std::ostream&)>& write) {
+  std::ofstream file(path + ".tmp");
+  write(file);
+  file.close();
+  if (!file) throw InputError(path, "cannot write");
+  std::filesystem::rename(path + ".tmp", path);
 }
 
 // Pose prior options (scene_generator.h's PosePriorGeneratorOptions).
@@ -108,7 +121,7 @@ int Run(int argc, char** argv) {
                         "OUTPUT/pairs.txt (pair kinds) for a synthetic scene.");
   manager.AddRequired("output_path", &output_path, "output directory");
   manager.Add("overwrite", &overwrite, "replace an existing output");
-  manager.Add("layout", &layout, "courtyard | street | tower");
+  manager.Add("layout", &layout, "courtyard | street | tower | photo");
   manager.Add("num_images", &options.num_images, "number of images");
   manager.Add("image_spacing", &options.image_spacing,
               "camera path length per image (m)");
@@ -165,6 +178,19 @@ int Run(int argc, char** argv) {
               "fraction of random false pairs");
   manager.Add("false_pair_inlier_fraction", &options.false_pair_inlier_fraction,
               "fraction of its possible matches a false pair keeps");
+  manager.Add("num_parts", &options.num_parts,
+              "photo: landmarks with no true pair between them");
+  manager.Add("min_focal_ratio", &options.min_focal_ratio,
+              "photo: shortest focal length (x image width)");
+  manager.Add("max_focal_ratio", &options.max_focal_ratio,
+              "photo: longest focal length (x image width)");
+  manager.Add("prior_focal_fraction", &options.prior_focal_fraction,
+              "photo: share of cameras with a prior focal (EXIF); the others "
+              "get COLMAP's guess 1.2 x max(width, height)");
+  manager.Add("prior_focal_error", &options.prior_focal_error,
+              "photo: a prior focal is within this relative error");
+  manager.Add("max_radial_distortion", &options.max_radial_distortion,
+              "photo: radial coefficient k drawn in [-this, this]");
   manager.Add("store_relative_pose", &options.store_relative_pose,
               "write two_view_geometries.qvec/tvec");
   manager.Add("seed", &seed, "random seed");
@@ -188,6 +214,7 @@ int Run(int argc, char** argv) {
     std::filesystem::remove(out / "database.db");
     std::filesystem::remove_all(out / "gt");
     std::filesystem::remove(out / "pairs.txt");
+    std::filesystem::remove(out / "image_parts.txt");
     std::filesystem::remove_all(out / "gt_prior");
   }
   std::filesystem::create_directories(out);
@@ -197,16 +224,18 @@ int Run(int argc, char** argv) {
   const double generate_seconds = timer.ElapsedSeconds();
   WriteSceneDatabase(scene, (out / "database.db").string());
   WriteReconstruction(scene.truth, (out / "gt").string(), "BIN");
-  {
-    const std::string pairs_path = (out / "pairs.txt").string();
-    std::ofstream file(pairs_path + ".tmp");
+  WriteTextFile((out / "pairs.txt").string(), [&](std::ostream& file) {
     for (const GeneratedPair& pair : scene.pairs) {
       file << pair.image_id1 << ' ' << pair.image_id2 << ' '
            << PairKindName(pair.kind) << ' ' << pair.num_candidates << '\n';
     }
-    file.close();
-    if (!file) throw InputError(pairs_path, "cannot write");
-    std::filesystem::rename(pairs_path + ".tmp", pairs_path);
+  });
+  if (!scene.image_parts.empty()) {
+    WriteTextFile((out / "image_parts.txt").string(), [&](std::ostream& file) {
+      for (const auto& [image_id, image] : scene.truth.images) {
+        file << image.name << ' ' << scene.image_parts.at(image_id - 1) << '\n';
+      }
+    });
   }
   if (pose_priors) {
     prior_options.seed = options.seed;

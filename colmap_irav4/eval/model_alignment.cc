@@ -9,6 +9,7 @@
 
 #include "colmap_irav4/eval/rotation_eval.h"
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/statistics.h"
 
@@ -114,6 +115,30 @@ ModelFigures ComputeModelFigures(Reconstruction* model) {
   figures.num_points = static_cast<int>(model->points3D.size());
   figures.mean_track_length = MeanTrackLength(*model);
   return figures;
+}
+
+FocalErrors CompareFocalLengths(const Reconstruction& estimate,
+                                const Reconstruction& reference) {
+  std::map<std::string, double> reference_focals;
+  for (const auto& [image_id, image] : reference.images) {
+    reference_focals[image.name] =
+        CameraMeanFocalLength(reference.cameras.at(image.camera_id));
+  }
+  FocalErrors errors;
+  std::vector<double> values;
+  for (const auto& [image_id, image] : estimate.images) {
+    const auto it = reference_focals.find(image.name);
+    if (it == reference_focals.end()) continue;
+    const double focal =
+        CameraMeanFocalLength(estimate.cameras.at(image.camera_id));
+    const double error = std::abs(focal - it->second) / it->second;
+    errors.relative_errors[image.name] = error;
+    values.push_back(error);
+  }
+  errors.median = Median(values);
+  errors.max =
+      values.empty() ? 0 : *std::max_element(values.begin(), values.end());
+  return errors;
 }
 
 RotationErrors CompareRotationsOnly(

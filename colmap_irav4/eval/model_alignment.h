@@ -61,6 +61,17 @@ struct ModelFigures {
 // Also updates the points' reprojection errors.
 ModelFigures ComputeModelFigures(Reconstruction* model);
 
+// Relative focal length errors |f - f_ref| / f_ref (each image's camera's
+// mean focal, in pixels) of the images in both models, matched by name: the
+// calibration a model recovered, against the true cameras.
+struct FocalErrors {
+  std::map<std::string, double> relative_errors;  // by image name
+  double median = 0;
+  double max = 0;
+};
+FocalErrors CompareFocalLengths(const Reconstruction& estimate,
+                                const Reconstruction& reference);
+
 // Rotation errors (deg) of the common images after one rotation fitted to
 // the rotations (robust geodesic L1 mean, as for rotation averaging), not to
 // the centres: model_comparer's second figure, firm where nearly collinear

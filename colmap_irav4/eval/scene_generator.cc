@@ -185,6 +185,52 @@ Camera MakeCamera(const SceneGeneratorOptions& options, camera_t camera_id,
   return camera;
 }
 
+// Photo layout: image sizes of users' cameras (landscape and portrait).
+constexpr int kPhotoImageSizes[][2] = {{1600, 1200}, {1200, 1600},
+                                       {2048, 1536}, {1024, 768},
+                                       {1920, 1080}, {1080, 1920}};
+
+// A camera of the photo layout (SceneLayout::kPhoto) and, in `stored`, what
+// the database holds for it: the EXIF focal (within prior_focal_error) for
+// prior_focal_fraction of the cameras, else COLMAP's guess 1.2 x
+// max(width, height) without the prior flag; no distortion (COLMAP's
+// initial value).
+Camera MakePhotoCamera(const SceneGeneratorOptions& options, camera_t camera_id,
+                       std::mt19937_64* rng, Camera* stored) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int(&size)[2] = kPhotoImageSizes[static_cast<size_t>(
+      unit(*rng) * std::size(kPhotoImageSizes))];
+  Camera camera;
+  camera.camera_id = camera_id;
+  camera.model_id = CameraModelNameToId(
+      options.camera_models[(camera_id - 1) % options.camera_models.size()]);
+  camera.width = size[0];
+  camera.height = size[1];
+  camera.params.assign(CameraModelNumParams(camera.model_id), 0.0);
+  const std::vector<int> pp = CameraModelPrincipalPointIdxs(camera.model_id);
+  camera.params[pp[0]] = 0.5 * camera.width;
+  camera.params[pp[1]] = 0.5 * camera.height;
+  *stored = camera;
+  const double focal =
+      camera.width *
+      (options.min_focal_ratio +
+       unit(*rng) * (options.max_focal_ratio - options.min_focal_ratio));
+  const bool has_prior = unit(*rng) < options.prior_focal_fraction;
+  const double prior_focal =
+      has_prior ? focal * (1 + options.prior_focal_error * (2 * unit(*rng) - 1))
+                : 1.2 * std::max(camera.width, camera.height);
+  for (const int idx : CameraModelFocalLengthIdxs(camera.model_id)) {
+    camera.params[idx] = focal;
+    stored->params[idx] = prior_focal;
+  }
+  camera.has_prior_focal_length = true;
+  stored->has_prior_focal_length = has_prior;
+  const std::vector<int> extra = CameraModelExtraParamsIdxs(camera.model_id);
+  const double k = options.max_radial_distortion * (2 * unit(*rng) - 1);
+  if (!extra.empty()) camera.params[extra[0]] = k;
+  return camera;
+}
+
 // `xy` (inside the image) plus Gaussian noise of noise_px per coordinate,
 // drawn again while the result is outside [0, width] x [0, height]: a
 // detector reports keypoints inside the image only. Resampling (a Gaussian
@@ -316,8 +362,9 @@ SceneLayout SceneLayoutFromName(const std::string& name) {
   if (name == "courtyard") return SceneLayout::kCourtyard;
   if (name == "street") return SceneLayout::kStreet;
   if (name == "tower") return SceneLayout::kTower;
-  throw InputError(
-      "--layout", "unknown layout '" + name + "' (courtyard, street or tower)");
+  if (name == "photo") return SceneLayout::kPhoto;
+  throw InputError("--layout", "unknown layout '" + name +
+                                   "' (courtyard, street, tower or photo)");
 }
 
 std::string SceneLayoutName(SceneLayout layout) {
@@ -328,6 +375,8 @@ std::string SceneLayoutName(SceneLayout layout) {
       return "street";
     case SceneLayout::kTower:
       return "tower";
+    case SceneLayout::kPhoto:
+      return "photo";
   }
   return "";
 }
@@ -397,6 +446,21 @@ void SceneGeneratorOptions::Check() const {
           "mirror_pair_rate + random_pair_rate must be < 1");
   require(false_pair_inlier_fraction > 0 && false_pair_inlier_fraction <= 1,
           "false_pair_inlier_fraction", "must be in (0, 1]");
+  require(num_parts >= 1 && num_parts <= 10, "num_parts", "must be in [1, 10]");
+  require(min_focal_ratio > 0.1 && max_focal_ratio >= min_focal_ratio &&
+              max_focal_ratio <= 20,
+          "min_focal_ratio", "need 0.1 < min <= max_focal_ratio <= 20");
+  require(prior_focal_fraction >= 0 && prior_focal_fraction <= 1,
+          "prior_focal_fraction", "must be in [0, 1]");
+  require(prior_focal_error >= 0 && prior_focal_error < 0.5,
+          "prior_focal_error", "must be in [0, 0.5)");
+  require(max_radial_distortion >= 0 && max_radial_distortion <= 0.5,
+          "max_radial_distortion", "must be in [0, 0.5]");
+  require(layout != SceneLayout::kPhoto ||
+              std::find(camera_models.begin(), camera_models.end(), "FOV") ==
+                  camera_models.end(),
+          "camera_models",
+          "the photo layout draws a radial coefficient (FOV has none)");
 }
 
 Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world) {
@@ -451,12 +515,76 @@ struct SceneRandom {
   std::normal_distribution<double> normal{0.0, 1.0};
 };
 
+// Photo layout: cameras' distances from the landmark's walls (m), core and
+// periphery, the periphery's share of the images, the camera loop's distance
+// from the walls (m; the distances are offsets from it).
+constexpr double kPhotoCore[2] = {5, 25};
+constexpr double kPhotoPeriphery[2] = {25, 70};
+constexpr double kPhotoPeripheryFraction = 0.25;
+constexpr double kPhotoLoopOffset = 16;
+constexpr double kPhotoLandmarkHeight = 30;
+
 // The walls and the camera path of a layout.
 struct SceneGeometry {
   Layout layout;
-  RectLoop loop;                  // the camera loop (courtyard, tower)
+  RectLoop loop;                  // the camera loop (courtyard, tower, photo)
   double street_half_length = 0;  // street: half the camera path
+  // Photo: each part's landmark centre (x, z) and the end of its share of
+  // the camera path (arc length; the parts share it in order).
+  std::vector<Eigen::Vector2d> part_centres;
+  std::vector<double> part_ends;
+  double landmark_hx = 0, landmark_hz = 0;
 };
+
+// Photo layout: how far a camera detects points (m). A point's image shrinks
+// as focal / distance, so a longer lens resolves it farther away: the widest
+// lens (min_focal_ratio x width) detects up to max_view_distance.
+double PhotoDetectionRange(const SceneGeneratorOptions& options,
+                           const Camera& camera) {
+  return options.max_view_distance * CameraMeanFocalLength(camera) /
+         (options.min_focal_ratio * camera.width);
+}
+
+// Photo layout: landmarks at x = p * spacing, far enough apart that no camera
+// of one sees a point of another; part p gets a share of the images
+// proportional to 1 / (p + 1) (a popular landmark and less popular ones).
+// The first, at the origin, is symmetric under M (its mirror-twin pairs are
+// among its own images); the others have no twins (SamplePointCloud).
+void BuildPhotoGeometry(const SceneGeneratorOptions& options,
+                        SceneGeometry* geometry) {
+  const int num_parts = options.num_parts;
+  std::vector<double> weights;
+  double total = 0;
+  for (int p = 0; p < num_parts; ++p) {
+    weights.push_back(1.0 / (p + 1));
+    total += weights.back();
+  }
+  // The landmark grows with its images (pairs per image grow as sqrt(n)).
+  const double hx =
+      std::max(8.0, 1.2 * std::sqrt(options.num_images * weights[0] / total));
+  const double hz = 0.8 * hx;
+  geometry->landmark_hx = hx;
+  geometry->landmark_hz = hz;
+  geometry->loop.hx = hx + kPhotoLoopOffset;
+  geometry->loop.hz = hz + kPhotoLoopOffset;
+  const double max_range = options.max_view_distance * options.max_focal_ratio /
+                           options.min_focal_ratio;
+  const double spacing = 2 * (hx + kPhotoPeriphery[1] + max_range) + 10;
+  const double path_length = geometry->layout.path_length;
+  double end = 0;
+  for (int p = 0; p < num_parts; ++p) {
+    const Eigen::Vector2d centre(p * spacing, 0);
+    geometry->part_centres.push_back(centre);
+    end += weights[p] / total * path_length;
+    geometry->part_ends.push_back(end);
+    for (Wall wall : RectWalls(hx, hz, kPhotoLandmarkHeight, false)) {
+      wall.a += centre;
+      wall.b += centre;
+      geometry->layout.walls.push_back(wall);
+    }
+  }
+  geometry->part_ends.back() = path_length;
+}
 
 SceneGeometry BuildGeometry(const SceneGeneratorOptions& options) {
   const double path_length = options.num_images * options.image_spacing;
@@ -498,6 +626,9 @@ SceneGeometry BuildGeometry(const SceneGeneratorOptions& options) {
       layout.path_length = 2 * geometry.street_half_length;
       break;
     }
+    case SceneLayout::kPhoto:
+      BuildPhotoGeometry(options, &geometry);
+      break;
   }
   return geometry;
 }
@@ -605,16 +736,34 @@ void AddWallTwins(const SceneGeneratorOptions& options, const Layout& layout,
   }
 }
 
+// `count` points without twins on `layout`'s walls (cloud wall index: the
+// layout's plus wall_offset).
+void AddUniquePoints(const SceneGeneratorOptions& options, const Layout& layout,
+                     const WallPicker& walls, int64_t count, int wall_offset,
+                     SceneRandom* random, PointCloud* cloud) {
+  for (int64_t k = 0; k < count; ++k) {
+    const int wall = walls.Pick(random);
+    const Eigen::Vector3d xyz =
+        SampleWallPoint(options, layout.walls[wall],
+                        random->Unit() * layout.walls[wall].Length(), random);
+    AddPoint(xyz, wall + wall_offset, -1, cloud);
+  }
+}
+
+// The walls seen whole from afar (tower, photo landmarks) get a third of the
+// density: their images' keypoints stay comparable with the other layouts'.
+constexpr double kDistantWallDensity = 0.3;
+
 // Points: twins X, M X (the wall set is symmetric under M), then the unique
 // fraction without twins.
 PointCloud SamplePointCloud(const SceneGeneratorOptions& options,
                             const Layout& layout, SceneRandom* random) {
   const WallPicker walls(layout);
-  // The tower's faces are seen whole from afar: a third of the density keeps
-  // its images' keypoints comparable with the other layouts'.
-  const double expected_points =
-      options.point_density * walls.TotalArea() *
-      (options.layout == SceneLayout::kTower ? 0.3 : 1.0);
+  const double expected_points = options.point_density * walls.TotalArea() *
+                                 (options.layout == SceneLayout::kTower ||
+                                          options.layout == SceneLayout::kPhoto
+                                      ? kDistantWallDensity
+                                      : 1.0);
   const int64_t num_twin_pairs = static_cast<int64_t>(
       std::round(0.5 * expected_points * (1 - options.unique_point_fraction)));
   const int64_t num_unique = static_cast<int64_t>(
@@ -625,13 +774,28 @@ PointCloud SamplePointCloud(const SceneGeneratorOptions& options,
   } else {
     AddWallTwins(options, layout, walls, num_twin_pairs, random, &cloud);
   }
-  for (int64_t k = 0; k < num_unique; ++k) {
-    const int wall = walls.Pick(random);
-    const Eigen::Vector3d xyz =
-        SampleWallPoint(options, layout.walls[wall],
-                        random->Unit() * layout.walls[wall].Length(), random);
-    AddPoint(xyz, wall, -1, &cloud);
-  }
+  AddUniquePoints(options, layout, walls, num_unique, 0, random, &cloud);
+  return cloud;
+}
+
+// Photo layout: the first landmark's walls (the first 4, symmetric under M)
+// as a tower's, the other landmarks' points without twins.
+PointCloud SamplePhotoPointCloud(const SceneGeneratorOptions& options,
+                                 const Layout& layout, SceneRandom* random) {
+  constexpr int kWallsPerLandmark = 4;
+  Layout first, others;
+  first.walls.assign(layout.walls.begin(),
+                     layout.walls.begin() + kWallsPerLandmark);
+  others.walls.assign(layout.walls.begin() + kWallsPerLandmark,
+                      layout.walls.end());
+  PointCloud cloud = SamplePointCloud(options, first, random);
+  if (others.walls.empty()) return cloud;
+  const WallPicker walls(others);
+  AddUniquePoints(
+      options, others, walls,
+      static_cast<int64_t>(std::round(
+          kDistantWallDensity * options.point_density * walls.TotalArea())),
+      kWallsPerLandmark, random, &cloud);
   return cloud;
 }
 
@@ -701,17 +865,42 @@ void RecordImagePathPositions(const SceneGeneratorOptions& options,
     if (along < 0) along += path_length;
     scene->image_path_positions[i] = along;
   }
-  if (options.layout != SceneLayout::kStreet) {
+  if (options.layout != SceneLayout::kStreet &&
+      options.layout != SceneLayout::kPhoto) {
     scene->path_corners = geometry.loop.Corners();
   }
 }
 
-// Image `image_id` at path parameter s: its camera, its pose, and (out) its
-// centre and viewing direction.
+// Image `image_id` of camera `camera_id` at `center` looking along
+// `forward`, rolled by a few degrees.
+Image LookingImage(image_t image_id, camera_t camera_id,
+                   const Eigen::Vector3d& center,
+                   const Eigen::Vector3d& forward, SceneRandom* random) {
+  Image image;
+  image.image_id = image_id;
+  image.name = "image" + std::to_string(image_id) + ".jpg";
+  image.camera_id = camera_id;
+  image.cam_from_world.rotation =
+      Eigen::Quaterniond(LookAlong(forward, DegToRad(3.0) * random->Normal()));
+  image.cam_from_world.translation = -(image.cam_from_world.rotation * center);
+  return image;
+}
+
+// Image `image_id` at path parameter s: its camera, its pose, its part
+// (photo layout; 0 otherwise), and (out) its centre and viewing direction.
+Image PlacePhotoImage(const SceneGeometry& geometry, image_t image_id, double s,
+                      SceneRandom* random, Eigen::Vector3d* center,
+                      Eigen::Vector3d* forward, int* part);
+
 Image PlaceImage(const SceneGeneratorOptions& options,
                  const SceneGeometry& geometry, image_t image_id, double s,
                  SceneRandom* random, Eigen::Vector3d* center,
-                 Eigen::Vector3d* forward) {
+                 Eigen::Vector3d* forward, int* part) {
+  *part = 0;
+  if (options.layout == SceneLayout::kPhoto) {
+    return PlacePhotoImage(geometry, image_id, s, random, center, forward,
+                           part);
+  }
   const double yaw =
       DegToRad(options.layout == SceneLayout::kTower ? 25.0 : 40.0) *
       (2 * random->Unit() - 1);
@@ -738,6 +927,8 @@ Image PlaceImage(const SceneGeneratorOptions& options,
       pitch = DegToRad(10 + 20 * random->Unit());
       break;
     }
+    case SceneLayout::kPhoto:  // PlacePhotoImage
+      break;
     case SceneLayout::kStreet: {
       const double side = random->Unit() < 0.5 ? -1 : 1;
       ground = {std::fmod(s, geometry.layout.path_length) -
@@ -754,15 +945,45 @@ Image PlaceImage(const SceneGeneratorOptions& options,
       Eigen::Vector3d(ground.x(), 1.6 + 0.3 * random->Normal(), ground.y());
   *forward = Eigen::Vector3d(std::cos(pitch) * dir.x(), std::sin(pitch),
                              std::cos(pitch) * dir.y());
-  Image image;
-  image.image_id = image_id;
-  image.name = "image" + std::to_string(image_id) + ".jpg";
   std::uniform_int_distribution<int> camera_pick(1, options.num_cameras);
-  image.camera_id = options.num_cameras == 1 ? 1 : camera_pick(random->rng);
-  image.cam_from_world.rotation =
-      Eigen::Quaterniond(LookAlong(*forward, DegToRad(3.0) * random->Normal()));
-  image.cam_from_world.translation = -(image.cam_from_world.rotation * *center);
-  return image;
+  const camera_t camera_id =
+      options.num_cameras == 1 ? 1 : camera_pick(random->rng);
+  return LookingImage(image_id, camera_id, *center, *forward, random);
+}
+
+// Photo layout: image `image_id` (its own camera) at path parameter s: the
+// part whose share of the path holds s, a position on that part's camera
+// loop moved into the core or the periphery, aimed at a random spot of the
+// landmark.
+Image PlacePhotoImage(const SceneGeometry& geometry, image_t image_id, double s,
+                      SceneRandom* random, Eigen::Vector3d* center,
+                      Eigen::Vector3d* forward, int* part) {
+  const double path_length = geometry.layout.path_length;
+  double along = std::fmod(s, path_length);
+  if (along < 0) along += path_length;
+  *part = static_cast<int>(
+      std::min<size_t>(std::upper_bound(geometry.part_ends.begin(),
+                                        geometry.part_ends.end(), along) -
+                           geometry.part_ends.begin(),
+                       geometry.part_ends.size() - 1));
+  const double start = *part == 0 ? 0.0 : geometry.part_ends[*part - 1];
+  const double fraction =
+      (along - start) / std::max(1e-9, geometry.part_ends[*part] - start);
+  Eigen::Vector2d ground, outward;
+  geometry.loop.At(fraction * geometry.loop.Perimeter(), &ground, &outward);
+  const double* range =
+      random->Unit() < kPhotoPeripheryFraction ? kPhotoPeriphery : kPhotoCore;
+  const double distance = range[0] + (range[1] - range[0]) * random->Unit();
+  const Eigen::Vector2d& centre = geometry.part_centres[*part];
+  ground += centre + (distance - kPhotoLoopOffset) * outward;
+  *center =
+      Eigen::Vector3d(ground.x(), 1.6 + 0.3 * random->Normal(), ground.y());
+  const Eigen::Vector3d aim(
+      centre.x() + geometry.landmark_hx * (2 * random->Unit() - 1),
+      2 + (kPhotoLandmarkHeight - 4) * random->Unit(),
+      centre.y() + geometry.landmark_hz * (2 * random->Unit() - 1));
+  *forward = (aim - *center).normalized();
+  return LookingImage(image_id, image_id, *center, *forward, random);
 }
 
 // Keypoints of the cloud points `image` detects (within range, in front,
@@ -780,7 +1001,9 @@ void DetectPoints(const SceneGeneratorOptions& options, const Layout& layout,
   const double focal = CameraMeanFocalLength(camera);
   const double max_u = 0.5 * camera.width / focal * 1.2;
   const double max_v = 0.5 * camera.height / focal * 1.2;
-  const double range = options.max_view_distance;
+  const double range = options.layout == SceneLayout::kPhoto
+                           ? PhotoDetectionRange(options, camera)
+                           : options.max_view_distance;
   const int64_t ix0 = VisibilityGrid::CellIndex(center.x() - range);
   const int64_t ix1 = VisibilityGrid::CellIndex(center.x() + range);
   const int64_t iz0 = VisibilityGrid::CellIndex(center.z() - range);
@@ -850,18 +1073,21 @@ void AddClutterKeypoints(const SceneGeneratorOptions& options,
   }
 }
 
-// The images of `truth` (its cameras set), one per path parameter; returns
-// the observations of each cloud point: (image, keypoint index).
+// The images of `truth` (its cameras set), one per path parameter, and their
+// parts (if image_parts is not null); returns the observations of each cloud
+// point: (image, keypoint index).
 std::vector<std::vector<TrackElement>> ObserveImages(
     const SceneGeneratorOptions& options, const SceneGeometry& geometry,
     const PointCloud& cloud, const std::vector<double>& params,
-    SceneRandom* random, Reconstruction* truth) {
+    SceneRandom* random, Reconstruction* truth, std::vector<int>* image_parts) {
   const VisibilityGrid grid(cloud);
   std::vector<std::vector<TrackElement>> observations(cloud.xyz.size());
   for (int i = 0; i < options.num_images; ++i) {
     Eigen::Vector3d center, forward;
+    int part = 0;
     Image image = PlaceImage(options, geometry, i + 1, params[i], random,
-                             &center, &forward);
+                             &center, &forward, &part);
+    if (image_parts != nullptr) image_parts->push_back(part);
     const Camera& camera = truth->cameras.at(image.camera_id);
     DetectPoints(options, geometry.layout, cloud, grid, camera, center, forward,
                  random, &image, &observations);
@@ -1181,6 +1407,22 @@ void AddRandomPairs(const SceneGeneratorOptions& options, SceneRandom* random,
   }
 }
 
+// The true cameras and, for the photo layout (one camera per image), the
+// database's (MakePhotoCamera).
+void MakeCameras(const SceneGeneratorOptions& options, SceneRandom* random,
+                 GeneratedScene* scene) {
+  if (options.layout != SceneLayout::kPhoto) {
+    for (int c = 1; c <= options.num_cameras; ++c) {
+      scene->truth.cameras[c] = MakeCamera(options, c, &random->rng);
+    }
+    return;
+  }
+  for (int c = 1; c <= options.num_images; ++c) {
+    scene->truth.cameras[c] =
+        MakePhotoCamera(options, c, &random->rng, &scene->database_cameras[c]);
+  }
+}
+
 // The pairs in (image_id1, image_id2) order, counted by kind.
 void SetScenePairs(std::vector<GeneratedPair> pairs, GeneratedScene* scene) {
   std::sort(pairs.begin(), pairs.end(),
@@ -1210,18 +1452,21 @@ GeneratedScene GenerateScene(const SceneGeneratorOptions& options) {
   options.Check();
   SceneRandom random(options.seed);
   const SceneGeometry geometry = BuildGeometry(options);
-  const PointCloud cloud = SamplePointCloud(options, geometry.layout, &random);
+  const PointCloud cloud =
+      options.layout == SceneLayout::kPhoto
+          ? SamplePhotoPointCloud(options, geometry.layout, &random)
+          : SamplePointCloud(options, geometry.layout, &random);
 
   GeneratedScene scene;
   scene.options = options;
-  for (int c = 1; c <= options.num_cameras; ++c) {
-    scene.truth.cameras[c] = MakeCamera(options, c, &random.rng);
-  }
+  MakeCameras(options, &random, &scene);
   const std::vector<double> params =
       SamplePathParameters(options, geometry.layout.path_length, &random);
   RecordImagePathPositions(options, geometry, params, &scene);
+  const bool photo = options.layout == SceneLayout::kPhoto;
   std::vector<std::vector<TrackElement>> observations =
-      ObserveImages(options, geometry, cloud, params, &random, &scene.truth);
+      ObserveImages(options, geometry, cloud, params, &random, &scene.truth,
+                    photo ? &scene.image_parts : nullptr);
   KeepTrackedPoints(cloud, &observations, &scene);
   observations.clear();
 
@@ -1253,6 +1498,12 @@ Rigid3d PairRelativePose(const GeneratedScene& scene,
 }
 
 namespace {
+
+// The camera as the database stores it (GeneratedScene::database_cameras).
+const Camera& DatabaseCamera(const GeneratedScene& scene, camera_t camera_id) {
+  return scene.database_cameras.empty() ? scene.truth.cameras.at(camera_id)
+                                        : scene.database_cameras.at(camera_id);
+}
 
 // Track of a point, through a lookup the caller chooses (the model's map for
 // one pair, a flat table when writing every pair).
@@ -1296,7 +1547,11 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
   TwoViewGeometry geometry;
   geometry.image_id1 = pair.image_id1;
   geometry.image_id2 = pair.image_id2;
-  geometry.config = TwoViewGeometry::CALIBRATED;
+  geometry.config =
+      DatabaseCamera(scene, image1.camera_id).has_prior_focal_length &&
+              DatabaseCamera(scene, image2.camera_id).has_prior_focal_length
+          ? TwoViewGeometry::CALIBRATED
+          : TwoViewGeometry::UNCALIBRATED;
   if (pair.kind == PairKind::kRandom) {
     geometry.inlier_matches = pair.random_inliers;
   } else {
@@ -1375,7 +1630,7 @@ TwoViewGeometry PairGeometry(const GeneratedScene& scene,
 void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
   DatabaseWriter writer(path);
   for (const auto& [camera_id, camera] : scene.truth.cameras)
-    writer.WriteCamera(camera);
+    writer.WriteCamera(DatabaseCamera(scene, camera_id));
   for (const auto& [image_id, image] : scene.truth.images) {
     writer.WriteImage(image_id, image.name, image.camera_id);
     FeatureKeypoints keypoints;

@@ -2,9 +2,10 @@
 
 // Large synthetic scenes with exact ground truth, for benchmarks and for the
 // symmetric-scene protocol: walls of points (a courtyard seen from inside, a
-// street between two facades, a tower seen from all sides), cameras walking
-// along them, noisy keypoints, and the verified pairs a matcher would store:
-// true pairs, random false pairs and mirror-twin false pairs.
+// street between two facades, a tower seen from all sides, landmarks of a
+// photo collection), cameras walking along them, noisy keypoints, and the
+// verified pairs a matcher would store: true pairs, random false pairs and
+// mirror-twin false pairs.
 //
 // The structure is symmetric under M = 180 deg about the vertical (world Y)
 // axis through the origin, (x, y, z) -> (-x, y, -z): points come in twins X,
@@ -34,8 +35,19 @@ enum class SceneLayout {
   kCourtyard,  // rectangle of walls, cameras inside looking at them
   kStreet,     // two long facades of repeated modules, cameras in between
   kTower,      // rectangular tower, cameras around it looking at it
+  // A photo collection: num_parts landmarks (towers) too far apart to share
+  // a point, so no true pair joins two parts; around each a dense core of
+  // cameras 5-25 m from its walls and a sparse periphery 25-70 m out, each
+  // image aimed at a random spot of its landmark; one camera per image
+  // (COLMAP's single_camera 0) of several image sizes, focal lengths drawn
+  // from [min_focal_ratio, max_focal_ratio] x width (long ones: zoomed-in
+  // shots of a detail, which resolve points farther away), SIMPLE_RADIAL-like
+  // distortion up to max_radial_distortion; the database stores the focal
+  // prior a user's EXIF gives (prior_focal_fraction of the cameras) or
+  // COLMAP's guess 1.2 x max(width, height) and no distortion.
+  kPhoto,
 };
-// "courtyard", "street", "tower"; throws InputError for another name.
+// "courtyard", "street", "tower", "photo"; throws InputError for another name.
 SceneLayout SceneLayoutFromName(const std::string& name);
 std::string SceneLayoutName(SceneLayout layout);
 
@@ -120,6 +132,15 @@ struct SceneGeneratorOptions {
   double match_angle_falloff_deg = 0.0;
   double match_distance_falloff = 0.0;
   double match_rate_sigma = 0.0;
+  // Photo layout (kPhoto): landmarks, focal range (x image width), share of
+  // the cameras with a prior focal (EXIF) and its relative error (uniform in
+  // +-prior_focal_error), largest |k| of the first radial coefficient.
+  int num_parts = 3;
+  double min_focal_ratio = 0.7;
+  double max_focal_ratio = 2.5;
+  double prior_focal_fraction = 0.7;
+  double prior_focal_error = 0.05;
+  double max_radial_distortion = 0.1;
   // Store cam2_from_cam1 in two_view_geometries.qvec/tvec (COLMAP 3.8 leaves
   // them zero unless asked).
   bool store_relative_pose = false;
@@ -152,6 +173,14 @@ struct GeneratedScene {
   // Exact ground truth: cameras, poses, keypoints (noisy; clutter keypoints
   // have no point), points with their full tracks.
   Reconstruction truth;
+  // The cameras as the database stores them (photo layout: focal priors or
+  // COLMAP's guess, no distortion; empty: the true cameras). A pair is
+  // CALIBRATED if both its cameras have a prior focal, else UNCALIBRATED, as
+  // COLMAP's two-view geometry estimation labels it.
+  std::map<camera_t, Camera> database_cameras;
+  // Photo layout: the part (landmark) of each image, indexed by image_id - 1
+  // (empty for the other layouts).
+  std::vector<int> image_parts;
   // Twin of each point (kInvalidPoint3DId if unique or not in the model).
   std::vector<point3D_t> twin_of_point;  // indexed by point3D_id
   std::vector<GeneratedPair> pairs;      // ordered by (image_id1, image_id2)

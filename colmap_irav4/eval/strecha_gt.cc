@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <vector>
 
@@ -69,6 +70,41 @@ std::map<std::string, StrechaCamera> ReadStrechaGroundTruth(
   }
   if (cameras.empty()) throw InputError(gt_dir, "no .camera files");
   return cameras;
+}
+
+StrechaStart MakeStrechaStart(const DatabaseContents& database,
+                              const std::map<std::string, StrechaCamera>& gt,
+                              const std::string& gt_path,
+                              double rotation_noise_deg, uint64_t seed) {
+  StrechaStart start;
+  start.reconstruction.cameras = database.cameras;
+  std::mt19937_64 rng(seed);
+  for (const auto& [image_id, db_image] : database.images) {
+    const auto camera = gt.find(db_image.name);
+    if (camera == gt.end()) {
+      throw InputError(gt_path, "no camera for " + db_image.name);
+    }
+    Image& image = start.reconstruction.images[image_id];
+    image.image_id = image_id;
+    image.name = db_image.name;
+    image.camera_id = db_image.camera_id;
+    image.cam_from_world.rotation = Eigen::Quaterniond(RandomRotationWithAngle(
+                                        DegToRad(rotation_noise_deg), &rng)) *
+                                    camera->second.cam_from_world.rotation;
+    for (const Eigen::Vector2f& xy : database.keypoints.at(image_id)) {
+      Point2D point2D;
+      point2D.xy = xy.cast<double>();
+      image.points2D.push_back(point2D);
+    }
+  }
+  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
+    ImagePairMatches pair{geometry.image_id1, geometry.image_id2, {}};
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      pair.matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
+    }
+    start.pairs.push_back(std::move(pair));
+  }
+  return start;
 }
 
 }  // namespace colmap_irav4

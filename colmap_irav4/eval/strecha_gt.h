@@ -1,10 +1,14 @@
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
+#include "colmap_irav4/io/database.h"
+#include "colmap_irav4/scene/features.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {
@@ -28,5 +32,19 @@ StrechaCamera ReadStrechaCamera(const std::string& path);
 // image name, e.g. "0000.jpg").
 std::map<std::string, StrechaCamera> ReadStrechaGroundTruth(
     const std::string& gt_dir);
+
+// The starting point of the experiments on the stages after rotation
+// averaging: every database image with all its keypoints, its ground truth
+// rotation turned by `rotation_noise_deg` about a random axis (positions
+// unknown), and every stored pair's inlier matches. InputError naming
+// `gt_path` when an image has no ground truth camera.
+struct StrechaStart {
+  Reconstruction reconstruction;
+  std::vector<ImagePairMatches> pairs;
+};
+StrechaStart MakeStrechaStart(const DatabaseContents& database,
+                              const std::map<std::string, StrechaCamera>& gt,
+                              const std::string& gt_path,
+                              double rotation_noise_deg, uint64_t seed);
 
 }  // namespace colmap_irav4

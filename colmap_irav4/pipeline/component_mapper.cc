@@ -7,6 +7,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/pipeline/prior_fold.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -30,6 +31,27 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
 }
 
 }  // namespace
+
+std::vector<ImagePairGeometry> PairsReorientedAcrossCut(
+    const std::vector<ImagePairGeometry>& pairs,
+    const Reconstruction& reconstruction, const std::vector<image_t>& side,
+    double max_rotation_error_deg, bool drop_contradicted_within) {
+  const std::set<image_t> in_side(side.begin(), side.end());
+  std::vector<ImagePairGeometry> reoriented;
+  for (const ImagePairGeometry& pair : pairs) {
+    const bool in_model = reconstruction.images.count(pair.image_id1) &&
+                          reconstruction.images.count(pair.image_id2);
+    const bool cross = in_model && in_side.count(pair.image_id1) !=
+                                       in_side.count(pair.image_id2);
+    const bool contradicted =
+        ContradictedByModel(pair, reconstruction, max_rotation_error_deg);
+    if (cross ? contradicted
+              : !(in_model && drop_contradicted_within && contradicted)) {
+      reoriented.push_back(pair);
+    }
+  }
+  return reoriented;
+}
 
 FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
                                const std::vector<ImagePairGeometry>& pairs,
@@ -163,7 +185,7 @@ std::vector<ComponentModel> ComponentMapper::Map(
   std::unique_ptr<GlobalMapper> first = Attempt(images, pairs, prefix_);
   if (first == nullptr) return {};
   if (!first->fold().folded) {
-    Finish(std::move(first), "");
+    if (!SettleFoldWithPriors(&first, pairs)) Finish(std::move(first), "");
   } else if (!options_.fold.resolve) {
     LOG(WARNING) << prefix_ << "the model of " << images.size()
                  << " images looks FOLDED (symmetric scene: some cameras "
@@ -196,6 +218,118 @@ std::vector<ComponentModel> ComponentMapper::Map(
   return models;
 }
 
+bool ComponentMapper::SettleFoldWithPriors(
+    std::unique_ptr<GlobalMapper>* model,
+    const std::vector<ImagePairGeometry>& pairs) {
+  GlobalMapper& first = **model;
+  if (!options_.fold.settle_with_priors || !first.in_prior_frame() ||
+      !first.Solve() || first.fold().folded) {
+    return false;
+  }
+  const PriorAgreement before = MeasurePriorAgreement(
+      first.reconstruction(), database_.pose_priors, options_.pose_priors);
+  // The candidate sides to turn back, in order: the priors' outlier groups,
+  // then the fold check's weakest cut (which it could not call a fold).
+  std::vector<std::pair<std::string, std::vector<image_t>>> candidates;
+  const std::vector<image_t> off =
+      PriorOutlierGroups(before, first.pairs(), options_.min_model_size);
+  if (!off.empty()) candidates.emplace_back("priors off the model", off);
+  if (first.fold_checked()) {
+    const auto [side1, side2] =
+        FoldCut(options_.fold.detection, first.reconstruction(), *evidence_,
+                first.fold());
+    if (!side2.empty() && side1 != off && side2 != off) {
+      candidates.emplace_back("the fold check's weakest cut", side2);
+    }
+  }
+  if (candidates.empty()) return false;
+  LOG(INFO) << prefix_ << "pose priors: " << before.Describe() << "; "
+            << candidates.size()
+            << " candidate fold cut(s) to map again across";
+  num_first_images_ = first.reconstruction().images.size();
+  const std::string failure = failure_;
+  for (const auto& [name, side] : candidates) {
+    // Only the pairs the model with `side` turned agrees with.
+    const std::vector<ImagePairGeometry> reoriented =
+        PairsReorientedAcrossCut(pairs, first.reconstruction(), side,
+                                 options_.fold.detection.max_rotation_error_deg,
+                                 /*drop_contradicted_within=*/true);
+    const size_t num_removed = pairs.size() - reoriented.size();
+    const std::vector<std::vector<image_t>> components =
+        PairComponents(reoriented);
+    if (num_removed == 0 || components.empty() ||
+        static_cast<int>(components[0].size()) < options_.min_model_size) {
+      continue;
+    }
+    // Mapping again costs a whole mapping: only across a cut whose pairs
+    // the priors already contradict (a correct model's weakest cut is no
+    // fold).
+    const double contrast =
+        PriorPairContrast(first.reconstruction(), database_.pose_priors,
+                          options_.pose_priors, first.pairs(), side);
+    LOG(INFO) << prefix_ << "pose priors: the pairs across the cut of "
+              << side.size() << " images (" << name << ") are " << contrast
+              << " times as far off the priors as those within";
+    if (contrast < kMinPriorPairContrast) continue;
+    LOG(INFO) << prefix_ << "pose priors: " << side.size() << " images ("
+              << name << ") turned back: " << num_removed
+              << " pairs the model so turned contradicts are removed, "
+                 "mapping again";
+    const std::vector<ImagePairGeometry> component_pairs = PairsWithin(
+        reoriented,
+        std::set<image_t>(components[0].begin(), components[0].end()));
+    std::unique_ptr<GlobalMapper> attempt =
+        Attempt(components[0], component_pairs, prefix_);
+    failure_ = failure;
+    // The images must not object: no fold found, no image lost.
+    if (attempt == nullptr || !Accepted(attempt.get()) ||
+        !attempt->in_prior_frame() ||
+        attempt->reconstruction().images.size() < num_first_images_) {
+      LOG(INFO) << prefix_ << "pose priors: the re-mapped model is not taken"
+                << (attempt == nullptr
+                        ? std::string(" (no model)")
+                        : " (" +
+                              std::to_string(
+                                  attempt->reconstruction().images.size()) +
+                              " images; " + attempt->fold().Describe() + ")");
+      continue;
+    }
+    const PriorAgreement after = MeasurePriorAgreement(
+        attempt->reconstruction(), database_.pose_priors, options_.pose_priors);
+    if (!PriorsAgreeBetter(before, after)) {
+      LOG(INFO) << prefix_ << "pose priors: re-mapped " << after.Describe()
+                << ": not clearly better, not taken";
+      continue;
+    }
+    const std::string outcome = "resolved by pose priors (" +
+                                std::to_string(side.size()) +
+                                " images turned back, " +
+                                std::to_string(num_removed) + " pairs removed)";
+    LOG(WARNING) << prefix_
+                 << "the model was FOLDED (the images alone did not show "
+                    "it): the pose priors agree far better with it re-mapped ("
+                 << before.Describe() << " -> " << after.Describe() << "); "
+                 << outcome;
+    notes_.push_back(prefix_ + "fold " + outcome);
+    size_t num_removed_in_all = num_removed;
+    // As after a re-orientation across the fold check's cut: cameras still
+    // turned alone are re-oriented once, else the model is written flagged.
+    if (!attempt->fold().weak_alone_images.empty() &&
+        !ReorientImagesTurnedAlone(&attempt, component_pairs,
+                                   &num_removed_in_all)) {
+      return true;
+    }
+    Finish(std::move(attempt),
+           num_removed_in_all == num_removed
+               ? outcome
+               : outcome + ", " +
+                     std::to_string(num_removed_in_all - num_removed) +
+                     " pairs at cameras turned alone removed");
+    return true;
+  }
+  return false;
+}
+
 bool ComponentMapper::ReorientAcrossCut() {
   // The images on one side of the weakest cut sit at their twins' place:
   // across the cut, the pairs the folded model agrees with are those that
@@ -210,19 +344,8 @@ bool ComponentMapper::ReorientAcrossCut() {
     const auto [side1, side2] =
         FoldCut(options.detection, model, *evidence_, best_->fold());
     if (side2.empty()) break;
-    const std::set<image_t> in_side1(side1.begin(), side1.end());
-    const std::set<image_t> in_side2(side2.begin(), side2.end());
-    std::vector<ImagePairGeometry> reoriented;
-    for (const ImagePairGeometry& pair : current_pairs_) {
-      const bool cross =
-          (in_side1.count(pair.image_id1) && in_side2.count(pair.image_id2)) ||
-          (in_side2.count(pair.image_id1) && in_side1.count(pair.image_id2));
-      if (!cross ||
-          ContradictedByModel(pair, model,
-                              options.detection.max_rotation_error_deg)) {
-        reoriented.push_back(pair);
-      }
-    }
+    const std::vector<ImagePairGeometry> reoriented = PairsReorientedAcrossCut(
+        current_pairs_, model, side2, options.detection.max_rotation_error_deg);
     const size_t num_dropped = current_pairs_.size() - reoriented.size();
     LOG(INFO) << prefix_ << "fold resolution (cut " << round + 1
               << "): cut into " << side1.size() << " and " << side2.size()

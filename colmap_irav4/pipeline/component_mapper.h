@@ -30,6 +30,19 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
                                const std::vector<ImagePairGeometry>& pairs,
                                const std::set<image_t>& images);
 
+// `pairs` without those across the cut (one image in `side`, the other in
+// the model and not in `side`) that the model agrees with (within
+// max_rotation_error_deg): across a fold, those are the false pairs that
+// made it, and the ones it contradicts are the true pairs. With
+// drop_contradicted_within, also without the pairs on one side that the
+// model contradicts: only the pairs the model with `side` turned agrees with
+// remain (a false pair between two turned cameras, or two right ones, can
+// fold the model again elsewhere).
+std::vector<ImagePairGeometry> PairsReorientedAcrossCut(
+    const std::vector<ImagePairGeometry>& pairs,
+    const Reconstruction& reconstruction, const std::vector<image_t>& side,
+    double max_rotation_error_deg, bool drop_contradicted_within = false);
+
 // One model of a component.
 struct ComponentModel {
   std::unique_ptr<GlobalMapper> mapper;  // solved (refined)
@@ -88,6 +101,13 @@ class ComponentMapper {
   bool Accepted(GlobalMapper* mapper);
   // Whether a model of `num_images` keeps at least 3/4 of `reference`'s.
   static bool KeepsMost(size_t num_images, size_t num_reference_images);
+
+  // A model the fold check finds clean, in the pose priors' frame: mapped
+  // again across the candidate cuts of pipeline/prior_fold.h (`pairs`: the
+  // component's); the re-mapped model the priors agree with clearly better
+  // and the images accept is written (true) instead of `model`.
+  bool SettleFoldWithPriors(std::unique_ptr<GlobalMapper>* model,
+                            const std::vector<ImagePairGeometry>& pairs);
 
   // The resolution's steps, in order; each returns true when it wrote the
   // component's models (to models_).

@@ -382,6 +382,10 @@ void AddFoldResolutionOptions(OptionManager* manager,
                "again, else split the model at the weakest cut");
   manager->Add("Fold.max_iterations", &o.max_iterations,
                "rounds of removing suspect pairs before a split");
+  manager->Add("Fold.settle_with_priors", &o.settle_with_priors,
+               "map a clean model in the priors' frame again across candidate "
+               "fold cuts; keep what the position priors agree with clearly "
+               "better");
   manager->Add("Fold.max_fold_score", &d.max_fold_score,
                "models with a larger fraction of predicted overlapping pairs "
                "without matches are folded");

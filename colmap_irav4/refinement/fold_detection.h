@@ -140,6 +140,10 @@ struct FoldResolutionOptions {
   bool resolve = true;
   // Rounds of (remove suspect pairs, re-map) before a split is tried.
   int max_iterations = 2;
+  // A model in the pose priors' frame that the check finds clean is mapped
+  // again across candidate fold cuts (pipeline/prior_fold.h), and a
+  // re-mapped model that the priors agree with clearly better replaces it.
+  bool settle_with_priors = true;
   FoldDetectionOptions detection;
 
   // Throws InputError naming the option (--Fold.*).

@@ -17,6 +17,7 @@
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "colmap_irav4/util/random.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/rotation_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -82,16 +83,7 @@ void WriteScene(const SyntheticProblem& problem, const std::string& relpose,
                          std::vector<bool>(names.size(), true));
 }
 
-SyntheticProblem MakeProblem(int num_vertices, int num_edges, double sigma,
-                             double outliers, uint64_t seed) {
-  SyntheticOptions options;
-  options.noise_sigma_deg = sigma;
-  options.outlier_ratio = outliers;
-  options.seed = seed;
-  return MakeSyntheticProblem(
-      num_vertices, RandomConnectedGraph(num_vertices, num_edges, seed),
-      options);
-}
+using test::MakeRandomProblem;
 
 double ErrorAgainst(const std::string& output, const std::string& gt) {
   std::map<std::string, Eigen::Matrix3d> estimate, truth;
@@ -101,7 +93,7 @@ double ErrorAgainst(const std::string& output, const std::string& gt) {
 }
 
 TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
-  const SyntheticProblem problem = MakeProblem(100, 1500, 3.0, 0.2, 11);
+  const SyntheticProblem problem = MakeRandomProblem(100, 1500, 3.0, 0.2, 11);
   const std::string relpose = (TempDir() / "relpose.txt").string();
   const std::string gt = (TempDir() / "gt.txt").string();
   WriteScene(problem, relpose, gt);
@@ -126,7 +118,7 @@ TEST(RotationAveragerCommand, SyntheticRelativePosesEveryMethod) {
 }
 
 TEST(RotationAveragerCommand, SummaryJsonPerMethod) {
-  const SyntheticProblem problem = MakeProblem(80, 900, 3.0, 0.2, 5);
+  const SyntheticProblem problem = MakeRandomProblem(80, 900, 3.0, 0.2, 5);
   const std::string relpose = (TempDir() / "relpose_summary.txt").string();
   const std::string gt = (TempDir() / "gt_summary.txt").string();
   WriteScene(problem, relpose, gt);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -427,6 +428,111 @@ TEST(SceneGenerator, KeypointScalesReadBackAndWeighTheMapper) {
             0.8 * comparison[0].rotation_error_median_deg);
   EXPECT_LT(comparison[1].center_error_median,
             0.8 * comparison[0].center_error_median);
+}
+
+}  // namespace
+}  // namespace colmap_irav4
+
+namespace colmap_irav4 {
+namespace {
+
+// The photo layout is what it promises: one camera per image of several
+// sizes, focal lengths in the range, ~70% with a prior within 5% and the
+// others with COLMAP's guess, pairs CALIBRATED only between two priors,
+// distortion within the bound, parts that no true pair joins, and exact
+// geometry (true pairs agree with the true pose through the distortion).
+TEST(SceneGenerator, PhotoLayoutIsAPhotoCollection) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kPhoto;
+  options.num_images = 240;
+  options.point_density = 10;
+  options.noise_px = 0;
+  options.random_pair_rate = 0.1;
+  options.mirror_pair_rate = 0.05;
+  options.max_keypoints_per_image = 1500;
+  const GeneratedScene scene = GenerateScene(options);
+  ASSERT_EQ(scene.truth.images.size(), 240u);
+  ASSERT_EQ(scene.truth.cameras.size(), 240u);
+  ASSERT_EQ(scene.database_cameras.size(), 240u);
+  ASSERT_EQ(scene.image_parts.size(), 240u);
+
+  std::set<camera_t> camera_ids;
+  std::set<std::pair<int, int>> sizes;
+  std::vector<int> part_sizes(options.num_parts, 0);
+  int num_priors = 0;
+  double min_k = 1, max_k = -1;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    EXPECT_TRUE(camera_ids.insert(image.camera_id).second);
+    const Camera& camera = scene.truth.cameras.at(image.camera_id);
+    const Camera& stored = scene.database_cameras.at(image.camera_id);
+    sizes.insert({camera.width, camera.height});
+    EXPECT_EQ(stored.width, camera.width);
+    const double focal = CameraMeanFocalLength(camera);
+    EXPECT_GE(focal, 0.7 * camera.width - 1e-9);
+    EXPECT_LE(focal, 2.5 * camera.width + 1e-9);
+    const double k = camera.params[3];  // SIMPLE_RADIAL: f, cx, cy, k
+    EXPECT_LE(std::abs(k), 0.1);
+    min_k = std::min(min_k, k);
+    max_k = std::max(max_k, k);
+    EXPECT_EQ(stored.params[3], 0.0);  // COLMAP starts without distortion
+    const double stored_focal = CameraMeanFocalLength(stored);
+    if (stored.has_prior_focal_length) {
+      ++num_priors;
+      EXPECT_LE(std::abs(stored_focal / focal - 1), 0.05 + 1e-12);
+    } else {
+      EXPECT_DOUBLE_EQ(stored_focal,
+                       1.2 * std::max(camera.width, camera.height));
+    }
+    const int part = scene.image_parts.at(image_id - 1);
+    ASSERT_GE(part, 0);
+    ASSERT_LT(part, options.num_parts);
+    ++part_sizes[part];
+  }
+  EXPECT_GE(sizes.size(), 4u);
+  EXPECT_LT(min_k, -0.05);
+  EXPECT_GT(max_k, 0.05);
+  // Binomial(240, 0.7): standard deviation 0.03; 4 of them either side.
+  EXPECT_NEAR(num_priors / 240.0, 0.7, 0.12);
+  // Parts of 1 / (p + 1) shares: 131, 65, 44 of 240 images.
+  EXPECT_GT(part_sizes[0], part_sizes[1]);
+  EXPECT_GT(part_sizes[1], part_sizes[2]);
+  EXPECT_GT(part_sizes[2], 20);
+
+  int num_true_within[3] = {0, 0, 0};
+  int num_random_across = 0;
+  ASSERT_GT(scene.num_mirror_pairs, 0);
+  for (const GeneratedPair& pair : scene.pairs) {
+    const int part1 = scene.image_parts.at(pair.image_id1 - 1);
+    const int part2 = scene.image_parts.at(pair.image_id2 - 1);
+    if (pair.kind == PairKind::kRandom) {
+      num_random_across += part1 != part2;
+      continue;
+    }
+    // No true (or mirror-twin) pair joins two parts.
+    ASSERT_EQ(part1, part2) << PairKindName(pair.kind);
+    if (pair.kind == PairKind::kTrue) ++num_true_within[part1];
+    const TwoViewGeometry geometry = PairGeometry(scene, pair, nullptr);
+    EXPECT_LT(MaxEpipolarResidual(scene, geometry), 1e-7);
+    const bool calibrated =
+        scene.database_cameras.at(pair.image_id1).has_prior_focal_length &&
+        scene.database_cameras.at(pair.image_id2).has_prior_focal_length;
+    EXPECT_EQ(geometry.config, calibrated ? TwoViewGeometry::CALIBRATED
+                                          : TwoViewGeometry::UNCALIBRATED);
+  }
+  for (int part = 0; part < 3; ++part) {
+    EXPECT_GT(num_true_within[part], 3 * part_sizes[part]) << part;
+  }
+  EXPECT_GT(num_random_across, 0);
+
+  // The database holds the stored cameras (priors), the truth the true ones.
+  test::TempDir temp;
+  const DatabaseContents contents =
+      WriteAndReadBack(scene, temp.File("database.db"));
+  for (const auto& [camera_id, stored] : scene.database_cameras) {
+    EXPECT_EQ(contents.cameras.at(camera_id).params, stored.params);
+    EXPECT_EQ(contents.cameras.at(camera_id).has_prior_focal_length,
+              stored.has_prior_focal_length);
+  }
 }
 
 }  // namespace

@@ -34,34 +34,11 @@ void RunScene(const std::string& scene) {
   const std::map<std::string, StrechaCamera> gt =
       ReadStrechaGroundTruth(dir + "/gt_cameras");
 
-  Reconstruction reconstruction;
-  reconstruction.cameras = database.cameras;
-  std::mt19937_64 rng(1);
-  for (const auto& [image_id, db_image] : database.images) {
-    Image image;
-    image.image_id = image_id;
-    image.name = db_image.name;
-    image.camera_id = db_image.camera_id;
-    image.cam_from_world.rotation =
-        Eigen::Quaterniond(RandomRotationWithAngle(DegToRad(0.05), &rng)) *
-        gt.at(db_image.name).cam_from_world.rotation;
-    for (const Eigen::Vector2f& xy : database.keypoints.at(image_id)) {
-      Point2D point2D;
-      point2D.xy = xy.cast<double>();
-      image.points2D.push_back(point2D);
-    }
-    reconstruction.images[image_id] = image;
-  }
-  std::vector<ImagePairMatches> pairs;
-  for (const TwoViewGeometry& geometry : database.two_view_geometries) {
-    ImagePairMatches pair;
-    pair.image_id1 = geometry.image_id1;
-    pair.image_id2 = geometry.image_id2;
-    for (const FeatureMatch& match : geometry.inlier_matches) {
-      pair.matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
-    }
-    pairs.push_back(std::move(pair));
-  }
+  StrechaStart start = MakeStrechaStart(database, gt, dir + "/gt_cameras",
+                                        /*rotation_noise_deg=*/0.05,
+                                        /*seed=*/1);
+  Reconstruction& reconstruction = start.reconstruction;
+  const std::vector<ImagePairMatches>& pairs = start.pairs;
 
   Timer timer;
   const std::vector<Track> tracks =

@@ -4,18 +4,12 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
+#include "tests/test_utils/rotation_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
 
-SyntheticProblem MakeProblem(int n, int m, double sigma, double p,
-                             uint64_t seed) {
-  SyntheticOptions options;
-  options.noise_sigma_deg = sigma;
-  options.outlier_ratio = p;
-  options.seed = seed;
-  return MakeSyntheticProblem(n, RandomConnectedGraph(n, m, seed), options);
-}
+using test::MakeRandomProblem;
 
 // Eq. 5-8 from scratch with the engine's current rotations.
 IncrementalEngine::Candidate BruteForceBest(const IncrementalEngine& engine,
@@ -51,7 +45,7 @@ IncrementalEngine::Candidate BruteForceBest(const IncrementalEngine& engine,
 }
 
 TEST(IncrementalEngine, RewardsMatchBruteForceAndAreAtLeastOne) {
-  const SyntheticProblem problem = MakeProblem(120, 1500, 5.0, 0.3, 21);
+  const SyntheticProblem problem = MakeRandomProblem(120, 1500, 5.0, 0.3, 21);
   IncrementalOptions options;
   options.lazy_reward_recomputation = false;  // the exact Eq. 8 argmax
   IncrementalEngine engine(problem.graph, options);
@@ -82,7 +76,7 @@ TEST(IncrementalEngine, RewardsMatchBruteForceAndAreAtLeastOne) {
 // Lazy recomputation (the default): the chosen candidate's reward is always
 // computed from the current rotations (fresh), and close to the exact best.
 TEST(IncrementalEngine, LazyRewardsAreFreshForTheChosenCandidate) {
-  const SyntheticProblem problem = MakeProblem(120, 1500, 5.0, 0.3, 21);
+  const SyntheticProblem problem = MakeRandomProblem(120, 1500, 5.0, 0.3, 21);
   IncrementalOptions options;
   IncrementalEngine engine(problem.graph, options);
   ASSERT_TRUE(engine.InitializeFromBestTriplet());
@@ -119,7 +113,7 @@ TEST(IncrementalEngine, LazyRewardsAreFreshForTheChosenCandidate) {
 TEST(IncrementalEngine, BoundedRecomputationStillPicksSupportedVertices) {
   // With a tiny bound the rewards are approximate but still >= 1 and growth
   // completes.
-  const SyntheticProblem problem = MakeProblem(80, 1200, 5.0, 0.2, 4);
+  const SyntheticProblem problem = MakeRandomProblem(80, 1200, 5.0, 0.2, 4);
   IncrementalOptions options;
   options.max_precomputations = 2;
   IncrementalEngine engine(problem.graph, options);
@@ -134,7 +128,7 @@ TEST(IncrementalEngine, BoundedRecomputationStillPicksSupportedVertices) {
 }
 
 TEST(IncrementalEngine, StopRuleAllowedAndExcluded) {
-  const SyntheticProblem problem = MakeProblem(100, 800, 5.0, 0.1, 8);
+  const SyntheticProblem problem = MakeRandomProblem(100, 800, 5.0, 0.1, 8);
   std::vector<bool> allowed(100, true);
   for (int v = 0; v < 100; v += 3) allowed[v] = false;
   IncrementalEngine engine(problem.graph, IncrementalOptions(), allowed);
@@ -204,7 +198,7 @@ TEST(IncrementalEngine, SeedIsTheMostConsistentTriangle) {
 }
 
 TEST(IncrementalEngine, Deterministic) {
-  const SyntheticProblem problem = MakeProblem(150, 2000, 10.0, 0.4, 5);
+  const SyntheticProblem problem = MakeRandomProblem(150, 2000, 10.0, 0.4, 5);
   std::vector<Eigen::Matrix3d> first;
   std::vector<int> first_order;
   // The second run shares a separately built adjacency: same output.

@@ -10,18 +10,12 @@
 #include "colmap_irav4/rotation_averaging/spanning_tree.h"
 #include "colmap_irav4/rotation_averaging/synthetic.h"
 #include "tests/test_utils/data.h"
+#include "tests/test_utils/rotation_test_utils.h"
 
 namespace colmap_irav4 {
 namespace {
 
-SyntheticProblem MakeProblem(int n, int m, double sigma, double p,
-                             uint64_t seed) {
-  SyntheticOptions options;
-  options.noise_sigma_deg = sigma;
-  options.outlier_ratio = p;
-  options.seed = seed;
-  return MakeSyntheticProblem(n, RandomConnectedGraph(n, m, seed), options);
-}
+using test::MakeRandomProblem;
 
 // Naive baseline: chain the measurements along a breadth-first tree.
 std::vector<Eigen::Matrix3d> ChainBreadthFirst(const RotationGraph& graph) {
@@ -44,7 +38,7 @@ std::vector<Eigen::Matrix3d> ChainBreadthFirst(const RotationGraph& graph) {
 }
 
 TEST(Ira, NoiseFreeGraphIsRecoveredExactly) {
-  const SyntheticProblem problem = MakeProblem(150, 1200, 0.0, 0.0, 1);
+  const SyntheticProblem problem = MakeRandomProblem(150, 1200, 0.0, 0.0, 1);
   Ira ira;
   const RotationAveragingResult result = ira.Estimate(problem.graph);
   EXPECT_EQ(result.NumEstimated(), 150);
@@ -59,7 +53,7 @@ TEST(Ira, NoisyGraphWithOutliersBeatsChainingByFar) {
   // sigma 5 deg, 30% outliers, 200 vertices, average degree 40. Measured on
   // seeds 3-7: IRA median 0.61-0.69 deg; breadth-first chaining 6-109 deg
   // (at least 9x worse).
-  const SyntheticProblem problem = MakeProblem(200, 4000, 5.0, 0.3, 3);
+  const SyntheticProblem problem = MakeRandomProblem(200, 4000, 5.0, 0.3, 3);
   Ira ira;
   const RotationAveragingResult result = ira.Estimate(problem.graph);
   const RotationErrors errors = EvaluateRotations(result, problem.ground_truth);

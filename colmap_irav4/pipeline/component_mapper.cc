@@ -178,6 +178,7 @@ std::vector<ComponentModel> ComponentMapper::Map(
     const FoldEvidence& evidence, const std::vector<image_t>& images,
     const std::vector<ImagePairGeometry>& pairs) {
   evidence_ = &evidence;
+  component_pairs_ = &pairs;
   models_.clear();
   notes_.clear();
   failure_.clear();
@@ -403,18 +404,36 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
       (*attempt)->fold().weak_alone_images;
   const Reconstruction& resolved = (*attempt)->reconstruction();
   const std::set<image_t> alone(alone_images.begin(), alone_images.end());
+  const double max_error = options_.fold.detection.max_rotation_error_deg;
   std::vector<ImagePairGeometry> kept;
+  std::set<std::pair<image_t, image_t>> present;
   for (const ImagePairGeometry& pair : pairs) {
+    present.insert(std::minmax(pair.image_id1, pair.image_id2));
     if ((!alone.count(pair.image_id1) && !alone.count(pair.image_id2)) ||
-        ContradictedByModel(pair, resolved,
-                            options_.fold.detection.max_rotation_error_deg)) {
+        ContradictedByModel(pair, resolved, max_error)) {
       kept.push_back(pair);
     }
   }
   const size_t num_alone_dropped = pairs.size() - kept.size();
+  // A camera turned alone after a cut was left on the wrong side of it: the
+  // cut removed its true pairs across it (they agreed with the folded model)
+  // and kept the false ones. Those of its pairs removed earlier that the
+  // model now contradicts are given back (a camera whose true pairs are
+  // gone would otherwise be dropped, and with it the joint its pairs made).
+  size_t num_restored = 0;
+  for (const ImagePairGeometry& pair : *component_pairs_) {
+    if ((alone.count(pair.image_id1) || alone.count(pair.image_id2)) &&
+        !present.count(std::minmax(pair.image_id1, pair.image_id2)) &&
+        ContradictedByModel(pair, resolved, max_error)) {
+      kept.push_back(pair);
+      ++num_restored;
+    }
+  }
   LOG(INFO) << prefix_ << alone.size()
             << " images may be turned alone: " << num_alone_dropped
             << " pairs at them agree with the model and are removed, "
+            << num_restored
+            << " removed before that the model contradicts are restored, "
                "mapping again";
   const std::vector<std::vector<image_t>> kept_components =
       PairComponents(kept);
@@ -428,7 +447,7 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
     if (again != nullptr && Accepted(again.get()) &&
         again->fold().weak_alone_images.empty()) {
       *attempt = std::move(again);
-      *num_removed += num_alone_dropped;
+      *num_removed = *num_removed + num_alone_dropped - num_restored;
       return true;
     }
   }

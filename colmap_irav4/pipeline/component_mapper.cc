@@ -30,6 +30,27 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
   return RelativeRotationErrorDeg(pair, R1, R2) > max_rotation_error_deg;
 }
 
+// The pairs less those of images with a single pair among them. In a
+// component found folded such an image cannot be checked: no second pair
+// closes a loop with its pair and the fold check predicts no overlap of
+// note for it, while in a symmetric scene its one pair may be a mirror pair
+// (the cut then leaves it with the image it pairs, turned).
+std::vector<ImagePairGeometry> PairsWithoutSinglePairImages(
+    const std::vector<ImagePairGeometry>& pairs) {
+  std::map<image_t, int> num_pairs;
+  for (const ImagePairGeometry& pair : pairs) {
+    ++num_pairs[pair.image_id1];
+    ++num_pairs[pair.image_id2];
+  }
+  std::vector<ImagePairGeometry> kept;
+  for (const ImagePairGeometry& pair : pairs) {
+    if (num_pairs[pair.image_id1] > 1 && num_pairs[pair.image_id2] > 1) {
+      kept.push_back(pair);
+    }
+  }
+  return kept;
+}
+
 }  // namespace
 
 std::vector<ImagePairGeometry> PairsReorientedAcrossCut(
@@ -345,14 +366,17 @@ bool ComponentMapper::ReorientAcrossCut() {
     const auto [side1, side2] =
         FoldCut(options.detection, model, *evidence_, best_->fold());
     if (side2.empty()) break;
-    const std::vector<ImagePairGeometry> reoriented = PairsReorientedAcrossCut(
+    const std::vector<ImagePairGeometry> across = PairsReorientedAcrossCut(
         current_pairs_, model, side2, options.detection.max_rotation_error_deg);
+    const std::vector<ImagePairGeometry> reoriented =
+        PairsWithoutSinglePairImages(across);
     const size_t num_dropped = current_pairs_.size() - reoriented.size();
     LOG(INFO) << prefix_ << "fold resolution (cut " << round + 1
               << "): cut into " << side1.size() << " and " << side2.size()
-              << " images; " << num_dropped
-              << " pairs across it agree with the fold and are removed, "
-                 "mapping again";
+              << " images; " << current_pairs_.size() - across.size()
+              << " pairs across it agree with the fold and are removed ("
+              << across.size() - reoriented.size()
+              << " more of images left with a single pair), mapping again";
     const std::vector<std::vector<image_t>> components =
         PairComponents(reoriented);
     if (num_dropped == 0 || components.empty() ||

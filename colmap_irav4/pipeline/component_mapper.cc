@@ -30,15 +30,16 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
   return RelativeRotationErrorDeg(pair, R1, R2) > max_rotation_error_deg;
 }
 
-// The pairs less those of images with a single pair among them. In a
-// component found folded such an image cannot be checked: no second pair
-// closes a loop with its pair and the fold check predicts no overlap of
-// note for it, while in a symmetric scene its one pair may be a mirror pair
-// (the cut then leaves it with the image it pairs, turned).
+// `pairs` less those at images with a single pair among `component_pairs`.
+// In a component found folded such an image cannot be checked: no second
+// pair closes a loop with its pair and the fold check predicts no overlap
+// of note for it, while in a symmetric scene its one pair may be a mirror
+// pair (the cut then leaves it with the image it pairs, turned).
 std::vector<ImagePairGeometry> PairsWithoutSinglePairImages(
-    const std::vector<ImagePairGeometry>& pairs) {
+    const std::vector<ImagePairGeometry>& pairs,
+    const std::vector<ImagePairGeometry>& component_pairs) {
   std::map<image_t, int> num_pairs;
-  for (const ImagePairGeometry& pair : pairs) {
+  for (const ImagePairGeometry& pair : component_pairs) {
     ++num_pairs[pair.image_id1];
     ++num_pairs[pair.image_id2];
   }
@@ -369,14 +370,14 @@ bool ComponentMapper::ReorientAcrossCut() {
     const std::vector<ImagePairGeometry> across = PairsReorientedAcrossCut(
         current_pairs_, model, side2, options.detection.max_rotation_error_deg);
     const std::vector<ImagePairGeometry> reoriented =
-        PairsWithoutSinglePairImages(across);
+        PairsWithoutSinglePairImages(across, *component_pairs_);
     const size_t num_dropped = current_pairs_.size() - reoriented.size();
     LOG(INFO) << prefix_ << "fold resolution (cut " << round + 1
               << "): cut into " << side1.size() << " and " << side2.size()
               << " images; " << current_pairs_.size() - across.size()
               << " pairs across it agree with the fold and are removed ("
               << across.size() - reoriented.size()
-              << " more of images left with a single pair), mapping again";
+              << " more of images with a single pair), mapping again";
     const std::vector<std::vector<image_t>> components =
         PairComponents(reoriented);
     if (num_dropped == 0 || components.empty() ||

@@ -440,14 +440,20 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
     }
   }
   const size_t num_alone_dropped = pairs.size() - kept.size();
-  // A camera turned alone after a cut was left on the wrong side of it: the
-  // cut removed its true pairs across it (they agreed with the folded model)
-  // and kept the false ones. Those of its pairs removed earlier that the
-  // model now contradicts are given back (a camera whose true pairs are
-  // gone would otherwise be dropped, and with it the joint its pairs made).
+  // A camera turned alone with no pair left was left on the wrong side of
+  // a cut: the cut removed its true pairs across it (they agreed with the
+  // folded model) and kept the false ones. Those of its pairs removed
+  // earlier that the model now contradicts are given back (else the camera
+  // is dropped, and with it the joint its pairs made). A camera that keeps
+  // pairs the model contradicts is re-oriented by those alone.
+  std::set<image_t> bare = alone;
+  for (const ImagePairGeometry& pair : kept) {
+    bare.erase(pair.image_id1);
+    bare.erase(pair.image_id2);
+  }
   size_t num_restored = 0;
   for (const ImagePairGeometry& pair : *component_pairs_) {
-    if ((alone.count(pair.image_id1) || alone.count(pair.image_id2)) &&
+    if ((bare.count(pair.image_id1) || bare.count(pair.image_id2)) &&
         !present.count(std::minmax(pair.image_id1, pair.image_id2)) &&
         ContradictedByModel(pair, resolved, max_error)) {
       kept.push_back(pair);

@@ -30,6 +30,28 @@ bool ContradictedByModel(const ImagePairGeometry& pair,
   return RelativeRotationErrorDeg(pair, R1, R2) > max_rotation_error_deg;
 }
 
+// `pairs` less those at images with a single pair among `component_pairs`.
+// In a component found folded such an image cannot be checked: no second
+// pair closes a loop with its pair and the fold check predicts no overlap
+// of note for it, while in a symmetric scene its one pair may be a mirror
+// pair (the cut then leaves it with the image it pairs, turned).
+std::vector<ImagePairGeometry> PairsWithoutSinglePairImages(
+    const std::vector<ImagePairGeometry>& pairs,
+    const std::vector<ImagePairGeometry>& component_pairs) {
+  std::map<image_t, int> num_pairs;
+  for (const ImagePairGeometry& pair : component_pairs) {
+    ++num_pairs[pair.image_id1];
+    ++num_pairs[pair.image_id2];
+  }
+  std::vector<ImagePairGeometry> kept;
+  for (const ImagePairGeometry& pair : pairs) {
+    if (num_pairs[pair.image_id1] > 1 && num_pairs[pair.image_id2] > 1) {
+      kept.push_back(pair);
+    }
+  }
+  return kept;
+}
+
 }  // namespace
 
 std::vector<ImagePairGeometry> PairsReorientedAcrossCut(
@@ -178,6 +200,7 @@ std::vector<ComponentModel> ComponentMapper::Map(
     const FoldEvidence& evidence, const std::vector<image_t>& images,
     const std::vector<ImagePairGeometry>& pairs) {
   evidence_ = &evidence;
+  component_pairs_ = &pairs;
   models_.clear();
   notes_.clear();
   failure_.clear();
@@ -344,14 +367,17 @@ bool ComponentMapper::ReorientAcrossCut() {
     const auto [side1, side2] =
         FoldCut(options.detection, model, *evidence_, best_->fold());
     if (side2.empty()) break;
-    const std::vector<ImagePairGeometry> reoriented = PairsReorientedAcrossCut(
+    const std::vector<ImagePairGeometry> across = PairsReorientedAcrossCut(
         current_pairs_, model, side2, options.detection.max_rotation_error_deg);
+    const std::vector<ImagePairGeometry> reoriented =
+        PairsWithoutSinglePairImages(across, *component_pairs_);
     const size_t num_dropped = current_pairs_.size() - reoriented.size();
     LOG(INFO) << prefix_ << "fold resolution (cut " << round + 1
               << "): cut into " << side1.size() << " and " << side2.size()
-              << " images; " << num_dropped
-              << " pairs across it agree with the fold and are removed, "
-                 "mapping again";
+              << " images; " << current_pairs_.size() - across.size()
+              << " pairs across it agree with the fold and are removed ("
+              << across.size() - reoriented.size()
+              << " more of images with a single pair), mapping again";
     const std::vector<std::vector<image_t>> components =
         PairComponents(reoriented);
     if (num_dropped == 0 || components.empty() ||
@@ -403,18 +429,42 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
       (*attempt)->fold().weak_alone_images;
   const Reconstruction& resolved = (*attempt)->reconstruction();
   const std::set<image_t> alone(alone_images.begin(), alone_images.end());
+  const double max_error = options_.fold.detection.max_rotation_error_deg;
   std::vector<ImagePairGeometry> kept;
+  std::set<std::pair<image_t, image_t>> present;
   for (const ImagePairGeometry& pair : pairs) {
+    present.insert(std::minmax(pair.image_id1, pair.image_id2));
     if ((!alone.count(pair.image_id1) && !alone.count(pair.image_id2)) ||
-        ContradictedByModel(pair, resolved,
-                            options_.fold.detection.max_rotation_error_deg)) {
+        ContradictedByModel(pair, resolved, max_error)) {
       kept.push_back(pair);
     }
   }
   const size_t num_alone_dropped = pairs.size() - kept.size();
+  // A camera turned alone with no pair left was left on the wrong side of
+  // a cut: the cut removed its true pairs across it (they agreed with the
+  // folded model) and kept the false ones. Those of its pairs removed
+  // earlier that the model now contradicts are given back (else the camera
+  // is dropped, and with it the joint its pairs made). A camera that keeps
+  // pairs the model contradicts is re-oriented by those alone.
+  std::set<image_t> bare = alone;
+  for (const ImagePairGeometry& pair : kept) {
+    bare.erase(pair.image_id1);
+    bare.erase(pair.image_id2);
+  }
+  size_t num_restored = 0;
+  for (const ImagePairGeometry& pair : *component_pairs_) {
+    if ((bare.count(pair.image_id1) || bare.count(pair.image_id2)) &&
+        !present.count(std::minmax(pair.image_id1, pair.image_id2)) &&
+        ContradictedByModel(pair, resolved, max_error)) {
+      kept.push_back(pair);
+      ++num_restored;
+    }
+  }
   LOG(INFO) << prefix_ << alone.size()
             << " images may be turned alone: " << num_alone_dropped
             << " pairs at them agree with the model and are removed, "
+            << num_restored
+            << " removed before that the model contradicts are restored, "
                "mapping again";
   const std::vector<std::vector<image_t>> kept_components =
       PairComponents(kept);
@@ -428,7 +478,7 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
     if (again != nullptr && Accepted(again.get()) &&
         again->fold().weak_alone_images.empty()) {
       *attempt = std::move(again);
-      *num_removed += num_alone_dropped;
+      *num_removed = *num_removed + num_alone_dropped - num_restored;
       return true;
     }
   }

@@ -135,6 +135,8 @@ class ComponentMapper {
 
   // The state of one Map().
   const FoldEvidence* evidence_ = nullptr;
+  // The component's pairs, before any resolution step removed some.
+  const std::vector<ImagePairGeometry>* component_pairs_ = nullptr;
   size_t num_first_images_ = 0;  // of the first (folded) model
   std::vector<ImagePairGeometry> current_pairs_;
   std::unique_ptr<GlobalMapper> best_;  // the best-supported model so far

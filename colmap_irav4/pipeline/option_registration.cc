@@ -409,6 +409,12 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.weak_pair_rate_model", &d.weak_pair_rate_model,
                "judge a pair's ratio against its images' own match rates and "
                "its view angle (0: one typical ratio for the model)");
+  manager->Add("Fold.within_observed_depth", &d.within_observed_depth,
+               "expect a camera to match only points no farther from it than "
+               "the farthest model point it observes");
+  manager->Add("Fold.within_rigid_parts", &d.within_rigid_parts,
+               "predict overlap only between images of one rigid part of the "
+               "model (parts joined through single images have a free scale)");
   manager->Add("Fold.missing_pair_inlier_factor", &d.missing_pair_inlier_factor,
                "a predicted pair without matches is missing only where the "
                "rate model expects this many times min_num_matches inliers");

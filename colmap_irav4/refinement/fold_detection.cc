@@ -11,6 +11,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -20,6 +21,10 @@ namespace colmap_irav4 {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
+
+// The share of an image's points its depth range holds: not all, lest one
+// far point (a false track triangulated far away) set it.
+constexpr double kDepthRangeQuantile = 0.95;
 
 // A registered image as the detector sees it.
 struct View {
@@ -35,6 +40,9 @@ struct View {
   // observations in all the tracks (DetectFold's `tracks`).
   double num_scaled_points = 0;
   double radius = 0;  // largest distance from the centre to those points
+  // Distance from the centre within which nearly all the model points it
+  // observes lie (kDepthRangeQuantile).
+  double depth_range = 0;
 };
 
 // Farthest that the centre of a camera expecting a point can be from the
@@ -53,11 +61,14 @@ double MaxCenterDistanceFactor(double cos_max_angle, double max_scale_ratio) {
 }
 
 // Whether `view` is expected to match the point X that `from` observes:
-// in front, inside the image, from a similar direction and distance.
-// *cos_angle: the cosine of the angle between the two rays, where expected.
+// in front, inside the image, from a similar direction and distance, and
+// (max_depth > 0) no farther from it than max_depth.
+// *cos_angle: the cosine of the angle between the two rays, and
+// *log_scale: |log| of the ratio of their lengths, where expected.
 bool ExpectsPoint(const View& view, const Eigen::Vector3d& from_center,
                   const Eigen::Vector3d& X, double cos_max_angle,
-                  double max_scale_ratio, double* cos_angle) {
+                  double max_scale_ratio, double max_depth, double* cos_angle,
+                  double* log_scale) {
   const Eigen::Vector3d x = view.R * X + view.t;
   if (x.z() <= 0) return false;
   const Eigen::Vector3d ray_view = view.center - X;
@@ -69,7 +80,9 @@ bool ExpectsPoint(const View& view, const Eigen::Vector3d& from_center,
   if (n_view > max_scale_ratio * n_from || n_from > max_scale_ratio * n_view) {
     return false;
   }
+  if (max_depth > 0 && n_view > max_depth) return false;
   *cos_angle = ray_view.dot(ray_from) / (n_view * n_from);
+  *log_scale = std::abs(std::log(n_view / n_from));
   const Eigen::Vector2d pixel = CameraCameraToImage(
       *view.camera, Eigen::Vector2d(x.x() / x.z(), x.y() / x.z()));
   return pixel.allFinite() && pixel.x() >= 0 && pixel.y() >= 0 &&
@@ -90,37 +103,105 @@ double Quantile(std::vector<double> values, double q) {
   return values[k];
 }
 
-// View-angle bins of the rate model (deg) and the fewest pairs a bin or an
-// image needs for an effect of its own.
+// Bins of the rate model's two pair covariates (view angle, deg, and
+// |log| of the distance ratio of the two cameras to the co-visible
+// points) and the fewest pairs a bin or an image needs for an effect of
+// its own.
 constexpr double kAngleBinDeg = 5.0;
-constexpr int kNumAngleBins = 6;
+constexpr double kLogScaleBin = 0.1;
+constexpr int kNumBins = 6;
 constexpr int kMinBinPairs = 10;
 constexpr int kMinImagePairs = 3;
 // The fewest strong pairs that set an image's effect above its upper
 // quartile (FitPairRates).
 constexpr int kMinStrongPairs = 2;
+// A bin's effect where fewer than a quarter of its predicted pairs matched:
+// its pairs are not expected to match at all.
+constexpr double kNoMatchEffect = -1e6;
 
 int AngleBin(double angle_deg) {
   return std::clamp(static_cast<int>(angle_deg / kAngleBinDeg), 0,
-                    kNumAngleBins - 1);
+                    kNumBins - 1);
 }
+
+int ScaleBin(double log_scale) {
+  return std::clamp(static_cast<int>(log_scale / kLogScaleBin), 0,
+                    kNumBins - 1);
+}
+
+// A predicted pair as the rate model sees it.
+struct RatePair {
+  int node1 = 0;
+  int node2 = 0;
+  double view_angle_deg = 0;
+  double log_scale = 0;
+  // log(inliers per predicted co-visible point); matched: it passed the
+  // verification (else its ratio is unknown, below what would have).
+  double log_ratio = 0;
+  bool matched = false;
+};
 
 // The typical inliers per predicted co-visible point of a pair
 // (weak_pair_rate_model): log ratio = image_effect[i] + image_effect[j] +
-// bin_effect[angle bin]. Without the model, the typical ratio of all pairs.
+// angle_effect[angle bin] + scale_effect[scale bin]. Without the model, the
+// typical ratio of all pairs.
 struct RateModel {
   std::vector<double> image_effect;  // by node
-  std::vector<double> bin_effect = std::vector<double>(kNumAngleBins, 0.0);
+  std::vector<double> angle_effect = std::vector<double>(kNumBins, 0.0);
+  std::vector<double> scale_effect = std::vector<double>(kNumBins, 0.0);
   double typical = 0;  // > 0: the ratio of every pair (no model)
   // Median of the fitted pairs' log ratios less the model's (the model
   // follows upper quartiles; this brings it to the middle).
   double median_residual = 0;
-  double Ratio(int i, int j, double angle_deg) const {
+  double Ratio(int i, int j, double angle_deg, double log_scale) const {
     if (typical > 0) return typical;
-    return std::exp(image_effect[i] + image_effect[j] +
-                    bin_effect[AngleBin(angle_deg)]);
+    const double bins =
+        angle_effect[AngleBin(angle_deg)] + scale_effect[ScaleBin(log_scale)];
+    if (bins <= kNoMatchEffect) return 0;
+    return std::exp(image_effect[i] + image_effect[j] + bins);
   }
 };
+
+// Bin of each bin after merging those with fewer than kMinBinPairs pairs
+// into their neighbour (towards the populated middle): downwards, then
+// upwards.
+std::vector<int> MergeSparseBins(std::vector<int> count) {
+  std::vector<int> merged(kNumBins);
+  for (int b = 0; b < kNumBins; ++b) merged[b] = b;
+  auto move = [&](int from, int to) {
+    count[to] += count[from];
+    count[from] = 0;
+    for (int& m : merged) {
+      if (m == from) m = to;
+    }
+  };
+  for (int b = kNumBins - 1; b > 0; --b) {
+    if (count[b] < kMinBinPairs) move(b, b - 1);
+  }
+  for (int b = 0; b + 1 < kNumBins && count[b] < kMinBinPairs; ++b) {
+    int next = b + 1;
+    while (next < kNumBins && count[next] == 0) ++next;
+    if (next == kNumBins) break;
+    move(b, next);
+  }
+  return merged;
+}
+
+// The upper quartile of a bin's residuals, its unmatched pairs counted
+// below every matched one: an upper quartile is known as long as at least
+// a quarter of the pairs matched, however low the others fell (left
+// censoring); kNoMatchEffect otherwise.
+double CensoredUpperQuartile(const std::vector<double>& matched,
+                             int num_unmatched) {
+  const size_t total = matched.size() + static_cast<size_t>(num_unmatched);
+  if (total == 0) return 0;
+  const size_t k = std::min(total - 1, static_cast<size_t>(0.75 * total));
+  if (k < static_cast<size_t>(num_unmatched)) return kNoMatchEffect;
+  std::vector<double> values = matched;
+  const size_t rank = k - static_cast<size_t>(num_unmatched);
+  std::nth_element(values.begin(), values.begin() + rank, values.end());
+  return values[rank];
+}
 
 // Fits the rate model to the predicted pairs' ratios by alternating upper
 // quartiles of the residuals (robust to a minority of weak pairs at each
@@ -128,79 +209,94 @@ struct RateModel {
 // quartile still follows the true ones). The images' effects have median 0,
 // so that an image with too few pairs for its own is judged as a typical
 // one; bins with too few pairs share their neighbour's effect.
-RateModel FitPairRates(const std::vector<PairSupport>& pairs,
-                       const std::map<image_t, int>& index,
+// The bins are shared by the whole model and see every predicted pair,
+// matched or not: fitted to the matched pairs alone, a bin where most
+// pairs fail the verification (wide angles, a large change of scale) keeps
+// only its lucky pairs and expects the others to match as well. An
+// image's own effect sees only its matched pairs: a camera a fold turned
+// has its predicted pairs unmatched for the fold's reason, and counting
+// them would explain the fold away.
+RateModel FitPairRates(const std::vector<RatePair>& pairs, int num_nodes,
                        double weak_pair_ratio) {
-  const int n = static_cast<int>(index.size());
-  std::vector<int> node1, node2, bin;
-  std::vector<double> log_ratio;
-  std::vector<size_t> fitted;  // indices into pairs
-  for (size_t k = 0; k < pairs.size(); ++k) {
-    if (!pairs[k].predicted || !(pairs[k].ratio > 0)) continue;
-    fitted.push_back(k);
+  const int n = num_nodes;
+  std::vector<int> angle_count(kNumBins, 0), scale_count(kNumBins, 0);
+  for (const RatePair& pair : pairs) {
+    ++angle_count[AngleBin(pair.view_angle_deg)];
+    ++scale_count[ScaleBin(pair.log_scale)];
   }
-  const auto angle_bin = AngleBin;
-  // Bins with too few pairs share their neighbour's effect (towards the
-  // populated middle): merged downwards, then upwards.
-  std::vector<int> bin_count(kNumAngleBins, 0);
-  for (const size_t k : fitted) ++bin_count[angle_bin(pairs[k].view_angle_deg)];
-  std::vector<int> merged(kNumAngleBins);
-  for (int b = 0; b < kNumAngleBins; ++b) merged[b] = b;
-  for (int b = kNumAngleBins - 1; b > 0; --b) {
-    if (bin_count[b] < kMinBinPairs) {
-      bin_count[b - 1] += bin_count[b];
-      bin_count[b] = 0;
-      for (int& m : merged) {
-        if (m == b) m = b - 1;
-      }
-    }
-  }
-  for (int b = 0; b + 1 < kNumAngleBins && bin_count[b] < kMinBinPairs; ++b) {
-    int next = b + 1;
-    while (next < kNumAngleBins && bin_count[next] == 0) ++next;
-    if (next == kNumAngleBins) break;
-    bin_count[next] += bin_count[b];
-    bin_count[b] = 0;
-    for (int& m : merged) {
-      if (m == b) m = next;
-    }
-  }
-  for (const size_t k : fitted) {
-    node1.push_back(index.at(pairs[k].image_id1));
-    node2.push_back(index.at(pairs[k].image_id2));
-    bin.push_back(merged[angle_bin(pairs[k].view_angle_deg)]);
-    log_ratio.push_back(std::log(pairs[k].ratio));
+  const std::vector<int> angle_merged = MergeSparseBins(angle_count);
+  const std::vector<int> scale_merged = MergeSparseBins(scale_count);
+  std::vector<int> angle_bin, scale_bin;  // by pair
+  for (const RatePair& pair : pairs) {
+    angle_bin.push_back(angle_merged[AngleBin(pair.view_angle_deg)]);
+    scale_bin.push_back(scale_merged[ScaleBin(pair.log_scale)]);
   }
   RateModel model;
   model.image_effect.assign(n, 0.0);
   std::vector<double>& image_effect = model.image_effect;
-  std::vector<double> bin_effect(kNumAngleBins, 0.0);
+  std::vector<double> angle_effect(kNumBins, 0.0);
+  std::vector<double> scale_effect(kNumBins, 0.0);
   std::vector<std::vector<size_t>> image_pairs(n);
-  for (size_t m = 0; m < fitted.size(); ++m) {
-    image_pairs[node1[m]].push_back(m);
-    image_pairs[node2[m]].push_back(m);
+  for (size_t m = 0; m < pairs.size(); ++m) {
+    if (!pairs[m].matched) continue;
+    image_pairs[pairs[m].node1].push_back(m);
+    image_pairs[pairs[m].node2].push_back(m);
   }
+  auto bins_of = [&](size_t m) {
+    return angle_effect[angle_bin[m]] + scale_effect[scale_bin[m]];
+  };
+  // One covariate's effects: the censored upper quartile of each bin's
+  // residuals against everything else.
+  auto fit_bins = [&](const std::vector<int>& bin, std::vector<double>* effect,
+                      const std::vector<double>& other_effect,
+                      const std::vector<int>& other_bin) {
+    std::vector<std::vector<double>> residuals(kNumBins);
+    std::vector<int> num_unmatched(kNumBins, 0);
+    for (size_t m = 0; m < pairs.size(); ++m) {
+      if (!pairs[m].matched) {
+        ++num_unmatched[bin[m]];
+      } else if (other_effect[other_bin[m]] > kNoMatchEffect) {
+        residuals[bin[m]].push_back(
+            pairs[m].log_ratio - image_effect[pairs[m].node1] -
+            image_effect[pairs[m].node2] - other_effect[other_bin[m]]);
+      }
+    }
+    for (int b = 0; b < kNumBins; ++b) {
+      if (residuals[b].empty() && num_unmatched[b] == 0) continue;
+      (*effect)[b] = CensoredUpperQuartile(residuals[b], num_unmatched[b]);
+    }
+  };
   // The weak band (log ratio) below a rate.
   const double weak_gap =
       weak_pair_ratio > 0 ? -std::log(weak_pair_ratio) : 0.0;
-  std::vector<std::vector<double>> residuals;
   for (int iteration = 0; iteration < 20; ++iteration) {
-    residuals.assign(kNumAngleBins, {});
-    for (size_t m = 0; m < fitted.size(); ++m) {
-      residuals[bin[m]].push_back(log_ratio[m] - image_effect[node1[m]] -
-                                  image_effect[node2[m]]);
-    }
-    for (int b = 0; b < kNumAngleBins; ++b) {
-      if (!residuals[b].empty()) bin_effect[b] = Quantile(residuals[b], 0.75);
+    fit_bins(angle_bin, &angle_effect, scale_effect, scale_bin);
+    fit_bins(scale_bin, &scale_effect, angle_effect, angle_bin);
+    // Gauge: the smallest change of scale has effect 0 (the angle bins
+    // take the level).
+    const double scale_level = scale_effect[scale_merged[0]];
+    if (scale_level > kNoMatchEffect) {
+      for (double& effect : scale_effect) {
+        if (effect > kNoMatchEffect) effect -= scale_level;
+      }
+      for (double& effect : angle_effect) {
+        if (effect > kNoMatchEffect) effect += scale_level;
+      }
     }
     std::vector<double> effects;
+    std::vector<char> own_effect(n, 0);
     for (int i = 0; i < n; ++i) {
-      if (static_cast<int>(image_pairs[i].size()) < kMinImagePairs) continue;
       std::vector<double> own;
       for (const size_t m : image_pairs[i]) {
-        const int other = node1[m] == i ? node2[m] : node1[m];
-        own.push_back(log_ratio[m] - image_effect[other] - bin_effect[bin[m]]);
+        if (bins_of(m) <= kNoMatchEffect) continue;
+        const int other = pairs[m].node1 == i ? pairs[m].node2 : pairs[m].node1;
+        own.push_back(pairs[m].log_ratio - image_effect[other] - bins_of(m));
       }
+      if (static_cast<int>(own.size()) < kMinImagePairs) {
+        image_effect[i] = 0;
+        continue;
+      }
+      own_effect[i] = 1;
       image_effect[i] = Quantile(own, 0.75);
       // An image whose upper quartile is at the weak level while a few of
       // its pairs are strong both at the typical level and above that
@@ -223,20 +319,20 @@ RateModel FitPairRates(const std::vector<PairSupport>& pairs,
     // Gauge: the median image has effect 0 (the bins take the level).
     const double shift = Median(effects);
     for (int i = 0; i < n; ++i) {
-      if (static_cast<int>(image_pairs[i].size()) >= kMinImagePairs) {
-        image_effect[i] -= shift;
-      }
+      if (own_effect[i]) image_effect[i] -= shift;
     }
   }
-  for (int b = 0; b < kNumAngleBins; ++b) {
-    model.bin_effect[b] = bin_effect[merged[b]];
+  for (int b = 0; b < kNumBins; ++b) {
+    model.angle_effect[b] = angle_effect[angle_merged[b]];
+    model.scale_effect[b] = scale_effect[scale_merged[b]];
   }
-  std::vector<double> final_residuals;
-  for (size_t m = 0; m < fitted.size(); ++m) {
-    final_residuals.push_back(log_ratio[m] - image_effect[node1[m]] -
-                              image_effect[node2[m]] - bin_effect[bin[m]]);
+  std::vector<double> residuals;
+  for (size_t m = 0; m < pairs.size(); ++m) {
+    if (!pairs[m].matched || bins_of(m) <= kNoMatchEffect) continue;
+    residuals.push_back(pairs[m].log_ratio - image_effect[pairs[m].node1] -
+                        image_effect[pairs[m].node2] - bins_of(m));
   }
-  model.median_residual = Median(final_residuals);
+  model.median_residual = Median(residuals);
   return model;
 }
 
@@ -246,7 +342,9 @@ RateModel FitPairRates(const std::vector<PairSupport>& pairs,
 // Returns the rate model (every effect 0 but the level, the typical ratio,
 // without weak_pair_rate_model).
 RateModel WeakPairCut(const FoldDetectionOptions& options,
-                      const std::map<image_t, int>& index, FoldReport* report) {
+                      const std::map<image_t, int>& index,
+                      const std::vector<RatePair>& unmatched,
+                      FoldReport* report) {
   std::vector<double> ratios;
   for (PairSupport& support : report->pair_support) {
     const double predicted =
@@ -262,14 +360,27 @@ RateModel WeakPairCut(const FoldDetectionOptions& options,
   if (ratios.empty()) return model;
   report->typical_ratio = Quantile(ratios, 0.75);
   if (options.weak_pair_rate_model) {
-    model = FitPairRates(report->pair_support, index, options.weak_pair_ratio);
+    std::vector<RatePair> pairs = unmatched;
+    for (const PairSupport& support : report->pair_support) {
+      if (!support.predicted || !(support.ratio > 0)) continue;
+      RatePair pair;
+      pair.node1 = index.at(support.image_id1);
+      pair.node2 = index.at(support.image_id2);
+      pair.view_angle_deg = support.view_angle_deg;
+      pair.log_scale = support.log_scale;
+      pair.log_ratio = std::log(support.ratio);
+      pair.matched = true;
+      pairs.push_back(pair);
+    }
+    model = FitPairRates(pairs, static_cast<int>(index.size()),
+                         options.weak_pair_ratio);
   } else {
     model.typical = report->typical_ratio;
   }
   for (PairSupport& support : report->pair_support) {
     support.expected_ratio =
         model.Ratio(index.at(support.image_id1), index.at(support.image_id2),
-                    support.view_angle_deg);
+                    support.view_angle_deg, support.log_scale);
   }
   if (options.weak_pair_ratio <= 0) return model;
   // Signed graph over the images: strong predicted pairs pull together (+1),
@@ -341,6 +452,8 @@ class FoldDetector {
   // The verified pairs with a rotation and enough inliers, judged against
   // the model's rotations; report->pair_support for the consistent ones.
   JudgedPairs JudgeVerifiedPairs(FoldReport* report) const;
+  // The predicted pairs without matches (to the rate model).
+  std::vector<RatePair> UnmatchedPredictedPairs() const;
   // Counts the predicted pairs without matches (report's missing and
   // predicted pairs) and drops those not expected to pass verification;
   // returns each node's predicted neighbours.
@@ -362,6 +475,7 @@ class FoldDetector {
     int j = 0;
     int count = 0;
     double angle_sum_deg = 0;
+    double log_scale_sum = 0;
   };
 
   void CollectViews(const std::vector<Track>* tracks);
@@ -373,6 +487,7 @@ class FoldDetector {
   bool IsPredicted(int i, int j) const;
   double ScaledCount(int i, int j) const;
   double MeanViewAngle(int i, int j) const;
+  double MeanLogScale(int i, int j) const;
 
   const FoldDetectionOptions& options_;
   const Reconstruction& reconstruction_;
@@ -428,6 +543,12 @@ void FoldDetector::CollectViews(const std::vector<Track>* tracks) {
     std::sort(ids.begin(), ids.end());
     ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
     view.num_points = static_cast<int>(ids.size());
+    std::vector<double> depths;
+    for (const point3D_t id : ids) {
+      depths.push_back(
+          (reconstruction_.points3D.at(id).xyz - view.center).norm());
+    }
+    view.depth_range = Quantile(std::move(depths), kDepthRangeQuantile);
     const auto image_track_points = track_points.find(image_id);
     view.num_scaled_points =
         image_track_points != track_points.end()
@@ -493,11 +614,16 @@ void FoldDetector::ComputeExpectedOverlap() {
       entry.j = j;
       for (const Eigen::Vector3d& X : views_[i].points) {
         double cos_angle = 1;
-        if (ExpectsPoint(views_[j], views_[i].center, X, cos_max_angle,
-                         options_.max_scale_ratio, &cos_angle)) {
+        double log_scale = 0;
+        if (ExpectsPoint(
+                views_[j], views_[i].center, X, cos_max_angle,
+                options_.max_scale_ratio,
+                options_.within_observed_depth ? views_[j].depth_range : 0.0,
+                &cos_angle, &log_scale)) {
           ++entry.count;
           entry.angle_sum_deg +=
               std::acos(std::clamp(cos_angle, -1.0, 1.0)) / kDegToRad;
+          entry.log_scale_sum += log_scale;
         }
       }
       if (entry.count > 0) expected_[i].push_back(entry);
@@ -534,10 +660,29 @@ double FoldDetector::MeanViewAngle(int i, int j) const {
   return (ij->angle_sum_deg + ji->angle_sum_deg) / (ij->count + ji->count);
 }
 
+double FoldDetector::MeanLogScale(int i, int j) const {
+  const Expected* ij = FindExpected(i, j);
+  const Expected* ji = FindExpected(j, i);
+  return (ij->log_scale_sum + ji->log_scale_sum) / (ij->count + ji->count);
+}
+
 // Those without matches are judged later (CountMissingPairs), once the rate
 // model is known.
 void FoldDetector::PredictOverlap() {
   ComputeExpectedOverlap();
+  // Rigid part of each view (-1: tied to no other image): across parts the
+  // model does not determine where one camera is relative to another.
+  std::vector<int> part(NumViews(), 0);
+  if (options_.within_rigid_parts) {
+    std::fill(part.begin(), part.end(), -1);
+    const ModelRigidity rigidity = AnalyzeModelRigidity(
+        ModelRigidityOptions(), reconstruction_, /*min_model_size=*/1);
+    for (size_t b = 0; b < rigidity.blocks.size(); ++b) {
+      for (const image_t image_id : rigidity.blocks[b]) {
+        part[index_.at(image_id)] = static_cast<int>(b);
+      }
+    }
+  }
   for (int i = 0; i < NumViews(); ++i) {
     for (const Expected& entry : expected_[i]) {
       const int j = entry.j;
@@ -552,6 +697,7 @@ void FoldDetector::PredictOverlap() {
         continue;
       }
       if (!Tried(views_[i].image_id, views_[j].image_id)) continue;
+      if (part[i] != part[j] || part[i] < 0) continue;
       predicted_.insert({i, j});
     }
   }
@@ -585,10 +731,25 @@ JudgedPairs FoldDetector::JudgeVerifiedPairs(FoldReport* report) const {
       support.num_predicted21 = ScaledCount(j, i);
       support.predicted = IsPredicted(i, j);
       support.view_angle_deg = MeanViewAngle(i, j);
+      support.log_scale = MeanLogScale(i, j);
       report->pair_support.push_back(support);
     }
   }
   return judged;
+}
+
+std::vector<RatePair> FoldDetector::UnmatchedPredictedPairs() const {
+  std::vector<RatePair> pairs;
+  for (const auto& [i, j] : predicted_) {
+    if (Matched(views_[i].image_id, views_[j].image_id)) continue;
+    RatePair pair;
+    pair.node1 = i;
+    pair.node2 = j;
+    pair.view_angle_deg = MeanViewAngle(i, j);
+    pair.log_scale = MeanLogScale(i, j);
+    pairs.push_back(pair);
+  }
+  return pairs;
 }
 
 // Missing pairs: predicted, tried, not matched, and (with the rate model)
@@ -604,15 +765,15 @@ std::vector<std::vector<int>> FoldDetector::CountMissingPairs(
     const image_t b = views_[j].image_id;
     const bool is_matched = Matched(a, b);
     const double expected_inliers =
-        is_matched ? 0
-                   : std::sqrt(ScaledCount(i, j) * ScaledCount(j, i)) *
-                         rates.Ratio(i, j, MeanViewAngle(i, j)) *
-                         std::exp(rates.median_residual);
-    VLOG_IF(2, !is_matched)
-        << "pair " << a << " " << b << " without matches: predicted "
-        << ScaledCount(i, j) << " / " << ScaledCount(j, i) << " points, "
-        << MeanViewAngle(i, j) << " deg, expected " << expected_inliers
-        << " inliers";
+        std::sqrt(ScaledCount(i, j) * ScaledCount(j, i)) *
+        rates.Ratio(i, j, MeanViewAngle(i, j), MeanLogScale(i, j)) *
+        std::exp(rates.median_residual);
+    VLOG(2) << "pair " << a << " " << b
+            << (is_matched ? " matched" : " without") << " matches: predicted "
+            << ScaledCount(i, j) << " / " << ScaledCount(j, i) << " points "
+            << MeanViewAngle(i, j) << " deg scale "
+            << std::exp(MeanLogScale(i, j)) << " expected " << expected_inliers
+            << " inliers";
     if (!is_matched && options_.weak_pair_rate_model &&
         report->num_support_pairs > 0 &&
         expected_inliers <
@@ -866,7 +1027,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
   const JudgedPairs judged = detector.JudgeVerifiedPairs(&report);
   report.num_inconsistent_pairs =
       static_cast<int>(judged.inconsistent_inliers.size());
-  const RateModel rates = WeakPairCut(options, detector.Index(), &report);
+  const RateModel rates = WeakPairCut(
+      options, detector.Index(), detector.UnmatchedPredictedPairs(), &report);
   const std::vector<std::vector<int>> predicted_neighbours =
       detector.CountMissingPairs(rates, &report);
   ScoreFold(options, &report);

@@ -48,6 +48,18 @@ struct FoldDetectionOptions {
   // Distance ratio of two cameras to a point above which they are not
   // expected to match it (scale change).
   double max_scale_ratio = 2.0;
+  // A camera is expected to match only points no farther from it than
+  // (nearly all) the model points it observes: what an image detects ends at
+  // some depth (resolution, blur, the reach of its detector), and its own
+  // points say where; beyond it the geometry alone over-predicts the overlap
+  // (the far walls of a courtyard).
+  bool within_observed_depth = true;
+  // Predict overlap only between images of one rigid part of the model
+  // (refinement/model_rigidity.h): parts joined through a single image have
+  // a free scale about it, and the model places their cameras relative to
+  // each other arbitrarily (a correct sparse model's pairs across such a
+  // joint looked missing although their images were tens of metres apart).
+  bool within_rigid_parts = true;
   // A pair is predicted to overlap when each image expects at least this
   // fraction of the other's model points.
   double min_overlap_fraction = 0.3;
@@ -80,13 +92,15 @@ struct FoldDetectionOptions {
   // keeps more than about this fraction of what a true pair matches cannot
   // be told from a true one.
   double weak_pair_ratio = 0.75;
-  // The typical ratio of a pair from a fit to the images' own match rates
-  // and the pair's view angle (log ratio = a_i + a_j + b(angle), upper
-  // quartiles: ExpectedPairRatios), not one figure for the whole model. A
-  // detector keeps fewer of the points an image sees where it sees many, and
-  // descriptors match less across wider angles: with one figure, the images
-  // that match less (a stretch of a long wall, the corners) form a cut of
-  // weak pairs in a correct model.
+  // The typical ratio of a pair from a fit to the images' own match rates,
+  // the pair's view angle and its change of scale (log ratio = a_i + a_j +
+  // b(angle) + c(scale), upper quartiles; the shared effects b and c
+  // counting the predicted pairs that failed the verification too), not one
+  // figure for the whole model. A detector keeps fewer of the points an
+  // image sees where it sees many, and descriptors match less across wider
+  // angles and scales: with one figure, the images that match less (a
+  // stretch of a long wall, the corners) form a cut of weak pairs in a
+  // correct model.
   bool weak_pair_rate_model = true;
   // With the rate model, a predicted pair without matches counts as missing
   // only where the model expects at least this many times min_num_matches
@@ -178,6 +192,9 @@ struct PairSupport {
   // Mean angle (deg) between the two cameras' rays to the predicted
   // co-visible points.
   double view_angle_deg = 0;
+  // Mean |log| of the ratio of the two cameras' distances to those points
+  // (a change of scale).
+  double log_scale = 0;
   // Inliers per predicted co-visible point (geometric mean of both
   // directions), the typical ratio for this pair (weak_pair_rate_model), and
   // whether the ratio is below weak_pair_ratio of that.

@@ -16,6 +16,7 @@
 #include "colmap_irav4/geometry/pose_prior_cost.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/refinement/filtering.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
@@ -117,6 +118,75 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
   return nullptr;
 }
 
+// The poses that hold the gauge of a model whose parts may share no point
+// or be joined through one image only. A part that shares no point with the
+// rest has a similarity of its own, one joined to it through one image a
+// scale about that image's centre; each such freedom left free makes the
+// reduced camera system singular (a photo collection's landmarks joined by
+// false pairs: CHOLMOD "not positive definite" and 100 iterations). Every
+// connected part holds its first image and one coordinate of a second,
+// and each further 2-connected block of images sharing points, reached
+// through its articulation image, one coordinate of another of its images.
+// A model of one block holds its first two images, as before.
+struct GaugeHolds {
+  std::set<image_t> held;                  // pose constant
+  std::map<image_t, image_t> scale_about;  // one coordinate held: the image
+                                           // the scale turns about
+  int num_pieces = 0;
+  int num_joints = 0;
+};
+
+GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
+                          const std::set<image_t>& images) {
+  ModelRigidityOptions options;
+  options.min_shared_points = 1;
+  const std::vector<std::vector<image_t>> blocks =
+      AnalyzeModelRigidity(options, reconstruction, 1).joined_blocks;
+  std::map<image_t, std::vector<size_t>> blocks_of;
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    for (const image_t image_id : blocks[b]) blocks_of[image_id].push_back(b);
+  }
+  // Roots: the largest block first, then images in no block (they share no
+  // point with any image).
+  std::vector<size_t> order(blocks.size());
+  for (size_t b = 0; b < order.size(); ++b) order[b] = b;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return blocks[a].size() > blocks[b].size();
+  });
+  GaugeHolds holds;
+  std::vector<char> reached(blocks.size(), 0);
+  for (const size_t root : order) {
+    if (reached[root]) continue;
+    reached[root] = 1;
+    ++holds.num_pieces;
+    holds.held.insert(blocks[root][0]);
+    holds.scale_about[blocks[root][1]] = blocks[root][0];
+    std::vector<size_t> queue = {root};
+    while (!queue.empty()) {
+      const size_t b = queue.back();
+      queue.pop_back();
+      for (const image_t joint : blocks[b]) {
+        for (const size_t next : blocks_of[joint]) {
+          if (reached[next]) continue;
+          reached[next] = 1;
+          ++holds.num_joints;
+          // Blocks form a tree: only the joint is reached already.
+          const image_t other =
+              blocks[next][0] != joint ? blocks[next][0] : blocks[next][1];
+          holds.scale_about[other] = joint;
+          queue.push_back(next);
+        }
+      }
+    }
+  }
+  for (const image_t image_id : images) {
+    if (blocks_of.count(image_id) == 0 && holds.held.insert(image_id).second) {
+      ++holds.num_pieces;
+    }
+  }
+  return holds;
+}
+
 // The Ceres problem of one bundle adjustment, built once and kept for all
 // its solves. Each observation's residual is scaled by a weight its cost
 // reads when evaluated: the Huber reweighting sets the weights, and the
@@ -154,6 +224,10 @@ class BundleAdjustmentProblem {
   bool Empty() const { return problem_->NumResidualBlocks() == 0; }
   int NumPositionPriors() const { return num_position_priors_; }
   int NumGravityPriors() const { return num_gravity_priors_; }
+  // Parts of the model that share no point, and parts joined to the rest
+  // through one image only (GaugeHolds).
+  int NumPieces() const { return num_pieces_; }
+  int NumJoints() const { return num_joints_; }
 
   // The scale bins' inner edges and their noise at the last reweighting
   // (BundleAdjustmentSummary).
@@ -437,6 +511,13 @@ class BundleAdjustmentProblem {
     // Poses and gauge (held by the position priors when there are enough).
     std::vector<image_t> images(used_images.begin(), used_images.end());
     const bool prior_gauge = AddPosePriors(images);
+    const bool fix_gauge =
+        options_.fix_gauge && !prior_gauge && options_.refine_poses;
+    const GaugeHolds holds = fix_gauge
+                                 ? FindGaugeHolds(*reconstruction_, used_images)
+                                 : GaugeHolds();
+    num_pieces_ = holds.num_pieces;
+    num_joints_ = holds.num_joints;
     for (size_t k = 0; k < images.size(); ++k) {
       const Image& image = reconstruction_->images.at(images[k]);
       double* rotation = poses_.at(images[k]).rotation;
@@ -444,14 +525,14 @@ class BundleAdjustmentProblem {
       ordering_->AddElementToGroup(rotation, 1);
       ordering_->AddElementToGroup(position, 1);
       problem_->SetManifold(rotation, new ceres::EigenQuaternionManifold());
-      const bool fix_gauge = options_.fix_gauge && !prior_gauge;
-      if (!options_.refine_poses || (fix_gauge && k == 0)) {
+      const auto scale_hold = holds.scale_about.find(images[k]);
+      if (!options_.refine_poses || holds.held.count(images[k]) > 0) {
         problem_->SetParameterBlockConstant(rotation);
         problem_->SetParameterBlockConstant(position);
-      } else if (fix_gauge && k == 1) {
+      } else if (scale_hold != holds.scale_about.end()) {
         // The coordinate of the position along which a scaling about the
-        // first image moves this one most.
-        const Image& first = reconstruction_->images.at(images[0]);
+        // image its part turns on moves this one most.
+        const Image& first = reconstruction_->images.at(scale_hold->second);
         Eigen::Vector3d baseline =
             image.ProjectionCenter() - first.ProjectionCenter();
         if (!use_centers_) {
@@ -562,6 +643,8 @@ class BundleAdjustmentProblem {
   std::unique_ptr<ceres::Problem> problem_;
   std::shared_ptr<ceres::ParameterBlockOrdering> ordering_;
   int num_images_ = 0;
+  int num_pieces_ = 0;
+  int num_joints_ = 0;
   double schur_density_ = -1;  // computed for linear_solver auto only
 
  public:
@@ -722,6 +805,15 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     BundleAdjustmentProblem problem(options, reconstruction, priors);
     local_summary.num_position_priors = problem.NumPositionPriors();
     local_summary.num_gravity_priors = problem.NumGravityPriors();
+    local_summary.num_pieces = problem.NumPieces();
+    local_summary.num_joints = problem.NumJoints();
+    if (local_summary.num_pieces > 1 || local_summary.num_joints > 0) {
+      LOG(INFO) << "Bundle adjustment: " << local_summary.num_pieces
+                << " parts of the model share no point and "
+                << local_summary.num_joints
+                << " are joined through one image only; each holds its own "
+                   "gauge (they have no relative pose or scale)";
+    }
     local_summary.problem_seconds += build_timer.ElapsedSeconds();
     for (int round = 0; round < options.num_rounds && !problem.Empty();
          ++round) {

@@ -124,6 +124,10 @@ struct BundleAdjustmentOptions {
 struct BundleAdjustmentSummary {
   int num_rounds = 0;
   int num_images = 0;
+  // Parts of the model sharing no point, and parts joined to the rest
+  // through one image only: each adjusted in its own gauge.
+  int num_pieces = 0;
+  int num_joints = 0;
   int num_points = 0;                    // after the last round
   int num_observations = 0;              // after the last round
   int num_observations_filtered = 0;     // over all rounds

@@ -126,7 +126,9 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
   }
   for (size_t b = 0; b < index_blocks.size(); ++b) {
     std::vector<image_t> images;
+    std::vector<image_t>& joined = result.joined_blocks.emplace_back();
     for (size_t m = 0; m < index_blocks[b].size(); ++m) {
+      joined.push_back(ids[index_blocks[b][m]]);
       if (keep[b][m]) images.push_back(ids[index_blocks[b][m]]);
     }
     if (!images.empty()) result.blocks.push_back(std::move(images));

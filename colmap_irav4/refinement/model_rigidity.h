@@ -26,6 +26,10 @@ struct ModelRigidity {
   std::vector<std::vector<image_t>> blocks;
   // Number of blocks of at least min_model_size images.
   int num_large_blocks = 0;
+  // The same blocks with every image of each (an articulation image in each
+  // block it joins), in the order Tarjan's search closes them; the blocks
+  // and their articulation images form a tree per connected part.
+  std::vector<std::vector<image_t>> joined_blocks;
 };
 
 ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,

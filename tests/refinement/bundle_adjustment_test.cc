@@ -452,6 +452,105 @@ TEST(BundleAdjustment, SameBitsWhereverTheModelIsOnTheHeap) {
   }
 }
 
+// The images with id <= last_of_first: a model of these alone.
+Reconstruction SubModel(const Reconstruction& model, image_t last_of_first,
+                        bool first) {
+  Reconstruction sub = model;
+  for (auto it = sub.images.begin(); it != sub.images.end();) {
+    it = (it->first <= last_of_first) == first ? std::next(it)
+                                               : sub.images.erase(it);
+  }
+  return sub;
+}
+
+// The truth with each point's observations in the images after
+// last_of_first moved to a new point at the same place (dropped when fewer
+// than two): two pieces of a model that share no point. With `joined`, image
+// last_of_first + 1 is in both: a point's observation there goes with the
+// first piece's point for even point ids, the second's for odd ones.
+Reconstruction SplitIntoTwoPieces(const Reconstruction& truth,
+                                  image_t last_of_first, bool joined = false) {
+  Reconstruction model = truth;
+  const image_t joint = joined ? last_of_first + 1 : kInvalidImageId;
+  point3D_t next_id = model.points3D.rbegin()->first + 1;
+  std::map<point3D_t, Point3D> second_points;
+  for (auto& [point3D_id, point] : model.points3D) {
+    Point3D second;
+    second.xyz = point.xyz;
+    std::vector<TrackElement> first_track;
+    for (const TrackElement& element : point.track) {
+      const bool first = element.image_id <= last_of_first ||
+                         (element.image_id == joint && point3D_id % 2 == 0);
+      (first ? first_track : second.track).push_back(element);
+    }
+    point.track = first_track;
+    for (const TrackElement& element : second.track) {
+      model.images.at(element.image_id)
+          .points2D[element.point2D_idx]
+          .point3D_id = second.track.size() >= 2 ? next_id : kInvalidPoint3DId;
+    }
+    if (second.track.size() >= 2) second_points.emplace(next_id++, second);
+  }
+  for (auto it = model.points3D.begin(); it != model.points3D.end();) {
+    if (it->second.track.size() >= 2) {
+      ++it;
+      continue;
+    }
+    for (const TrackElement& element : it->second.track) {
+      model.images.at(element.image_id)
+          .points2D[element.point2D_idx]
+          .point3D_id = kInvalidPoint3DId;
+    }
+    it = model.points3D.erase(it);
+  }
+  model.points3D.merge(second_points);
+  return model;
+}
+
+// Adjusts the two parts of SplitIntoTwoPieces from a perturbed start: each
+// in its own gauge, converged, and at the optimum reached from the truth.
+void ExpectPartsAdjustedInTheirOwnGauge(bool joined, int num_pieces,
+                                        int num_joints) {
+  const SyntheticScene scene = GenerateSyntheticScene(SceneOptions());
+  const image_t last_of_first = scene.truth.images.begin()->first + 5;
+  const Reconstruction split =
+      SplitIntoTwoPieces(scene.truth, last_of_first, joined);
+  ASSERT_GT(split.points3D.size(), 500u);
+  Reconstruction reconstruction = split;
+  Perturb(0.5, 0.05, 0.02, 1.0, 7, &reconstruction);
+  BundleAdjustmentOptions options = LeastSquaresOptions();
+  // Sparse Cholesky (CHOLMOD), as from 50 images.
+  options.linear_solver = BundleAdjustmentLinearSolver::kSparseSchur;
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+  EXPECT_EQ(summary.num_pieces, num_pieces);
+  EXPECT_EQ(summary.num_joints, num_joints);
+  EXPECT_TRUE(summary.converged);
+  EXPECT_LT(summary.num_iterations, 20);
+  Reconstruction from_truth = split;
+  ASSERT_TRUE(RunBundleAdjustment(options, &from_truth));
+  // A joint image is in both parts.
+  for (const bool first : {true, false}) {
+    const image_t last = first && joined ? last_of_first + 1 : last_of_first;
+    const Errors to_optimum = Compare(SubModel(reconstruction, last, first),
+                                      SubModel(from_truth, last, first));
+    EXPECT_LT(to_optimum.max_center_error, 1e-5);
+    EXPECT_LT(to_optimum.max_rotation_error_deg, 1e-4);
+  }
+}
+
+// Two parts that share no point (a photo collection's landmarks joined only
+// by false pairs, once their observations are filtered): each has a free
+// similarity, which left free makes the reduced camera system singular.
+TEST(BundleAdjustment, PiecesSharingNoPointEachHoldTheirGauge) {
+  ExpectPartsAdjustedInTheirOwnGauge(/*joined=*/false, 2, 0);
+}
+
+// Two parts joined through one image: the second has a free scale about it.
+TEST(BundleAdjustment, PartJoinedThroughOneImageHoldsItsScale) {
+  ExpectPartsAdjustedInTheirOwnGauge(/*joined=*/true, 1, 1);
+}
+
 TEST(BundleAdjustment, OptionsCheck) {
   BundleAdjustmentOptions options;
   EXPECT_NO_THROW(options.Check());

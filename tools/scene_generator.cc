@@ -193,6 +193,9 @@ int Run(int argc, char** argv) {
               "photo: radial coefficient k drawn in [-this, this]");
   manager.Add("store_relative_pose", &options.store_relative_pose,
               "write two_view_geometries.qvec/tvec");
+  manager.Add("exact_two_view_geometry", &options.exact_two_view_geometry,
+              "E, F of the true relative pose (0: of the pose re-estimated "
+              "on the noisy inliers, as a matcher's)");
   manager.Add("seed", &seed, "random seed");
   bool pose_priors = false;
   PosePriorGeneratorOptions prior_options;

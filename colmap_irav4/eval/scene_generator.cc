@@ -13,6 +13,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/geometry/two_view_geometry.h"
 #include "colmap_irav4/io/database_writer.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
@@ -1533,6 +1534,16 @@ FeatureMatches CandidateMatches(const GeneratedScene& scene,
   return matches;
 }
 
+// An image's keypoints as the database stores them.
+FeatureKeypoints Keypoints(const Image& image) {
+  FeatureKeypoints keypoints;
+  keypoints.reserve(image.points2D.size());
+  for (const Point2D& point2D : image.points2D) {
+    keypoints.push_back(point2D.xy.cast<float>());
+  }
+  return keypoints;
+}
+
 // The stored geometry from the pair's candidate matches (ignored for random
 // pairs, whose inliers are fixed).
 TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
@@ -1579,20 +1590,34 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
   }
 
   const Rigid3d relative = PairRelativePose(scene, pair);
-  const Eigen::Matrix3d R = relative.rotation.toRotationMatrix();
-  const Eigen::Vector3d t = relative.translation.normalized();
+  Eigen::Matrix3d R = relative.rotation.toRotationMatrix();
+  Eigen::Vector3d t = relative.translation.normalized();
   geometry.E = EssentialFromPose(R, t);
-  const Eigen::Matrix3d K1 =
-      CameraCalibrationMatrix(scene.truth.cameras.at(image1.camera_id));
-  const Eigen::Matrix3d K2 =
-      CameraCalibrationMatrix(scene.truth.cameras.at(image2.camera_id));
+  const Camera& camera1 = scene.truth.cameras.at(image1.camera_id);
+  const Camera& camera2 = scene.truth.cameras.at(image2.camera_id);
+  if (!options.exact_two_view_geometry) {
+    // What a matcher stores: the pose fitted to the noisy inliers, started
+    // from the true one (its RANSAC's hypothesis) and refined, however
+    // weakly the inliers determine it.
+    RelativePoseOptions fit;
+    fit.refine_max_rotation_std_deg = 180;
+    const RelativePose estimate = EstimateRelativePose(
+        geometry, camera1, camera2, Keypoints(image1), Keypoints(image2), fit);
+    if (estimate.success && estimate.has_translation && estimate.refined) {
+      R = estimate.R;
+      t = estimate.t;
+      geometry.E = EssentialFromPose(R, t);
+    }
+  }
+  const Eigen::Matrix3d K1 = CameraCalibrationMatrix(camera1);
+  const Eigen::Matrix3d K2 = CameraCalibrationMatrix(camera2);
   geometry.F = K2.inverse().transpose() * geometry.E * K1.inverse();
   geometry.F /= geometry.F.norm();
   if (options.store_relative_pose) {
     geometry.has_pose = true;
+    const Eigen::Quaterniond rotation(R);
     geometry.qvec =
-        Eigen::Vector4d(relative.rotation.w(), relative.rotation.x(),
-                        relative.rotation.y(), relative.rotation.z());
+        Eigen::Vector4d(rotation.w(), rotation.x(), rotation.y(), rotation.z());
     geometry.tvec = t;
   }
 

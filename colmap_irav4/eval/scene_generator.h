@@ -144,6 +144,12 @@ struct SceneGeneratorOptions {
   // Store cam2_from_cam1 in two_view_geometries.qvec/tvec (COLMAP 3.8 leaves
   // them zero unless asked).
   bool store_relative_pose = false;
+  // Two-view geometry (E, F, the stored pose) of the true relative pose;
+  // false: of the pose re-estimated on the pair's noisy inliers
+  // (EstimateRelativePose, refined), as a matcher's would be. Exact E leaks
+  // the truth to a mapper that decomposes it without refining (COLMAP 4's
+  // global_mapper; docs/notes/2026-12-03-colmap4-at-1000-images.md).
+  bool exact_two_view_geometry = true;
   uint64_t seed = 1;
 
   void Check() const;  // throws InputError naming the option

@@ -114,6 +114,47 @@ TEST(SceneGenerator, TruePairsAgreeWithTheTruePoseMirrorPairsWithTheTwin) {
   }
 }
 
+// By default the stored pose of a true pair is the true one; with
+// exact_two_view_geometry 0 it is re-estimated on the noisy inliers, as a
+// matcher's is: off the truth by a fraction of a degree, E and F with it.
+TEST(SceneGenerator, TwoViewGeometryFromTheNoisyInliersWhenNotExact) {
+  for (const bool exact : {true, false}) {
+    SceneGeneratorOptions options = SmallOptions(SceneLayout::kCourtyard);
+    options.store_relative_pose = true;
+    options.exact_two_view_geometry = exact;
+    const GeneratedScene scene = GenerateScene(options);
+    std::vector<double> errors;
+    for (const GeneratedPair& pair : scene.pairs) {
+      if (pair.kind != PairKind::kTrue) continue;
+      const TwoViewGeometry geometry = PairGeometry(scene, pair, nullptr);
+      const Eigen::Matrix3d R_stored =
+          QuaternionToRotation(geometry.qvec.normalized());
+      const Eigen::Matrix3d R_true =
+          PairRelativePose(scene, pair).rotation.toRotationMatrix();
+      errors.push_back(AngularDistanceDeg(R_stored, R_true));
+      // E is that of the stored pose, F that of E.
+      const Eigen::Vector3d t = geometry.tvec;
+      EXPECT_LT((geometry.E / geometry.E.norm() -
+                 EssentialFromPose(R_stored, t) /
+                     EssentialFromPose(R_stored, t).norm())
+                    .norm(),
+                1e-9);
+    }
+    ASSERT_GT(errors.size(), 50u);
+    std::sort(errors.begin(), errors.end());
+    const double median = errors[errors.size() / 2];
+    SCOPED_TRACE(exact ? "exact" : "estimated");
+    if (exact) {
+      EXPECT_LT(errors.back(), 1e-6);
+    } else {
+      // 0.5 px of noise: every pose moved, none far.
+      EXPECT_GT(errors.front(), 1e-6);
+      EXPECT_GT(median, 1e-3);
+      EXPECT_LT(median, 0.5);
+    }
+  }
+}
+
 TEST(SceneGenerator, MirrorPairsAgreeAroundCycles) {
   // A mirror pair (i, j) and a true pair (j, k) compose to the mirror
   // relative pose of (i, k): twin rotations are consistent in cycles, so

@@ -76,8 +76,9 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
 // or be joined through one image only. A part that shares no point with the
 // rest has a similarity of its own, one joined to it through one image a
 // scale about that image's centre; each such freedom left free makes the
-// reduced camera system singular (a photo collection's landmarks joined by
-// false pairs: CHOLMOD "not positive definite" and 100 iterations). Every
+// reduced camera system singular. (The photo-collection scene's slow first
+// adjustment is not this: parts tied by a few points are nearly, not
+// exactly, free; docs/notes/2026-12-03-photo-collection-scenes.md.) Every
 // connected part holds its first image and one coordinate of a second,
 // and each further 2-connected block of images sharing points, reached
 // through its articulation image, one coordinate of another of its images.
@@ -920,11 +921,12 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     local_summary.num_pieces = problem.NumPieces();
     local_summary.num_joints = problem.NumJoints();
     if (local_summary.num_pieces > 1 || local_summary.num_joints > 0) {
-      LOG(INFO) << "Bundle adjustment: " << local_summary.num_pieces
-                << " parts of the model share no point and "
+      LOG(INFO) << "Bundle adjustment: the model is "
+                << local_summary.num_pieces
+                << " part(s) sharing no point with each other, with "
                 << local_summary.num_joints
-                << " are joined through one image only; each holds its own "
-                   "gauge (they have no relative pose or scale)";
+                << " block(s) joined to the rest through one image only; "
+                   "each holds its own gauge (no relative pose or scale)";
     }
     local_summary.problem_seconds += build_timer.ElapsedSeconds();
     for (int round = 0; round < options.num_rounds && !problem.Empty();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <memory>
 #include <random>
 #include <set>
@@ -255,6 +256,13 @@ struct PositioningBlocks {
   std::vector<std::pair<point3D_t, double*>> points;  // by id
 };
 
+// The position priors' cost functions and loss: the problem owns neither
+// (see RunGlobalPositioning), so they live here, as long as it does.
+struct PriorTerms {
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+};
+
 // The second solve of RunGlobalPositioning with position priors (see the
 // header): places the solved model (centres, points, rotations) in the
 // priors' frame, or leaves it as it is with summary->prior_problem set.
@@ -262,10 +270,9 @@ bool SolveWithPriors(
     const GlobalPositionerOptions& options, const PosePriors& priors,
     const std::map<image_t, Eigen::Matrix3d>& world_from_cam,
     image_t gauge_image_id, const SolverOptions& solver,
-    ceres::Problem* problem, std::unique_ptr<ceres::LossFunction>* prior_loss,
-    PositioningBlocks* blocks, std::map<image_t, Eigen::Vector3d>* centers,
-    Reconstruction* reconstruction, GlobalPositionerSummary* summary,
-    Sim3d* prior_from_model) {
+    ceres::Problem* problem, PriorTerms* prior_terms, PositioningBlocks* blocks,
+    std::map<image_t, Eigen::Vector3d>* centers, Reconstruction* reconstruction,
+    GlobalPositionerSummary* summary, Sim3d* prior_from_model) {
   std::map<image_t, Eigen::Matrix3d> cam_from_world;
   for (const auto& [image_id, R] : world_from_cam) {
     cam_from_world[image_id] = R.transpose();
@@ -287,8 +294,8 @@ bool SolveWithPriors(
   // Every position prior in the model's frame, x = sim^-1(p): the residual
   // W (sim(c) - p) = s W R (c - x).
   const Eigen::Matrix3d model_R_prior = sim.R.transpose();
-  // The problem does not own its losses: this one lives as long as it does.
-  prior_loss->reset(new ceres::CauchyLoss(options.pose_priors.loss_scale));
+  prior_terms->loss.reset(
+      new ceres::CauchyLoss(options.pose_priors.loss_scale));
   for (auto& [image_id, center] : *centers) {
     const auto it = priors.find(image_id);
     if (it == priors.end() || !it->second.HasPosition()) continue;
@@ -297,8 +304,10 @@ bool SolveWithPriors(
     const Eigen::Matrix3d W =
         sim.scale *
         PositionPriorSqrtInformation(it->second, options.pose_priors) * sim.R;
-    problem->AddResidualBlock(PositionPriorCost::Create(target, W),
-                              prior_loss->get(), blocks->centers.at(image_id));
+    prior_terms->costs.emplace_back(PositionPriorCost::Create(target, W));
+    problem->AddResidualBlock(prior_terms->costs.back().get(),
+                              prior_terms->loss.get(),
+                              blocks->centers.at(image_id));
   }
   problem->SetParameterBlockVariable(blocks->centers.at(gauge_image_id));
   // A fresh elimination ordering: Ceres drops the constant gauge centre from
@@ -429,19 +438,32 @@ image_t InitializeCenters(const GlobalPositionerOptions& options,
   return gauge_image_id;
 }
 
-// One observation of a point: its bearing in the world frame.
+// One observation of a point (16 bytes); its world-frame bearing is kept
+// only in its cost function, the entry of the same index in
+// PositioningCosts.
 struct Observation {
   point3D_t point3D_id;
   image_t image_id;
   point2D_t point2D_idx;
-  Eigen::Vector3d direction;
 };
 
-// The observations of the points whose normalised coordinates are finite.
-std::vector<Observation> CollectObservations(
+// One cost function per observation, in a store of their own (a deque: its
+// elements never move, and it grows without copying): the problem does not
+// own them, so that it keeps no ownership table and each is one 64-byte
+// element instead of two heap objects (see ProjectedDirectionCostFunction).
+using PositioningCosts = std::deque<ProjectedDirectionCostFunction>;
+
+// The observations of the points whose normalised coordinates are finite,
+// and their cost functions (bearings in the world frame).
+void CollectObservations(
     const Reconstruction& reconstruction,
-    const std::map<image_t, Eigen::Matrix3d>& world_from_cam) {
-  std::vector<Observation> observations;
+    const std::map<image_t, Eigen::Matrix3d>& world_from_cam,
+    std::vector<Observation>* observations, PositioningCosts* costs) {
+  size_t num_observations = 0;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    num_observations += point.track.size();
+  }
+  observations->reserve(num_observations);
   for (const auto& [point3D_id, point] : reconstruction.points3D) {
     for (const TrackElement& element : point.track) {
       const Image& image = reconstruction.images.at(element.image_id);
@@ -449,24 +471,23 @@ std::vector<Observation> CollectObservations(
       const Eigen::Vector2d normalized =
           CameraImageToCamera(camera, image.points2D[element.point2D_idx].xy);
       if (!normalized.allFinite()) continue;
-      observations.push_back({point3D_id, element.image_id, element.point2D_idx,
-                              world_from_cam.at(element.image_id) *
-                                  normalized.homogeneous().normalized()});
+      observations->push_back(
+          {point3D_id, element.image_id, element.point2D_idx});
+      costs->emplace_back(world_from_cam.at(element.image_id) *
+                          normalized.homogeneous().normalized());
     }
   }
-  return observations;
 }
 
 // Adds one residual per observation on its centre's and point's copies.
 void AddObservationResiduals(const std::vector<Observation>& observations,
-                             ceres::LossFunction* loss,
+                             PositioningCosts* costs, ceres::LossFunction* loss,
                              const PositioningBlocks& blocks,
                              ceres::Problem* problem) {
-  for (const Observation& observation : observations) {
+  for (size_t k = 0; k < observations.size(); ++k) {
     problem->AddResidualBlock(
-        ProjectedDirectionCost::Create(observation.direction), loss,
-        blocks.centers.at(observation.image_id),
-        FindBlock(blocks.points, observation.point3D_id));
+        &(*costs)[k], loss, blocks.centers.at(observations[k].image_id),
+        FindBlock(blocks.points, observations[k].point3D_id));
   }
 }
 
@@ -474,15 +495,17 @@ void AddObservationResiduals(const std::vector<Observation>& observations,
 // from the ray from the solved centre to the solved point.
 void FilterObservationsByAngle(
     double max_angular_error_deg, const std::vector<Observation>& observations,
+    const PositioningCosts& costs,
     const std::map<image_t, Eigen::Vector3d>& centers,
     Reconstruction* reconstruction, GlobalPositionerSummary* summary) {
   const double min_cos = std::cos(DegToRad(max_angular_error_deg));
-  for (const Observation& observation : observations) {
+  for (size_t k = 0; k < observations.size(); ++k) {
+    const Observation& observation = observations[k];
     auto point_it = reconstruction->points3D.find(observation.point3D_id);
     if (point_it == reconstruction->points3D.end()) continue;
     const Eigen::Vector3d ray =
         point_it->second.xyz - centers.at(observation.image_id);
-    if (ray.dot(observation.direction) < min_cos * ray.norm()) {
+    if (ray.dot(costs[k].direction()) < min_cos * ray.norm()) {
       DeleteObservation(observation.image_id, observation.point2D_idx,
                         reconstruction);
       ++summary->num_observations_filtered;
@@ -515,18 +538,22 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   std::map<image_t, Eigen::Matrix3d> world_from_cam;
   const image_t gauge_image_id =
       InitializeCenters(options, reconstruction, &centers, &world_from_cam);
-  const std::vector<Observation> observations =
-      CollectObservations(*reconstruction, world_from_cam);
+  std::vector<Observation> observations;
+  PositioningCosts costs;  // declared before the problem: outlives it
+  CollectObservations(*reconstruction, world_from_cam, &observations, &costs);
   // One loss for all residuals (Ceres evaluates it per residual): not one
   // allocation per observation. Declared first: it outlives the problem.
   const std::unique_ptr<ceres::LossFunction> loss(
       CreateLossFunction(options.loss_function, options.loss_scale));
-  std::unique_ptr<ceres::LossFunction> prior_loss;  // set by SolveWithPriors
+  PriorTerms prior_terms;  // set by SolveWithPriors
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  // The cost functions live in `costs`; the position priors' (added by
+  // SolveWithPriors) by `prior_terms`.
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   PositioningBlocks blocks(&centers, reconstruction);
-  AddObservationResiduals(observations, loss.get(), blocks, &problem);
+  AddObservationResiduals(observations, &costs, loss.get(), blocks, &problem);
   problem.SetParameterBlockConstant(blocks.centers.at(gauge_image_id));
 
   SolverOptions solver = options.solver;
@@ -559,11 +586,11 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   const bool place =
       priors != nullptr && !priors->empty() &&
       SolveWithPriors(options, *priors, world_from_cam, gauge_image_id, solver,
-                      &problem, &prior_loss, &blocks, &centers, reconstruction,
+                      &problem, &prior_terms, &blocks, &centers, reconstruction,
                       &local_summary, &prior_from_model);
   if (options.max_angular_error_deg > 0) {
     FilterObservationsByAngle(options.max_angular_error_deg, observations,
-                              centers, reconstruction, &local_summary);
+                              costs, centers, reconstruction, &local_summary);
   }
   if (place) TransformModel(prior_from_model, &centers, reconstruction);
   for (auto& [image_id, image] : reconstruction->images) {

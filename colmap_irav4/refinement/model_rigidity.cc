@@ -183,36 +183,41 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
   // each, other than the shared one, closes a cycle through the shared
   // image and merges the two blocks. Repeated, since a merged block may be
   // tied to a further block by points no block of it had enough of alone.
-  std::vector<std::vector<int>> point_images;
-  point_images.reserve(reconstruction.points3D.size());
-  for (const auto& [point3D_id, point3D] : reconstruction.points3D) {
-    std::vector<int>& images = point_images.emplace_back();
-    for (const TrackElement& element : point3D.track) {
-      const auto it = index.find(element.image_id);
-      if (it != index.end()) images.push_back(it->second);
-    }
-    std::sort(images.begin(), images.end());
-    images.erase(std::unique(images.begin(), images.end()), images.end());
-    if (images.size() < 2) point_images.pop_back();
-  }
+  // With ties of one point (the bundle adjustment's gauges) a point across
+  // a joint is itself an edge that makes the two blocks one: nothing to do.
   std::vector<std::vector<int>> index_blocks = FindBlocks(adjacency);
-  while (true) {
-    bool merged = false;
-    for (const JointTie& tie : CountJointTies(index_blocks, point_images, n)) {
-      if (tie.num_points < options.min_shared_points) continue;
-      // Each block holds an image other than the shared one.
-      auto other_than_joint = [&](int block) {
-        const std::vector<int>& images = index_blocks[block];
-        return images[0] != tie.joint ? images[0] : images[1];
-      };
-      const int u = other_than_joint(tie.block1);
-      const int v = other_than_joint(tie.block2);
-      adjacency[u].push_back(v);
-      adjacency[v].push_back(u);
-      merged = true;
+  if (options.min_shared_points > 1) {
+    std::vector<std::vector<int>> point_images;
+    point_images.reserve(reconstruction.points3D.size());
+    for (const auto& [point3D_id, point3D] : reconstruction.points3D) {
+      std::vector<int>& images = point_images.emplace_back();
+      for (const TrackElement& element : point3D.track) {
+        const auto it = index.find(element.image_id);
+        if (it != index.end()) images.push_back(it->second);
+      }
+      std::sort(images.begin(), images.end());
+      images.erase(std::unique(images.begin(), images.end()), images.end());
+      if (images.size() < 2) point_images.pop_back();
     }
-    if (!merged) break;
-    index_blocks = FindBlocks(adjacency);
+    while (true) {
+      bool merged = false;
+      for (const JointTie& tie :
+           CountJointTies(index_blocks, point_images, n)) {
+        if (tie.num_points < options.min_shared_points) continue;
+        // Each block holds an image other than the shared one.
+        auto other_than_joint = [&](int block) {
+          const std::vector<int>& images = index_blocks[block];
+          return images[0] != tie.joint ? images[0] : images[1];
+        };
+        const int u = other_than_joint(tie.block1);
+        const int v = other_than_joint(tie.block2);
+        adjacency[u].push_back(v);
+        adjacency[v].push_back(u);
+        merged = true;
+      }
+      if (!merged) break;
+      index_blocks = FindBlocks(adjacency);
+    }
   }
 
   ModelRigidity result;

@@ -629,8 +629,8 @@ std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
       " images is not one rigid piece: its parts of " + sizes +
       " images are joined through single images only (fewer than " +
       std::to_string(ModelRigidityOptions().min_shared_points) +
-      " common points otherwise), so their relative position and scale are "
-      "not determined; writing the parts as separate models";
+      " points seen from both parts otherwise), so their relative position "
+      "and scale are not determined; writing the parts as separate models";
   LOG(WARNING) << prefix_ << message;
   notes_.push_back(prefix_ + message);
   for (const std::vector<image_t>& block : rigidity.blocks) {

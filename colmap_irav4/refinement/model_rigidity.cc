@@ -7,6 +7,139 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 
 namespace colmap_irav4 {
+namespace {
+
+// The 2-connected blocks of a graph (Tarjan, iterative; an edge stack), each
+// as sorted vertex numbers, in the order the search closes them.
+std::vector<std::vector<int>> FindBlocks(
+    const std::vector<std::vector<int>>& adjacency) {
+  const int n = static_cast<int>(adjacency.size());
+  std::vector<int> discovery(n, -1), low(n, 0);
+  std::vector<std::pair<int, int>> edge_stack;
+  std::vector<std::vector<int>> blocks;
+  int time = 0;
+  struct Frame {
+    int vertex;
+    int parent;
+    size_t next;
+  };
+  auto pop_block = [&](int u, int v) {
+    std::vector<int> block;
+    while (!edge_stack.empty()) {
+      const std::pair<int, int> edge = edge_stack.back();
+      edge_stack.pop_back();
+      block.push_back(edge.first);
+      block.push_back(edge.second);
+      if (edge.first == u && edge.second == v) break;
+    }
+    std::sort(block.begin(), block.end());
+    block.erase(std::unique(block.begin(), block.end()), block.end());
+    blocks.push_back(std::move(block));
+  };
+  for (int root = 0; root < n; ++root) {
+    if (discovery[root] >= 0) continue;
+    std::vector<Frame> stack = {{root, -1, 0}};
+    discovery[root] = low[root] = time++;
+    while (!stack.empty()) {
+      Frame& frame = stack.back();
+      const int u = frame.vertex;
+      if (frame.next < adjacency[u].size()) {
+        const int v = adjacency[u][frame.next++];
+        if (discovery[v] < 0) {
+          edge_stack.emplace_back(u, v);
+          discovery[v] = low[v] = time++;
+          stack.push_back({v, u, 0});
+        } else if (v != frame.parent && discovery[v] < discovery[u]) {
+          edge_stack.emplace_back(u, v);
+          low[u] = std::min(low[u], discovery[v]);
+        }
+        continue;
+      }
+      const int parent = frame.parent;
+      stack.pop_back();
+      if (parent < 0) continue;
+      low[parent] = std::min(low[parent], low[u]);
+      if (low[u] >= discovery[parent]) pop_block(parent, u);
+    }
+  }
+  return blocks;
+}
+
+// Two blocks that share an image (they meet at that articulation image) and
+// the points tying them: points observed both by an image of the one block
+// and by an image of the other, neither the shared image. One such point
+// fixes the scale of one block about the shared image relative to the other
+// (its two rays must meet), so enough of them make the two blocks one rigid
+// piece even when no single image pair of theirs shares enough points to be
+// tied on its own.
+struct JointTie {
+  int block1 = -1;
+  int block2 = -1;
+  int joint = -1;  // the shared image
+  int num_points = 0;
+};
+
+std::vector<JointTie> CountJointTies(
+    const std::vector<std::vector<int>>& blocks,
+    const std::vector<std::vector<int>>& point_images, int n) {
+  std::vector<std::vector<int>> blocks_of(n);
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    for (const int k : blocks[b]) blocks_of[k].push_back(static_cast<int>(b));
+  }
+  // Blocks share at most one image (else they would be one block).
+  std::map<std::pair<int, int>, JointTie> ties;  // (block1 < block2)
+  for (int k = 0; k < n; ++k) {
+    for (size_t m = 0; m < blocks_of[k].size(); ++m) {
+      for (size_t l = m + 1; l < blocks_of[k].size(); ++l) {
+        JointTie tie;
+        tie.block1 = std::min(blocks_of[k][m], blocks_of[k][l]);
+        tie.block2 = std::max(blocks_of[k][m], blocks_of[k][l]);
+        tie.joint = k;
+        ties[{tie.block1, tie.block2}] = tie;
+      }
+    }
+  }
+  if (!ties.empty()) {
+    std::vector<std::pair<int, int>> entries;  // (block, image) of a point
+    std::vector<int> touched;                  // its blocks
+    for (const std::vector<int>& images : point_images) {
+      entries.clear();
+      for (const int k : images) {
+        for (const int b : blocks_of[k]) entries.emplace_back(b, k);
+      }
+      std::sort(entries.begin(), entries.end());
+      touched.clear();
+      for (const auto& entry : entries) {
+        if (touched.empty() || touched.back() != entry.first) {
+          touched.push_back(entry.first);
+        }
+      }
+      for (size_t m = 0; m < touched.size(); ++m) {
+        for (size_t l = m + 1; l < touched.size(); ++l) {
+          const auto it = ties.find({touched[m], touched[l]});
+          if (it == ties.end()) continue;
+          // Seen by an image of `block` other than the shared one.
+          auto seen_apart = [&](int block) {
+            for (const auto& entry : entries) {
+              if (entry.first == block && entry.second != it->second.joint) {
+                return true;
+              }
+            }
+            return false;
+          };
+          if (seen_apart(touched[m]) && seen_apart(touched[l])) {
+            ++it->second.num_points;
+          }
+        }
+      }
+    }
+  }
+  std::vector<JointTie> result;
+  for (const auto& entry : ties) result.push_back(entry.second);
+  return result;
+}
+
+}  // namespace
 
 ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
                                    const Reconstruction& reconstruction,
@@ -45,56 +178,49 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
     touched.clear();
   }
 
-  // Biconnected components (Tarjan, iterative; an edge stack).
-  ModelRigidity result;
-  std::vector<int> discovery(n, -1), low(n, 0);
-  std::vector<std::pair<int, int>> edge_stack;
-  std::vector<std::vector<int>> index_blocks;
-  int time = 0;
-  struct Frame {
-    int vertex;
-    int parent;
-    size_t next;
-  };
-  auto pop_block = [&](int u, int v) {
-    std::vector<int> block;
-    while (!edge_stack.empty()) {
-      const std::pair<int, int> edge = edge_stack.back();
-      edge_stack.pop_back();
-      block.push_back(edge.first);
-      block.push_back(edge.second);
-      if (edge.first == u && edge.second == v) break;
-    }
-    std::sort(block.begin(), block.end());
-    block.erase(std::unique(block.begin(), block.end()), block.end());
-    index_blocks.push_back(std::move(block));
-  };
-  for (int root = 0; root < n; ++root) {
-    if (discovery[root] >= 0) continue;
-    std::vector<Frame> stack = {{root, -1, 0}};
-    discovery[root] = low[root] = time++;
-    while (!stack.empty()) {
-      Frame& frame = stack.back();
-      const int u = frame.vertex;
-      if (frame.next < adjacency[u].size()) {
-        const int v = adjacency[u][frame.next++];
-        if (discovery[v] < 0) {
-          edge_stack.emplace_back(u, v);
-          discovery[v] = low[v] = time++;
-          stack.push_back({v, u, 0});
-        } else if (v != frame.parent && discovery[v] < discovery[u]) {
-          edge_stack.emplace_back(u, v);
-          low[u] = std::min(low[u], discovery[v]);
-        }
-        continue;
+  // Blocks joined at an image and tied by enough points seen from both
+  // (CountJointTies) are one rigid piece: an edge between an image of
+  // each, other than the shared one, closes a cycle through the shared
+  // image and merges the two blocks. Repeated, since a merged block may be
+  // tied to a further block by points no block of it had enough of alone.
+  // With ties of one point (the bundle adjustment's gauges) a point across
+  // a joint is itself an edge that makes the two blocks one: nothing to do.
+  std::vector<std::vector<int>> index_blocks = FindBlocks(adjacency);
+  if (options.min_shared_points > 1) {
+    std::vector<std::vector<int>> point_images;
+    point_images.reserve(reconstruction.points3D.size());
+    for (const auto& [point3D_id, point3D] : reconstruction.points3D) {
+      std::vector<int>& images = point_images.emplace_back();
+      for (const TrackElement& element : point3D.track) {
+        const auto it = index.find(element.image_id);
+        if (it != index.end()) images.push_back(it->second);
       }
-      const int parent = frame.parent;
-      stack.pop_back();
-      if (parent < 0) continue;
-      low[parent] = std::min(low[parent], low[u]);
-      if (low[u] >= discovery[parent]) pop_block(parent, u);
+      std::sort(images.begin(), images.end());
+      images.erase(std::unique(images.begin(), images.end()), images.end());
+      if (images.size() < 2) point_images.pop_back();
+    }
+    while (true) {
+      bool merged = false;
+      for (const JointTie& tie :
+           CountJointTies(index_blocks, point_images, n)) {
+        if (tie.num_points < options.min_shared_points) continue;
+        // Each block holds an image other than the shared one.
+        auto other_than_joint = [&](int block) {
+          const std::vector<int>& images = index_blocks[block];
+          return images[0] != tie.joint ? images[0] : images[1];
+        };
+        const int u = other_than_joint(tie.block1);
+        const int v = other_than_joint(tie.block2);
+        adjacency[u].push_back(v);
+        adjacency[v].push_back(u);
+        merged = true;
+      }
+      if (!merged) break;
+      index_blocks = FindBlocks(adjacency);
     }
   }
+
+  ModelRigidity result;
   // An articulation image stays only in the block it shares the most
   // points with (the first of equal ones): there its pose is held by most of
   // its observations, in the other blocks by a few.

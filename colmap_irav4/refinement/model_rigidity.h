@@ -14,6 +14,11 @@ namespace colmap_irav4 {
 // too): bearings from a single camera do not fix how far away the other
 // part is. Such a model may be placed arbitrarily wrong while its
 // reprojection errors look perfect, so it must not be written as one model.
+// Two parts joined at one image are nonetheless one rigid piece when at
+// least `min_shared_points` points are each seen by an image of both parts
+// other than the joint, over any number of image pairs: each such point's
+// rays fix the scale about the joint (ties spread over image pairs of a few
+// points each, as where match rates vary, count together).
 struct ModelRigidityOptions {
   int min_shared_points = 15;
 };

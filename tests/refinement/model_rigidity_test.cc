@@ -76,6 +76,65 @@ TEST(ModelRigidity, PartsJoinedThroughOneImageAreSeparateBlocks) {
   EXPECT_EQ(rigidity.blocks[0].size(), 7u);
 }
 
+TEST(ModelRigidity, PartsTiedByPointsOverSeveralImagePairsAreOneRigidPiece) {
+  // 1-4 and 4-7 share image 4, and no image pair across shares 15 points:
+  // ties are counted per point seen from both parts (not through image 4),
+  // over all image pairs.
+  Reconstruction reconstruction = MakeImages(7);
+  AddPoints({1, 2, 3, 4}, 20, &reconstruction);
+  AddPoints({4, 5, 6, 7}, 25, &reconstruction);
+  AddPoints({3, 5}, 6, &reconstruction);
+  AddPoints({2, 6}, 5, &reconstruction);
+  AddPoints({1, 2, 6, 7}, 3, &reconstruction);  // one tie each
+  // Seen from one part and the shared image only: no tie.
+  AddPoints({3, 4}, 10, &reconstruction);
+  AddPoints({4, 5, 6}, 10, &reconstruction);
+  ModelRigidity rigidity =
+      AnalyzeModelRigidity(ModelRigidityOptions(), reconstruction, 3);
+  ASSERT_EQ(rigidity.blocks.size(), 2u);  // 14 points across
+  EXPECT_EQ(rigidity.num_large_blocks, 2);
+
+  AddPoints({3, 4, 6}, 1, &reconstruction);  // the 15th
+  rigidity = AnalyzeModelRigidity(ModelRigidityOptions(), reconstruction, 3);
+  ASSERT_EQ(rigidity.blocks.size(), 1u);
+  EXPECT_EQ(rigidity.num_large_blocks, 1);
+  EXPECT_EQ(rigidity.blocks[0].size(), 7u);
+  ASSERT_EQ(rigidity.joined_blocks.size(), 1u);
+  EXPECT_EQ(rigidity.joined_blocks[0].size(), 7u);
+}
+
+TEST(ModelRigidity, TiesAcrossMergedPartsAddUp) {
+  // A chain 1-3, 3-5, 5-7 of parts joined at images 3 and 5: the first two
+  // are tied by 15 points across (over two image pairs); the third is tied
+  // by 8 points to each of them, which makes it rigid with both once they
+  // are one piece.
+  Reconstruction reconstruction = MakeImages(7);
+  AddPoints({1, 2, 3}, 20, &reconstruction);
+  AddPoints({3, 4, 5}, 20, &reconstruction);
+  AddPoints({5, 6, 7}, 20, &reconstruction);
+  AddPoints({2, 4}, 8, &reconstruction);
+  AddPoints({1, 4}, 7, &reconstruction);
+  AddPoints({1, 6}, 8, &reconstruction);
+  AddPoints({4, 7}, 8, &reconstruction);
+  const ModelRigidity rigidity =
+      AnalyzeModelRigidity(ModelRigidityOptions(), reconstruction, 3);
+  ASSERT_EQ(rigidity.blocks.size(), 1u);
+  EXPECT_EQ(rigidity.blocks[0].size(), 7u);
+}
+
+TEST(ModelRigidity, LongTracksAcrossPartsCountOnce) {
+  // 14 points each seen by three images of either part: every pair across
+  // shares 14 points, and the parts are tied by 14 points, not by one tie
+  // per image pair.
+  Reconstruction reconstruction = MakeImages(7);
+  AddPoints({1, 2, 3, 4}, 20, &reconstruction);
+  AddPoints({4, 5, 6, 7}, 25, &reconstruction);
+  AddPoints({1, 2, 3, 5, 6, 7}, 14, &reconstruction);
+  const ModelRigidity rigidity =
+      AnalyzeModelRigidity(ModelRigidityOptions(), reconstruction, 3);
+  EXPECT_EQ(rigidity.num_large_blocks, 2);
+}
+
 TEST(ModelRigidity, DisconnectedPartsAreSeparateBlocks) {
   Reconstruction reconstruction = MakeImages(6);
   AddPoints({1, 2, 3}, 20, &reconstruction);

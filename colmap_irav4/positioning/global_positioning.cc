@@ -288,7 +288,8 @@ bool SolveWithPriors(
   // W (sim(c) - p) = s W R (c - x).
   const Eigen::Matrix3d model_R_prior = sim.R.transpose();
   // The problem does not own its losses: this one lives as long as it does.
-  prior_loss->reset(new ceres::CauchyLoss(options.pose_priors.loss_scale));
+  prior_loss->reset(new QuadraticCauchyTailLoss(
+      options.pose_priors.quadratic_std, options.pose_priors.loss_scale));
   for (auto& [image_id, center] : *centers) {
     const auto it = priors.find(image_id);
     if (it == priors.end() || !it->second.HasPosition()) continue;

@@ -24,8 +24,13 @@ void AddPosePriorOptions(OptionManager* manager, GlobalMapperOptions* options) {
   manager->Add("Mapper.prior_gravity_std",
                &options->pose_priors.gravity_std_deg,
                "standard deviation of a gravity prior (deg)");
+  manager->Add("Mapper.prior_quadratic_std",
+               &options->pose_priors.quadratic_std,
+               "prior residuals up to this many standard deviations weigh as "
+               "least squares, beyond it the Cauchy tail of prior_loss_scale");
   manager->Add("Mapper.prior_loss_scale", &options->pose_priors.loss_scale,
-               "Cauchy loss scale of prior residuals (standard deviations)");
+               "Cauchy loss scale of prior residuals beyond "
+               "prior_quadratic_std (standard deviations)");
   manager->Add("Mapper.prior_min_num_positions",
                &options->pose_priors.min_num_positions,
                "fewest position priors that place a model in their frame");

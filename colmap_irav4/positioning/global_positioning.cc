@@ -294,8 +294,8 @@ bool SolveWithPriors(
   // Every position prior in the model's frame, x = sim^-1(p): the residual
   // W (sim(c) - p) = s W R (c - x).
   const Eigen::Matrix3d model_R_prior = sim.R.transpose();
-  prior_terms->loss.reset(
-      new ceres::CauchyLoss(options.pose_priors.loss_scale));
+  prior_terms->loss.reset(new QuadraticCauchyTailLoss(
+      options.pose_priors.quadratic_std, options.pose_priors.loss_scale));
   for (auto& [image_id, center] : *centers) {
     const auto it = priors.find(image_id);
     if (it == priors.end() || !it->second.HasPosition()) continue;

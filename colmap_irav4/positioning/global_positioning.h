@@ -30,8 +30,9 @@ namespace colmap_irav4 {
 // the priors within 4 standard deviations; where images have gravity priors the
 // similarity's tilt comes from them, its heading, scale and offset from the
 // positions), then a second solve with every prior as a residual in standard
-// deviations under a Cauchy loss (PosePriorOptions), so that an outlier 50 m
-// off barely pulls, and the result mapped into the priors' frame (metric).
+// deviations under least squares with a Cauchy tail (PosePriorOptions), so
+// that an outlier 50 m off barely pulls, and the result mapped into the
+// priors' frame (metric).
 struct GlobalPositionerOptions {
   // Tracks with fewer observations in the model's images are left out (and
   // their points deleted: retriangulation recovers them later).

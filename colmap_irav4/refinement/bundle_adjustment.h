@@ -27,8 +27,9 @@ namespace colmap_irav4 {
 // frame): each position prior adds W (c - p), W^T W the inverse of its
 // covariance (or pose_priors.position_std^-2 I), and each gravity prior the
 // angle between its direction and the camera's down (0, 0, -1 in the
-// priors' frame) over pose_priors.gravity_std_deg, both under a Cauchy loss
-// of pose_priors.loss_scale standard deviations. With at least
+// priors' frame) over pose_priors.gravity_std_deg, both under least squares
+// up to pose_priors.quadratic_std standard deviations and a Cauchy tail of
+// pose_priors.loss_scale beyond (QuadraticCauchyTailLoss). With at least
 // pose_priors.min_num_positions position priors they hold the gauge (no
 // pose is fixed).
 

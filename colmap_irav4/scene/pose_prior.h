@@ -40,9 +40,12 @@ struct PosePriorOptions {
   // Standard deviation (m, each axis) of a position prior stored without a
   // covariance (COLMAP's EXIF priors have none; consumer GPS: 3-10 m).
   double position_std = 5.0;
-  // Scale of the Cauchy loss on the whitened prior residuals (standard
-  // deviations): a prior 15 std off (a GPS outlier) pulls about 25 times
-  // less than least squares would.
+  // The loss on the whitened prior residuals (geometry/pose_prior_cost.h's
+  // QuadraticCauchyTailLoss): least squares up to quadratic_std standard
+  // deviations (4: 99.9% of valid 3-d residuals), then a Cauchy tail of
+  // scale loss_scale: a prior 15 std off (a GPS outlier) pulls about 24
+  // times less than least squares would.
+  double quadratic_std = 4.0;
   double loss_scale = 3.0;
   // Standard deviation of a gravity direction (deg).
   double gravity_std_deg = 2.0;
@@ -54,6 +57,10 @@ struct PosePriorOptions {
     if (!(position_std > 0)) {
       throw OptionError(&position_std, "Mapper.prior_position_std",
                         "must be positive");
+    }
+    if (!(quadratic_std >= 0)) {
+      throw OptionError(&quadratic_std, "Mapper.prior_quadratic_std",
+                        "must be >= 0");
     }
     if (!(loss_scale > 0)) {
       throw OptionError(&loss_scale, "Mapper.prior_loss_scale",

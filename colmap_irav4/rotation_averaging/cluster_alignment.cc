@@ -160,12 +160,13 @@ ClusterAlignment AlignClusterToReference(
 
 ClusterConsensusCheck CheckAlignmentByClusterConsensus(
     const RotationGraph& graph, const std::vector<int>& cluster_of,
-    int num_clusters, double theta_deg, int min_support,
+    int num_clusters, double theta_deg, int min_support, int max_candidates,
     std::vector<Eigen::Matrix3d>* rotations) {
   const int n = graph.NumVertices();
   CHECK_EQ(static_cast<int>(cluster_of.size()), n);
   CHECK_EQ(static_cast<int>(rotations->size()), n);
   CHECK_GE(min_support, 1);
+  CHECK_GE(max_candidates, 1);
   const double trace_threshold = 1.0 + 2.0 * std::cos(DegToRad(theta_deg));
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
   ClusterConsensusCheck check;
@@ -208,7 +209,13 @@ ClusterConsensusCheck CheckAlignmentByClusterConsensus(
   for (const auto& [pair, pair_estimates] : estimates) {
     Relation relation{pair.first, pair.second, 0, true, identity};
     relation.support = CountSupport(identity, pair_estimates, trace_threshold);
-    for (const Eigen::Matrix3d& candidate : pair_estimates) {
+    // At most max_candidates candidates, evenly spread (deterministic):
+    // dense graphs join two clusters by thousands of edges, of which a
+    // relation held by many is sampled many times.
+    const size_t stride = std::max<size_t>(
+        1, pair_estimates.size() / static_cast<size_t>(max_candidates));
+    for (size_t k = 0; k < pair_estimates.size(); k += stride) {
+      const Eigen::Matrix3d& candidate = pair_estimates[k];
       const int support =
           CountSupport(candidate, pair_estimates, trace_threshold);
       if (support > relation.support) {

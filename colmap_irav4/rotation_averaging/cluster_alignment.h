@@ -71,10 +71,12 @@ struct ClusterConsensusCheck {
 // unless `min_support` or more edges agree on another one (a single edge
 // never overrules the reference). The corrected alignment is kept only if
 // it has more inlier edges (within theta) over the whole graph than the
-// current one; else `rotations` is unchanged.
+// current one; else `rotations` is unchanged. Per pair at most
+// `max_candidates` edge estimates are tried as the relation (evenly spread),
+// each scored against all: O(max_candidates E) at worst.
 ClusterConsensusCheck CheckAlignmentByClusterConsensus(
     const RotationGraph& graph, const std::vector<int>& cluster_of,
-    int num_clusters, double theta_deg, int min_support,
+    int num_clusters, double theta_deg, int min_support, int max_candidates,
     std::vector<Eigen::Matrix3d>* rotations);
 
 // Geodesic (Karcher) L2 mean of rotations, initialised at `initial`.

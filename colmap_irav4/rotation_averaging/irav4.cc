@@ -696,7 +696,8 @@ void Irav4::AlignClusters(const RotationGraph& graph,
     }
     report_.consensus = CheckAlignmentByClusterConsensus(
         graph, cluster_of, static_cast<int>(run->engines.size()),
-        options_.engine.theta_deg, options_.consensus_min_support, rotations);
+        options_.engine.theta_deg, options_.consensus_min_support,
+        alignment_options.max_vote_candidates, rotations);
     LOG_IF(INFO,
            options_.log_progress || report_.consensus.num_moved_clusters > 0)
         << "IRAv4: cluster consensus check: "

@@ -182,7 +182,7 @@ TEST(ClusterConsensus, CorrectsAClusterThatFollowedAFalseEdge) {
   WeakJoin scene = MakeWeakJoin(3);
   std::vector<Eigen::Matrix3d> rotations = scene.aligned;
   const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, &rotations);
+      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
   EXPECT_EQ(check.num_relations, 3);
   EXPECT_EQ(check.num_contradicted, 1);  // 1-2: 3 edges against the false one
   EXPECT_EQ(check.num_moved_clusters, 1);
@@ -203,7 +203,7 @@ TEST(ClusterConsensus, OneEdgeDoesNotOverruleTheReference) {
   WeakJoin scene = MakeWeakJoin(1);
   std::vector<Eigen::Matrix3d> rotations = scene.aligned;
   const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, &rotations);
+      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
   EXPECT_EQ(check.num_contradicted, 0);
   EXPECT_EQ(check.num_moved_clusters, 0);
   EXPECT_FALSE(check.applied);
@@ -214,7 +214,7 @@ TEST(ClusterConsensus, OneEdgeDoesNotOverruleTheReference) {
   // but the spanning tree takes the equally supported relation 0-2 (the
   // false edge, which the alignment keeps) first: ties keep the alignment.
   const ClusterConsensusCheck loose = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 1, &rotations);
+      scene.graph, scene.cluster_of, 3, 3.0, 1, 500, &rotations);
   EXPECT_EQ(loose.num_contradicted, 1);
   EXPECT_EQ(loose.num_moved_clusters, 0);
 }
@@ -223,7 +223,7 @@ TEST(ClusterConsensus, RightAlignmentUnchanged) {
   WeakJoin scene = MakeWeakJoin(3);
   std::vector<Eigen::Matrix3d> rotations = scene.truth;
   const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, &rotations);
+      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
   EXPECT_EQ(check.num_contradicted, 0);  // the false edge alone: support 1
   EXPECT_FALSE(check.applied);
   for (int v = 0; v < 30; ++v) EXPECT_TRUE(rotations[v] == scene.truth[v]);
@@ -244,7 +244,7 @@ TEST(ClusterConsensus, NotAppliedUnlessItAddsInlierEdges) {
   scene.graph.AddEdge(12, 26, R[26] * V * R[12].transpose());
   std::vector<Eigen::Matrix3d> rotations = scene.truth;
   const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, &rotations);
+      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
   EXPECT_EQ(check.num_contradicted, 1);
   EXPECT_EQ(check.num_moved_clusters, 1);
   EXPECT_EQ(check.inliers_after, check.inliers_before);

@@ -168,6 +168,8 @@ ClusterConsensusCheck CheckAlignmentByClusterConsensus(
   CHECK_GE(min_support, 1);
   CHECK_GE(max_candidates, 1);
   const double trace_threshold = 1.0 + 2.0 * std::cos(DegToRad(theta_deg));
+  const double noise_trace_threshold =
+      1.0 + 2.0 * std::cos(DegToRad(std::min(2.0 * theta_deg, 180.0)));
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
   ClusterConsensusCheck check;
   auto count_inliers = [&](const std::vector<Eigen::Matrix3d>& R) {
@@ -232,7 +234,15 @@ ClusterConsensusCheck CheckAlignmentByClusterConsensus(
         }
       }
       relation.M = GeodesicMean(supporters, relation.M);
-      check.num_contradicted += relation.support >= min_support;
+      // A relation within 2 theta of the current one is the same up to
+      // noise (their supporters overlap): the final optimisation refines
+      // it, the check is for gross errors (90-170 deg on the V2 scenes).
+      if (Within(relation.M, identity, noise_trace_threshold)) {
+        relation.keeps = true;
+        relation.M = identity;
+      } else {
+        check.num_contradicted += relation.support >= min_support;
+      }
     }
     relations.push_back(relation);
   }

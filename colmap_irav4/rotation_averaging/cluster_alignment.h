@@ -66,7 +66,9 @@ struct ClusterConsensusCheck {
 // seed 2, docs/notes/2026-12-03-irav4-weak-joins.md); every cluster aligned
 // to that part follows it, whatever the true pairs across say. Each cluster
 // pair's relation is the edge-induced estimate with the most supporters
-// within theta (ties: the current alignment). A maximum-support spanning
+// within theta (ties, and estimates within 2 theta of the current
+// alignment, which differ from it by noise only: the current alignment;
+// the final optimisation refines those). A maximum-support spanning
 // tree of the cluster graph keeps the current relation of each tree pair
 // unless `min_support` or more edges agree on another one (a single edge
 // never overrules the reference). The corrected alignment is kept only if

@@ -178,11 +178,17 @@ WeakJoin MakeWeakJoin(int num_true_12) {
   return scene;
 }
 
+// The check with theta 3 deg and 500 candidates per pair.
+ClusterConsensusCheck RunCheck(const WeakJoin& scene, int min_support,
+                               std::vector<Eigen::Matrix3d>* rotations) {
+  return CheckAlignmentByClusterConsensus(scene.graph, scene.cluster_of, 3, 3.0,
+                                          min_support, 500, rotations);
+}
+
 TEST(ClusterConsensus, CorrectsAClusterThatFollowedAFalseEdge) {
   WeakJoin scene = MakeWeakJoin(3);
   std::vector<Eigen::Matrix3d> rotations = scene.aligned;
-  const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
   EXPECT_EQ(check.num_relations, 3);
   EXPECT_EQ(check.num_contradicted, 1);  // 1-2: 3 edges against the false one
   EXPECT_EQ(check.num_moved_clusters, 1);
@@ -202,8 +208,7 @@ TEST(ClusterConsensus, OneEdgeDoesNotOverruleTheReference) {
   // contradicts the alignment, nothing moves.
   WeakJoin scene = MakeWeakJoin(1);
   std::vector<Eigen::Matrix3d> rotations = scene.aligned;
-  const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
   EXPECT_EQ(check.num_contradicted, 0);
   EXPECT_EQ(check.num_moved_clusters, 0);
   EXPECT_FALSE(check.applied);
@@ -213,8 +218,7 @@ TEST(ClusterConsensus, OneEdgeDoesNotOverruleTheReference) {
   // With min_support 1 the one true edge contradicts the alignment of 1-2,
   // but the spanning tree takes the equally supported relation 0-2 (the
   // false edge, which the alignment keeps) first: ties keep the alignment.
-  const ClusterConsensusCheck loose = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 1, 500, &rotations);
+  const ClusterConsensusCheck loose = RunCheck(scene, 1, &rotations);
   EXPECT_EQ(loose.num_contradicted, 1);
   EXPECT_EQ(loose.num_moved_clusters, 0);
 }
@@ -222,8 +226,7 @@ TEST(ClusterConsensus, OneEdgeDoesNotOverruleTheReference) {
 TEST(ClusterConsensus, RightAlignmentUnchanged) {
   WeakJoin scene = MakeWeakJoin(3);
   std::vector<Eigen::Matrix3d> rotations = scene.truth;
-  const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
   EXPECT_EQ(check.num_contradicted, 0);  // the false edge alone: support 1
   EXPECT_FALSE(check.applied);
   for (int v = 0; v < 30; ++v) EXPECT_TRUE(rotations[v] == scene.truth[v]);
@@ -243,8 +246,7 @@ TEST(ClusterConsensus, NotAppliedUnlessItAddsInlierEdges) {
   scene.graph.AddEdge(11, 25, R[25] * V * R[11].transpose());
   scene.graph.AddEdge(12, 26, R[26] * V * R[12].transpose());
   std::vector<Eigen::Matrix3d> rotations = scene.truth;
-  const ClusterConsensusCheck check = CheckAlignmentByClusterConsensus(
-      scene.graph, scene.cluster_of, 3, 3.0, 2, 500, &rotations);
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
   EXPECT_EQ(check.num_contradicted, 1);
   EXPECT_EQ(check.num_moved_clusters, 1);
   EXPECT_EQ(check.inliers_after, check.inliers_before);

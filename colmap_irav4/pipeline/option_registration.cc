@@ -122,6 +122,13 @@ void AddIrav4Options(OptionManager* manager, Irav4Options* options) {
                "IRAv4 clustering: a cluster takes only its community and "
                "boundary cameras tied to it at least as strongly as to "
                "their own (IRAv3's pre-selection); false = any camera");
+  manager->Add("RotationAveraging.consensus_check", &options->consensus_check,
+               "IRAv4: check the clusters' alignment to the reference by the "
+               "consensus of all edges between each pair of clusters");
+  manager->Add("RotationAveraging.consensus_min_support",
+               &options->consensus_min_support,
+               "IRAv4 consensus check: agreeing edges needed to overrule the "
+               "reference's relation of two clusters");
   manager->Add("RotationAveraging.max_cluster_size", &options->max_cluster_size,
                "IRAv4 clustering: a cluster stops competing at this size "
                "until the fallback pass (0 = no cap)");

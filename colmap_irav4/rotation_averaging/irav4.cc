@@ -220,6 +220,11 @@ void Irav4Options::Check() const {
     throw OptionError(&max_cluster_size, "RotationAveraging.max_cluster_size",
                       "must be >= 0");
   }
+  if (consensus_min_support < 1) {
+    throw OptionError(&consensus_min_support,
+                      "RotationAveraging.consensus_min_support",
+                      "must be >= 1");
+  }
   if (num_final_rounds < 0) {
     throw OptionError(&num_final_rounds, "RotationAveraging.num_final_rounds",
                       "must be >= 0");
@@ -681,6 +686,29 @@ void Irav4::AlignClusters(const RotationGraph& graph,
     pending = failed;
   }
   report_.num_failed_alignments = static_cast<int>(pending.size());
+  if (options_.consensus_check && run->engines.size() > 1) {
+    std::vector<int> cluster_of(n, -1);
+    std::vector<bool> failed(run->engines.size(), false);
+    for (int c : pending) failed[c] = true;
+    for (int c = 0; c < static_cast<int>(run->engines.size()); ++c) {
+      if (failed[c]) continue;
+      for (int v : run->engines[c]->Selected()) cluster_of[v] = c;
+    }
+    report_.consensus = CheckAlignmentByClusterConsensus(
+        graph, cluster_of, static_cast<int>(run->engines.size()),
+        options_.engine.theta_deg, options_.consensus_min_support,
+        alignment_options.max_vote_candidates, rotations);
+    LOG_IF(INFO,
+           options_.log_progress || report_.consensus.num_moved_clusters > 0)
+        << "IRAv4: cluster consensus check: "
+        << report_.consensus.num_contradicted << " of "
+        << report_.consensus.num_relations
+        << " cluster relations contradict the alignment; "
+        << report_.consensus.num_moved_clusters << " clusters moved, "
+        << report_.consensus.inliers_before << " -> "
+        << report_.consensus.inliers_after << " inlier edges: "
+        << (report_.consensus.applied ? "applied" : "not applied");
+  }
   for (int c : pending) {
     LOG(WARNING) << "IRAv4: cluster " << c << " ("
                  << run->engines[c]->Selected().size()

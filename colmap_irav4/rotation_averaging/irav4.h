@@ -47,6 +47,13 @@ struct Irav4Options {
   // A cluster stops competing at this size until the fallback pass; 0 = no
   // cap.
   int max_cluster_size = 0;
+  // After the alignment to the reference: check it by the consensus of all
+  // edges between each pair of clusters and correct the clusters that
+  // follow a wrong part of the reference (CheckAlignmentByClusterConsensus,
+  // a relation overruled only by at least consensus_min_support agreeing
+  // edges, kept only if it adds inlier edges).
+  bool consensus_check = true;
+  int consensus_min_support = 2;
   // irav4 (the paper), greedy_cds or random_cds (baselines).
   ReferenceMethod reference_method = ReferenceMethod::kIrav4;
   // Greedy CDS: count neighbours by inlier count instead of one each.
@@ -133,6 +140,7 @@ struct Irav4Report {
   int num_fallback_vertices = 0;    // affiliated by the fallback pass
   int num_failed_alignments = 0;    // clusters aligned to nothing
   int num_individually_placed = 0;  // vertices placed one by one instead
+  ClusterConsensusCheck consensus;  // consensus_check
   int n_ref = 0;
   AlignmentReference reference;  // indices of the input graph
   int num_vertex_guided_alignments = 0;

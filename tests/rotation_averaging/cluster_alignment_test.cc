@@ -141,5 +141,118 @@ TEST(ClusterAlignment, GeodesicMeanOfSymmetricPerturbations) {
   EXPECT_LT(AngularDistanceDeg(mean, center), 1e-6);
 }
 
+// Three clusters of 10 (0-9, 10-19, 20-29), each complete inside, joined by
+// true edges 0-10 and 5-15 (clusters 0-1) and `num_true_12` true edges
+// 10+k - 20+k (clusters 1-2), plus a false edge 3-23 that holds for
+// cluster 2 turned by W. Cluster 2 is aligned as if it had followed the
+// false edge (R_v W), the others rightly: the weak join of V2 100 seed 2.
+struct WeakJoin {
+  RotationGraph graph;
+  std::vector<Eigen::Matrix3d> truth;
+  std::vector<Eigen::Matrix3d> aligned;
+  std::vector<int> cluster_of;
+};
+
+WeakJoin MakeWeakJoin(int num_true_12) {
+  std::mt19937_64 rng(7);
+  WeakJoin scene;
+  scene.graph = RotationGraph(30);
+  for (int v = 0; v < 30; ++v) scene.truth.push_back(RandomRotation(&rng));
+  const Eigen::Matrix3d W = RandomRotationWithAngle(DegToRad(117.0), &rng);
+  auto add_true = [&](int i, int j) {
+    scene.graph.AddEdge(i, j, scene.truth[j] * scene.truth[i].transpose());
+  };
+  for (int c = 0; c < 3; ++c) {
+    for (int i = 10 * c; i < 10 * c + 10; ++i) {
+      for (int j = i + 1; j < 10 * c + 10; ++j) add_true(i, j);
+    }
+  }
+  add_true(0, 10);
+  add_true(5, 15);
+  for (int k = 0; k < num_true_12; ++k) add_true(10 + k, 20 + k);
+  scene.graph.AddEdge(3, 23, scene.truth[23] * W * scene.truth[3].transpose());
+  for (int v = 0; v < 30; ++v) {
+    scene.aligned.push_back(v < 20 ? scene.truth[v] : scene.truth[v] * W);
+    scene.cluster_of.push_back(v / 10);
+  }
+  return scene;
+}
+
+// The check with theta 3 deg and 500 candidates per pair.
+ClusterConsensusCheck RunCheck(const WeakJoin& scene, int min_support,
+                               std::vector<Eigen::Matrix3d>* rotations) {
+  return CheckAlignmentByClusterConsensus(scene.graph, scene.cluster_of, 3, 3.0,
+                                          min_support, 500, rotations);
+}
+
+TEST(ClusterConsensus, CorrectsAClusterThatFollowedAFalseEdge) {
+  WeakJoin scene = MakeWeakJoin(3);
+  std::vector<Eigen::Matrix3d> rotations = scene.aligned;
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
+  EXPECT_EQ(check.num_relations, 3);
+  EXPECT_EQ(check.num_contradicted, 1);  // 1-2: 3 edges against the false one
+  EXPECT_EQ(check.num_moved_clusters, 1);
+  EXPECT_TRUE(check.applied);
+  EXPECT_EQ(check.inliers_after, check.inliers_before + 3 - 1);
+  // The two right clusters are untouched; the third is back in their frame.
+  for (int v = 0; v < 20; ++v) {
+    EXPECT_TRUE(rotations[v] == scene.aligned[v]) << v;
+  }
+  for (int v = 20; v < 30; ++v) {
+    EXPECT_LT(AngularDistanceDeg(rotations[v], scene.truth[v]), 1e-6) << v;
+  }
+}
+
+TEST(ClusterConsensus, OneEdgeDoesNotOverruleTheReference) {
+  // One true edge across against one false edge: no corroborated relation
+  // contradicts the alignment, nothing moves.
+  WeakJoin scene = MakeWeakJoin(1);
+  std::vector<Eigen::Matrix3d> rotations = scene.aligned;
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
+  EXPECT_EQ(check.num_contradicted, 0);
+  EXPECT_EQ(check.num_moved_clusters, 0);
+  EXPECT_FALSE(check.applied);
+  for (int v = 0; v < 30; ++v) {
+    EXPECT_TRUE(rotations[v] == scene.aligned[v]) << v;
+  }
+  // With min_support 1 the one true edge contradicts the alignment of 1-2,
+  // but the spanning tree takes the equally supported relation 0-2 (the
+  // false edge, which the alignment keeps) first: ties keep the alignment.
+  const ClusterConsensusCheck loose = RunCheck(scene, 1, &rotations);
+  EXPECT_EQ(loose.num_contradicted, 1);
+  EXPECT_EQ(loose.num_moved_clusters, 0);
+}
+
+TEST(ClusterConsensus, RightAlignmentUnchanged) {
+  WeakJoin scene = MakeWeakJoin(3);
+  std::vector<Eigen::Matrix3d> rotations = scene.truth;
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
+  EXPECT_EQ(check.num_contradicted, 0);  // the false edge alone: support 1
+  EXPECT_FALSE(check.applied);
+  for (int v = 0; v < 30; ++v) EXPECT_TRUE(rotations[v] == scene.truth[v]);
+}
+
+TEST(ClusterConsensus, NotAppliedUnlessItAddsInlierEdges) {
+  // The right alignment; clusters 1-2 joined by one true edge (10-20) and
+  // two false edges that agree on turning cluster 2 by V (a corroborated
+  // contradiction the tree follows), clusters 0-2 by the false 3-23 and a
+  // true 4-24. Turning cluster 2 gains the two false edges and loses the
+  // two true ones: no more inliers, not applied.
+  WeakJoin scene = MakeWeakJoin(1);
+  std::mt19937_64 rng(11);
+  const Eigen::Matrix3d V = RandomRotationWithAngle(DegToRad(90.0), &rng);
+  const auto& R = scene.truth;
+  scene.graph.AddEdge(4, 24, R[24] * R[4].transpose());
+  scene.graph.AddEdge(11, 25, R[25] * V * R[11].transpose());
+  scene.graph.AddEdge(12, 26, R[26] * V * R[12].transpose());
+  std::vector<Eigen::Matrix3d> rotations = scene.truth;
+  const ClusterConsensusCheck check = RunCheck(scene, 2, &rotations);
+  EXPECT_EQ(check.num_contradicted, 1);
+  EXPECT_EQ(check.num_moved_clusters, 1);
+  EXPECT_EQ(check.inliers_after, check.inliers_before);
+  EXPECT_FALSE(check.applied);
+  for (int v = 0; v < 30; ++v) EXPECT_TRUE(rotations[v] == scene.truth[v]);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

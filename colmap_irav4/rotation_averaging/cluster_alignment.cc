@@ -11,6 +11,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -257,18 +258,11 @@ ClusterConsensusCheck CheckAlignmentByClusterConsensus(
                      return std::make_tuple(-a.support, !a.keeps, a.c, a.d) <
                             std::make_tuple(-b.support, !b.keeps, b.c, b.d);
                    });
-  std::vector<int> parent(num_clusters);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
+  UnionFind forest(num_clusters);
   // tree[c]: (neighbour, G_neighbour = M G_c).
   std::vector<std::vector<std::pair<int, Eigen::Matrix3d>>> tree(num_clusters);
   for (const Relation& relation : relations) {
-    const int rc = find(relation.c), rd = find(relation.d);
-    if (rc == rd) continue;
-    parent[rc] = rd;
+    if (!forest.Union(relation.c, relation.d)) continue;
     const Eigen::Matrix3d M = relation.keeps || relation.support < min_support
                                   ? identity
                                   : relation.M;

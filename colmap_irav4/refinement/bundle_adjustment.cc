@@ -834,17 +834,7 @@ bool FitPriorFrame(const PosePriors& priors, const PosePriorOptions& options,
                                    ceres::ColumnMajorAdapter3x3(sim.R.data()));
   sim.t = pivot + Eigen::Map<const Eigen::Vector3d>(shift) -
           sim.scale * (sim.R * pivot);
-  const Eigen::Quaterniond world_from_moved(Eigen::Matrix3d(sim.R.transpose()));
-  for (auto& [image_id, image] : reconstruction->images) {
-    const Eigen::Vector3d center = sim * image.ProjectionCenter();
-    image.cam_from_world.rotation =
-        (image.cam_from_world.rotation * world_from_moved).normalized();
-    image.cam_from_world.translation =
-        -(image.cam_from_world.rotation * center);
-  }
-  for (auto& [point3D_id, point] : reconstruction->points3D) {
-    point.xyz = sim * point.xyz;
-  }
+  TransformReconstruction(sim, reconstruction);
   VLOG(1) << "Bundle adjustment: model moved onto its priors' frame by "
           << (sim.scale - 1) * 100 << "% scale, "
           << RadToDeg(Eigen::AngleAxisd(sim.R).angle()) << " deg, "

@@ -77,7 +77,8 @@ for fuzzer in tests/fuzz/*_fuzzer.cc; do
   mkdir -p "$scratch/$name"
   echo "== fuzzing $name for ${FUZZ_SECONDS} s"
   status=0
-  ./build_asan/"$name" -seed="$FUZZ_SEED" -max_total_time="$FUZZ_SECONDS" -timeout=10 \
+  # TMPDIR: the fuzzers' own scratch files go where the trap removes them.
+  TMPDIR="$scratch" ./build_asan/"$name" -seed="$FUZZ_SEED" -max_total_time="$FUZZ_SECONDS" -timeout=10 \
     -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$artifacts/$name-" \
     "$scratch/$name" "tests/fuzz/corpus/$name" > "$scratch/$name.log" 2>&1 ||

@@ -1,7 +1,6 @@
 // End-to-end tests of `colmap_irav4 rotation_averager` through the binary.
 
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -18,18 +17,18 @@
 #include "colmap_irav4/util/random.h"
 #include "tests/test_utils/data.h"
 #include "tests/test_utils/rotation_test_utils.h"
+#include "tests/test_utils/temp_dir.h"
 
 namespace colmap_irav4 {
 namespace {
 
 namespace fs = std::filesystem;
 
+// One directory for the test program's files, removed when it exits.
 const fs::path& TempDir() {
-  static const fs::path dir =
-      fs::temp_directory_path() /
-      ("colmap_irav4_ra_command_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  static const test::TempDir dir;
+  static const fs::path path = dir.path();
+  return path;
 }
 
 std::string WriteFile(const std::string& name, const std::string& text) {

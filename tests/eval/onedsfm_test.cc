@@ -12,6 +12,7 @@
 #include "colmap_irav4/util/error.h"
 #include "tests/test_utils/data.h"
 #include "tests/test_utils/record.h"
+#include "tests/test_utils/temp_dir.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -19,11 +20,8 @@ namespace {
 const std::string kMadrid = DataDir() + "/1dsfm/Madrid_Metropolis";
 
 std::string TempPath(const std::string& name) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() /
-      ("colmap_irav4_onedsfm_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
+  static const test::TempDir dir;  // removed when the test program exits
+  return dir.File(name);
 }
 
 std::string WriteFile(const std::string& name, const std::string& text) {

@@ -5,20 +5,17 @@
 #include <random>
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/util/error.h"
+#include "tests/test_utils/temp_dir.h"
 
 namespace colmap_irav4 {
 namespace {
 
 std::string WriteFile(const std::string& name, const std::string& text) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() /
-      ("colmap_irav4_relpose_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  const std::string path = (dir / name).string();
+  static const test::TempDir dir;  // removed when the test program exits
+  const std::string path = dir.File(name);
   std::ofstream(path) << text;
   return path;
 }

@@ -15,35 +15,12 @@
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/random.h"
+#include "tests/test_utils/temp_dir.h"
 
 namespace colmap_irav4 {
 namespace test {
 
 namespace fs = std::filesystem;
-
-// A fresh temporary directory, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    const ::testing::TestInfo* info =
-        ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ =
-        (fs::temp_directory_path() /
-         ("colmap_irav4_model_io_" + std::string(info->test_suite_name()) +
-          "_" + std::string(info->name()) + "_" + std::to_string(::getpid())))
-            .string();
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const std::string& path() const { return path_; }
-  std::string File(const std::string& name) const {
-    return (fs::path(path_) / name).string();
-  }
-
- private:
-  std::string path_;
-};
 
 inline std::string ReadBytes(const std::string& path) {
   std::ifstream file(path, std::ios::binary);

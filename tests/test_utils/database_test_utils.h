@@ -23,31 +23,10 @@
 #include <gtest/gtest.h>
 
 #include "colmap_irav4/io/model_io.h"
+#include "tests/test_utils/temp_dir.h"
 
 namespace colmap_irav4 {
 namespace test {
-
-// A fresh temporary directory, removed on destruction.
-class TempDir {
- public:
-  TempDir() {
-    std::random_device device;
-    path_ = std::filesystem::temp_directory_path() /
-            ("colmap_irav4_test_" + std::to_string(device()) + "_" +
-             std::to_string(device()));
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code error;
-    std::filesystem::remove_all(path_, error);
-  }
-  std::string File(const std::string& name) const {
-    return (path_ / name).string();
-  }
-
- private:
-  std::filesystem::path path_;
-};
 
 // Exit code (128 + signal when killed) and stdout + stderr of a shell
 // command line, e.g. the program: RunShell(COLMAP_IRAV4_BINARY + args, temp)

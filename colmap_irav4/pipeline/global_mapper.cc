@@ -126,6 +126,23 @@ void GlobalMapper::AddModelFigures(StageTimer* stage) {
              MeanPointReprojectionError(reconstruction_));
 }
 
+void GlobalMapper::WarnFilteredImages(const FilterSummary& summary) const {
+  if (summary.filtered_images.empty()) return;
+  // Not a failure, but the model is smaller than the component: say which
+  // images left it and why (their poses had no point to rest on).
+  std::ostringstream names;
+  for (image_t image_id : summary.filtered_images) {
+    names << " " << database_.images.at(image_id).name;
+  }
+  LOG(WARNING) << log_prefix_ << summary.filtered_images.size()
+               << " image(s) removed from the model: fewer than "
+               << options_.filtering.min_num_observations_per_image
+               << " observation(s) left after the filters, so no point "
+                  "supports the pose rotation averaging and positioning gave "
+                  "them:"
+               << names.str();
+}
+
 bool GlobalMapper::Solve(bool stop_if_folded) {
   if (state_ == State::kNew) {
     if (!(RotationAveraging() && RotationFilter() && BuildTracks() &&
@@ -480,6 +497,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
                                     filter_summary.num_observations_filtered));
       stage.Add("points filtered (angle)",
                 static_cast<double>(filter_summary.num_points_filtered));
+      stage.Add("images filtered",
+                static_cast<double>(filter_summary.num_images_filtered));
+      WarnFilteredImages(filter_summary);
       AddModelFigures(&stage);
       stage.Finish(log_prefix_, &stages_);
     }
@@ -543,6 +563,7 @@ bool GlobalMapper::Finalize() {
               static_cast<double>(filter_summary.num_points_filtered));
     stage.Add("images filtered",
               static_cast<double>(filter_summary.num_images_filtered));
+    WarnFilteredImages(filter_summary);
     AddModelFigures(&stage);
     stage.Finish(log_prefix_, &stages_);
   }

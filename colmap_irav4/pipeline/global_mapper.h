@@ -248,6 +248,8 @@ class GlobalMapper {
   // Adds the model's registered images, points and reprojection errors to
   // the stage's figures.
   void AddModelFigures(StageTimer* stage);
+  // Logs the images a filtering removed from the model (a warning).
+  void WarnFilteredImages(const FilterSummary& summary) const;
 
   enum class State { kNew, kPositioned, kRefined, kFailed };
 

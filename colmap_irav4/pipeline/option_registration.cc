@@ -375,6 +375,10 @@ void AddFilterOptions(OptionManager* manager, FilterOptions* o) {
   manager->Add("Filter.min_tri_angle", &o->min_tri_angle,
                "points with a smaller largest triangulation angle are removed "
                "(deg)");
+  manager->Add("Filter.min_num_observations_per_image",
+               &o->min_num_observations_per_image,
+               "images left with fewer observations after a filtering are "
+               "removed from the model (1: those no point is seen in)");
 }
 
 void AddNormalizationOptions(OptionManager* manager, NormalizationOptions* o) {

@@ -117,6 +117,7 @@ FilterSummary RunFiltering(const FilterOptions& options,
     }
     for (image_t image_id : filtered) DeleteImage(image_id, reconstruction);
     summary.num_images_filtered = filtered.size();
+    summary.filtered_images = std::move(filtered);
   }
   return summary;
 }

@@ -38,8 +38,12 @@ struct FilterOptions {
   // Points seen under a smaller largest angle (deg) are removed (COLMAP's
   // filter_min_tri_angle).
   double min_tri_angle = 1.5;
-  // Images left with fewer observations are deleted (unregistered).
-  int min_num_observations_per_image = 0;
+  // Images left with fewer observations are deleted (unregistered). 1, as
+  // COLMAP's FilterImages: an image no point is seen in has a pose nothing in
+  // the model supports (in a global mapper: whatever rotation averaging and
+  // positioning gave it, e.g. from a false pair whose matches the filters
+  // removed since).
+  int min_num_observations_per_image = 1;
 
   // Throws InputError naming the offending option.
   void Check() const;
@@ -49,6 +53,7 @@ struct FilterSummary {
   size_t num_observations_filtered = 0;
   size_t num_points_filtered = 0;  // by triangulation angle
   size_t num_images_filtered = 0;
+  std::vector<image_t> filtered_images;  // the deleted ones, in id order
 };
 
 // `noise` (optional) scales the reprojection threshold per keypoint, as in

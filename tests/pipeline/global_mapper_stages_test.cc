@@ -337,5 +337,89 @@ TEST(GlobalMapperStages, StagesSkippedByOptionsAndFailureReason) {
   EXPECT_EQ(too_small.stages().size(), 2u);
 }
 
+// An image tied to the scene by one false pair only (random matches, a
+// relative pose 150 deg off the truth), as image 173 of the V2 300-image
+// courtyard (seed 2): rotation averaging follows the pair, positioning places
+// the image on its matches, and the filters remove every one of them. An
+// image no point is seen in has a pose nothing supports; it must leave the
+// model instead of being written turned.
+TEST(GlobalMapperStages, AnImageOnlyAFalsePairHoldsLeavesTheModel) {
+  StageScene s = MakeStageScene();
+  constexpr point2D_t kNumStrayMatches = 30;
+  const image_t stray = s.images.back() + 1;
+  const image_t partner = s.images.front();
+  const Camera& camera = s.database.cameras.begin()->second;
+  DatabaseImage& row = s.database.images[stray];
+  row.image_id = stray;
+  row.name = "stray.jpg";
+  row.camera_id = camera.camera_id;
+  std::mt19937_64 rng(7);
+  // Keypoints in the left quarter: far from the principal point, so that no
+  // pose (not even one far away, where every point projects near the centre)
+  // fits them by chance.
+  std::uniform_real_distribution<double> x(0.0, 0.25 * camera.width);
+  std::uniform_real_distribution<double> y(0.0, camera.height);
+  FeatureKeypoints& keypoints = s.database.keypoints[stray];
+  for (int k = 0; k < 200; ++k) {
+    keypoints.push_back(Eigen::Vector2f(x(rng), y(rng)));
+  }
+  s.images.push_back(stray);
+  TwoViewGeometry geometry;
+  geometry.image_id1 = partner;
+  geometry.image_id2 = stray;
+  geometry.config = TwoViewGeometry::CALIBRATED;
+  const size_t num_partner_keypoints = s.database.keypoints.at(partner).size();
+  for (point2D_t k = 0; k < kNumStrayMatches; ++k) {
+    geometry.inlier_matches.push_back(FeatureMatch{
+        static_cast<point2D_t>((k * 7) % num_partner_keypoints), k});
+  }
+  s.database.two_view_geometries.push_back(geometry);
+  ImagePairGeometry pair;
+  pair.image_id1 = partner;
+  pair.image_id2 = stray;
+  pair.R = RandomRotationWithAngle(DegToRad(150.0), &rng);
+  pair.t = Eigen::Vector3d(0.3, -0.2, 1.0).normalized();
+  pair.num_inliers = kNumStrayMatches;
+  pair.config = TwoViewGeometry::CALIBRATED;
+  s.pairs.push_back(pair);
+
+  // Kept (as before Filter.min_num_observations_per_image was 1): the image
+  // is in the model, seen in no point, its pose the false pair's.
+  GlobalMapperOptions keep_options = TestOptions();
+  keep_options.filtering.min_num_observations_per_image = 0;
+  GlobalMapper keep(keep_options.ForStages(s.images.size()), s.database,
+                    s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(keep.Solve());
+  ASSERT_EQ(keep.reconstruction().images.count(stray), 1u);
+  for (const Point2D& point2D :
+       keep.reconstruction().images.at(stray).points2D) {
+    EXPECT_EQ(point2D.point3D_id, kInvalidPoint3DId);
+  }
+
+  GlobalMapper mapper(TestOptions().ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(mapper.Solve());
+  const Reconstruction& model = mapper.reconstruction();
+  EXPECT_EQ(model.images.count(stray), 0u);
+  // Every image of the scene itself stays, and every image in the model is
+  // seen in some point.
+  EXPECT_EQ(model.images.size(), s.images.size() - 1);
+  for (const auto& [image_id, image] : model.images) {
+    int num_observations = 0;
+    for (const Point2D& point2D : image.points2D) {
+      num_observations += point2D.point3D_id != kInvalidPoint3DId;
+    }
+    EXPECT_GT(num_observations, 0) << image.name;
+  }
+  // The stages say so.
+  double num_filtered = 0;
+  for (const StageReport& stage : mapper.stages()) {
+    for (const auto& [name, value] : stage.figures) {
+      if (name == "images filtered") num_filtered += value;
+    }
+  }
+  EXPECT_EQ(num_filtered, 1.0);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

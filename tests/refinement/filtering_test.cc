@@ -181,5 +181,26 @@ TEST(Filtering, RunFilteringDropsImagesWithFewObservations) {
   ExpectConsistent(reconstruction);
 }
 
+// By default (as COLMAP's FilterImages) an image no point is seen in leaves
+// the model; one seen in a single point stays.
+TEST(Filtering, RunFilteringDropsImagesWithoutObservationsByDefault) {
+  SyntheticScene scene = Scene();
+  Reconstruction& reconstruction = scene.truth;
+  for (image_t image_id : {2, 3}) {
+    const point2D_t first_deleted = image_id == 2 ? 0 : 1;
+    for (point2D_t idx = first_deleted;
+         idx < reconstruction.images.at(image_id).points2D.size(); ++idx) {
+      DeleteObservation(image_id, idx, &reconstruction);
+    }
+  }
+  const size_t num_images = reconstruction.images.size();
+  const FilterSummary summary = RunFiltering(FilterOptions(), &reconstruction);
+  EXPECT_EQ(summary.num_images_filtered, 1u);
+  EXPECT_EQ(summary.filtered_images, std::vector<image_t>{2});
+  EXPECT_FALSE(reconstruction.images.count(2));
+  EXPECT_EQ(reconstruction.images.size(), num_images - 1);
+  ExpectConsistent(reconstruction);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

@@ -200,7 +200,9 @@ awk '
     for (k = 1; k <= n; ++k) {
       o = parts[k]; sub(/^[-0-9.]*:/, "", o); gsub(/_/, " ", o)
       sub(/(, )?split \(not rigid\)$/, "", o)
-      if (o != "" && o != "clean" && o != "clean after refinement") return 1
+      # "-" and "no model": no summary.json or no model, no outcome.
+      if (o != "" && o != "-" && o != "no model" && o != "clean" &&
+          o != "clean after refinement") return 1
     }
     return 0
   }
@@ -233,6 +235,7 @@ awk '
       ok = (why == "")
       verdict = ok ? ($11 == "-" ? "ok (no gt)" : "ok") : "FAIL:" substr(why, 2)
       ++scenes_without; alarms += !ok
+      fold_alarms += (fired($17) || $16 == 3)
       if ($1 == "real") { ++real_n; real_alarms += !ok }
     } else {
       f = fired($17)
@@ -244,11 +247,13 @@ awk '
     printf fmt, $1, scene, $7, $9, $10, $11, $15, $16, verdict, outcomes($17)
   }
   END {
-    printf "false-alarm rate: %d of %d scenes without mirror pairs (real: %d of %d)" \
+    printf "false-alarm rate: %d of %d scenes without mirror pairs (real: %d of %d;" \
+      " a fold named or exit 3 on %d)" \
       " | detection rate: %d of %d folded scenes (silent folds %d; %d of %d" \
       " scenes with mirror pairs without a fold written; cameras turned >" \
       " 30 deg in all %d; exit 3 on %d)%s\n",
-      alarms, scenes_without, real_alarms, real_n, detected, detected + silent,
+      alarms, scenes_without, real_alarms, real_n, fold_alarms, detected,
+      detected + silent,
       silent, quiet, scenes_with, turned_with, exit3,
       not_run ? sprintf("; %d not run", not_run) : ""
   }' "$rows" > "$out"

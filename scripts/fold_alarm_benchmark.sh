@@ -35,9 +35,10 @@
 #     not), "SILENT FOLD" (a miss) when none does and cameras are turned,
 #     "no fold" when none does and no camera is turned (the mirror pairs
 #     folded nothing that was written: neither a detection nor a miss).
-# Then the false-alarm rate and the detection rate (detected of detected +
-# silent folds) side by side. The table
-# is also written to WORKSPACE/fold_alarms_TAG.txt. Runs in order: real,
+# Then the false-alarm rate (with how many of those scenes name a fold or
+# exit 3: fold alarms proper) and the detection rate (detected of detected +
+# silent folds) side by side. The table is also written to
+# WORKSPACE/fold_alarms_TAG.txt. Runs in order: real,
 # plain, v2mirror, tower, nonsym (sizes in the order given), one mapper at a
 # time. Environment: BUILD, TAG, THREADS (default 1), OURS_ARGS as for
 # symmetric_benchmark.sh; REAL_DBS (space-separated databases; each needs

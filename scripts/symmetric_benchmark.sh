@@ -125,8 +125,9 @@ generate_and_map_ours() {
       fi
       touch "$scene/.generated"
     fi
+    # A run that was stopped leaves an empty time file: mapped again.
     if [ "$run_ours" = 1 ] &&
-        { [ "$reuse" != 1 ] || [ ! -f "$scene/$tag.time" ]; }; then
+        { [ "$reuse" != 1 ] || [ ! -s "$scene/$tag.time" ]; }; then
       rm -rf "${scene:?}/$tag" && mkdir -p "$scene/$tag"
       local code=0
       # shellcheck disable=SC2086

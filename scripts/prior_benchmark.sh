@@ -14,7 +14,16 @@
 # every error against the truth in the priors' frame (gt_prior).
 #
 #   scripts/prior_benchmark.sh [--out DIR] [--sizes 100,300] [--seed 1]
-#       [--threads 2] [--no_colmap]
+#       [--threads 2] [--no_colmap] [--mapper_args "ARGS"]
+#       [--variants priors,positions,no_priors]
+#
+# --mapper_args: extra arguments to each of our mapper runs (word-split),
+# e.g. "--Mapper.prior_loss_scale 1"; give each setting its own --out (runs
+# found in DIR are reused whatever the arguments were; a copy of
+# DIR/colmap_N_sS and its .time reuses COLMAP's run, the scenes being
+# generated again from the seed). --variants: which of our runs to make
+# (e.g. priors,positions when ours_no_priors, which no prior option
+# changes, was run for another setting).
 #
 # COLMAP's mapper runs once per scene (its input does not depend on the
 # priors) on a copy of the database; existing runs (ours and COLMAP's
@@ -29,6 +38,8 @@ sizes=100,300
 seed=1
 threads=2
 run_colmap=1
+mapper_args=""
+variants=priors,positions,no_priors
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=$2; shift 2 ;;
@@ -36,9 +47,13 @@ while [ $# -gt 0 ]; do
     --seed) seed=$2; shift 2 ;;
     --threads) threads=$2; shift 2 ;;
     --no_colmap) run_colmap=0; shift ;;
+    --mapper_args) mapper_args=$2; shift 2 ;;
+    --variants) variants=$2; shift 2 ;;
     *) echo "unknown option $1" >&2; exit 1 ;;
   esac
 done
+read -r -a extra_args <<< "$mapper_args"
+IFS=',' read -r -a variant_list <<< "$variants"
 binary=${COLMAP_IRAV4:-$root/build/colmap_irav4}
 generator=${SCENE_GENERATOR:-$root/build/scene_generator}
 for tool in "$binary" "$generator"; do
@@ -92,12 +107,13 @@ for n in "${size_list[@]}"; do
     mkdir -p "$dir/images"
     runs=$out/runs/$scene
     mkdir -p "$runs"
-    for variant in priors positions no_priors; do
+    for variant in "${variant_list[@]}"; do
       case $variant in
         priors) args=(--database_path "$dir/database_colmap4.db") ;;
         positions) args=(--database_path "$dir/database_colmap311.db") ;;
         no_priors) args=(--database_path "$dir/database.db"
                          --Mapper.use_pose_priors 0) ;;
+        *) echo "unknown variant $variant" >&2; exit 1 ;;
       esac
       if [ -f "$runs/ours_$variant/0/images.bin" ] &&
           [ -f "$runs/ours_$variant.time" ]; then
@@ -109,7 +125,8 @@ for n in "${size_list[@]}"; do
         echo "== $scene: ours_$variant" >&2
         timed "$runs/ours_$variant" env OMP_NUM_THREADS="$threads" "$binary" \
           mapper "${args[@]}" --image_path "$dir/images" \
-          --output_path "$runs/ours_$variant" --Mapper.num_threads "$threads"
+          --output_path "$runs/ours_$variant" --Mapper.num_threads "$threads" \
+          ${extra_args[@]+"${extra_args[@]}"}
       fi
       alignment=none
       [ "$variant" = no_priors ] && alignment=similarity

@@ -151,8 +151,8 @@ bool SchurBundleAdjuster::EvaluatePoseResidual(const PoseResidual& residual,
   int num_blocks = 0;
   if (uses_rotation) parameters[num_blocks++] = rotation;
   if (uses_position) parameters[num_blocks++] = position;
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
-                                 Eigen::RowMajor>;
+  using RowMajor =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   RowMajor dq(m, 4), dp(m, 3);
   double* jacobians[2];
   num_blocks = 0;
@@ -700,8 +700,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       if (b < 0) continue;
       const Eigen::VectorXd change =
           lin.A * step.segment(block_offset_[b], block_size_[b]);
-      model_cost -= 0.5 * lin.r.squaredNorm() -
-                    0.5 * (lin.r + change).squaredNorm();
+      model_cost -=
+          0.5 * lin.r.squaredNorm() - 0.5 * (lin.r + change).squaredNorm();
     }
     for (size_t i = 0; i < poses_.size(); ++i) {
       const int b = pose_block_[i];

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <ceres/ceres.h>
+#include <Eigen/Core>
 
 #include "colmap_irav4/scene/reconstruction.h"
 

@@ -224,8 +224,7 @@ TEST(SchurBundleAdjuster, SameOptimumAsCeresWithPosePriors) {
           Eigen::Vector3d(0.09, 0.04, 0.25).asDiagonal();
     }
     if (k == 3 || k == 8) prior.position += kOutlierOffset;
-    prior.gravity = (image.cam_from_world.rotation *
-                         Eigen::Vector3d(0, 0, -1) +
+    prior.gravity = (image.cam_from_world.rotation * Eigen::Vector3d(0, 0, -1) +
                      noise(0.01))
                         .normalized();
     ++k;
@@ -255,8 +254,8 @@ TEST(SchurBundleAdjuster, SameOptimumAsCeresWithPosePriors) {
     // The outliers (7.2 m off) do not drag their images: each within a
     // tenth of that of the truth.
     for (const int outlier : {3, 8}) {
-      const image_t image_id = std::next(scene.truth.images.begin(), outlier)
-                                   ->first;
+      const image_t image_id =
+          std::next(scene.truth.images.begin(), outlier)->first;
       EXPECT_LT((schur_model.images.at(image_id).ProjectionCenter() -
                  scene.truth.images.at(image_id).ProjectionCenter())
                     .norm(),

@@ -95,6 +95,20 @@ std::pair<BundleAdjustmentSummary, BundleAdjustmentSummary> RunBoth(
   return {ceres_summary, schur_summary};
 }
 
+// The same mean reprojection error and model, to the solves' tolerance.
+void ExpectSameOptimum(const BundleAdjustmentSummary& ceres_summary,
+                       const BundleAdjustmentSummary& schur_summary,
+                       const Reconstruction& ceres_model,
+                       const Reconstruction& schur_model) {
+  EXPECT_NEAR(schur_summary.final_mean_reproj_error,
+              ceres_summary.final_mean_reproj_error, 1e-9);
+  const Difference d = Compare(ceres_model, schur_model);
+  EXPECT_LT(d.center, 1e-7);  // scene radius 10
+  EXPECT_LT(d.rotation_deg, 1e-7);
+  EXPECT_LT(d.point, 1e-6);
+  EXPECT_LT(d.param, 1e-9);
+}
+
 // Default options (IRLS Huber, three rounds of filtering, keypoint scale
 // weighting off: the scene has no scales) on a perturbed model with wrong
 // observations: the same observations filtered and the same optimum.
@@ -116,13 +130,7 @@ TEST(SchurBundleAdjuster, SameOptimumAsCeresWithTheDefaultLoss) {
   EXPECT_EQ(schur_summary.num_observations_filtered,
             ceres_summary.num_observations_filtered);
   EXPECT_EQ(schur_summary.num_rounds, ceres_summary.num_rounds);
-  EXPECT_NEAR(schur_summary.final_mean_reproj_error,
-              ceres_summary.final_mean_reproj_error, 1e-9);
-  const Difference d = Compare(ceres_model, schur_model);
-  EXPECT_LT(d.center, 1e-7);  // scene radius 10
-  EXPECT_LT(d.rotation_deg, 1e-7);
-  EXPECT_LT(d.point, 1e-6);
-  EXPECT_LT(d.param, 1e-9);
+  ExpectSameOptimum(ceres_summary, schur_summary, ceres_model, schur_model);
   // The focal length moved back from 3% off.
   EXPECT_NEAR(CameraMeanFocalLength(schur_model.cameras.at(1)), 1200.0, 3.0);
 }
@@ -244,13 +252,7 @@ TEST(SchurBundleAdjuster, SameOptimumAsCeresWithPosePriors) {
     EXPECT_EQ(schur_summary.num_gravity_priors, 12);
     EXPECT_EQ(schur_summary.num_position_priors,
               ceres_summary.num_position_priors);
-    EXPECT_NEAR(schur_summary.final_mean_reproj_error,
-                ceres_summary.final_mean_reproj_error, 1e-9);
-    const Difference d = Compare(ceres_model, schur_model);
-    EXPECT_LT(d.center, 1e-7);  // scene radius 10
-    EXPECT_LT(d.rotation_deg, 1e-7);
-    EXPECT_LT(d.point, 1e-6);
-    EXPECT_LT(d.param, 1e-9);
+    ExpectSameOptimum(ceres_summary, schur_summary, ceres_model, schur_model);
     // The outliers (7.2 m off) do not drag their images: each within a
     // tenth of that of the truth.
     for (const int outlier : {3, 8}) {

@@ -14,9 +14,8 @@
 # every error against the truth in the priors' frame (gt_prior).
 #
 #   scripts/prior_benchmark.sh [--out DIR] [--sizes 100,300] [--seed 1]
-#       [--threads 2] [--no_colmap] [--variants priors,positions,no_priors]
+#       [--threads 2] [--no_colmap]
 #
-# --variants: which of ours run (e.g. priors alone, to time two binaries).
 # COLMAP's mapper runs once per scene (its input does not depend on the
 # priors) on a copy of the database; existing runs (ours and COLMAP's
 # DIR/colmap_N_sS/ with its .time) are reused: delete them to rerun. Writes DIR/results.csv: scene, outliers,
@@ -30,7 +29,6 @@ sizes=100,300
 seed=1
 threads=2
 run_colmap=1
-variants=priors,positions,no_priors
 while [ $# -gt 0 ]; do
   case $1 in
     --out) out=$2; shift 2 ;;
@@ -38,7 +36,6 @@ while [ $# -gt 0 ]; do
     --seed) seed=$2; shift 2 ;;
     --threads) threads=$2; shift 2 ;;
     --no_colmap) run_colmap=0; shift ;;
-    --variants) variants=$2; shift 2 ;;
     *) echo "unknown option $1" >&2; exit 1 ;;
   esac
 done
@@ -82,13 +79,6 @@ compare() {
 }
 
 IFS=',' read -r -a size_list <<< "$sizes"
-IFS=',' read -r -a variant_list <<< "$variants"
-for variant in "${variant_list[@]}"; do
-  case $variant in
-    priors | positions | no_priors) ;;
-    *) echo "ERROR: unknown variant $variant" >&2; exit 1 ;;
-  esac
-done
 for n in "${size_list[@]}"; do
   for outliers in 0.05 0; do
     scene=courtyard_${n}_s${seed}_outliers${outliers}
@@ -102,7 +92,7 @@ for n in "${size_list[@]}"; do
     mkdir -p "$dir/images"
     runs=$out/runs/$scene
     mkdir -p "$runs"
-    for variant in "${variant_list[@]}"; do
+    for variant in priors positions no_priors; do
       case $variant in
         priors) args=(--database_path "$dir/database_colmap4.db") ;;
         positions) args=(--database_path "$dir/database_colmap311.db") ;;

@@ -161,7 +161,7 @@ class BundleAdjustmentProblem {
         priors_(priors),
         huber_(options.loss_function == BundleAdjustmentLoss::kHuber),
         schur_(ChooseSchurBackend(options, NumObservations(*reconstruction),
-                                  priors, &backend_reason_)),
+                                  &backend_reason_)),
         weighted_(huber_ || options.weight_by_keypoint_scale || schur_ ||
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
@@ -638,27 +638,39 @@ class BundleAdjustmentProblem {
       const auto it = priors_->find(image_id);
       if (it == priors_->end()) continue;
       const PosePrior& prior = it->second;
-      double* rotation = poses_.at(image_id).rotation;
-      double* position = poses_.at(image_id).position;
+      const PoseBlocks& pose = poses_.at(image_id);
+      using Arguments = SchurBundleAdjuster::PoseArguments;
+      // The same cost functions and loss for either backend.
+      auto add = [&](ceres::CostFunction* cost, Arguments arguments) {
+        if (schur_) {
+          schur_adjuster_->AddPoseResidual(
+              pose.schur_index, arguments,
+              std::unique_ptr<ceres::CostFunction>(cost), prior_loss_.get());
+        } else if (arguments == Arguments::kRotation) {
+          problem_->AddResidualBlock(cost, prior_loss_.get(), pose.rotation);
+        } else if (arguments == Arguments::kPosition) {
+          problem_->AddResidualBlock(cost, prior_loss_.get(), pose.position);
+        } else {
+          problem_->AddResidualBlock(cost, prior_loss_.get(), pose.rotation,
+                                     pose.position);
+        }
+      };
       if (prior.HasPosition()) {
         const Eigen::Matrix3d W =
             PositionPriorSqrtInformation(prior, prior_options);
         if (use_centers_) {
-          problem_->AddResidualBlock(
-              PositionPriorCost::Create(prior.position, W), prior_loss_.get(),
-              position);
+          add(PositionPriorCost::Create(prior.position, W),
+              Arguments::kPosition);
         } else {
-          problem_->AddResidualBlock(
-              PositionPriorFromTranslationCost::Create(prior.position, W),
-              prior_loss_.get(), rotation, position);
+          add(PositionPriorFromTranslationCost::Create(prior.position, W),
+              Arguments::kRotationAndPosition);
         }
         ++num_position_priors_;
       }
       if (prior.HasGravity()) {
-        problem_->AddResidualBlock(
-            GravityPriorCost::Create(prior.gravity,
+        add(GravityPriorCost::Create(prior.gravity,
                                      DegToRad(prior_options.gravity_std_deg)),
-            prior_loss_.get(), rotation);
+            Arguments::kRotation);
         ++num_gravity_priors_;
       }
     }
@@ -935,15 +947,12 @@ NamesOf<BundleAdjustmentSolverBackend>() {
 }
 
 bool ChooseSchurBackend(const BundleAdjustmentOptions& options,
-                        size_t num_observations, const PosePriors* priors,
-                        std::string* reason) {
+                        size_t num_observations, std::string* reason) {
   using Backend = BundleAdjustmentSolverBackend;
   std::string why;
   bool schur = false;
   if (options.solver_backend == Backend::kCeres) {
     why = "ceres: asked";
-  } else if (priors != nullptr && !priors->empty() && options.refine_poses) {
-    why = "ceres: pose priors (the Schur solver has no prior residuals)";
   } else if (options.loss_function != BundleAdjustmentLoss::kHuber &&
              options.loss_function != BundleAdjustmentLoss::kTrivial) {
     why = "ceres: loss " + EnumName(options.loss_function) +

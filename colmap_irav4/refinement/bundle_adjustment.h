@@ -94,12 +94,14 @@ struct BundleAdjustmentOptions {
   // one thread) or auto: schur from schur_min_num_observations
   // observations, where it was measured to reach the same models with less
   // CPU time and half the peak memory (300 and 1,000 images,
-  // docs/notes/2026-12-03-schur-bundle-adjustment.md). Pose priors and the
-  // huber_ceres and cauchy losses go to Ceres whatever this says
-  // (ChooseSchurBackend; the reason is in the log and summary.json).
+  // docs/notes/2026-12-03-schur-bundle-adjustment.md), and less CPU time
+  // with pose priors or not from 20,786 observations (30-100 images,
+  // docs/notes/2026-12-03-priors-speed.md). The huber_ceres and cauchy
+  // losses go to Ceres whatever this says (ChooseSchurBackend; the reason is
+  // in the log and summary.json).
   BundleAdjustmentSolverBackend solver_backend =
       BundleAdjustmentSolverBackend::kAuto;
-  int schur_min_num_observations = 500000;
+  int schur_min_num_observations = 20000;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
@@ -198,12 +200,11 @@ double SchurDensity(const std::vector<const Track*>& tracks,
                     int max_num_images = 30000);
 
 // Whether `options.solver_backend` sends a bundle adjustment of
-// `num_observations` observations to the Schur solver, with `priors` (by
-// image id, may be null; only applied when poses are refined); `reason` (may
-// be null): why, e.g. "schur: 2270000 observations (auto from 500000)".
+// `num_observations` observations to the Schur solver (pose priors or not:
+// both backends hold them); `reason` (may be null): why, e.g. "schur:
+// 2270000 observations (auto from 20000)".
 bool ChooseSchurBackend(const BundleAdjustmentOptions& options,
-                        size_t num_observations, const PosePriors* priors,
-                        std::string* reason);
+                        size_t num_observations, std::string* reason);
 
 // Returns false if Ceres failed (no usable solution). `priors` (by image id,
 // may be null): pose priors of a model in their frame (see above).

@@ -125,6 +125,83 @@ void SchurBundleAdjuster::AddPoint(
   point_begin_.push_back(static_cast<uint32_t>(observations_.size()));
 }
 
+void SchurBundleAdjuster::AddPoseResidual(
+    int pose, PoseArguments arguments,
+    std::unique_ptr<ceres::CostFunction> cost,
+    const ceres::LossFunction* loss) {
+  CHECK(pose >= 0 && pose < static_cast<int>(poses_.size()));
+  const std::vector<int32_t>& sizes = cost->parameter_block_sizes();
+  CHECK_EQ(sizes.size(),
+           arguments == PoseArguments::kRotationAndPosition ? 2u : 1u);
+  CHECK_EQ(sizes.front(), arguments == PoseArguments::kPosition ? 3 : 4);
+  if (sizes.size() == 2) CHECK_EQ(sizes.back(), 3);
+  pose_residuals_.push_back({pose, arguments, std::move(cost), loss});
+}
+
+bool SchurBundleAdjuster::EvaluatePoseResidual(const PoseResidual& residual,
+                                               const std::vector<double>& poses,
+                                               double* cost,
+                                               PoseLinearization* lin) const {
+  const int m = residual.cost->num_residuals();
+  const double* rotation = &poses[7 * residual.pose];
+  const double* position = &poses[7 * residual.pose + 4];
+  const bool uses_rotation = residual.arguments != PoseArguments::kPosition;
+  const bool uses_position = residual.arguments != PoseArguments::kRotation;
+  const double* parameters[2];
+  int num_blocks = 0;
+  if (uses_rotation) parameters[num_blocks++] = rotation;
+  if (uses_position) parameters[num_blocks++] = position;
+  using RowMajor =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMajor dq(m, 4), dp(m, 3);
+  double* jacobians[2];
+  num_blocks = 0;
+  if (uses_rotation) jacobians[num_blocks++] = dq.data();
+  if (uses_position) jacobians[num_blocks++] = dp.data();
+  Eigen::VectorXd r(m);
+  if (!residual.cost->Evaluate(parameters, r.data(),
+                               lin != nullptr ? jacobians : nullptr) ||
+      !r.allFinite()) {
+    return false;
+  }
+  const double s = r.squaredNorm();
+  double rho[3] = {s, 1.0, 0.0};
+  if (residual.loss != nullptr) residual.loss->Evaluate(s, rho);
+  *cost = 0.5 * rho[0];
+  if (!std::isfinite(*cost)) return false;
+  if (lin == nullptr) return true;
+  lin->cost = *cost;
+  const PoseBlock& pose = poses_[residual.pose];
+  // Jacobian by the tangent (rotation as ceres::EigenQuaternionManifold's,
+  // then position), the free variables only.
+  Eigen::MatrixXd tangent = Eigen::MatrixXd::Zero(m, 6);
+  if (uses_rotation) {
+    Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus;
+    ceres::EigenQuaternionManifold().PlusJacobian(rotation, plus.data());
+    tangent.leftCols<3>() = dq * plus;
+  }
+  if (uses_position) tangent.rightCols<3>() = dp;
+  lin->A.resize(m, static_cast<Eigen::Index>(pose.free.size()));
+  for (size_t j = 0; j < pose.free.size(); ++j) {
+    lin->A.col(j) = tangent.col(pose.free[j]);
+  }
+  // The loss as Ceres' residual blocks apply it (Triggs et al.'s
+  // correction): the Gauss-Newton model of rho(|r|^2) / 2 is |r'|^2 / 2 with
+  // r' = sqrt(rho') r / (1 - alpha) and J' = sqrt(rho') (J - alpha r r^T J /
+  // |r|^2), alpha from 1 - sqrt(1 + 2 |r|^2 rho'' / rho'); rho'' <= 0 (a
+  // concave tail) leaves the scaling by sqrt(rho') alone.
+  const double sqrt_rho1 = std::sqrt(rho[1]);
+  if (s == 0 || rho[2] <= 0) {
+    lin->A *= sqrt_rho1;
+    lin->r = sqrt_rho1 * r;
+  } else {
+    const double alpha = 1 - std::sqrt(1 + 2 * s * rho[2] / rho[1]);
+    lin->A = sqrt_rho1 * (lin->A - (alpha / s) * r * (r.transpose() * lin->A));
+    lin->r = (sqrt_rho1 / (1 - alpha)) * r;
+  }
+  return lin->A.allFinite() && lin->r.allFinite();
+}
+
 double SchurBundleAdjuster::Weight(const Observation& observation) const {
   return (*poses_[observation.pose].weights)[observation.point2D_idx];
 }
@@ -209,6 +286,13 @@ double SchurBundleAdjuster::Cost(const std::vector<double>& poses,
       }
       cost += 0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
     }
+  }
+  for (const PoseResidual& residual : pose_residuals_) {
+    double term = 0;
+    if (!EvaluatePoseResidual(residual, poses, &term, nullptr)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    cost += term;
   }
   return cost;
 }
@@ -435,6 +519,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   };
 
   std::vector<Linearization> lins;
+  std::vector<PoseLinearization> pose_lins(pose_residuals_.size());
   using Wmat =
       Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
   std::vector<Wmat> w, q;
@@ -504,6 +589,22 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           add_pair(lins[k], lins[l], m, k == l);
         }
       }
+    }
+    // The pose residuals: into their pose's diagonal block.
+    for (size_t i = 0; i < pose_residuals_.size() && finite; ++i) {
+      PoseLinearization& lin = pose_lins[i];
+      double term = 0;
+      if (!EvaluatePoseResidual(pose_residuals_[i], poses, &term, &lin)) {
+        finite = false;
+        break;
+      }
+      const int b = pose_block_[pose_residuals_[i].pose];
+      if (b < 0) continue;
+      const Eigen::MatrixXd ata = lin.A.transpose() * lin.A;
+      add_cell(b, b, ata);
+      camera_gradient.segment(block_offset_[b], block_size_[b]) +=
+          lin.A.transpose() * lin.r;
+      diagonal.segment(block_offset_[b], block_size_[b]) += ata.diagonal();
     }
     if (!finite) {
       summary.termination = ceres::FAILURE;
@@ -589,6 +690,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             0.5 *
             (lin.r + lin.A * gather(lin, step) + lin.B * dx).squaredNorm();
       }
+    }
+    // The pose residuals' model: their cost less the decrease of their
+    // Gauss-Newton model (Ceres' model cost change).
+    for (size_t i = 0; i < pose_residuals_.size(); ++i) {
+      const PoseLinearization& lin = pose_lins[i];
+      model_cost += lin.cost;
+      const int b = pose_block_[pose_residuals_[i].pose];
+      if (b < 0) continue;
+      const Eigen::VectorXd change =
+          lin.A * step.segment(block_offset_[b], block_size_[b]);
+      model_cost -=
+          0.5 * lin.r.squaredNorm() - 0.5 * (lin.r + change).squaredNorm();
     }
     for (size_t i = 0; i < poses_.size(); ++i) {
       const int b = pose_block_[i];

@@ -1,10 +1,12 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <ceres/ceres.h>
+#include <Eigen/Core>
 
 #include "colmap_irav4/scene/reconstruction.h"
 
@@ -28,7 +30,9 @@ namespace colmap_irav4 {
 // Residuals are each observation's weight (read when the solve starts; 0:
 // not in this solve) times its reprojection error; a point with fewer than
 // two weighed observations is held in that solve (its step would be along
-// its rays alone).
+// its rays alone). Residuals on one pose alone (AddPoseResidual: pose priors)
+// go straight into the reduced system's diagonal blocks, their loss applied
+// as Ceres applies one (the corrector of Triggs et al.).
 class SchurBundleAdjuster {
  public:
   // `center`: poses as rotation and projection centre (R (X - C)).
@@ -54,6 +58,16 @@ class SchurBundleAdjuster {
   // index, keypoint index).
   void AddPoint(double* xyz, bool constant,
                 const std::vector<std::pair<int, point2D_t>>& observations);
+
+  // The blocks of a pose a pose residual takes, in this order.
+  enum class PoseArguments { kRotation, kPosition, kRotationAndPosition };
+  // A residual on pose `pose` alone (e.g. a pose prior): `cost` takes the
+  // pose's quaternion (x, y, z, w) and / or its position as `arguments`
+  // says; `loss` (not owned, outlives the solves; null: squared norm) is
+  // applied as Ceres' residual blocks apply it.
+  void AddPoseResidual(int pose, PoseArguments arguments,
+                       std::unique_ptr<ceres::CostFunction> cost,
+                       const ceres::LossFunction* loss);
 
   size_t NumObservations() const { return observations_.size(); }
 
@@ -92,6 +106,20 @@ class SchurBundleAdjuster {
     uint32_t point2D_idx;
   };
   struct Linearization;
+  struct PoseResidual {
+    int pose;
+    PoseArguments arguments;
+    std::unique_ptr<ceres::CostFunction> cost;
+    const ceres::LossFunction* loss;
+  };
+  // One pose residual linearised: its cost 1/2 rho(|r|^2), and (for a
+  // refined pose) its residual and Jacobian by the pose's free tangent
+  // variables, both corrected for the loss.
+  struct PoseLinearization {
+    double cost = 0;
+    Eigen::VectorXd r;
+    Eigen::MatrixXd A;
+  };
 
   // Variable blocks of the reduced camera system: the poses' (index = pose
   // index when it has free parameters), then the cameras'; -1: held.
@@ -105,7 +133,12 @@ class SchurBundleAdjuster {
                 const std::vector<double>& poses,
                 const std::vector<double>& cameras, double residual[2],
                 Linearization* lin) const;
-  // 1/2 the sum of squared residuals at the given parameters.
+  // A pose residual at `poses`: its cost and, with `lin`, its linearisation.
+  bool EvaluatePoseResidual(const PoseResidual& residual,
+                            const std::vector<double>& poses, double* cost,
+                            PoseLinearization* lin) const;
+  // 1/2 the sum of squared residuals (pose residuals through their loss) at
+  // the given parameters.
   double Cost(const std::vector<double>& poses,
               const std::vector<double>& cameras,
               const std::vector<double>& points) const;
@@ -118,6 +151,7 @@ class SchurBundleAdjuster {
   std::vector<bool> point_constant_;
   std::vector<uint32_t> point_begin_ = {0};  // observations by point (CSR)
   std::vector<Observation> observations_;
+  std::vector<PoseResidual> pose_residuals_;
 
   // Reduced camera system: block b's size, scalar offset, and the column
   // layout (upper block triangle, full diagonal blocks) by block column.

@@ -1,9 +1,11 @@
 // The Schur solver (BundleAdjustmentOptions::solver_backend schur) against
 // the Ceres path: the same optimum on small synthetic scenes, the gauge and
-// the held parameters kept, and the problems it cannot hold sent to Ceres.
+// the held parameters kept, pose priors under their loss, and the losses it
+// cannot hold sent to Ceres.
 
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 
+#include <iterator>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -80,15 +82,31 @@ Difference Compare(const Reconstruction& a, const Reconstruction& b) {
 // Both backends from the same start; returns their summaries.
 std::pair<BundleAdjustmentSummary, BundleAdjustmentSummary> RunBoth(
     BundleAdjustmentOptions options, Reconstruction* ceres_model,
-    Reconstruction* schur_model) {
+    Reconstruction* schur_model, const PosePriors* priors = nullptr) {
   BundleAdjustmentSummary ceres_summary, schur_summary;
   options.solver_backend = BundleAdjustmentSolverBackend::kCeres;
-  EXPECT_TRUE(RunBundleAdjustment(options, ceres_model, &ceres_summary));
+  EXPECT_TRUE(
+      RunBundleAdjustment(options, ceres_model, &ceres_summary, priors));
   options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
-  EXPECT_TRUE(RunBundleAdjustment(options, schur_model, &schur_summary));
+  EXPECT_TRUE(
+      RunBundleAdjustment(options, schur_model, &schur_summary, priors));
   EXPECT_EQ(ceres_summary.backend, "ceres");
   EXPECT_EQ(schur_summary.backend, "schur");
   return {ceres_summary, schur_summary};
+}
+
+// The same mean reprojection error and model, to the solves' tolerance.
+void ExpectSameOptimum(const BundleAdjustmentSummary& ceres_summary,
+                       const BundleAdjustmentSummary& schur_summary,
+                       const Reconstruction& ceres_model,
+                       const Reconstruction& schur_model) {
+  EXPECT_NEAR(schur_summary.final_mean_reproj_error,
+              ceres_summary.final_mean_reproj_error, 1e-9);
+  const Difference d = Compare(ceres_model, schur_model);
+  EXPECT_LT(d.center, 1e-7);  // scene radius 10
+  EXPECT_LT(d.rotation_deg, 1e-7);
+  EXPECT_LT(d.point, 1e-6);
+  EXPECT_LT(d.param, 1e-9);
 }
 
 // Default options (IRLS Huber, three rounds of filtering, keypoint scale
@@ -112,13 +130,7 @@ TEST(SchurBundleAdjuster, SameOptimumAsCeresWithTheDefaultLoss) {
   EXPECT_EQ(schur_summary.num_observations_filtered,
             ceres_summary.num_observations_filtered);
   EXPECT_EQ(schur_summary.num_rounds, ceres_summary.num_rounds);
-  EXPECT_NEAR(schur_summary.final_mean_reproj_error,
-              ceres_summary.final_mean_reproj_error, 1e-9);
-  const Difference d = Compare(ceres_model, schur_model);
-  EXPECT_LT(d.center, 1e-7);  // scene radius 10
-  EXPECT_LT(d.rotation_deg, 1e-7);
-  EXPECT_LT(d.point, 1e-6);
-  EXPECT_LT(d.param, 1e-9);
+  ExpectSameOptimum(ceres_summary, schur_summary, ceres_model, schur_model);
   // The focal length moved back from 3% off.
   EXPECT_NEAR(CameraMeanFocalLength(schur_model.cameras.at(1)), 1200.0, 3.0);
 }
@@ -197,25 +209,72 @@ TEST(SchurBundleAdjuster, HoldsTheGaugeAndTheHeldParameters) {
   EXPECT_GT(max_point_error, 0.0);
 }
 
-// Pose priors and Ceres' losses are the Ceres path's, whatever is asked;
-// auto takes the Schur solver from the size on.
-TEST(SchurBundleAdjuster, FallsBackToCeresForPriorsAndLosses) {
+// Pose priors (positions with and without covariance, two of them outliers
+// in the Cauchy tail, gravity) on a perturbed model: the same optimum as
+// Ceres', poses as centres and as translations. The priors hold the gauge:
+// every pose moves.
+TEST(SchurBundleAdjuster, SameOptimumAsCeresWithPosePriors) {
+  const SyntheticScene scene = Scene();
+  const Eigen::Vector3d kOutlierOffset(0, 6, -4);
+  PosePriors priors;
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto noise = [&](double std) {
+    return Eigen::Vector3d(std * normal(rng), std * normal(rng),
+                           std * normal(rng));
+  };
+  int k = 0;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    PosePrior& prior = priors[image_id];
+    prior.position = image.ProjectionCenter() + noise(0.3);
+    if (k % 2 == 0) {
+      prior.position_covariance =
+          Eigen::Vector3d(0.09, 0.04, 0.25).asDiagonal();
+    }
+    if (k == 3 || k == 8) prior.position += kOutlierOffset;
+    prior.gravity = (image.cam_from_world.rotation * Eigen::Vector3d(0, 0, -1) +
+                     noise(0.01))
+                        .normalized();
+    ++k;
+  }
+  BundleAdjustmentOptions options = TightOptions();
+  options.pose_priors.position_std = 0.3;
+  options.pose_priors.gravity_std_deg = 0.5;
+  for (const bool centers : {true, false}) {
+    SCOPED_TRACE(centers ? "centres" : "translations");
+    options.parameterize_centers = centers;
+    Reconstruction start = scene.truth;
+    PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &start);
+    Reconstruction ceres_model = start, schur_model = start;
+    const auto [ceres_summary, schur_summary] =
+        RunBoth(options, &ceres_model, &schur_model, &priors);
+    EXPECT_EQ(schur_summary.num_position_priors, 12);
+    EXPECT_EQ(schur_summary.num_gravity_priors, 12);
+    EXPECT_EQ(schur_summary.num_position_priors,
+              ceres_summary.num_position_priors);
+    ExpectSameOptimum(ceres_summary, schur_summary, ceres_model, schur_model);
+    // The outliers (7.2 m off) do not drag their images: each within a
+    // tenth of that of the truth.
+    for (const int outlier : {3, 8}) {
+      const image_t image_id =
+          std::next(scene.truth.images.begin(), outlier)->first;
+      EXPECT_LT((schur_model.images.at(image_id).ProjectionCenter() -
+                 scene.truth.images.at(image_id).ProjectionCenter())
+                    .norm(),
+                0.1 * kOutlierOffset.norm());
+    }
+  }
+}
+
+// Ceres' losses are the Ceres path's, whatever is asked; auto takes the
+// Schur solver from the size on, pose priors or not.
+TEST(SchurBundleAdjuster, FallsBackToCeresForLosses) {
   const SyntheticScene scene = Scene();
   BundleAdjustmentOptions options = TightOptions();
   options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
-  PosePriors priors;
-  for (const auto& [image_id, image] : scene.truth.images) {
-    priors[image_id].position = image.ProjectionCenter();
-  }
+  options.loss_function = BundleAdjustmentLoss::kCauchy;
   Reconstruction model = scene.truth;
   BundleAdjustmentSummary summary;
-  ASSERT_TRUE(RunBundleAdjustment(options, &model, &summary, &priors));
-  EXPECT_EQ(summary.backend, "ceres");
-  EXPECT_NE(summary.backend_reason.find("prior"), std::string::npos);
-  EXPECT_GT(summary.num_position_priors, 0);
-
-  options.loss_function = BundleAdjustmentLoss::kCauchy;
-  model = scene.truth;
   ASSERT_TRUE(RunBundleAdjustment(options, &model, &summary));
   EXPECT_EQ(summary.backend, "ceres");
   EXPECT_NE(summary.backend_reason.find("cauchy"), std::string::npos);
@@ -224,13 +283,10 @@ TEST(SchurBundleAdjuster, FallsBackToCeresForPriorsAndLosses) {
   options.loss_function = BundleAdjustmentLoss::kHuber;
   options.solver_backend = BundleAdjustmentSolverBackend::kAuto;
   options.schur_min_num_observations = 1000;
-  EXPECT_FALSE(ChooseSchurBackend(options, 999, nullptr, &reason));
-  EXPECT_TRUE(ChooseSchurBackend(options, 1000, nullptr, &reason));
-  EXPECT_TRUE(ChooseSchurBackend(options, 1000, &priors, &reason) == false);
-  options.refine_poses = false;  // priors unused: no reason for Ceres
-  EXPECT_TRUE(ChooseSchurBackend(options, 1000, &priors, &reason));
+  EXPECT_FALSE(ChooseSchurBackend(options, 999, &reason));
+  EXPECT_TRUE(ChooseSchurBackend(options, 1000, &reason));
   options.solver_backend = BundleAdjustmentSolverBackend::kCeres;
-  EXPECT_FALSE(ChooseSchurBackend(options, 1000000, nullptr, &reason));
+  EXPECT_FALSE(ChooseSchurBackend(options, 1000000, &reason));
   options.schur_min_num_observations = -1;
   EXPECT_THROW(options.Check(), InputError);
 }

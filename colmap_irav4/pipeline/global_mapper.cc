@@ -439,6 +439,37 @@ bool GlobalMapper::Positioning() {
   return true;
 }
 
+bool GlobalMapper::RunAdjustment(const std::string& /*stage*/,
+                                 const std::function<bool()>& adjust) {
+  return adjust();
+}
+
+bool GlobalMapper::AdjustOrKeepModel(StageTimer* stage,
+                                     const std::string& failure,
+                                     const std::function<bool()>& adjust,
+                                     bool* kept) {
+  *kept = false;
+  const std::string& name = stage->report().name;
+  if (!adjusted_) {
+    if (!RunAdjustment(name, adjust)) return Fail(failure);
+    adjusted_ = true;
+    return true;
+  }
+  // A failed solve may leave the model part-way (poses moved, observations
+  // filtered between rounds, the two-view check's points set aside): the
+  // copy is what is kept. It costs one model's memory next to the problem's.
+  Reconstruction before = reconstruction_;
+  if (RunAdjustment(name, adjust)) return true;
+  reconstruction_ = std::move(before);
+  *kept = true;
+  LOG(WARNING) << log_prefix_ << name
+               << ": bundle adjustment failed (Ceres found no usable "
+                  "solution); the model is kept as it was before it (after "
+                  "the last bundle adjustment that succeeded)";
+  stage->Add("warning: bundle adjustment failed, model kept as before it", 1);
+  return true;
+}
+
 bool GlobalMapper::IterativeBundleAdjustment() {
   const int num_ba =
       options_.skip_bundle_adjustment ? 0 : options_.num_ba_iterations;
@@ -457,11 +488,21 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         return false;
       }
       BundleAdjustmentSummary ba_summary;
-      if (!RunBundleAdjustment(
-              round_options, &reconstruction_, &ba_summary,
-              in_prior_frame_ ? &database_.pose_priors : nullptr)) {
-        return Fail("bundle adjustment failed");
+      bool kept = false;
+      if (!AdjustOrKeepModel(
+              &stage, "bundle adjustment failed",
+              [&] {
+                return RunBundleAdjustment(
+                    round_options, &reconstruction_, &ba_summary,
+                    in_prior_frame_ ? &database_.pose_priors : nullptr);
+              },
+              &kept)) {
+        return false;
       }
+      if (kept) {
+        AddModelFigures(&stage);
+        stage.Finish(log_prefix_, &stages_);
+      } else {
       keypoint_noise_ = ba_summary.keypoint_noise;
       const FilterSummary filter_summary =
           RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
@@ -502,6 +543,7 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       WarnFilteredImages(filter_summary);
       AddModelFigures(&stage);
       stage.Finish(log_prefix_, &stages_);
+      }
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.
@@ -534,10 +576,22 @@ bool GlobalMapper::TwoViewCheck() {
   }
   StageTimer stage("two-view check");
   TwoViewCheckSummary summary;
-  if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
-                          options_.triangulation, options_.pose_constraint,
-                          &reconstruction_, &keypoint_noise_, &summary)) {
-    return Fail("bundle adjustment of the two-view check failed");
+  bool kept = false;
+  if (!AdjustOrKeepModel(
+          &stage, "bundle adjustment of the two-view check failed",
+          [&] {
+            return CheckTwoViewPoints(
+                options_.two_view_check, options_.bundle_adjustment,
+                options_.triangulation, options_.pose_constraint,
+                &reconstruction_, &keypoint_noise_, &summary);
+          },
+          &kept)) {
+    return false;
+  }
+  if (kept) {
+    AddModelFigures(&stage);
+    stage.Finish(log_prefix_, &stages_);
+    return true;
   }
   stage.Add("two-view points checked",
             static_cast<double>(summary.num_points_checked));

@@ -503,46 +503,52 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         AddModelFigures(&stage);
         stage.Finish(log_prefix_, &stages_);
       } else {
-      keypoint_noise_ = ba_summary.keypoint_noise;
-      const FilterSummary filter_summary =
-          RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
-      stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
-      stage.Add("solves", static_cast<double>(ba_summary.num_solves));
-      if (!ba_summary.scale_bin_noise_px.empty()) {
-        // The noise that weighed the observations: finest and coarsest of
-        // the keypoint scale bins.
-        stage.Add("keypoint noise px (finest scales)",
-                  ba_summary.scale_bin_noise_px.front());
-        stage.Add("keypoint noise px (coarsest scales)",
-                  ba_summary.scale_bin_noise_px.back());
-      }
-      stage.AddText("solver backend", ba_summary.backend_reason);
-      stage.AddText("linear solver", ba_summary.linear_solver_reason);
-      if (ba_summary.schur_density >= 0) {
-        stage.Add("pairs sharing a point (fraction)", ba_summary.schur_density);
-      }
-      // Where its time goes (wall seconds; not figures: they vary by run).
-      LOG(INFO) << log_prefix_ << "bundle adjustment "
-                << std::to_string(iteration + 1) << ": "
-                << ba_summary.backend_reason << "; "
-                << (ba_summary.linear_solver_reason.empty()
-                        ? ba_summary.linear_solver
-                        : ba_summary.linear_solver_reason)
-                << ", building the problems " << ba_summary.problem_seconds
-                << " s, Ceres' preprocessing "
-                << ba_summary.preprocessor_seconds << " s, linear solves "
-                << ba_summary.linear_solver_seconds << " s of "
-                << ba_summary.seconds << " s";
-      stage.Add("observations filtered",
-                static_cast<double>(ba_summary.num_observations_filtered +
-                                    filter_summary.num_observations_filtered));
-      stage.Add("points filtered (angle)",
-                static_cast<double>(filter_summary.num_points_filtered));
-      stage.Add("images filtered",
-                static_cast<double>(filter_summary.num_images_filtered));
-      WarnFilteredImages(filter_summary);
-      AddModelFigures(&stage);
-      stage.Finish(log_prefix_, &stages_);
+        keypoint_noise_ = ba_summary.keypoint_noise;
+        const FilterSummary filter_summary = RunFiltering(
+            options_.filtering, &reconstruction_, &keypoint_noise_);
+        stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
+        stage.Add("solves", static_cast<double>(ba_summary.num_solves));
+        if (ba_summary.num_damped_restarts > 0) {
+          stage.Add("solves started again damped",
+                    static_cast<double>(ba_summary.num_damped_restarts));
+        }
+        if (!ba_summary.scale_bin_noise_px.empty()) {
+          // The noise that weighed the observations: finest and coarsest of
+          // the keypoint scale bins.
+          stage.Add("keypoint noise px (finest scales)",
+                    ba_summary.scale_bin_noise_px.front());
+          stage.Add("keypoint noise px (coarsest scales)",
+                    ba_summary.scale_bin_noise_px.back());
+        }
+        stage.AddText("solver backend", ba_summary.backend_reason);
+        stage.AddText("linear solver", ba_summary.linear_solver_reason);
+        if (ba_summary.schur_density >= 0) {
+          stage.Add("pairs sharing a point (fraction)",
+                    ba_summary.schur_density);
+        }
+        // Where its time goes (wall seconds; not figures: they vary by run).
+        LOG(INFO) << log_prefix_ << "bundle adjustment "
+                  << std::to_string(iteration + 1) << ": "
+                  << ba_summary.backend_reason << "; "
+                  << (ba_summary.linear_solver_reason.empty()
+                          ? ba_summary.linear_solver
+                          : ba_summary.linear_solver_reason)
+                  << ", building the problems " << ba_summary.problem_seconds
+                  << " s, Ceres' preprocessing "
+                  << ba_summary.preprocessor_seconds << " s, linear solves "
+                  << ba_summary.linear_solver_seconds << " s of "
+                  << ba_summary.seconds << " s";
+        stage.Add(
+            "observations filtered",
+            static_cast<double>(ba_summary.num_observations_filtered +
+                                filter_summary.num_observations_filtered));
+        stage.Add("points filtered (angle)",
+                  static_cast<double>(filter_summary.num_points_filtered));
+        stage.Add("images filtered",
+                  static_cast<double>(filter_summary.num_images_filtered));
+        WarnFilteredImages(filter_summary);
+        AddModelFigures(&stage);
+        stage.Finish(log_prefix_, &stages_);
       }
     }
     // Every track is triangulated once, after the first round: then the

@@ -390,7 +390,8 @@ TEST(GlobalMapperStages, FailedLaterAdjustmentKeepsTheModelBeforeIt) {
   std::vector<std::string> warned;
   for (const StageReport& stage : mapper.stages()) {
     for (const auto& [name, value] : stage.figures) {
-      if (name == "warning: bundle adjustment failed, model kept as before it") {
+      if (name ==
+          "warning: bundle adjustment failed, model kept as before it") {
         EXPECT_EQ(value, 1.0);
         warned.push_back(stage.name);
       }
@@ -398,8 +399,8 @@ TEST(GlobalMapperStages, FailedLaterAdjustmentKeepsTheModelBeforeIt) {
   }
   EXPECT_EQ(warned, (std::vector<std::string>{"two-view check",
                                               "bundle adjustment 2"}));
-  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(),
-                                         s.scene.truth, 10.0),
+  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(), s.scene.truth,
+                                         10.0),
             0.01);
   ASSERT_TRUE(mapper.Finalize());
   EXPECT_EQ(mapper.reconstruction().images.size(), s.images.size());

@@ -145,13 +145,13 @@ struct BundleAdjustmentSummary {
   // through one image only: each adjusted in its own gauge.
   int num_pieces = 0;
   int num_joints = 0;
-  int num_points = 0;                 // after the last round
-  int num_observations = 0;           // after the last round
-  int num_observations_filtered = 0;  // over all rounds
-  int num_iterations = 0;             // over all rounds
   // Solves that failed from the options' trust region radius and were
   // started again damped (RunBundleAdjustment).
   int num_damped_restarts = 0;
+  int num_points = 0;                    // after the last round
+  int num_observations = 0;              // after the last round
+  int num_observations_filtered = 0;     // over all rounds
+  int num_iterations = 0;                // over all rounds
   double initial_mean_reproj_error = 0;  // px, before the first round
   double final_mean_reproj_error = 0;    // px, after filtering
   double seconds = 0;

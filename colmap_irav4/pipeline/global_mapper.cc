@@ -66,6 +66,19 @@ void RemoveUnusedCameras(Reconstruction* reconstruction) {
   }
 }
 
+// The figures of a filtering (`num_observations_filtered_before`: by the
+// bundle adjustment before it, counted with it).
+void AddFilterFigures(int num_observations_filtered_before,
+                      const FilterSummary& summary, StageTimer* stage) {
+  stage->Add("observations filtered",
+             static_cast<double>(num_observations_filtered_before +
+                                 summary.num_observations_filtered));
+  stage->Add("points filtered (angle)",
+             static_cast<double>(summary.num_points_filtered));
+  stage->Add("images filtered",
+             static_cast<double>(summary.num_images_filtered));
+}
+
 }  // namespace
 
 GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
@@ -538,14 +551,8 @@ bool GlobalMapper::IterativeBundleAdjustment() {
                   << ba_summary.preprocessor_seconds << " s, linear solves "
                   << ba_summary.linear_solver_seconds << " s of "
                   << ba_summary.seconds << " s";
-        stage.Add(
-            "observations filtered",
-            static_cast<double>(ba_summary.num_observations_filtered +
-                                filter_summary.num_observations_filtered));
-        stage.Add("points filtered (angle)",
-                  static_cast<double>(filter_summary.num_points_filtered));
-        stage.Add("images filtered",
-                  static_cast<double>(filter_summary.num_images_filtered));
+        AddFilterFigures(ba_summary.num_observations_filtered, filter_summary,
+                         &stage);
         WarnFilteredImages(filter_summary);
         AddModelFigures(&stage);
         stage.Finish(log_prefix_, &stages_);
@@ -617,12 +624,7 @@ bool GlobalMapper::Finalize() {
     StageTimer stage("final filtering");
     const FilterSummary filter_summary =
         RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
-    stage.Add("observations filtered",
-              static_cast<double>(filter_summary.num_observations_filtered));
-    stage.Add("points filtered (angle)",
-              static_cast<double>(filter_summary.num_points_filtered));
-    stage.Add("images filtered",
-              static_cast<double>(filter_summary.num_images_filtered));
+    AddFilterFigures(0, filter_summary, &stage);
     WarnFilteredImages(filter_summary);
     AddModelFigures(&stage);
     stage.Finish(log_prefix_, &stages_);

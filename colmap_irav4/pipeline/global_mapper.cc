@@ -66,6 +66,19 @@ void RemoveUnusedCameras(Reconstruction* reconstruction) {
   }
 }
 
+// The figures of a filtering (`num_observations_filtered_before`: by the
+// bundle adjustment before it, counted with it).
+void AddFilterFigures(int num_observations_filtered_before,
+                      const FilterSummary& summary, StageTimer* stage) {
+  stage->Add("observations filtered",
+             static_cast<double>(num_observations_filtered_before +
+                                 summary.num_observations_filtered));
+  stage->Add("points filtered (angle)",
+             static_cast<double>(summary.num_points_filtered));
+  stage->Add("images filtered",
+             static_cast<double>(summary.num_images_filtered));
+}
+
 }  // namespace
 
 GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
@@ -439,6 +452,37 @@ bool GlobalMapper::Positioning() {
   return true;
 }
 
+bool GlobalMapper::RunAdjustment(const std::string& /*stage*/,
+                                 const std::function<bool()>& adjust) {
+  return adjust();
+}
+
+bool GlobalMapper::AdjustOrKeepModel(StageTimer* stage,
+                                     const std::string& failure,
+                                     const std::function<bool()>& adjust,
+                                     bool* kept) {
+  *kept = false;
+  const std::string& name = stage->report().name;
+  if (!adjusted_) {
+    if (!RunAdjustment(name, adjust)) return Fail(failure);
+    adjusted_ = true;
+    return true;
+  }
+  // A failed solve may leave the model part-way (poses moved, observations
+  // filtered between rounds, the two-view check's points set aside): the
+  // copy is what is kept. It costs one model's memory next to the problem's.
+  Reconstruction before = reconstruction_;
+  if (RunAdjustment(name, adjust)) return true;
+  reconstruction_ = std::move(before);
+  *kept = true;
+  LOG(WARNING) << log_prefix_ << name
+               << ": bundle adjustment failed (Ceres found no usable "
+                  "solution); the model is kept as it was before it (after "
+                  "the last bundle adjustment that succeeded)";
+  stage->Add("warning: bundle adjustment failed, model kept as before it", 1);
+  return true;
+}
+
 bool GlobalMapper::IterativeBundleAdjustment() {
   const int num_ba =
       options_.skip_bundle_adjustment ? 0 : options_.num_ba_iterations;
@@ -457,51 +501,62 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         return false;
       }
       BundleAdjustmentSummary ba_summary;
-      if (!RunBundleAdjustment(
-              round_options, &reconstruction_, &ba_summary,
-              in_prior_frame_ ? &database_.pose_priors : nullptr)) {
-        return Fail("bundle adjustment failed");
+      bool kept = false;
+      if (!AdjustOrKeepModel(
+              &stage, "bundle adjustment failed",
+              [&] {
+                return RunBundleAdjustment(
+                    round_options, &reconstruction_, &ba_summary,
+                    in_prior_frame_ ? &database_.pose_priors : nullptr);
+              },
+              &kept)) {
+        return false;
       }
-      keypoint_noise_ = ba_summary.keypoint_noise;
-      const FilterSummary filter_summary =
-          RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
-      stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
-      stage.Add("solves", static_cast<double>(ba_summary.num_solves));
-      if (!ba_summary.scale_bin_noise_px.empty()) {
-        // The noise that weighed the observations: finest and coarsest of
-        // the keypoint scale bins.
-        stage.Add("keypoint noise px (finest scales)",
-                  ba_summary.scale_bin_noise_px.front());
-        stage.Add("keypoint noise px (coarsest scales)",
-                  ba_summary.scale_bin_noise_px.back());
+      if (kept) {
+        AddModelFigures(&stage);
+        stage.Finish(log_prefix_, &stages_);
+      } else {
+        keypoint_noise_ = ba_summary.keypoint_noise;
+        const FilterSummary filter_summary = RunFiltering(
+            options_.filtering, &reconstruction_, &keypoint_noise_);
+        stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
+        stage.Add("solves", static_cast<double>(ba_summary.num_solves));
+        if (ba_summary.num_damped_restarts > 0) {
+          stage.Add("solves started again damped",
+                    static_cast<double>(ba_summary.num_damped_restarts));
+        }
+        if (!ba_summary.scale_bin_noise_px.empty()) {
+          // The noise that weighed the observations: finest and coarsest of
+          // the keypoint scale bins.
+          stage.Add("keypoint noise px (finest scales)",
+                    ba_summary.scale_bin_noise_px.front());
+          stage.Add("keypoint noise px (coarsest scales)",
+                    ba_summary.scale_bin_noise_px.back());
+        }
+        stage.AddText("solver backend", ba_summary.backend_reason);
+        stage.AddText("linear solver", ba_summary.linear_solver_reason);
+        if (ba_summary.schur_density >= 0) {
+          stage.Add("pairs sharing a point (fraction)",
+                    ba_summary.schur_density);
+        }
+        // Where its time goes (wall seconds; not figures: they vary by run).
+        LOG(INFO) << log_prefix_ << "bundle adjustment "
+                  << std::to_string(iteration + 1) << ": "
+                  << ba_summary.backend_reason << "; "
+                  << (ba_summary.linear_solver_reason.empty()
+                          ? ba_summary.linear_solver
+                          : ba_summary.linear_solver_reason)
+                  << ", building the problems " << ba_summary.problem_seconds
+                  << " s, Ceres' preprocessing "
+                  << ba_summary.preprocessor_seconds << " s, linear solves "
+                  << ba_summary.linear_solver_seconds << " s of "
+                  << ba_summary.seconds << " s";
+        AddFilterFigures(ba_summary.num_observations_filtered, filter_summary,
+                         &stage);
+        WarnFilteredImages(filter_summary);
+        AddModelFigures(&stage);
+        stage.Finish(log_prefix_, &stages_);
       }
-      stage.AddText("solver backend", ba_summary.backend_reason);
-      stage.AddText("linear solver", ba_summary.linear_solver_reason);
-      if (ba_summary.schur_density >= 0) {
-        stage.Add("pairs sharing a point (fraction)", ba_summary.schur_density);
-      }
-      // Where its time goes (wall seconds; not figures: they vary by run).
-      LOG(INFO) << log_prefix_ << "bundle adjustment "
-                << std::to_string(iteration + 1) << ": "
-                << ba_summary.backend_reason << "; "
-                << (ba_summary.linear_solver_reason.empty()
-                        ? ba_summary.linear_solver
-                        : ba_summary.linear_solver_reason)
-                << ", building the problems " << ba_summary.problem_seconds
-                << " s, Ceres' preprocessing "
-                << ba_summary.preprocessor_seconds << " s, linear solves "
-                << ba_summary.linear_solver_seconds << " s of "
-                << ba_summary.seconds << " s";
-      stage.Add("observations filtered",
-                static_cast<double>(ba_summary.num_observations_filtered +
-                                    filter_summary.num_observations_filtered));
-      stage.Add("points filtered (angle)",
-                static_cast<double>(filter_summary.num_points_filtered));
-      stage.Add("images filtered",
-                static_cast<double>(filter_summary.num_images_filtered));
-      WarnFilteredImages(filter_summary);
-      AddModelFigures(&stage);
-      stage.Finish(log_prefix_, &stages_);
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.
@@ -534,10 +589,22 @@ bool GlobalMapper::TwoViewCheck() {
   }
   StageTimer stage("two-view check");
   TwoViewCheckSummary summary;
-  if (!CheckTwoViewPoints(options_.two_view_check, options_.bundle_adjustment,
-                          options_.triangulation, options_.pose_constraint,
-                          &reconstruction_, &keypoint_noise_, &summary)) {
-    return Fail("bundle adjustment of the two-view check failed");
+  bool kept = false;
+  if (!AdjustOrKeepModel(
+          &stage, "bundle adjustment of the two-view check failed",
+          [&] {
+            return CheckTwoViewPoints(
+                options_.two_view_check, options_.bundle_adjustment,
+                options_.triangulation, options_.pose_constraint,
+                &reconstruction_, &keypoint_noise_, &summary);
+          },
+          &kept)) {
+    return false;
+  }
+  if (kept) {
+    AddModelFigures(&stage);
+    stage.Finish(log_prefix_, &stages_);
+    return true;
   }
   stage.Add("two-view points checked",
             static_cast<double>(summary.num_points_checked));
@@ -557,12 +624,7 @@ bool GlobalMapper::Finalize() {
     StageTimer stage("final filtering");
     const FilterSummary filter_summary =
         RunFiltering(options_.filtering, &reconstruction_, &keypoint_noise_);
-    stage.Add("observations filtered",
-              static_cast<double>(filter_summary.num_observations_filtered));
-    stage.Add("points filtered (angle)",
-              static_cast<double>(filter_summary.num_points_filtered));
-    stage.Add("images filtered",
-              static_cast<double>(filter_summary.num_images_filtered));
+    AddFilterFigures(0, filter_summary, &stage);
     WarnFilteredImages(filter_summary);
     AddModelFigures(&stage);
     stage.Finish(log_prefix_, &stages_);

@@ -13,6 +13,7 @@
 // graph, looping over its components, colouring and writing the models is
 // the pipeline's (pipeline/global_pipeline.h).
 
+#include <functional>
 #include <map>
 #include <set>
 #include <string>
@@ -239,7 +240,24 @@ class GlobalMapper {
   bool fold_checked() const { return fold_checked_; }
   void set_log_prefix(const std::string& prefix) { log_prefix_ = prefix; }
 
+ protected:
+  // Runs one bundle adjustment of the refinement: `adjust` runs it on the
+  // model and returns false when Ceres found no usable solution; `stage`:
+  // the stage's name ("bundle adjustment 2", "two-view check"). The test
+  // seam of a failed adjustment (a stand-in reports a failure).
+  virtual bool RunAdjustment(const std::string& stage,
+                             const std::function<bool()>& adjust);
+
  private:
+  // The one place a failed bundle adjustment is handled. Once an earlier
+  // adjustment succeeded, a failed one must not lose that model: the model
+  // goes back to what it was before `adjust` ran (a warning, the figure
+  // "warning: bundle adjustment failed, model kept as before it" of
+  // `stage`) and `*kept` is set; the refinement goes on. Before that (the
+  // model is only positioned), the failure is the component's: false with
+  // `failure` as the reason.
+  bool AdjustOrKeepModel(StageTimer* stage, const std::string& failure,
+                         const std::function<bool()>& adjust, bool* kept);
   bool Fail(const std::string& reason);
   // Fails when the model has no 3D point left (`when`: after which step):
   // bundle adjustment has nothing to adjust and a model of poses alone is no
@@ -265,6 +283,9 @@ class GlobalMapper {
   std::vector<Track> tracks_;
   Reconstruction reconstruction_;
   bool retriangulated_ = false;
+  // Whether a bundle adjustment of the model succeeded (the model to fall
+  // back on when a later one fails).
+  bool adjusted_ = false;
   bool in_prior_frame_ = false;
   // The last bundle adjustment's noise by keypoint scale
   // (BundleAdjustmentSummary::keypoint_noise): the filters and the

@@ -31,6 +31,10 @@
 namespace colmap_irav4 {
 namespace {
 
+// The initial trust region radius of a solve started again after an
+// undamped start failed (Ceres' default: Levenberg-Marquardt's damping).
+constexpr double kDampedTrustRegionRadius = 1e4;
+
 // ceres::AutoDiffCostFunction with the functor held in place: one
 // allocation per observation instead of two (48 bytes less each; a model's
 // every observation is a residual block). Same derivatives: Ceres' own
@@ -266,11 +270,16 @@ class BundleAdjustmentProblem {
     std::string linear_solver;
   };
 
-  SolveSummary Solve() {
+  // `initial_trust_region_radius` (> 0) replaces the options' radius.
+  SolveSummary Solve(double initial_trust_region_radius = 0) {
     SolveSummary summary;
+    SolverOptions solver = options_.solver;
+    if (initial_trust_region_radius > 0) {
+      solver.ceres.initial_trust_region_radius = initial_trust_region_radius;
+    }
     if (schur_) {
       const SchurBundleAdjuster::Summary schur =
-          schur_adjuster_->Solve(options_.solver.ceres);
+          schur_adjuster_->Solve(solver.ceres);
       summary.termination = schur.termination;
       summary.message = schur.message;
       summary.num_iterations = schur.num_iterations;
@@ -281,7 +290,6 @@ class BundleAdjustmentProblem {
           " reduced parameters, " + std::to_string(schur.num_reduced_nonzeros) +
           " stored entries";
     } else {
-      SolverOptions solver = options_.solver;
       linear_solver_reason_ = ChooseLinearSolver(options_, num_images_,
                                                  schur_density_, &solver.ceres);
       if (options_.refine_points) {
@@ -1071,13 +1079,34 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
         build_timer.Restart();
         problem.Reweight();
         local_summary.problem_seconds += build_timer.ElapsedSeconds();
-        solver_summary = problem.Solve();
-        local_summary.num_iterations += solver_summary.num_iterations;
-        ++local_summary.num_solves;
-        local_summary.preprocessor_seconds +=
-            solver_summary.preprocessor_seconds;
-        local_summary.linear_solver_seconds +=
-            solver_summary.linear_solver_seconds;
+        const auto solve_from = [&](double initial_trust_region_radius) {
+          solver_summary = problem.Solve(initial_trust_region_radius);
+          local_summary.num_iterations += solver_summary.num_iterations;
+          ++local_summary.num_solves;
+          local_summary.preprocessor_seconds +=
+              solver_summary.preprocessor_seconds;
+          local_summary.linear_solver_seconds +=
+              solver_summary.linear_solver_seconds;
+        };
+        solve_from(0);
+        // From the undamped start (initial_trust_region_radius 1e16: nearly
+        // Gauss-Newton's step) a numerically singular reduced camera system
+        // fails the Cholesky factorisation at every step, and the solve gives
+        // up after max_num_consecutive_invalid_steps while the damping is
+        // still negligible (issue 23/24: a 998-image model of blocks tied by
+        // fewer than model_rigidity's 15 points, with 26000 two-view points).
+        // A failed solve (Ceres' or ours) leaves the parameters as they were,
+        // so the same solve starts again, damped.
+        if (solver_summary.termination == ceres::FAILURE &&
+            options.solver.ceres.initial_trust_region_radius >
+                kDampedTrustRegionRadius) {
+          LOG(WARNING) << "Bundle adjustment: " << solver_summary.message
+                       << "; solving again from a damped start (initial "
+                          "trust region radius "
+                       << kDampedTrustRegionRadius << ")";
+          ++local_summary.num_damped_restarts;
+          solve_from(kDampedTrustRegionRadius);
+        }
         local_summary.linear_solver = solver_summary.linear_solver;
         local_summary.linear_solver_reason = problem.LinearSolverReason();
         local_summary.schur_density = problem.SchurDensity();

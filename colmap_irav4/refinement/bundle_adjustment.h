@@ -147,6 +147,9 @@ struct BundleAdjustmentSummary {
   // through one image only: each adjusted in its own gauge.
   int num_pieces = 0;
   int num_joints = 0;
+  // Solves that failed from the options' trust region radius and were
+  // started again damped (RunBundleAdjustment).
+  int num_damped_restarts = 0;
   int num_points = 0;                    // after the last round
   int num_observations = 0;              // after the last round
   int num_observations_filtered = 0;     // over all rounds

@@ -3,8 +3,13 @@
 // Run() is exactly the stages in order.
 
 #include <algorithm>
+#include <functional>
 #include <limits>
+#include <map>
 #include <random>
+#include <set>
+#include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -335,6 +340,76 @@ TEST(GlobalMapperStages, StagesSkippedByOptionsAndFailureReason) {
             std::string::npos)
       << too_small.failure();
   EXPECT_EQ(too_small.stages().size(), 2u);
+}
+
+// A stand-in whose bundle adjustments of the named stages report a failure
+// after they ran (the model moved, as after a failed solve); it keeps the
+// model each adjustment started from.
+class FailingAdjustmentMapper : public GlobalMapper {
+ public:
+  FailingAdjustmentMapper(const StageScene& s, std::set<std::string> failing)
+      : GlobalMapper(TestOptions().ForStages(s.images.size()), s.database,
+                     s.database.cameras, s.images, s.pairs),
+        failing_(std::move(failing)) {}
+
+  std::map<std::string, Reconstruction> started_from;
+
+ protected:
+  bool RunAdjustment(const std::string& stage,
+                     const std::function<bool()>& adjust) override {
+    started_from[stage] = reconstruction();
+    const bool success = adjust();
+    return success && failing_.count(stage) == 0;
+  }
+
+ private:
+  const std::set<std::string> failing_;
+};
+
+// The 999-image model of issue 23/24 was lost to the two-view check's
+// failed bundle adjustment after bundle adjustment 1 had converged: a
+// later failed adjustment keeps the model as it was before it.
+TEST(GlobalMapperStages, FailedLaterAdjustmentKeepsTheModelBeforeIt) {
+  const StageScene s = MakeStageScene();
+  FailingAdjustmentMapper mapper(s, {"two-view check", "bundle adjustment 2"});
+  ASSERT_TRUE(mapper.RotationAveraging() && mapper.RotationFilter() &&
+              mapper.BuildTracks() && mapper.Positioning());
+  ASSERT_TRUE(mapper.IterativeBundleAdjustment()) << mapper.failure();
+  ASSERT_EQ(mapper.started_from.size(), 3u);
+  // Both failed adjustments left the model as they found it: the
+  // retriangulated model after bundle adjustment 1.
+  test::ExpectSameBits(mapper.reconstruction(),
+                       mapper.started_from.at("two-view check"));
+  test::ExpectSameBits(mapper.reconstruction(),
+                       mapper.started_from.at("bundle adjustment 2"));
+  // Not the model bundle adjustment 1 started from (that one converged).
+  EXPECT_GT(MaxCenterDifference(mapper.reconstruction(),
+                                mapper.started_from.at("bundle adjustment 1")),
+            1e-6);
+  // The stages say so (summary.json), the others do not.
+  std::vector<std::string> warned;
+  for (const StageReport& stage : mapper.stages()) {
+    for (const auto& [name, value] : stage.figures) {
+      if (name ==
+          "warning: bundle adjustment failed, model kept as before it") {
+        EXPECT_EQ(value, 1.0);
+        warned.push_back(stage.name);
+      }
+    }
+  }
+  EXPECT_EQ(warned, (std::vector<std::string>{"two-view check",
+                                              "bundle adjustment 2"}));
+  EXPECT_LT(test::MaxRelativeCenterError(mapper.reconstruction(), s.scene.truth,
+                                         10.0),
+            0.01);
+  ASSERT_TRUE(mapper.Finalize());
+  EXPECT_EQ(mapper.reconstruction().images.size(), s.images.size());
+
+  // Before any adjustment succeeded there is no model to keep: the
+  // component fails, as before.
+  FailingAdjustmentMapper first_fails(s, {"bundle adjustment 1"});
+  EXPECT_FALSE(first_fails.Solve());
+  EXPECT_EQ(first_fails.failure(), "bundle adjustment failed");
 }
 
 // An image tied to the scene by one false pair only (random matches, a

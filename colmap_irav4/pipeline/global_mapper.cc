@@ -512,10 +512,7 @@ bool GlobalMapper::IterativeBundleAdjustment() {
               &kept)) {
         return false;
       }
-      if (kept) {
-        AddModelFigures(&stage);
-        stage.Finish(log_prefix_, &stages_);
-      } else {
+      if (!kept) {
         keypoint_noise_ = ba_summary.keypoint_noise;
         const FilterSummary filter_summary = RunFiltering(
             options_.filtering, &reconstruction_, &keypoint_noise_);
@@ -554,9 +551,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         AddFilterFigures(ba_summary.num_observations_filtered, filter_summary,
                          &stage);
         WarnFilteredImages(filter_summary);
-        AddModelFigures(&stage);
-        stage.Finish(log_prefix_, &stages_);
       }
+      AddModelFigures(&stage);
+      stage.Finish(log_prefix_, &stages_);
     }
     // Every track is triangulated once, after the first round: then the
     // poses are good enough.

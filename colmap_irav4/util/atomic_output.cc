@@ -222,11 +222,18 @@ void ThrowUnlessFilePath(const std::string& path) {
 // each existing prefix made canonical (links and ".." followed), ".." after
 // a missing name back to that name's parent, as after creating it.
 // weakly_canonical stops following links at the first missing name, so
-// "missing/../link.db" would stay the link, not the file it names.
+// "missing/../link.db" would stay the link, not the file it names. A link
+// on the way that leads nowhere (dangling, or a loop) is refused: the
+// system cannot go through it, and "dangling/../x" resolved lexically
+// would name a file beside the link that the user did not name (found by
+// output_paths_fuzzer). A dangling link as the last name is followed by
+// FollowLinks (its target is created).
 fs::path ResolveAsSystem(const std::string& path) {
   std::error_code error;
+  const fs::path absolute = fs::absolute(path, error);
   fs::path resolved;
-  for (const fs::path& name : fs::absolute(path, error)) {
+  for (auto it = absolute.begin(); it != absolute.end(); ++it) {
+    const fs::path& name = *it;
     if (name.empty() || name == ".") continue;
     if (name == "..") {
       resolved = resolved.parent_path();
@@ -234,7 +241,15 @@ fs::path ResolveAsSystem(const std::string& path) {
     }
     resolved /= name;
     const fs::path canonical = fs::canonical(resolved, error);
-    if (!error) resolved = canonical;
+    if (!error) {
+      resolved = canonical;
+    } else if (std::next(it) != absolute.end() &&
+               fs::is_symlink(fs::symlink_status(resolved, error))) {
+      throw InputError(path, resolved.string() + " is a symbolic link to " +
+                                 fs::read_symlink(resolved, error).string() +
+                                 ", which does not exist (create it or "
+                                 "remove the link)");
+    }
   }
   return resolved;
 }
@@ -595,6 +610,18 @@ bool IsOwnOutputFileName(const std::string& name) {
   return IsOwnName(name.c_str());
 }
 
+namespace {
+// Whether `path` resolves to `target`; an input through a dangling link
+// names nothing, so it matches nothing.
+bool ResolvesTo(const std::string& path, const fs::path& target) {
+  try {
+    return ResolveAsSystem(path) == target;
+  } catch (const InputError&) {
+    return false;
+  }
+}
+}  // namespace
+
 void CheckNotAnInput(const std::string& output,
                      const std::vector<std::string>& inputs) {
   if (output.empty()) return;
@@ -613,7 +640,7 @@ void CheckNotAnInput(const std::string& output,
       const bool same =
           exists ? stat(path.c_str(), &in) == 0 && in.st_dev == out.st_dev &&
                        in.st_ino == out.st_ino
-                 : !output_path.empty() && ResolveAsSystem(path) == output_path;
+                 : !output_path.empty() && ResolvesTo(path, output_path);
       if (same) {
         throw InputError(output, "is the same file as " + path +
                                      " (an input, or another output of this "

@@ -349,6 +349,34 @@ TEST(AtomicOutput, OutputThroughLinkAndDotDotIsOneDirectory) {
   EXPECT_EQ(ReadText(temp.File("deep/new/file.txt")), "text");
 }
 
+// Found by output_paths_fuzzer: "dangling/../dir/file" names nothing the
+// system can open (the link leads nowhere); resolved lexically it was the
+// user's dir/file, which the writer replaced. Refused, naming the link, and
+// nothing changes.
+TEST(AtomicOutput, OutputThroughDanglingLinkIsRefused) {
+  TempDir temp;
+  WriteText(temp.File("dir/cameras.bin"), "user's");
+  fs::create_symlink("nowhere/x", temp.File("dangling"));
+  const std::string path = temp.File("dangling/../dir/cameras.bin");
+  try {
+    CheckFileWritable(path);
+    ADD_FAILURE() << "CheckFileWritable accepted " << path;
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("dangling is a symbolic link"),
+              std::string::npos)
+        << error.what();
+  }
+  EXPECT_THROW(WriteFileAtomically(path, "bytes"), InputError);
+  EXPECT_THROW(
+      OutputTransaction(temp.File("dangling/../dir"), {}, CheckWordModel),
+      InputError);
+  EXPECT_EQ(ReadText(temp.File("dir/cameras.bin")), "user's");
+  EXPECT_FALSE(fs::exists(temp.File("nowhere")));
+  // An input behind such a link names nothing: no false match.
+  EXPECT_NO_THROW(CheckNotAnInput(temp.File("out.txt"),
+                                  {temp.File("dangling/../out.txt")}));
+}
+
 // Issue 28, item 4: a run killed at any step of the installation leaves a
 // state the next run finishes: the new models and summary, the user's file
 // in OUT/0, no temporary directory.

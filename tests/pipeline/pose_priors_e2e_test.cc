@@ -104,20 +104,20 @@ TEST(PosePriorsEndToEnd, ModelWrittenInThePriorFrame) {
   }
 }
 
-// Without GPS outliers no prior is left out: the gate (5 std) is far beyond
+// Without GPS outliers no prior is left out: the gate (6 std) is far beyond
 // valid noise.
 TEST(PosePriorsEndToEnd, NoValidPriorLeftOut) {
   SceneGeneratorOptions scene_options;
   scene_options.num_images = 60;
   scene_options.seed = 2;
+  PosePriorGeneratorOptions clean;
+  clean.outlier_fraction = 0;
   const GeneratedScene scene = GenerateScene(scene_options);
-  PosePriorGeneratorOptions prior_options;
-  prior_options.outlier_fraction = 0;
-  const GeneratedPosePriors priors = GeneratePosePriors(scene, prior_options);
   test::TempDir temp;
   const std::string database = temp.File("database.db");
   WriteSceneDatabase(scene, database);
-  WritePosePriorsToDatabase(database, PosePriorSchema::kColmap4, priors.wgs84);
+  WritePosePriorsToDatabase(database, PosePriorSchema::kColmap4,
+                            GeneratePosePriors(scene, clean).wgs84);
   const GlobalMapperSummary summary =
       MapDatabase(database, true, temp.File("model"));
   ASSERT_EQ(summary.components.size(), 1u);

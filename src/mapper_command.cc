@@ -37,11 +37,13 @@ int RunMapper(int argc, char** argv, bool colmap4_names) {
       "feature_extractor stores EXIF GPS there) or --Mapper.pose_prior_path\n"
       "(IMAGE_NAME X Y Z lines, COLMAP 3.8 model_aligner's format). A model\n"
       "with 3+ position priors is placed in their frame (robust to outliers;\n"
-      "gravity sets the up axis), refined with them and written there:\n"
-      "metres, WGS84 as east-north-up at the origin in OUTPUT/k/\n"
-      "prior_frame.txt; no normalisation. A fold the images leave silent\n"
-      "is settled by them: candidate turned groups are mapped again and kept\n"
-      "where the priors agree clearly better (--Fold.settle_with_priors).\n"
+      "gravity sets the up axis), refined with them (priors beyond\n"
+      "--Mapper.prior_gate_std standard deviations left out; summary.json\n"
+      "lists them) and written there: metres, WGS84 as east-north-up at\n"
+      "the origin in OUTPUT/k/prior_frame.txt; no normalisation. A fold\n"
+      "the images leave silent is settled by them: candidate turned groups\n"
+      "are mapped again and kept where the priors agree clearly better\n"
+      "(--Fold.settle_with_priors).\n"
       "--Mapper.use_pose_priors 0: ignore.");
   manager.AddRequired("database_path", &database_path,
                       "COLMAP database (opened read-only)");

@@ -530,6 +530,7 @@ bool GlobalMapper::IterativeBundleAdjustment() {
           stage.Add("keypoint noise px (coarsest scales)",
                     ba_summary.scale_bin_noise_px.back());
         }
+        if (in_prior_frame_) RecordRejectedPriors(ba_summary, &stage);
         stage.AddText("solver backend", ba_summary.backend_reason);
         stage.AddText("linear solver", ba_summary.linear_solver_reason);
         if (ba_summary.schur_density >= 0) {
@@ -562,6 +563,37 @@ bool GlobalMapper::IterativeBundleAdjustment() {
     }
   }
   return true;
+}
+
+void GlobalMapper::RecordRejectedPriors(const BundleAdjustmentSummary& summary,
+                                        StageTimer* stage) {
+  const auto names = [&](const std::vector<image_t>& image_ids) {
+    std::vector<std::string> result;
+    for (const image_t image_id : image_ids) {
+      result.push_back(reconstruction_.images.at(image_id).name);
+    }
+    return result;
+  };
+  rejected_position_priors_ = names(summary.rejected_position_priors);
+  rejected_gravity_priors_ = names(summary.rejected_gravity_priors);
+  stage->Add("position priors left out (beyond the gate)",
+             static_cast<double>(rejected_position_priors_.size()));
+  stage->Add("gravity priors left out (beyond the gate)",
+             static_cast<double>(rejected_gravity_priors_.size()));
+  const auto log = [&](const std::vector<std::string>& rejected,
+                       const std::string& kind) {
+    if (rejected.empty()) return;
+    std::ostringstream list;
+    for (size_t k = 0; k < rejected.size(); ++k) {
+      list << (k ? ", " : "") << rejected[k];
+    }
+    LOG(INFO) << log_prefix_ << stage->report().name << ": " << rejected.size()
+              << " " << kind << " prior(s) more than "
+              << options_.bundle_adjustment.pose_priors.gate_std
+              << " standard deviations off the model left out: " << list.str();
+  };
+  log(rejected_position_priors_, "position");
+  log(rejected_gravity_priors_, "gravity");
 }
 
 bool GlobalMapper::Retriangulation() {

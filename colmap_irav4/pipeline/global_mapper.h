@@ -235,6 +235,14 @@ class GlobalMapper {
   const std::string& failure() const { return failure_; }
   // Whether the model was placed in the pose priors' frame (metric).
   bool in_prior_frame() const { return in_prior_frame_; }
+  // The images whose position / gravity prior the last bundle adjustment
+  // left out (beyond PosePriorOptions::gate_std: GatePosePriors), by name.
+  const std::vector<std::string>& rejected_position_priors() const {
+    return rejected_position_priors_;
+  }
+  const std::vector<std::string>& rejected_gravity_priors() const {
+    return rejected_gravity_priors_;
+  }
   // The last fold check's report; fold_checked() false: none ran.
   const FoldReport& fold() const { return fold_; }
   bool fold_checked() const { return fold_checked_; }
@@ -266,6 +274,10 @@ class GlobalMapper {
   // Adds the model's registered images, points and reprojection errors to
   // the stage's figures.
   void AddModelFigures(StageTimer* stage);
+  // Keeps the priors a bundle adjustment left out (by name), adds their
+  // counts to its stage and logs them.
+  void RecordRejectedPriors(const BundleAdjustmentSummary& summary,
+                            StageTimer* stage);
   // Logs the images a filtering removed from the model (a warning).
   void WarnFilteredImages(const FilterSummary& summary) const;
 
@@ -287,6 +299,8 @@ class GlobalMapper {
   // back on when a later one fails).
   bool adjusted_ = false;
   bool in_prior_frame_ = false;
+  std::vector<std::string> rejected_position_priors_;
+  std::vector<std::string> rejected_gravity_priors_;
   // The last bundle adjustment's noise by keypoint scale
   // (BundleAdjustmentSummary::keypoint_noise): the filters and the
   // retriangulation scale their thresholds by it; empty before or without.

@@ -50,6 +50,15 @@ void LogPoorlyConstrainedImages(const std::vector<ImagePoseConstraint>& images,
                << list.str();
 }
 
+// ["a", "b"].
+std::string JsonStrings(const std::vector<std::string>& strings) {
+  std::string json = "[";
+  for (size_t k = 0; k < strings.size(); ++k) {
+    json += (k ? ", " : "") + JsonString(strings[k]);
+  }
+  return json + "]";
+}
+
 }  // namespace
 
 std::string GlobalMapperSummary::ToJson() const {
@@ -91,7 +100,10 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"fold_missing_pairs\": " << c.fold_missing_pairs
         << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
         << ", \"in_prior_frame\": " << (c.in_prior_frame ? "true" : "false")
-        << ",\n     \"stages\": ";
+        << ",\n     \"rejected_position_priors\": "
+        << JsonStrings(c.rejected_position_priors)
+        << ", \"rejected_gravity_priors\": "
+        << JsonStrings(c.rejected_gravity_priors) << ",\n     \"stages\": ";
     AppendStagesJson(c.stages, "     ", &out);
     out << ",\n     \"images\": [";
     for (size_t j = 0; j < c.images.size(); ++j) {
@@ -384,6 +396,8 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
     report.num_pairs_in_graph = static_cast<int>(mapper.num_component_pairs());
     report.stages = mapper.stages();
     report.in_prior_frame = mapper.in_prior_frame();
+    report.rejected_position_priors = mapper.rejected_position_priors();
+    report.rejected_gravity_priors = mapper.rejected_gravity_priors();
     if (mapper.fold_checked()) {
       report.fold_score = mapper.fold().fold_score;
       report.folded = models[k].folded;

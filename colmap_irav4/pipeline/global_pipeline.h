@@ -48,6 +48,10 @@ struct ComponentReport {
   std::string fold_outcome;
   // Placed in the pose priors' frame (metric; prior_frame.txt beside it).
   bool in_prior_frame = false;
+  // The images whose position / gravity prior the last bundle adjustment
+  // left out (beyond the gate: GatePosePriors), by name.
+  std::vector<std::string> rejected_position_priors;
+  std::vector<std::string> rejected_gravity_priors;
   std::vector<StageReport> stages;
   // Each image's observations and pose constraint, least constrained first
   // (refinement/pose_constraint.h).

@@ -31,6 +31,10 @@ void AddPosePriorOptions(OptionManager* manager, GlobalMapperOptions* options) {
   manager->Add("Mapper.prior_loss_scale", &options->pose_priors.loss_scale,
                "Cauchy loss scale of prior residuals beyond "
                "prior_quadratic_std (standard deviations)");
+  manager->Add("Mapper.prior_gate_std", &options->pose_priors.gate_std,
+               "bundle adjustment leaves out priors whose residual exceeds "
+               "this many standard deviations (times their median spread "
+               "where wider) once the model is in their frame (0: never)");
   manager->Add("Mapper.prior_min_num_positions",
                &options->pose_priors.min_num_positions,
                "fewest position priors that place a model in their frame");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <set>
@@ -863,7 +864,74 @@ bool FitPriorFrame(const PosePriors& priors, const PosePriorOptions& options,
   return true;
 }
 
+// The images whose residual (`residuals`, in standard deviations) exceeds
+// gate_std max(1, s), s = their median / `valid_median` (GatePosePriors).
+std::vector<image_t> BeyondGate(const std::map<image_t, double>& residuals,
+                                double gate_std, double valid_median,
+                                double* spread) {
+  std::vector<image_t> beyond;
+  *spread = 0;
+  if (residuals.empty()) return beyond;
+  std::vector<double> values;
+  values.reserve(residuals.size());
+  for (const auto& [image_id, r] : residuals) values.push_back(r);
+  *spread = Median(values) / valid_median;
+  if (gate_std <= 0) return beyond;
+  const double gate = gate_std * std::max(1.0, *spread);
+  for (const auto& [image_id, r] : residuals) {
+    if (r > gate) beyond.push_back(image_id);
+  }
+  return beyond;
+}
+
 }  // namespace
+
+PosePriorGate GatePosePriors(const Reconstruction& reconstruction,
+                             const PosePriors& priors,
+                             const PosePriorOptions& options) {
+  // Medians of the norm of a valid whitened residual: chi with 3 degrees of
+  // freedom (a position) and 2 (a direction's angle).
+  constexpr double kPositionMedian = 1.5382;  // sqrt(2.3660)
+  constexpr double kGravityMedian = 1.1774;   // sqrt(2 ln 2)
+  std::map<image_t, double> positions, gravity;
+  const double gravity_std = DegToRad(options.gravity_std_deg);
+  for (const auto& [image_id, image] : reconstruction.images) {
+    const auto it = priors.find(image_id);
+    if (it == priors.end()) continue;
+    const PosePrior& prior = it->second;
+    if (prior.HasPosition()) {
+      positions[image_id] = (PositionPriorSqrtInformation(prior, options) *
+                             (image.ProjectionCenter() - prior.position))
+                                .norm();
+    }
+    if (prior.HasGravity()) {
+      // The angle, not GravityPriorCost's sine: a direction turned over
+      // (sine near 0) is far off.
+      const Eigen::Vector3d down =
+          image.cam_from_world.rotation * Eigen::Vector3d(0, 0, -1);
+      gravity[image_id] = std::atan2(prior.gravity.cross(down).norm(),
+                                     prior.gravity.dot(down)) /
+                          gravity_std;
+    }
+  }
+  PosePriorGate gate;
+  gate.kept = priors;
+  gate.rejected_positions = BeyondGate(positions, options.gate_std,
+                                       kPositionMedian, &gate.position_spread);
+  if (positions.size() - gate.rejected_positions.size() <
+      static_cast<size_t>(options.min_num_positions)) {
+    gate.rejected_positions.clear();
+  }
+  gate.rejected_gravity = BeyondGate(gravity, options.gate_std, kGravityMedian,
+                                     &gate.gravity_spread);
+  for (const image_t image_id : gate.rejected_positions) {
+    gate.kept.at(image_id).position.setConstant(PosePrior::kNaN);
+  }
+  for (const image_t image_id : gate.rejected_gravity) {
+    gate.kept.at(image_id).gravity.setConstant(PosePrior::kNaN);
+  }
+  return gate;
+}
 
 std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
                                int num_images, double schur_density,
@@ -1050,6 +1118,21 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
   // The last round's filter works on the model alone (nothing is solved
   // after it); the problem is gone by then.
   bool filter_model = false;
+  // Priors far off the model as handed in are left out of this adjustment.
+  PosePriorGate gate;
+  if (priors != nullptr && options.refine_poses) {
+    gate = GatePosePriors(*reconstruction, *priors, options.pose_priors);
+    local_summary.rejected_position_priors = gate.rejected_positions;
+    local_summary.rejected_gravity_priors = gate.rejected_gravity;
+    if (!gate.rejected_positions.empty() || !gate.rejected_gravity.empty()) {
+      VLOG(1) << "Bundle adjustment: " << gate.rejected_positions.size()
+              << " position and " << gate.rejected_gravity.size()
+              << " gravity priors beyond " << options.pose_priors.gate_std
+              << " std (spread " << gate.position_spread << ", "
+              << gate.gravity_spread << ") left out";
+    }
+    priors = &gate.kept;
+  }
   {
     Timer build_timer;
     BundleAdjustmentProblem problem(options, reconstruction, priors);

@@ -31,7 +31,8 @@ namespace colmap_irav4 {
 // up to pose_priors.quadratic_std standard deviations and a Cauchy tail of
 // pose_priors.loss_scale beyond (QuadraticCauchyTailLoss). With at least
 // pose_priors.min_num_positions position priors they hold the gauge (no
-// pose is fixed).
+// pose is fixed). Priors beyond pose_priors.gate_std in the model as it is
+// handed in are left out (GatePosePriors, below).
 
 enum class BundleAdjustmentLoss { kHuber, kHuberCeres, kCauchy, kTrivial };
 template <>
@@ -184,7 +185,39 @@ struct BundleAdjustmentSummary {
   // Prior residuals in the problem (see above).
   int num_position_priors = 0;
   int num_gravity_priors = 0;
+  // The images whose position or gravity prior was left out (beyond the
+  // gate: GatePosePriors), sorted.
+  std::vector<image_t> rejected_position_priors;
+  std::vector<image_t> rejected_gravity_priors;
 };
+
+// The priors a bundle adjustment leaves out (PosePriorOptions::gate_std).
+// r: a prior's whitened residual in the model as it is (position: |W (c -
+// p)|, gravity: the angle between the camera's down and the measured
+// direction over gravity_std_deg); s: the median r of that kind of prior
+// over the median of valid ones (chi with 3 and 2 degrees of freedom: 1.538,
+// 1.177). A prior is left out when r > gate_std max(1, s). Why the spread:
+// when the model is not yet where the priors put it (shifted or turned as a
+// whole), or their covariances are smaller than the fixes' real noise, every
+// residual is large, and a gate in covariance units would leave out valid
+// priors with the outliers; scaled by the median (which fewer than half
+// outliers do not move far) it widens, and the robust loss decides as
+// before. The gate is made again from each model it is handed, so a prior
+// left out of one adjustment comes back in the next once the model agrees
+// with it. No position prior is left out when fewer than
+// min_num_positions would remain (they hold the gauge).
+struct PosePriorGate {
+  // The priors with those left out cleared (NaN).
+  PosePriors kept;
+  std::vector<image_t> rejected_positions;  // sorted
+  std::vector<image_t> rejected_gravity;    // sorted
+  // s above (0 when there is no such prior).
+  double position_spread = 0;
+  double gravity_spread = 0;
+};
+PosePriorGate GatePosePriors(const Reconstruction& reconstruction,
+                             const PosePriors& priors,
+                             const PosePriorOptions& options);
 
 // Sets the linear solver (and preconditioner) of a bundle adjustment of
 // `num_images` images in `ceres_options` (options.linear_solver, above);

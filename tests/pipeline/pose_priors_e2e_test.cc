@@ -2,6 +2,7 @@
 // GPS-like priors (COLMAP 4's pose_priors table) gives a model in the
 // priors' frame, compared with the truth there without any alignment.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -84,7 +85,45 @@ TEST(PosePriorsEndToEnd, ModelWrittenInThePriorFrame) {
     json << json_file.rdbuf();
     EXPECT_NE(json.str().find("\"in_prior_frame\": true"), std::string::npos);
     EXPECT_NE(json.str().find("\"frame\": \"ENU\""), std::string::npos);
+    // The generator's GPS outliers (5%, 30-100 m off) are left out of the
+    // last bundle adjustment, and only they.
+    ASSERT_FALSE(priors.outliers.empty());
+    std::vector<std::string> outliers;
+    for (const image_t image_id : priors.outliers) {
+      outliers.push_back(scene.truth.images.at(image_id).name);
+    }
+    std::vector<std::string> rejected =
+        summary.components[0].rejected_position_priors;
+    std::sort(outliers.begin(), outliers.end());
+    std::sort(rejected.begin(), rejected.end());
+    EXPECT_EQ(rejected, outliers);
+    EXPECT_TRUE(summary.components[0].rejected_gravity_priors.empty());
+    EXPECT_NE(
+        json.str().find("\"rejected_position_priors\": [\"" + outliers.front()),
+        std::string::npos);
   }
+}
+
+// Without GPS outliers no prior is left out: the gate (6 std) is far beyond
+// valid noise.
+TEST(PosePriorsEndToEnd, NoValidPriorLeftOut) {
+  SceneGeneratorOptions scene_options;
+  scene_options.num_images = 60;
+  scene_options.seed = 2;
+  PosePriorGeneratorOptions clean;
+  clean.outlier_fraction = 0;
+  const GeneratedScene scene = GenerateScene(scene_options);
+  test::TempDir temp;
+  const std::string database = temp.File("database.db");
+  WriteSceneDatabase(scene, database);
+  WritePosePriorsToDatabase(database, PosePriorSchema::kColmap4,
+                            GeneratePosePriors(scene, clean).wgs84);
+  const GlobalMapperSummary summary =
+      MapDatabase(database, true, temp.File("model"));
+  ASSERT_EQ(summary.components.size(), 1u);
+  EXPECT_TRUE(summary.components[0].in_prior_frame);
+  EXPECT_TRUE(summary.components[0].rejected_position_priors.empty());
+  EXPECT_TRUE(summary.components[0].rejected_gravity_priors.empty());
 }
 
 // Two parts of the view graph with no verified pair between them: each is

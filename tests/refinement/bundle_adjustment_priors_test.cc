@@ -89,7 +89,10 @@ TEST(BundleAdjustmentPriors, PriorsPullAShiftedModelBackAndIgnoreAnOutlier) {
   MoveModel(0.0, Eigen::Vector3d(0.3, -0.2, 0.1), &model);
   BundleAdjustmentSummary summary;
   ASSERT_TRUE(RunBundleAdjustment(Options(), &model, &summary, &priors));
-  EXPECT_EQ(summary.num_position_priors, 12);
+  // The outlier, 2,500 std off, is beyond the gate even on the shifted model
+  // (the gate widens with the priors' spread, 15-19 std here): left out.
+  EXPECT_EQ(summary.num_position_priors, 11);
+  EXPECT_EQ(summary.rejected_position_priors, std::vector<image_t>({4}));
   // Back in the priors' frame (radius 10, priors 2 cm): the outlier, 50 m
   // off, neither moved its camera nor the model.
   EXPECT_LT(MaxUnalignedCenterError(model, scene.truth), 0.03);
@@ -104,9 +107,10 @@ TEST(BundleAdjustmentPriors, PriorsPullAShiftedModelBackAndIgnoreAnOutlier) {
   ASSERT_TRUE(RunBundleAdjustment(Options(), &without));
   EXPECT_GT(MaxUnalignedCenterError(without, scene.truth), 0.3);
 
-  // Least squares on the priors: the outlier drags the model.
+  // Least squares on the priors (and no gate): the outlier drags the model.
   BundleAdjustmentOptions least_squares = Options();
   least_squares.pose_priors.loss_scale = 1e6;
+  least_squares.pose_priors.gate_std = 0;
   Reconstruction dragged = scene.truth;
   ASSERT_TRUE(RunBundleAdjustment(least_squares, &dragged, nullptr, &priors));
   EXPECT_GT(MaxUnalignedCenterError(dragged, scene.truth), 1.0);
@@ -155,6 +159,102 @@ TEST(BundleAdjustmentPriors, ValidPriorsPlaceTheModelByLeastSquares) {
   }
   EXPECT_LT(errors[0], 0.01);
   EXPECT_GT(errors[1], 0.03);
+}
+
+// Priors far off the model as it is handed in (beyond gate_std, 6 std) are
+// left out: the adjustment is then exactly the one without them, where the
+// Cauchy tail alone left each a small pull. Valid priors (1 m noise, the
+// widest 2.9 std off) are all kept, on either backend.
+TEST(BundleAdjustmentPriors, PriorsBeyondTheGateAreLeftOut) {
+  const SyntheticScene scene = Scene();
+  const double std = 1.0;
+  // Image 4 50 m off (Priors), 7 and 10 too, in other directions.
+  PosePriors priors = Priors(scene.truth, std, false);
+  priors.at(7).position += Eigen::Vector3d(50, 0, 0);
+  priors.at(10).position += Eigen::Vector3d(0, -30, 40);
+  PosePriors inliers = priors;
+  for (const image_t image_id : {4, 7, 10}) inliers.erase(image_id);
+  PosePriors valid = Priors(scene.truth, std, false);
+  valid.at(4).position -= Eigen::Vector3d(0, 50, 0);
+  for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
+                             BundleAdjustmentSolverBackend::kSchur}) {
+    SCOPED_TRACE(EnumName(backend));
+    BundleAdjustmentOptions options = Options();
+    options.solver_backend = backend;
+    Reconstruction model = scene.truth;
+    BundleAdjustmentSummary summary;
+    ASSERT_TRUE(RunBundleAdjustment(options, &model, &summary, &priors));
+    EXPECT_EQ(summary.rejected_position_priors,
+              std::vector<image_t>({4, 7, 10}));
+    EXPECT_TRUE(summary.rejected_gravity_priors.empty());
+    EXPECT_EQ(summary.num_position_priors, 9);
+
+    Reconstruction reference = scene.truth;
+    BundleAdjustmentSummary reference_summary;
+    ASSERT_TRUE(
+        RunBundleAdjustment(options, &reference, &reference_summary, &inliers));
+    EXPECT_TRUE(reference_summary.rejected_position_priors.empty());
+    EXPECT_LT(MaxUnalignedCenterError(model, reference), 1e-9);
+
+    // Without the gate the outliers' Cauchy tails move the model.
+    BundleAdjustmentOptions no_gate = options;
+    no_gate.pose_priors.gate_std = 0;
+    Reconstruction pulled = scene.truth;
+    BundleAdjustmentSummary pulled_summary;
+    ASSERT_TRUE(
+        RunBundleAdjustment(no_gate, &pulled, &pulled_summary, &priors));
+    EXPECT_TRUE(pulled_summary.rejected_position_priors.empty());
+    EXPECT_EQ(pulled_summary.num_position_priors, 12);
+    EXPECT_GT(MaxUnalignedCenterError(pulled, reference), 0.01);
+
+    // No valid prior is left out.
+    Reconstruction clean = scene.truth;
+    BundleAdjustmentSummary clean_summary;
+    ASSERT_TRUE(RunBundleAdjustment(options, &clean, &clean_summary, &valid));
+    EXPECT_TRUE(clean_summary.rejected_position_priors.empty());
+    EXPECT_EQ(clean_summary.num_position_priors, 12);
+  }
+}
+
+// The gate is in units of the priors' own spread when that is wider than
+// their covariance: a model not yet in the priors' frame (shifted 0.3 m
+// against 2 cm priors: every prior 15 std off) keeps its valid priors and
+// still leaves out the outlier; a gravity direction 30 deg off (15 std of 2
+// deg) is left out, the exact ones kept.
+TEST(BundleAdjustmentPriors, GateWidensWithTheSpreadAndChecksGravity) {
+  const SyntheticScene scene = Scene();
+  PosePriors priors = Priors(scene.truth, 0.02, true);
+  const Eigen::Vector3d down = priors.at(9).gravity;
+  priors.at(9).gravity =
+      Eigen::AngleAxisd(DegToRad(30.0), down.unitOrthogonal()) * down;
+  PosePriorOptions options;
+  const PosePriorGate in_frame = GatePosePriors(scene.truth, priors, options);
+  EXPECT_EQ(in_frame.rejected_positions, std::vector<image_t>({4}));
+  EXPECT_EQ(in_frame.rejected_gravity, std::vector<image_t>({9}));
+  EXPECT_LT(in_frame.position_spread, 1.5);
+  EXPECT_FALSE(in_frame.kept.at(4).HasPosition());
+  EXPECT_TRUE(in_frame.kept.at(4).HasGravity());
+  EXPECT_FALSE(in_frame.kept.at(9).HasGravity());
+  EXPECT_TRUE(in_frame.kept.at(9).HasPosition());
+
+  Reconstruction shifted = scene.truth;
+  MoveModel(0.0, Eigen::Vector3d(0.3, -0.2, 0.1), &shifted);
+  const PosePriorGate off_frame = GatePosePriors(shifted, priors, options);
+  EXPECT_GT(off_frame.position_spread, 5.0);
+  EXPECT_EQ(off_frame.rejected_positions, std::vector<image_t>({4}));
+
+  // A gate in covariance units alone would have left out every prior.
+  double min_whitened = 1e9;
+  for (const auto& [image_id, image] : shifted.images) {
+    min_whitened = std::min(
+        min_whitened,
+        (image.ProjectionCenter() - priors.at(image_id).position).norm() /
+            0.02);
+  }
+  EXPECT_GT(min_whitened, options.gate_std);
+  options.gate_std = 0;
+  EXPECT_TRUE(
+      GatePosePriors(scene.truth, priors, options).rejected_positions.empty());
 }
 
 TEST(BundleAdjustmentPriors, GravityCorrectsATilt) {

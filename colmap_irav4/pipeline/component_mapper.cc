@@ -238,12 +238,13 @@ std::vector<ComponentModel> ComponentMapper::Map(
     }
     best_.reset();
   }
-  if (mapped_from_pairs && models_.size() == 1) {
-    MergeRigidParts(&models_[0], pairs);
-  }
+  ModelRigidity rigidity;
+  const bool rigidity_checked = mapped_from_pairs && models_.size() == 1 &&
+                                MergeRigidParts(&models_[0], pairs, &rigidity);
   std::vector<ComponentModel> models;
   for (ComponentModel& model : models_) {
-    for (ComponentModel& part : SplitIntoRigidParts(std::move(model))) {
+    for (ComponentModel& part : SplitIntoRigidParts(
+             std::move(model), rigidity_checked ? &rigidity : nullptr)) {
       models.push_back(std::move(part));
     }
   }
@@ -616,12 +617,14 @@ void ComponentMapper::WriteFolded() {
   Finish(std::move(best_), "folded (unresolved)", /*folded=*/true);
 }
 
-void ComponentMapper::MergeRigidParts(
-    ComponentModel* model, const std::vector<ImagePairGeometry>& pairs) {
+bool ComponentMapper::MergeRigidParts(
+    ComponentModel* model, const std::vector<ImagePairGeometry>& pairs,
+    ModelRigidity* checked_rigidity) {
   const PartMergeOptions& options = options_.part_merge;
-  if (!options.merge || model->folded) return;
-  ModelRigidity rigidity = model->mapper->CheckRigidity();
-  if (rigidity.num_large_blocks <= 1) return;
+  if (!options.merge || model->folded) return false;
+  ModelRigidity& rigidity = *checked_rigidity;
+  rigidity = model->mapper->CheckRigidity();
+  if (rigidity.num_large_blocks <= 1) return true;
   const int num_parts_first = rigidity.num_large_blocks;
   // The images the split model writes (its parts of min_model_size images
   // or more): the re-mapped model must write as many (within the option).
@@ -636,12 +639,10 @@ void ComponentMapper::MergeRigidParts(
     const std::string round_name =
         "part merge (round " + std::to_string(round + 1) + ")";
     const PartMergePlan plan =
-        PlanPartMerge(options, model->mapper->reconstruction(),
-                      rigidity.blocks, current_pairs,
-                      database_.two_view_geometries);
-    LOG(INFO) << prefix_ << round_name << ": "
-              << rigidity.num_large_blocks << " rigid parts ("
-              << plan.num_parts << " with the small ones); "
+        PlanPartMerge(options, model->mapper->reconstruction(), rigidity.blocks,
+                      current_pairs, database_.two_view_geometries);
+    LOG(INFO) << prefix_ << round_name << ": " << rigidity.num_large_blocks
+              << " rigid parts (" << plan.num_parts << " with the small ones); "
               << plan.num_confirmed << " of " << plan.num_pairs_across
               << " pairs across them confirmed by the parts' points, "
                  "joining them into "
@@ -654,8 +655,9 @@ void ComponentMapper::MergeRigidParts(
       break;
     }
     if (plan.contradicted.empty()) {
-      stop = "no pair contradicts the join (mapping again would not change "
-             "the model)";
+      stop =
+          "no pair contradicts the join (mapping again would not change "
+          "the model)";
       break;
     }
     std::vector<ImagePairGeometry> kept;
@@ -671,8 +673,8 @@ void ComponentMapper::MergeRigidParts(
       stop = "no component left after removing the contradicted pairs";
       break;
     }
-    kept = PairsWithin(kept, std::set<image_t>(components[0].begin(),
-                                               components[0].end()));
+    kept = PairsWithin(
+        kept, std::set<image_t>(components[0].begin(), components[0].end()));
     LOG(INFO) << prefix_ << round_name << ": " << plan.contradicted.size()
               << " pairs removed, mapping the component again ("
               << components[0].size() << " images)";
@@ -684,8 +686,8 @@ void ComponentMapper::MergeRigidParts(
     if (attempt == nullptr || !attempt->Solve()) {
       stop = "the re-mapped component gave no model";
     } else if (attempt->fold().folded) {
-      stop = "the re-mapped model looks folded (" +
-             attempt->fold().Describe() + ")";
+      stop = "the re-mapped model looks folded (" + attempt->fold().Describe() +
+             ")";
     } else {
       merged = attempt->CheckRigidity();
       const size_t num_written =
@@ -700,9 +702,10 @@ void ComponentMapper::MergeRigidParts(
       }
     }
     if (!stop.empty()) break;
-    LOG(INFO) << prefix_ << round_name << ": re-mapped model kept: "
-              << merged.num_large_blocks << " rigid part(s), "
-              << attempt->reconstruction().images.size() << " images";
+    LOG(INFO) << prefix_ << round_name
+              << ": re-mapped model kept: " << merged.num_large_blocks
+              << " rigid part(s), " << attempt->reconstruction().images.size()
+              << " images";
     model->mapper = std::move(attempt);
     model->fold_outcome = model->mapper->fold_checked() ? "clean" : "";
     current_pairs = std::move(kept);
@@ -723,6 +726,7 @@ void ComponentMapper::MergeRigidParts(
   }
   model->part_merge = result;
   notes_.push_back(prefix_ + "part merge: " + result);
+  return true;
 }
 
 size_t ComponentMapper::NumWrittenImages(const Reconstruction& reconstruction,
@@ -738,12 +742,14 @@ size_t ComponentMapper::NumWrittenImages(const Reconstruction& reconstruction,
 }
 
 std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
-    ComponentModel model) {
+    ComponentModel model, const ModelRigidity* checked_rigidity) {
   // The model as it is when it is one rigid piece, else its rigid parts of
   // min_model_size images or more, each as a model of its own, with a
   // warning: never one model whose parts sit at an arbitrary relative offset
   // or scale.
-  const ModelRigidity rigidity = model.mapper->CheckRigidity();
+  const ModelRigidity rigidity = checked_rigidity != nullptr
+                                     ? *checked_rigidity
+                                     : model.mapper->CheckRigidity();
   std::vector<ComponentModel> parts;
   if (rigidity.num_large_blocks <= 1) {
     parts.push_back(std::move(model));

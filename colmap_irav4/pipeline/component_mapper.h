@@ -138,14 +138,19 @@ class ComponentMapper {
   // replaces the model only when it is not folded, is less split and writes
   // no fewer images (within PartMergeOptions::min_image_fraction); up to
   // max_rounds rounds while it stays split.
-  void MergeRigidParts(ComponentModel* model,
-                       const std::vector<ImagePairGeometry>& pairs);
+  // Returns whether it checked the rigidity of the model it leaves (then in
+  // `rigidity`: the check is not run twice).
+  bool MergeRigidParts(ComponentModel* model,
+                       const std::vector<ImagePairGeometry>& pairs,
+                       ModelRigidity* rigidity);
   // The images a model of `rigidity` is written with: all when it is one
   // rigid piece, else those of its parts of min_model_size images or more.
   size_t NumWrittenImages(const Reconstruction& reconstruction,
                           const ModelRigidity& rigidity) const;
   // Writes a model that is not one rigid piece as its rigid parts.
-  std::vector<ComponentModel> SplitIntoRigidParts(ComponentModel model);
+  // `rigidity`: the model's, when already checked (null: checked here).
+  std::vector<ComponentModel> SplitIntoRigidParts(
+      ComponentModel model, const ModelRigidity* rigidity = nullptr);
 
   const GlobalMapperOptions options_;
   const DatabaseContents& database_;

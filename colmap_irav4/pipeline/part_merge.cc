@@ -76,7 +76,8 @@ void PartMergeOptions::Check() const {
   }
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
     throw OptionError(&max_rotation_error_deg,
-                      "PartMerge.max_rotation_error_deg", "must be in (0, 180]");
+                      "PartMerge.max_rotation_error_deg",
+                      "must be in (0, 180]");
   }
   if (max_rounds < 1) {
     throw OptionError(&max_rounds, "PartMerge.max_rounds", "must be >= 1");

@@ -31,16 +31,15 @@ class PartMergeTest : public ::testing::Test {
     W_ = AngleAxisToRotation(Eigen::Vector3d(0, DegToRad(120), 0));
     for (image_t i = 1; i <= 8; ++i) {
       true_R_[i] = AngleAxisToRotation(
-          DegToRad(2) * Eigen::Vector3d(unit(random), unit(random),
-                                        unit(random)));
+          DegToRad(2) *
+          Eigen::Vector3d(unit(random), unit(random), unit(random)));
       true_C_[i] = Eigen::Vector3d(-1.5 + ((i - 1) % 4), i <= 4 ? 0 : 1, 0);
       Image& image = model_.images[i];
       image.image_id = i;
       image.camera_id = 1;
       // Part B in its own turned, scaled frame: x_B = 2 W x.
-      const Eigen::Matrix3d R = i <= 4 ? true_R_[i]
-                                       : Eigen::Matrix3d(true_R_[i] *
-                                                         W_.transpose());
+      const Eigen::Matrix3d R =
+          i <= 4 ? true_R_[i] : Eigen::Matrix3d(true_R_[i] * W_.transpose());
       const Eigen::Vector3d C = i <= 4 ? true_C_[i] : 2 * W_ * true_C_[i];
       image.cam_from_world.rotation = Eigen::Quaterniond(R);
       image.cam_from_world.translation = -(R * C);
@@ -53,8 +52,8 @@ class PartMergeTest : public ::testing::Test {
         for (image_t i = 1 + 4 * part; i <= 4 + 4 * part; ++i) {
           track.push_back({i, Observe(i, X)});
         }
-        const point3D_t id = AddPoint3D(part == 0 ? X : 2 * W_ * X, track,
-                                        &model_);
+        const point3D_t id =
+            AddPoint3D(part == 0 ? X : 2 * W_ * X, track, &model_);
         if (part == 0) points_a_.push_back({id, X});
       }
     }
@@ -88,8 +87,8 @@ class PartMergeTest : public ::testing::Test {
     pair.image_id2 = b;
     pair.R = true_R_[b] * true_R_[a].transpose();
     if (false_pair) {
-      pair.R = AngleAxisToRotation(Eigen::Vector3d(DegToRad(25), 0, 0)) *
-               pair.R;
+      pair.R =
+          AngleAxisToRotation(Eigen::Vector3d(DegToRad(25), 0, 0)) * pair.R;
     }
     pair.num_inliers = 20;
     pairs_.push_back(pair);
@@ -106,8 +105,7 @@ class PartMergeTest : public ::testing::Test {
       point2D_t idx_b = 0;
       if (false_pair) {
         model_.images.at(b).points2D.emplace_back();
-        idx_b =
-            static_cast<point2D_t>(model_.images.at(b).points2D.size() - 1);
+        idx_b = static_cast<point2D_t>(model_.images.at(b).points2D.size() - 1);
         random_keypoints_[{b, idx_b}] = Eigen::Vector2d::Zero();
       } else {
         idx_b = Observe(b, X);
@@ -160,9 +158,9 @@ TEST_F(PartMergeTest, FalsePairIsNotConfirmed) {
 }
 
 TEST_F(PartMergeTest, PlanJoinsThePartsAndFindsTheFalsePair) {
-  const PartMergePlan plan = PlanPartMerge(
-      PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}}, pairs_,
-      geometries_);
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}},
+                    pairs_, geometries_);
   EXPECT_EQ(plan.num_parts, 2);
   EXPECT_EQ(plan.num_pairs_across, 3);
   EXPECT_EQ(plan.num_confirmed, 2);
@@ -177,14 +175,13 @@ TEST_F(PartMergeTest, PlanJoinsThePartsAndFindsTheFalsePair) {
     EXPECT_LT(AngularDistanceDeg(R, true_R_[i]), 1e-6) << i;
   }
   // Only the false pair contradicts the join.
-  EXPECT_EQ(plan.contradicted,
-            (std::set<std::pair<image_t, image_t>>{{2, 6}}));
+  EXPECT_EQ(plan.contradicted, (std::set<std::pair<image_t, image_t>>{{2, 6}}));
 }
 
 TEST_F(PartMergeTest, NothingJoinedThroughAFalsePairAlone) {
-  const PartMergePlan plan = PlanPartMerge(
-      PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}}, {pairs_[2]},
-      {geometries_[2]});
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}},
+                    {pairs_[2]}, {geometries_[2]});
   EXPECT_EQ(plan.num_pairs_across, 1);
   EXPECT_EQ(plan.num_confirmed, 0);
   EXPECT_EQ(plan.num_groups, 2);

@@ -115,6 +115,25 @@ class PartMergeTest : public ::testing::Test {
     geometries_.push_back(geometry);
   }
 
+  // The geometry's matches as (keypoint in image_id1, in image_id2).
+  static std::vector<std::pair<point2D_t, point2D_t>> Matches(
+      const TwoViewGeometry& geometry) {
+    std::vector<std::pair<point2D_t, point2D_t>> matches;
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
+    }
+    return matches;
+  }
+
+  // Image_id2 of pair k placed from part A through image_id1 (with the
+  // pair's rotation, or `R_ab`).
+  CrossPairCheck CheckPair(size_t k, const Eigen::Matrix3d* R_ab = nullptr) {
+    return CheckCrossPair(PartMergeOptions(), model_, {1, 2, 3, 4},
+                          pairs_[k].image_id1, pairs_[k].image_id2,
+                          R_ab != nullptr ? *R_ab : pairs_[k].R,
+                          Matches(geometries_[k]));
+  }
+
   Camera camera_;
   Reconstruction model_;
   Eigen::Matrix3d W_;
@@ -127,13 +146,7 @@ class PartMergeTest : public ::testing::Test {
 };
 
 TEST_F(PartMergeTest, TruePairIsConfirmedAndPlacesTheImage) {
-  const std::set<image_t> part_a = {1, 2, 3, 4};
-  std::vector<std::pair<point2D_t, point2D_t>> matches;
-  for (const FeatureMatch& match : geometries_[0].inlier_matches) {
-    matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
-  }
-  const CrossPairCheck check = CheckCrossPair(
-      PartMergeOptions(), model_, part_a, 1, 5, pairs_[0].R, matches);
+  const CrossPairCheck check = CheckPair(0);
   EXPECT_EQ(check.num_points, 20);
   EXPECT_EQ(check.num_met, 20);
   EXPECT_TRUE(check.confirmed);
@@ -143,13 +156,7 @@ TEST_F(PartMergeTest, TruePairIsConfirmedAndPlacesTheImage) {
 }
 
 TEST_F(PartMergeTest, FalsePairIsNotConfirmed) {
-  const std::set<image_t> part_a = {1, 2, 3, 4};
-  std::vector<std::pair<point2D_t, point2D_t>> matches;
-  for (const FeatureMatch& match : geometries_[2].inlier_matches) {
-    matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
-  }
-  const CrossPairCheck check = CheckCrossPair(
-      PartMergeOptions(), model_, part_a, 2, 6, pairs_[2].R, matches);
+  const CrossPairCheck check = CheckPair(2);
   EXPECT_EQ(check.num_points, 20);
   // Two rays always meet a centre; random ones no more.
   EXPECT_GE(check.num_met, 2);
@@ -191,16 +198,9 @@ TEST_F(PartMergeTest, NothingJoinedThroughAFalsePairAlone) {
 TEST_F(PartMergeTest, ARotationOffByMoreThanTheRayErrorIsNotConfirmed) {
   // The true matches of (1, 5) with the pair's rotation 1 deg off: b's rays
   // no longer meet A's points from one centre within 0.1 deg.
-  const std::set<image_t> part_a = {1, 2, 3, 4};
-  std::vector<std::pair<point2D_t, point2D_t>> matches;
-  for (const FeatureMatch& match : geometries_[0].inlier_matches) {
-    matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
-  }
   const Eigen::Matrix3d off =
       AngleAxisToRotation(Eigen::Vector3d(0, 0, DegToRad(1))) * pairs_[0].R;
-  const CrossPairCheck check =
-      CheckCrossPair(PartMergeOptions(), model_, part_a, 1, 5, off, matches);
-  EXPECT_FALSE(check.confirmed);
+  EXPECT_FALSE(CheckPair(0, &off).confirmed);
 }
 
 TEST(PartMergeOptions, Check) {

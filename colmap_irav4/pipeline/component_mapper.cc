@@ -207,8 +207,15 @@ std::vector<ComponentModel> ComponentMapper::Map(
   num_removed_ = 0;
   std::unique_ptr<GlobalMapper> first = Attempt(images, pairs, prefix_);
   if (first == nullptr) return {};
+  // Whether models_ holds the model of the component's pairs as given, which
+  // the fold check did not flag after positioning: the one whose rigid
+  // parts may be joined again (a model from a fold resolution was mapped
+  // from pairs chosen against a fold; left as it is).
+  bool mapped_from_pairs = false;
   if (!first->fold().folded) {
-    if (!SettleFoldWithPriors(&first, pairs)) Finish(std::move(first), "");
+    if (!SettleFoldWithPriors(&first, pairs)) {
+      mapped_from_pairs = Finish(std::move(first), "");
+    }
   } else if (!options_.fold.resolve) {
     LOG(WARNING) << prefix_ << "the model of " << images.size()
                  << " images looks FOLDED (symmetric scene: some cameras "
@@ -231,9 +238,13 @@ std::vector<ComponentModel> ComponentMapper::Map(
     }
     best_.reset();
   }
+  ModelRigidity rigidity;
+  const bool rigidity_checked = mapped_from_pairs && models_.size() == 1 &&
+                                MergeRigidParts(&models_[0], pairs, &rigidity);
   std::vector<ComponentModel> models;
   for (ComponentModel& model : models_) {
-    for (ComponentModel& part : SplitIntoRigidParts(std::move(model))) {
+    for (ComponentModel& part : SplitIntoRigidParts(
+             std::move(model), rigidity_checked ? &rigidity : nullptr)) {
       models.push_back(std::move(part));
     }
   }
@@ -606,13 +617,139 @@ void ComponentMapper::WriteFolded() {
   Finish(std::move(best_), "folded (unresolved)", /*folded=*/true);
 }
 
+bool ComponentMapper::MergeRigidParts(
+    ComponentModel* model, const std::vector<ImagePairGeometry>& pairs,
+    ModelRigidity* checked_rigidity) {
+  const PartMergeOptions& options = options_.part_merge;
+  if (!options.merge || model->folded) return false;
+  ModelRigidity& rigidity = *checked_rigidity;
+  rigidity = model->mapper->CheckRigidity();
+  if (rigidity.num_large_blocks <= 1) return true;
+  const int num_parts_first = rigidity.num_large_blocks;
+  // The images the split model writes (its parts of min_model_size images
+  // or more): the re-mapped model must write as many (within the option).
+  const size_t num_written_first =
+      NumWrittenImages(model->mapper->reconstruction(), rigidity);
+  std::vector<ImagePairGeometry> current_pairs = pairs;
+  size_t num_removed = 0;
+  int num_rounds_kept = 0;
+  std::string stop;  // why the last round stopped, if it did
+  for (int round = 0;
+       round < options.max_rounds && rigidity.num_large_blocks > 1; ++round) {
+    const std::string round_name =
+        "part merge (round " + std::to_string(round + 1) + ")";
+    const PartMergePlan plan =
+        PlanPartMerge(options, model->mapper->reconstruction(), rigidity.blocks,
+                      current_pairs, database_.two_view_geometries);
+    LOG(INFO) << prefix_ << round_name << ": " << rigidity.num_large_blocks
+              << " rigid parts (" << plan.num_parts << " with the small ones); "
+              << plan.num_confirmed << " of " << plan.num_pairs_across
+              << " pairs across them confirmed by the parts' points, "
+                 "joining them into "
+              << plan.num_groups << " groups; " << plan.contradicted.size()
+              << " pairs across joined parts contradict the join by more "
+                 "than "
+              << options.max_rotation_error_deg << " deg";
+    if (plan.num_confirmed == 0) {
+      stop = "no pair across the parts confirmed";
+      break;
+    }
+    if (plan.contradicted.empty()) {
+      stop =
+          "no pair contradicts the join (mapping again would not change "
+          "the model)";
+      break;
+    }
+    std::vector<ImagePairGeometry> kept;
+    for (const ImagePairGeometry& pair : current_pairs) {
+      if (!plan.contradicted.count(
+              std::minmax(pair.image_id1, pair.image_id2))) {
+        kept.push_back(pair);
+      }
+    }
+    const std::vector<std::vector<image_t>> components = PairComponents(kept);
+    if (components.empty() ||
+        static_cast<int>(components[0].size()) < options_.min_model_size) {
+      stop = "no component left after removing the contradicted pairs";
+      break;
+    }
+    kept = PairsWithin(
+        kept, std::set<image_t>(components[0].begin(), components[0].end()));
+    LOG(INFO) << prefix_ << round_name << ": " << plan.contradicted.size()
+              << " pairs removed, mapping the component again ("
+              << components[0].size() << " images)";
+    const std::string failure = failure_;
+    std::unique_ptr<GlobalMapper> attempt =
+        Attempt(components[0], kept, prefix_ + "[parts joined] ");
+    failure_ = failure;
+    ModelRigidity merged;
+    if (attempt == nullptr || !attempt->Solve()) {
+      stop = "the re-mapped component gave no model";
+    } else if (attempt->fold().folded) {
+      stop = "the re-mapped model looks folded (" + attempt->fold().Describe() +
+             ")";
+    } else {
+      merged = attempt->CheckRigidity();
+      const size_t num_written =
+          NumWrittenImages(attempt->reconstruction(), merged);
+      if (merged.num_large_blocks >= rigidity.num_large_blocks) {
+        stop = "the re-mapped model is not less split (" +
+               std::to_string(merged.num_large_blocks) + " rigid parts)";
+      } else if (static_cast<double>(num_written) <
+                 options.min_image_fraction * num_written_first) {
+        stop = "the re-mapped model writes " + std::to_string(num_written) +
+               " images, the split one " + std::to_string(num_written_first);
+      }
+    }
+    if (!stop.empty()) break;
+    LOG(INFO) << prefix_ << round_name
+              << ": re-mapped model kept: " << merged.num_large_blocks
+              << " rigid part(s), " << attempt->reconstruction().images.size()
+              << " images";
+    model->mapper = std::move(attempt);
+    model->fold_outcome = model->mapper->fold_checked() ? "clean" : "";
+    current_pairs = std::move(kept);
+    rigidity = std::move(merged);
+    num_removed += plan.contradicted.size();
+    ++num_rounds_kept;
+  }
+  const std::string result =
+      std::to_string(num_parts_first) + " rigid parts -> " +
+      std::to_string(std::max(rigidity.num_large_blocks, 1)) + " (" +
+      std::to_string(num_rounds_kept) + " round(s) kept, " +
+      std::to_string(num_removed) + " pairs removed" +
+      (stop.empty() ? "" : "; stopped: " + stop) + ")";
+  if (num_rounds_kept > 0) {
+    LOG(INFO) << prefix_ << "part merge: " << result;
+  } else {
+    LOG(INFO) << prefix_ << "part merge: the split model is kept: " << result;
+  }
+  model->part_merge = result;
+  notes_.push_back(prefix_ + "part merge: " + result);
+  return true;
+}
+
+size_t ComponentMapper::NumWrittenImages(const Reconstruction& reconstruction,
+                                         const ModelRigidity& rigidity) const {
+  if (rigidity.num_large_blocks <= 1) return reconstruction.images.size();
+  size_t num_images = 0;
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) >= options_.min_model_size) {
+      num_images += block.size();
+    }
+  }
+  return num_images;
+}
+
 std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
-    ComponentModel model) {
+    ComponentModel model, const ModelRigidity* checked_rigidity) {
   // The model as it is when it is one rigid piece, else its rigid parts of
   // min_model_size images or more, each as a model of its own, with a
   // warning: never one model whose parts sit at an arbitrary relative offset
   // or scale.
-  const ModelRigidity rigidity = model.mapper->CheckRigidity();
+  const ModelRigidity rigidity = checked_rigidity != nullptr
+                                     ? *checked_rigidity
+                                     : model.mapper->CheckRigidity();
   std::vector<ComponentModel> parts;
   if (rigidity.num_large_blocks <= 1) {
     parts.push_back(std::move(model));
@@ -640,6 +777,7 @@ std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
     part.mapper->RestrictToImages(
         std::set<image_t>(block.begin(), block.end()));
     part.folded = model.folded;
+    part.part_merge = model.part_merge;
     part.fold_outcome =
         model.fold_outcome.empty() || model.fold_outcome == "clean"
             ? "split (not rigid)"

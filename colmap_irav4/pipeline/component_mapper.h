@@ -7,8 +7,10 @@
 // averaging, positioning and refinement redone on what remains); where that
 // does not resolve it, split the component at the cut into separate models
 // rather than write a folded one; where no cut is found, write the model
-// with a warning (never silently). Every model is then written as its rigid
-// parts (refinement/model_rigidity.h).
+// with a warning (never silently). A clean model that is not one rigid
+// piece is mapped again with its parts joined where the pairs across them
+// are confirmed (pipeline/part_merge.h); every model is then written as its
+// rigid parts (refinement/model_rigidity.h).
 
 #include <map>
 #include <memory>
@@ -51,6 +53,10 @@ struct ComponentModel {
   bool folded = false;
   // "clean", "resolved (...)", "split", "folded (...)"; empty: not checked.
   std::string fold_outcome;
+  // The joining of its rigid parts (pipeline/part_merge.h), e.g. "3 rigid
+  // parts -> 1 (1 round, 40 pairs removed)"; empty: the model was one
+  // rigid piece or not tried.
+  std::string part_merge;
 };
 
 class ComponentMapper {
@@ -125,8 +131,26 @@ class ComponentMapper {
   // 4. Otherwise: the best model, written flagged folded.
   void WriteFolded();
 
+  // A model mapped from `pairs` (the fold check found it clean) that is not
+  // one rigid piece: its parts joined through the pairs across them that
+  // their 3D points confirm, the pairs contradicting the join removed and
+  // the component mapped again (pipeline/part_merge.h). The re-mapped model
+  // replaces the model only when it is not folded, is less split and writes
+  // no fewer images (within PartMergeOptions::min_image_fraction); up to
+  // max_rounds rounds while it stays split.
+  // Returns whether it checked the rigidity of the model it leaves (then in
+  // `rigidity`: the check is not run twice).
+  bool MergeRigidParts(ComponentModel* model,
+                       const std::vector<ImagePairGeometry>& pairs,
+                       ModelRigidity* rigidity);
+  // The images a model of `rigidity` is written with: all when it is one
+  // rigid piece, else those of its parts of min_model_size images or more.
+  size_t NumWrittenImages(const Reconstruction& reconstruction,
+                          const ModelRigidity& rigidity) const;
   // Writes a model that is not one rigid piece as its rigid parts.
-  std::vector<ComponentModel> SplitIntoRigidParts(ComponentModel model);
+  // `rigidity`: the model's, when already checked (null: checked here).
+  std::vector<ComponentModel> SplitIntoRigidParts(
+      ComponentModel model, const ModelRigidity* rigidity = nullptr);
 
   const GlobalMapperOptions options_;
   const DatabaseContents& database_;

@@ -798,6 +798,7 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   o.normalization.Check();
   o.pose_constraint.Check();
   o.fold.Check();
+  o.part_merge.Check();
   o.pose_priors.Check();
   if (!o.pose_prior_path.empty() &&
       !std::filesystem::is_regular_file(o.pose_prior_path)) {

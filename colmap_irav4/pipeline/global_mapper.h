@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "colmap_irav4/io/database.h"
+#include "colmap_irav4/pipeline/part_merge.h"
 #include "colmap_irav4/positioning/global_positioning.h"
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/positioning/track_selection.h"
@@ -128,6 +129,9 @@ struct GlobalMapperOptions {
   PoseConstraintOptions pose_constraint;
   // Fold check of every model and its resolution (symmetric scenes).
   FoldResolutionOptions fold;
+  // A model split into rigid parts: the parts joined again through the
+  // pairs across them their 3D points confirm (pipeline/part_merge.h).
+  PartMergeOptions part_merge;
 
   GlobalMapperOptions();
   // Throws InputError naming the offending option by the flag it is

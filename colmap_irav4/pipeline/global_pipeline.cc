@@ -99,6 +99,7 @@ std::string GlobalMapperSummary::ToJson() const {
         << ", \"fold_predicted_pairs\": " << c.fold_predicted_pairs
         << ", \"fold_missing_pairs\": " << c.fold_missing_pairs
         << ", \"fold_outcome\": " << JsonString(c.fold_outcome)
+        << ", \"part_merge\": " << JsonString(c.part_merge)
         << ", \"in_prior_frame\": " << (c.in_prior_frame ? "true" : "false")
         << ",\n     \"rejected_position_priors\": "
         << JsonStrings(c.rejected_position_priors)
@@ -405,6 +406,7 @@ std::vector<Reconstruction> GlobalPipeline::FinishModels(
       report.fold_missing_pairs = mapper.fold().num_missing_pairs;
       report.fold_outcome = models[k].fold_outcome;
     }
+    report.part_merge = models[k].part_merge;
     report.mean_reprojection_error_per_observation =
         UpdateReprojectionErrors(&reconstruction);
     report.mean_reprojection_error_per_point =

@@ -46,6 +46,8 @@ struct ComponentReport {
   int fold_missing_pairs = 0;
   // "clean", "resolved (...)", "split", "folded (...)".
   std::string fold_outcome;
+  // The joining of a split model's rigid parts (ComponentModel::part_merge).
+  std::string part_merge;
   // Placed in the pose priors' frame (metric; prior_frame.txt beside it).
   bool in_prior_frame = false;
   // The images whose position / gravity prior the last bundle adjustment

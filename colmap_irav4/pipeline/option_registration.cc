@@ -448,6 +448,34 @@ void AddFoldResolutionOptions(OptionManager* manager,
                "many contradicted ones may be turned alone");
 }
 
+void AddPartMergeOptions(OptionManager* manager, PartMergeOptions* o) {
+  manager->Add("PartMerge.merge", &o->merge,
+               "join the rigid parts of a split model through the pairs "
+               "across them that the parts' 3D points confirm, and map the "
+               "component again (kept only when less split, not folded and "
+               "no fewer images)");
+  manager->Add("PartMerge.max_ray_error_deg", &o->max_ray_error_deg,
+               "a point is met when the placed image's ray reaches it within "
+               "this angle (deg)");
+  manager->Add("PartMerge.min_met_points", &o->min_met_points,
+               "a pair across parts is confirmed with at least this many met "
+               "points...");
+  manager->Add("PartMerge.min_met_fraction", &o->min_met_fraction,
+               "... making at least this fraction of its points");
+  manager->Add("PartMerge.max_rotation_error_deg", &o->max_rotation_error_deg,
+               "pairs across joined parts contradicting the join by more "
+               "than this are removed before mapping again (deg)");
+  manager->Add("PartMerge.max_rounds", &o->max_rounds,
+               "rounds of joining and mapping again while the model stays "
+               "split");
+  manager->Add("PartMerge.min_image_fraction", &o->min_image_fraction,
+               "the re-mapped model must write this fraction of the split "
+               "model's images");
+  manager->Add("PartMerge.max_ransac_samples", &o->max_ransac_samples,
+               "2-point samples for an image's centre (every set when "
+               "fewer)");
+}
+
 void AddGlobalMapperOptions(OptionManager* manager,
                             GlobalMapperOptions* options) {
   GlobalMapperOptions& o = *options;
@@ -530,6 +558,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddNormalizationOptions(manager, &o.normalization);
   AddPoseConstraintOptions(manager, &o.pose_constraint);
   AddFoldResolutionOptions(manager, &o.fold);
+  AddPartMergeOptions(manager, &o.part_merge);
 }
 
 const std::vector<Colmap4Flag>& Colmap4GlobalMapperFlags() {

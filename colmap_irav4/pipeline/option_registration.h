@@ -71,6 +71,8 @@ void AddComparerOptions(OptionManager* manager,
 // The mapper: --Mapper.* and every stage's struct above.
 void AddFoldResolutionOptions(OptionManager* manager,
                               FoldResolutionOptions* options);
+// --PartMerge.*: the rigid parts of a split model joined again.
+void AddPartMergeOptions(OptionManager* manager, PartMergeOptions* options);
 void AddGlobalMapperOptions(OptionManager* manager,
                             GlobalMapperOptions* options);
 

@@ -196,6 +196,16 @@ TEST(MapperOptions, UnregisteredSettingsAreNamedAsMembers) {
     EXPECT_EQ(std::string(error.what()).rfind("--Fold.max_fold_score: ", 0), 0u)
         << error.what();
   }
+  options = GlobalMapperOptions();
+  options.part_merge.min_met_points = 1;
+  try {
+    options.Check();
+    FAIL();
+  } catch (const InputError& error) {
+    EXPECT_EQ(
+        std::string(error.what()).rfind("--PartMerge.min_met_points: ", 0), 0u)
+        << error.what();
+  }
 }
 
 TEST(MapperOptions, IniHoldsEveryFlagWithItsExactValue) {

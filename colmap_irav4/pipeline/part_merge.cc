@@ -1,0 +1,306 @@
+#include "colmap_irav4/pipeline/part_merge.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+#include <Eigen/Dense>
+
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/util/error.h"
+#include "colmap_irav4/util/union_find.h"
+
+namespace colmap_irav4 {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The point closest (least squares) to the lines through `points` along
+// the unit `rays` of `indices`; false when the rays are (near) parallel.
+bool FitCenter(const std::vector<Eigen::Vector3d>& points,
+               const std::vector<Eigen::Vector3d>& rays,
+               const std::vector<int>& indices, Eigen::Vector3d* center) {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  for (const int k : indices) {
+    const Eigen::Matrix3d P =
+        Eigen::Matrix3d::Identity() - rays[k] * rays[k].transpose();
+    A += P;
+    rhs += P * points[k];
+  }
+  // Parallel rays leave the centre free along them: A is then singular.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
+  if (!(eigen.eigenvalues()(0) > 1e-8 * eigen.eigenvalues()(2))) return false;
+  *center = A.ldlt().solve(rhs);
+  return center->allFinite();
+}
+
+// The indices of the points whose ray from `center` is within
+// `max_angle_rad` of the measured one (in front of the camera).
+std::vector<int> MetPoints(const std::vector<Eigen::Vector3d>& points,
+                           const std::vector<Eigen::Vector3d>& rays,
+                           const Eigen::Vector3d& center,
+                           double max_angle_rad) {
+  const double min_cos = std::cos(max_angle_rad);
+  std::vector<int> met;
+  for (size_t k = 0; k < points.size(); ++k) {
+    const Eigen::Vector3d to_point = points[k] - center;
+    const double norm = to_point.norm();
+    if (norm > 0 && to_point.dot(rays[k]) >= min_cos * norm) {
+      met.push_back(static_cast<int>(k));
+    }
+  }
+  return met;
+}
+
+// Cam_b_from_cam_a of the pair oriented from `a`.
+Eigen::Matrix3d RotationFrom(const ImagePairGeometry& pair, image_t a) {
+  return pair.image_id1 == a ? pair.R : Eigen::Matrix3d(pair.R.transpose());
+}
+
+}  // namespace
+
+void PartMergeOptions::Check() const {
+  if (!(max_ray_error_deg > 0 && max_ray_error_deg < 90)) {
+    throw OptionError(&max_ray_error_deg, "PartMerge.max_ray_error_deg",
+                      "must be in (0, 90)");
+  }
+  if (min_met_points < 2) {
+    throw OptionError(&min_met_points, "PartMerge.min_met_points",
+                      "must be >= 2 (two rays always meet a centre)");
+  }
+  if (!(min_met_fraction >= 0 && min_met_fraction <= 1)) {
+    throw OptionError(&min_met_fraction, "PartMerge.min_met_fraction",
+                      "must be in [0, 1]");
+  }
+  if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
+    throw OptionError(&max_rotation_error_deg,
+                      "PartMerge.max_rotation_error_deg",
+                      "must be in (0, 180]");
+  }
+  if (max_rounds < 1) {
+    throw OptionError(&max_rounds, "PartMerge.max_rounds", "must be >= 1");
+  }
+  if (!(min_image_fraction >= 0 && min_image_fraction <= 1)) {
+    throw OptionError(&min_image_fraction, "PartMerge.min_image_fraction",
+                      "must be in [0, 1]");
+  }
+  if (max_ransac_samples < 1) {
+    throw OptionError(&max_ransac_samples, "PartMerge.max_ransac_samples",
+                      "must be >= 1");
+  }
+}
+
+CrossPairCheck CheckCrossPair(
+    const PartMergeOptions& options, const Reconstruction& reconstruction,
+    const std::set<image_t>& part_a, image_t image_id_a, image_t image_id_b,
+    const Eigen::Matrix3d& R_ab,
+    const std::vector<std::pair<point2D_t, point2D_t>>& matches) {
+  CrossPairCheck check;
+  check.image_id_a = image_id_a;
+  check.image_id_b = image_id_b;
+  const Image& image_a = reconstruction.images.at(image_id_a);
+  const Image& image_b = reconstruction.images.at(image_id_b);
+  const Camera& camera_b = reconstruction.cameras.at(image_b.camera_id);
+  check.R_b = R_ab * image_a.cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Matrix3d world_from_cam_b = check.R_b.transpose();
+  // The points of part A (seen by two of its images: placed by the part
+  // itself) at a's matched keypoints, and b's rays to them in A's frame.
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3d> rays;
+  std::set<point3D_t> used;
+  for (const auto& [idx_a, idx_b] : matches) {
+    if (idx_a >= image_a.points2D.size() || idx_b >= image_b.points2D.size()) {
+      continue;
+    }
+    const point3D_t point3D_id = image_a.points2D[idx_a].point3D_id;
+    if (point3D_id == kInvalidPoint3DId || !used.insert(point3D_id).second) {
+      continue;
+    }
+    const Point3D& point = reconstruction.points3D.at(point3D_id);
+    int num_in_part = 0;
+    for (const TrackElement& element : point.track) {
+      num_in_part += part_a.count(element.image_id) ? 1 : 0;
+    }
+    if (num_in_part < 2) continue;
+    const Eigen::Vector3d ray =
+        CameraImageToRay(camera_b, image_b.points2D[idx_b].xy);
+    if (!ray.allFinite() || !(ray.norm() > 0)) continue;
+    points.push_back(point.xyz);
+    rays.push_back((world_from_cam_b * ray).normalized());
+  }
+  const int n = static_cast<int>(points.size());
+  check.num_points = n;
+  if (n < 2) return check;
+  const double max_angle = options.max_ray_error_deg * kPi / 180;
+  // RANSAC over 2-point sets: every set when few, else random ones (seeded
+  // by the pair: the same model gives the same answer).
+  std::vector<std::pair<int, int>> samples;
+  const long long num_sets = static_cast<long long>(n) * (n - 1) / 2;
+  if (num_sets <= options.max_ransac_samples) {
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) samples.emplace_back(i, j);
+    }
+  } else {
+    std::mt19937 random(static_cast<uint32_t>(image_id_a * 7919u + image_id_b));
+    std::uniform_int_distribution<int> pick(0, n - 1);
+    while (static_cast<int>(samples.size()) < options.max_ransac_samples) {
+      const int i = pick(random);
+      const int j = pick(random);
+      if (i != j) samples.emplace_back(i, j);
+    }
+  }
+  std::vector<int> best;
+  Eigen::Vector3d best_center = Eigen::Vector3d::Zero();
+  for (const auto& [i, j] : samples) {
+    Eigen::Vector3d center;
+    if (!FitCenter(points, rays, {i, j}, &center)) continue;
+    std::vector<int> met = MetPoints(points, rays, center, max_angle);
+    if (met.size() > best.size()) {
+      best = std::move(met);
+      best_center = center;
+    }
+  }
+  // Refit on the inliers while that meets more points.
+  for (int iteration = 0; iteration < 5 && best.size() >= 2; ++iteration) {
+    Eigen::Vector3d center;
+    if (!FitCenter(points, rays, best, &center)) break;
+    std::vector<int> met = MetPoints(points, rays, center, max_angle);
+    if (met.size() < best.size()) break;
+    const bool grew = met.size() > best.size();
+    best = std::move(met);
+    best_center = center;
+    if (!grew) break;
+  }
+  check.num_met = static_cast<int>(best.size());
+  check.center_b = best_center;
+  check.confirmed = check.num_met >= options.min_met_points &&
+                    check.num_met >= options.min_met_fraction * n;
+  return check;
+}
+
+PartMergePlan PlanPartMerge(const PartMergeOptions& options,
+                            const Reconstruction& reconstruction,
+                            const std::vector<std::vector<image_t>>& parts,
+                            const std::vector<ImagePairGeometry>& pairs,
+                            const std::vector<TwoViewGeometry>& geometries) {
+  PartMergePlan plan;
+  const int num_parts = static_cast<int>(parts.size());
+  plan.num_parts = num_parts;
+  std::map<image_t, int> part_of;
+  std::vector<std::set<image_t>> part_sets(num_parts);
+  for (int p = 0; p < num_parts; ++p) {
+    for (const image_t image_id : parts[p]) {
+      if (!reconstruction.images.count(image_id)) continue;
+      part_of[image_id] = p;
+      part_sets[p].insert(image_id);
+    }
+  }
+  std::map<image_pair_t, const TwoViewGeometry*> by_pair;
+  for (const TwoViewGeometry& geometry : geometries) {
+    by_pair[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
+        &geometry;
+  }
+  // Each pair across parts, both directions.
+  std::vector<const ImagePairGeometry*> across;
+  for (const ImagePairGeometry& pair : pairs) {
+    const auto part1 = part_of.find(pair.image_id1);
+    const auto part2 = part_of.find(pair.image_id2);
+    if (part1 == part_of.end() || part2 == part_of.end() ||
+        part1->second == part2->second) {
+      continue;
+    }
+    across.push_back(&pair);
+    const auto geometry =
+        by_pair.find(ImagePairToPairId(pair.image_id1, pair.image_id2));
+    if (geometry == by_pair.end()) continue;
+    const TwoViewGeometry& g = *geometry->second;
+    bool confirmed = false;
+    for (const image_t a : {pair.image_id1, pair.image_id2}) {
+      const image_t b = a == pair.image_id1 ? pair.image_id2 : pair.image_id1;
+      std::vector<std::pair<point2D_t, point2D_t>> matches;
+      matches.reserve(g.inlier_matches.size());
+      for (const FeatureMatch& match : g.inlier_matches) {
+        matches.emplace_back(
+            g.image_id1 == a ? match.point2D_idx1 : match.point2D_idx2,
+            g.image_id1 == a ? match.point2D_idx2 : match.point2D_idx1);
+      }
+      CrossPairCheck check =
+          CheckCrossPair(options, reconstruction, part_sets[part_of.at(a)], a,
+                         b, RotationFrom(pair, a), matches);
+      check.part_a = part_of.at(a);
+      check.part_b = part_of.at(b);
+      confirmed = confirmed || check.confirmed;
+      plan.checks.push_back(check);
+    }
+    plan.num_confirmed += confirmed ? 1 : 0;
+  }
+  plan.num_pairs_across = static_cast<int>(across.size());
+  // The join: a spanning tree of the parts over the confirmed checks, most
+  // met points first (ties: the order of the pairs).
+  std::vector<const CrossPairCheck*> confirmed;
+  for (const CrossPairCheck& check : plan.checks) {
+    if (check.confirmed) confirmed.push_back(&check);
+  }
+  std::stable_sort(confirmed.begin(), confirmed.end(),
+                   [](const CrossPairCheck* x, const CrossPairCheck* y) {
+                     return x->num_met > y->num_met;
+                   });
+  UnionFind union_find(num_parts);
+  std::vector<std::vector<const CrossPairCheck*>> tree(num_parts);
+  for (const CrossPairCheck* check : confirmed) {
+    if (union_find.Union(check->part_a, check->part_b)) {
+      tree[check->part_a].push_back(check);
+      tree[check->part_b].push_back(check);
+    }
+  }
+  // Corrections from each group's smallest part (kept as it is) outwards:
+  // a tree edge says R_b(model) * C_B = R_b(check) * C_A.
+  plan.group.assign(num_parts, -1);
+  plan.correction.assign(num_parts, Eigen::Matrix3d::Identity());
+  for (int root = 0; root < num_parts; ++root) {
+    if (plan.group[root] >= 0) continue;
+    ++plan.num_groups;
+    plan.group[root] = root;
+    std::vector<int> stack = {root};
+    while (!stack.empty()) {
+      const int p = stack.back();
+      stack.pop_back();
+      for (const CrossPairCheck* check : tree[p]) {
+        const int q = check->part_a == p ? check->part_b : check->part_a;
+        if (plan.group[q] >= 0) continue;
+        plan.group[q] = root;
+        const Eigen::Matrix3d R_b_model =
+            reconstruction.images.at(check->image_id_b)
+                .cam_from_world.rotation.toRotationMatrix();
+        plan.correction[q] =
+            check->part_a == p
+                ? Eigen::Matrix3d(R_b_model.transpose() * check->R_b *
+                                  plan.correction[p])
+                : Eigen::Matrix3d(check->R_b.transpose() * R_b_model *
+                                  plan.correction[p]);
+        stack.push_back(q);
+      }
+    }
+  }
+  // Pairs across parts of one group that the joined rotations contradict.
+  for (const ImagePairGeometry* pair : across) {
+    const int p1 = part_of.at(pair->image_id1);
+    const int p2 = part_of.at(pair->image_id2);
+    if (plan.group[p1] != plan.group[p2]) continue;
+    const Eigen::Matrix3d R1 = reconstruction.images.at(pair->image_id1)
+                                   .cam_from_world.rotation.toRotationMatrix() *
+                               plan.correction[p1];
+    const Eigen::Matrix3d R2 = reconstruction.images.at(pair->image_id2)
+                                   .cam_from_world.rotation.toRotationMatrix() *
+                               plan.correction[p2];
+    if (RelativeRotationErrorDeg(*pair, R1, R2) >
+        options.max_rotation_error_deg) {
+      plan.contradicted.insert(std::minmax(pair->image_id1, pair->image_id2));
+    }
+  }
+  return plan;
+}
+
+}  // namespace colmap_irav4

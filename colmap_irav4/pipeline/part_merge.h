@@ -1,0 +1,111 @@
+#pragma once
+
+// The rigid parts of a split model joined again (docs/notes/
+// 2026-12-04-merge-split-parts.md). A model the rigidity check splits
+// (refinement/model_rigidity.h) is often right part by part but turned
+// between parts: random false pairs at the weak joins outvoted the few true
+// ones in rotation averaging. The parts' own 3D points tell the pairs across
+// a join apart: for a pair (a, b), a in part A and b in part B, b's rotation
+// in A's frame follows from the pair's relative rotation and a's rotation;
+// with it fixed, b's bearing rays to the points of A that a's matched
+// keypoints observe must meet them from one centre. A true pair's rays do
+// (up to noise); a false pair's random matches do not. Pairs across the
+// parts so joined whose rotation contradicts the join are removed, and the
+// component is mapped again (pipeline/component_mapper.h).
+
+#include <set>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "colmap_irav4/geometry/two_view_geometry.h"
+#include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/view_graph/view_graph.h"
+
+namespace colmap_irav4 {
+
+struct PartMergeOptions {
+  // Join the rigid parts of a split model through the pairs across them
+  // that the parts' 3D points confirm, and map the component again.
+  bool merge = true;
+  // A point is met when b's ray reaches it within this angle (deg).
+  double max_ray_error_deg = 0.1;
+  // A pair is confirmed when at least this many of its points are met...
+  int min_met_points = 5;
+  // ... making at least this fraction of its points.
+  double min_met_fraction = 0.5;
+  // Pairs across joined parts whose relative rotation contradicts the join
+  // by more than this are removed before mapping again (deg).
+  double max_rotation_error_deg = 10.0;
+  // Rounds of (join, map again) while the model stays split.
+  int max_rounds = 3;
+  // The re-mapped model is kept only when it writes at least this fraction
+  // of the images the split model writes (and is less split, not folded).
+  double min_image_fraction = 0.99;
+  // RANSAC samples of 2 points for b's centre where there are more
+  // 2-point sets than this (else every set is tried).
+  int max_ransac_samples = 500;
+
+  // Throws InputError naming the option (--PartMerge.*).
+  void Check() const;
+};
+
+// One direction of a pair across parts: image b placed from the points of
+// image a's part.
+struct CrossPairCheck {
+  image_t image_id_a = kInvalidImageId;
+  image_t image_id_b = kInvalidImageId;
+  int part_a = -1;
+  int part_b = -1;
+  // Matches whose keypoint in a observes a point of part A.
+  int num_points = 0;
+  // Those whose point b's ray reaches from b's fitted centre.
+  int num_met = 0;
+  bool confirmed = false;
+  // b's rotation (cam_from_world) in the frame of the model's part A.
+  Eigen::Matrix3d R_b = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d center_b = Eigen::Vector3d::Zero();
+};
+
+struct PartMergePlan {
+  // Every checked direction of every pair across parts.
+  std::vector<CrossPairCheck> checks;
+  int num_pairs_across = 0;  // view-graph pairs across parts
+  int num_confirmed = 0;     // of those, confirmed in either direction
+  // Per part (index into the parts given): its group after the join (the
+  // smallest part index of the group), and the rotation that turns its
+  // images into the group's frame: R_i -> R_i * correction.
+  std::vector<int> group;
+  std::vector<Eigen::Matrix3d> correction;
+  int num_parts = 0;
+  int num_groups = 0;  // parts joined into groups (parts alone count too)
+  // Pairs across parts of one group whose relative rotation contradicts
+  // the join (image ids, smaller first): to be removed.
+  std::set<std::pair<image_t, image_t>> contradicted;
+};
+
+// Checks one direction of a pair: b's rotation is pair rotation x a's; its
+// centre is fitted (RANSAC over 2-point sets, refit on the inliers) to b's
+// rays to the points of `part_a` (images) that a's matched keypoints
+// observe (points seen by at least two images of part_a). `matches`:
+// keypoint in a -> keypoint in b. `R_ab`: cam_b_from_cam_a.
+CrossPairCheck CheckCrossPair(
+    const PartMergeOptions& options, const Reconstruction& reconstruction,
+    const std::set<image_t>& part_a, image_t image_id_a, image_t image_id_b,
+    const Eigen::Matrix3d& R_ab,
+    const std::vector<std::pair<point2D_t, point2D_t>>& matches);
+
+// Checks every pair of `pairs` across two of `parts` (image sets of the
+// model, disjoint) in both directions (inlier matches from `geometries`,
+// the database's), joins the parts through the confirmed pairs (a spanning
+// tree of the parts, the pair with most met points between two parts
+// first) and lists the pairs across parts of one group that the join
+// contradicts.
+PartMergePlan PlanPartMerge(const PartMergeOptions& options,
+                            const Reconstruction& reconstruction,
+                            const std::vector<std::vector<image_t>>& parts,
+                            const std::vector<ImagePairGeometry>& pairs,
+                            const std::vector<TwoViewGeometry>& geometries);
+
+}  // namespace colmap_irav4

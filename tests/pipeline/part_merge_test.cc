@@ -1,0 +1,220 @@
+#include "colmap_irav4/pipeline/part_merge.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
+
+namespace colmap_irav4 {
+namespace {
+
+// Two rigid parts of one model: images 1-4 (part A, in the true frame) and
+// 5-8 (part B, turned by 120 deg and scaled by 2 in the model, as rotation
+// averaging leaves a weak join), each with 40 points of its own. In the
+// truth image b = 5 sees 20 points of part A and image 7 sees 20 more, so
+// pairs (1, 5) and (3, 7) are true pairs across the join; (2, 6) is a false
+// pair: a rotation 25 deg off and keypoints in 6 at random.
+class PartMergeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    camera_.camera_id = 1;
+    camera_.model_id = CameraModelNameToId("SIMPLE_PINHOLE");
+    camera_.width = 1600;
+    camera_.height = 1200;
+    camera_.params = {1500, 800, 600};
+    model_.cameras[1] = camera_;
+    std::mt19937 random(7);
+    std::uniform_real_distribution<double> unit(-1, 1);
+    W_ = AngleAxisToRotation(Eigen::Vector3d(0, DegToRad(120), 0));
+    for (image_t i = 1; i <= 8; ++i) {
+      true_R_[i] = AngleAxisToRotation(
+          DegToRad(2) *
+          Eigen::Vector3d(unit(random), unit(random), unit(random)));
+      true_C_[i] = Eigen::Vector3d(-1.5 + ((i - 1) % 4), i <= 4 ? 0 : 1, 0);
+      Image& image = model_.images[i];
+      image.image_id = i;
+      image.camera_id = 1;
+      // Part B in its own turned, scaled frame: x_B = 2 W x.
+      const Eigen::Matrix3d R =
+          i <= 4 ? true_R_[i] : Eigen::Matrix3d(true_R_[i] * W_.transpose());
+      const Eigen::Vector3d C = i <= 4 ? true_C_[i] : 2 * W_ * true_C_[i];
+      image.cam_from_world.rotation = Eigen::Quaterniond(R);
+      image.cam_from_world.translation = -(R * C);
+    }
+    for (image_t part = 0; part < 2; ++part) {
+      for (int k = 0; k < 40; ++k) {
+        const Eigen::Vector3d X(2.5 * unit(random), 2 * unit(random),
+                                10 + 2 * unit(random));
+        std::vector<TrackElement> track;
+        for (image_t i = 1 + 4 * part; i <= 4 + 4 * part; ++i) {
+          track.push_back({i, Observe(i, X)});
+        }
+        const point3D_t id =
+            AddPoint3D(part == 0 ? X : 2 * W_ * X, track, &model_);
+        if (part == 0) points_a_.push_back({id, X});
+      }
+    }
+    // The true pairs across: b's keypoints of A's points (not in the model:
+    // the parts share no point).
+    AddCrossPair(1, 5, 0, /*false_pair=*/false);
+    AddCrossPair(3, 7, 20, /*false_pair=*/false);
+    AddCrossPair(2, 6, 0, /*false_pair=*/true);
+    std::uniform_real_distribution<double> random_pixel(100, 1100);
+    for (auto& [index, keypoint] : random_keypoints_) {
+      keypoint = Eigen::Vector2d(random_pixel(random), random_pixel(random));
+      model_.images.at(index.first).points2D[index.second].xy = keypoint;
+    }
+  }
+
+  // Adds a keypoint of image i at X's projection (true poses), returns it.
+  point2D_t Observe(image_t i, const Eigen::Vector3d& X) {
+    const Eigen::Vector3d x = true_R_[i] * (X - true_C_[i]);
+    Image& image = model_.images.at(i);
+    Point2D point;
+    point.xy = CameraCameraToImage(camera_, x.hnormalized());
+    image.points2D.push_back(point);
+    return static_cast<point2D_t>(image.points2D.size() - 1);
+  }
+
+  // Pair (a, b) with 20 matches at A's points first_point.., and the
+  // relative rotation true (else 25 deg off, keypoints in b at random).
+  void AddCrossPair(image_t a, image_t b, int first_point, bool false_pair) {
+    ImagePairGeometry pair;
+    pair.image_id1 = a;
+    pair.image_id2 = b;
+    pair.R = true_R_[b] * true_R_[a].transpose();
+    if (false_pair) {
+      pair.R =
+          AngleAxisToRotation(Eigen::Vector3d(DegToRad(25), 0, 0)) * pair.R;
+    }
+    pair.num_inliers = 20;
+    pairs_.push_back(pair);
+    TwoViewGeometry geometry;
+    geometry.image_id1 = a;
+    geometry.image_id2 = b;
+    geometry.config = TwoViewGeometry::CALIBRATED;
+    for (int k = first_point; k < first_point + 20; ++k) {
+      const auto& [point3D_id, X] = points_a_[k];
+      point2D_t idx_a = 0;
+      for (const TrackElement& element : model_.points3D.at(point3D_id).track) {
+        if (element.image_id == a) idx_a = element.point2D_idx;
+      }
+      point2D_t idx_b = 0;
+      if (false_pair) {
+        model_.images.at(b).points2D.emplace_back();
+        idx_b = static_cast<point2D_t>(model_.images.at(b).points2D.size() - 1);
+        random_keypoints_[{b, idx_b}] = Eigen::Vector2d::Zero();
+      } else {
+        idx_b = Observe(b, X);
+      }
+      geometry.inlier_matches.push_back({idx_a, idx_b});
+    }
+    geometries_.push_back(geometry);
+  }
+
+  // The geometry's matches as (keypoint in image_id1, in image_id2).
+  static std::vector<std::pair<point2D_t, point2D_t>> Matches(
+      const TwoViewGeometry& geometry) {
+    std::vector<std::pair<point2D_t, point2D_t>> matches;
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      matches.emplace_back(match.point2D_idx1, match.point2D_idx2);
+    }
+    return matches;
+  }
+
+  // Image_id2 of pair k placed from part A through image_id1 (with the
+  // pair's rotation, or `R_ab`).
+  CrossPairCheck CheckPair(size_t k, const Eigen::Matrix3d* R_ab = nullptr) {
+    return CheckCrossPair(PartMergeOptions(), model_, {1, 2, 3, 4},
+                          pairs_[k].image_id1, pairs_[k].image_id2,
+                          R_ab != nullptr ? *R_ab : pairs_[k].R,
+                          Matches(geometries_[k]));
+  }
+
+  Camera camera_;
+  Reconstruction model_;
+  Eigen::Matrix3d W_;
+  std::map<image_t, Eigen::Matrix3d> true_R_;
+  std::map<image_t, Eigen::Vector3d> true_C_;
+  std::vector<std::pair<point3D_t, Eigen::Vector3d>> points_a_;
+  std::map<std::pair<image_t, point2D_t>, Eigen::Vector2d> random_keypoints_;
+  std::vector<ImagePairGeometry> pairs_;
+  std::vector<TwoViewGeometry> geometries_;
+};
+
+TEST_F(PartMergeTest, TruePairIsConfirmedAndPlacesTheImage) {
+  const CrossPairCheck check = CheckPair(0);
+  EXPECT_EQ(check.num_points, 20);
+  EXPECT_EQ(check.num_met, 20);
+  EXPECT_TRUE(check.confirmed);
+  // Placed in A's frame, which is the truth's.
+  EXPECT_LT((check.center_b - true_C_[5]).norm(), 1e-6);
+  EXPECT_LT(AngularDistanceDeg(check.R_b, true_R_[5]), 1e-6);
+}
+
+TEST_F(PartMergeTest, FalsePairIsNotConfirmed) {
+  const CrossPairCheck check = CheckPair(2);
+  EXPECT_EQ(check.num_points, 20);
+  // Two rays always meet a centre; random ones no more.
+  EXPECT_GE(check.num_met, 2);
+  EXPECT_LT(check.num_met, 5);
+  EXPECT_FALSE(check.confirmed);
+}
+
+TEST_F(PartMergeTest, PlanJoinsThePartsAndFindsTheFalsePair) {
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}},
+                    pairs_, geometries_);
+  EXPECT_EQ(plan.num_parts, 2);
+  EXPECT_EQ(plan.num_pairs_across, 3);
+  EXPECT_EQ(plan.num_confirmed, 2);
+  EXPECT_EQ(plan.num_groups, 1);
+  ASSERT_EQ(plan.group.size(), 2u);
+  EXPECT_EQ(plan.group[1], 0);
+  // Part B's rotations turned into A's frame are the true ones.
+  for (image_t i = 5; i <= 8; ++i) {
+    const Eigen::Matrix3d R =
+        model_.images.at(i).cam_from_world.rotation.toRotationMatrix() *
+        plan.correction[1];
+    EXPECT_LT(AngularDistanceDeg(R, true_R_[i]), 1e-6) << i;
+  }
+  // Only the false pair contradicts the join.
+  EXPECT_EQ(plan.contradicted, (std::set<std::pair<image_t, image_t>>{{2, 6}}));
+}
+
+TEST_F(PartMergeTest, NothingJoinedThroughAFalsePairAlone) {
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}},
+                    {pairs_[2]}, {geometries_[2]});
+  EXPECT_EQ(plan.num_pairs_across, 1);
+  EXPECT_EQ(plan.num_confirmed, 0);
+  EXPECT_EQ(plan.num_groups, 2);
+  EXPECT_TRUE(plan.contradicted.empty());
+}
+
+TEST_F(PartMergeTest, ARotationOffByMoreThanTheRayErrorIsNotConfirmed) {
+  // The true matches of (1, 5) with the pair's rotation 1 deg off: b's rays
+  // no longer meet A's points from one centre within 0.1 deg.
+  const Eigen::Matrix3d off =
+      AngleAxisToRotation(Eigen::Vector3d(0, 0, DegToRad(1))) * pairs_[0].R;
+  EXPECT_FALSE(CheckPair(0, &off).confirmed);
+}
+
+TEST(PartMergeOptions, Check) {
+  PartMergeOptions options;
+  EXPECT_NO_THROW(options.Check());
+  options.min_met_points = 1;
+  EXPECT_ANY_THROW(options.Check());
+  options = PartMergeOptions();
+  options.max_rounds = 0;
+  EXPECT_ANY_THROW(options.Check());
+  options = PartMergeOptions();
+  options.min_image_fraction = 1.5;
+  EXPECT_ANY_THROW(options.Check());
+}
+
+}  // namespace
+}  // namespace colmap_irav4

@@ -255,7 +255,7 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
       tree[check->part_b].push_back(check);
     }
   }
-  // Corrections from each group's smallest part (kept as it is) outwards:
+  // Corrections from each group's first part (kept as it is) outwards:
   // a tree edge says R_b(model) * C_B = R_b(check) * C_A.
   plan.group.assign(num_parts, -1);
   plan.correction.assign(num_parts, Eigen::Matrix3d::Identity());

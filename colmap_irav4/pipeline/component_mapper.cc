@@ -335,30 +335,25 @@ bool ComponentMapper::SettleFoldWithPriors(
                 << ": not clearly better, not taken";
       continue;
     }
-    const std::string outcome = "resolved by pose priors (" +
-                                std::to_string(side.size()) +
-                                " images turned back, " +
-                                std::to_string(num_removed) + " pairs removed)";
+    const std::string outcome = PriorSettledOutcome(side.size(), num_removed);
     LOG(WARNING) << prefix_
                  << "the model was FOLDED (the images alone did not show "
                     "it): the pose priors agree far better with it re-mapped ("
                  << before.Describe() << " -> " << after.Describe() << "); "
                  << outcome;
     notes_.push_back(prefix_ + "fold " + outcome);
-    size_t num_removed_in_all = num_removed;
     // As after a re-orientation across the fold check's cut: cameras still
     // turned alone are re-oriented once, else the model is written flagged.
+    size_t num_alone_removed = 0;
+    size_t num_alone_restored = 0;
     if (!attempt->fold().weak_alone_images.empty() &&
         !ReorientImagesTurnedAlone(&attempt, component_pairs,
-                                   &num_removed_in_all)) {
+                                   &num_alone_removed, &num_alone_restored)) {
       return true;
     }
     Finish(std::move(attempt),
-           num_removed_in_all == num_removed
-               ? outcome
-               : outcome + ", " +
-                     std::to_string(num_removed_in_all - num_removed) +
-                     " pairs at cameras turned alone removed");
+           PriorSettledOutcome(side.size(), num_removed, num_alone_removed,
+                               num_alone_restored));
     return true;
   }
   return false;
@@ -402,11 +397,18 @@ bool ComponentMapper::ReorientAcrossCut() {
         Attempt(components[0], component_pairs, prefix_);
     if (attempt == nullptr) break;
     if (Accepted(attempt.get())) {
-      size_t num_removed = num_removed_ + num_dropped;
+      size_t num_alone_removed = 0;
+      size_t num_alone_restored = 0;
       if (!attempt->fold().weak_alone_images.empty() &&
-          !ReorientImagesTurnedAlone(&attempt, component_pairs, &num_removed)) {
+          !ReorientImagesTurnedAlone(&attempt, component_pairs,
+                                     &num_alone_removed, &num_alone_restored)) {
         return true;
       }
+      // Net: each restored pair is at a camera of this model, so a cut (this
+      // or an earlier one) removed it and it is counted in num_removed_ +
+      // num_dropped: the difference is not negative.
+      const size_t num_removed =
+          num_removed_ + num_dropped + num_alone_removed - num_alone_restored;
       LOG(INFO) << prefix_ << "fold resolved: " << attempt->fold().Describe();
       notes_.push_back(prefix_ + "fold resolved by removing " +
                        std::to_string(num_removed) +
@@ -432,7 +434,8 @@ bool ComponentMapper::ReorientAcrossCut() {
 
 bool ComponentMapper::ReorientImagesTurnedAlone(
     std::unique_ptr<GlobalMapper>* attempt,
-    const std::vector<ImagePairGeometry>& pairs, size_t* num_removed) {
+    const std::vector<ImagePairGeometry>& pairs, size_t* num_pairs_removed,
+    size_t* num_pairs_restored) {
   // Cameras turned alone among cameras the right way round are no cut;
   // re-orient them once (their pairs the model agrees with removed), else
   // write the model flagged folded.
@@ -489,7 +492,8 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
     if (again != nullptr && Accepted(again.get()) &&
         again->fold().weak_alone_images.empty()) {
       *attempt = std::move(again);
-      *num_removed = *num_removed + num_alone_dropped - num_restored;
+      *num_pairs_removed = num_alone_dropped;
+      *num_pairs_restored = num_restored;
       return true;
     }
   }

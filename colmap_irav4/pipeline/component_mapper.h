@@ -120,10 +120,14 @@ class ComponentMapper {
   // 1. Re-orientation across the weakest cut: the pairs across it that the
   // folded model agrees with are removed, and the component mapped again.
   bool ReorientAcrossCut();
-  // ... and cameras turned alone among cameras the right way round, once.
+  // ... and cameras turned alone among cameras the right way round, once;
+  // when taken, sets the pairs at them removed and the pairs removed
+  // earlier that are given back (each on its own: more may be given back
+  // than removed).
   bool ReorientImagesTurnedAlone(std::unique_ptr<GlobalMapper>* attempt,
                                  const std::vector<ImagePairGeometry>& pairs,
-                                 size_t* num_removed);
+                                 size_t* num_pairs_removed,
+                                 size_t* num_pairs_restored);
   // 2. Removal of the suspect pairs, and the component mapped again.
   bool RemoveSuspectPairs();
   // 3. Split at the weakest cut: separate models rather than a folded one.

@@ -122,4 +122,18 @@ double PriorPairContrast(const Reconstruction& reconstruction,
   return median_within > 0 ? Median(across) / median_within : 0;
 }
 
+std::string PriorSettledOutcome(size_t num_turned_back, size_t num_removed,
+                                size_t num_alone_removed,
+                                size_t num_alone_restored) {
+  std::string outcome =
+      "resolved by pose priors (" + std::to_string(num_turned_back) +
+      " images turned back, " + std::to_string(num_removed) + " pairs removed)";
+  if (num_alone_removed > 0 || num_alone_restored > 0) {
+    outcome += ", cameras turned alone re-oriented (" +
+               std::to_string(num_alone_removed) + " pairs at them removed, " +
+               std::to_string(num_alone_restored) + " restored)";
+  }
+  return outcome;
+}
+
 }  // namespace colmap_irav4

@@ -91,4 +91,14 @@ double PriorPairContrast(const Reconstruction& reconstruction,
                          const std::vector<ImagePairGeometry>& pairs,
                          const std::vector<image_t>& side);
 
+// The fold outcome of a model the priors settled: "resolved by pose priors
+// (N images turned back, M pairs removed)", and when cameras it left turned
+// alone were re-oriented after that, the pairs at them removed and those
+// removed earlier that were given back, each counted on its own (a camera
+// the cut left with no pair gets more back than it loses: a difference
+// would be negative).
+std::string PriorSettledOutcome(size_t num_turned_back, size_t num_removed,
+                                size_t num_alone_removed = 0,
+                                size_t num_alone_restored = 0);
+
 }  // namespace colmap_irav4

@@ -175,5 +175,18 @@ TEST(PriorFold, PairsReorientedAcrossACut) {
   for (const ImagePairGeometry& p : kept) EXPECT_TRUE(p.R.isApprox(I));
 }
 
+TEST(PriorFold, SettledOutcomeCountsRemovedAndRestoredPairsApart) {
+  EXPECT_EQ(PriorSettledOutcome(26, 640),
+            "resolved by pose priors (26 images turned back, 640 pairs "
+            "removed)");
+  // Tower 60, seed 1 (docs/notes/2026-12-04-priors-table.md): the camera
+  // left turned alone gets back more pairs (22) than it loses (18); their
+  // difference as an unsigned count was written as 18446744073709551612.
+  EXPECT_EQ(PriorSettledOutcome(28, 651, 18, 22),
+            "resolved by pose priors (28 images turned back, 651 pairs "
+            "removed), cameras turned alone re-oriented (18 pairs at them "
+            "removed, 22 restored)");
+}
+
 }  // namespace
 }  // namespace colmap_irav4

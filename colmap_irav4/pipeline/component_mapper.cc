@@ -696,9 +696,10 @@ bool ComponentMapper::MergeRigidParts(
               << " pairs removed, mapping the component again ("
               << components[0].size() << " images)";
     // The remaining pairs' rotation averaging first (a small part of a
-    // mapping's cost): where it turns joined parts apart again, false pairs
-    // elsewhere still mislead it, and the re-mapped model would split at
-    // the same joins.
+    // mapping's cost): a joined part it turns apart again (false pairs
+    // elsewhere still mislead it) splits off again in the re-mapped model.
+    // Mapping again only pays where the joins it keeps leave fewer large
+    // groups than the model has rigid parts.
     {
       std::unique_ptr<GlobalMapper> probe = NewMapper(
           components[0], kept, prefix_ + "[parts joined] ", evidence_);
@@ -712,17 +713,20 @@ bool ComponentMapper::MergeRigidParts(
           if (turns[p] > turns[worst]) worst = p;
           num_turned += turns[p] > options.max_join_turn_deg ? 1 : 0;
         }
+        const int num_large_kept = NumLargeGroupsKept(
+            plan, turns, options.max_join_turn_deg, options_.min_model_size);
         LOG(INFO) << prefix_ << round_name
                   << ": rotation averaging of the remaining pairs turns "
                   << num_turned << " joined parts by more than "
                   << options.max_join_turn_deg << " deg (most: part " << worst
-                  << ", " << turns[worst] << " deg)";
-        if (num_turned > 0) {
+                  << ", " << turns[worst] << " deg); the joins it keeps leave "
+                  << num_large_kept << " large groups";
+        if (num_large_kept >= rigidity.num_large_blocks) {
           stop = "rotation averaging of the remaining pairs turns " +
                  std::to_string(num_turned) +
                  " joined parts apart again (most " +
                  std::to_string(static_cast<int>(std::lround(turns[worst]))) +
-                 " deg)";
+                 " deg) and keeps no join of large parts";
           break;
         }
       }

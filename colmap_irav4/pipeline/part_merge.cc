@@ -400,4 +400,19 @@ std::vector<double> JoinTurnsDeg(
   return turns;
 }
 
+int NumLargeGroupsKept(const PartMergePlan& plan,
+                       const std::vector<double>& turns, double max_turn_deg,
+                       int min_size) {
+  std::map<int, size_t> group_sizes;
+  for (int p = 0; p < plan.num_parts; ++p) {
+    const bool kept = plan.group[p] != p && turns[p] <= max_turn_deg;
+    group_sizes[kept ? plan.group[p] : p] += plan.part_sizes[p];
+  }
+  int num_large = 0;
+  for (const auto& [group, size] : group_sizes) {
+    num_large += static_cast<int>(size) >= min_size ? 1 : 0;
+  }
+  return num_large;
+}
+
 }  // namespace colmap_irav4

@@ -40,10 +40,10 @@ struct PartMergeOptions {
   // by more than this are removed before mapping again (deg).
   double max_rotation_error_deg = 10.0;
   // Before mapping again, the remaining pairs' rotation averaging (cheap)
-  // must keep the joined parts of every group within this angle of the
-  // join (deg): where it turns them apart again (false pairs elsewhere
-  // still mislead it) the re-mapped model splits again, and the mapping is
-  // not done.
+  // is compared with the join: a joined part it turns by more than this
+  // (deg) will split off again (false pairs elsewhere still mislead it).
+  // The mapping is done only when the joins it keeps leave fewer large
+  // groups than the model has rigid parts.
   double max_join_turn_deg = 10.0;
   // Also remove the pairs across parts that the parts' points refute
   // (PartMergePlan::refuted), joined parts or not: false pairs across parts
@@ -153,5 +153,12 @@ std::vector<double> JoinTurnsDeg(
     const PartMergePlan& plan, const Reconstruction& reconstruction,
     const std::vector<std::vector<image_t>>& parts,
     const std::map<image_t, Eigen::Matrix3d>& rotations);
+
+// The number of groups of at least `min_size` images (plan.part_sizes)
+// when each part joins its group only if `turns` (JoinTurnsDeg) keeps it
+// within `max_turn_deg`; a part turned further counts alone.
+int NumLargeGroupsKept(const PartMergePlan& plan,
+                       const std::vector<double>& turns, double max_turn_deg,
+                       int min_size);
 
 }  // namespace colmap_irav4

@@ -223,6 +223,12 @@ TEST_F(PartMergeTest, JoinTurnsMeasureHowNewRotationsKeepTheJoin) {
   for (image_t i = 5; i <= 8; ++i) rotations[i] = true_R_[i] * turn * frame;
   turns = JoinTurnsDeg(plan, model_, parts, rotations);
   EXPECT_NEAR(turns[1], 12, 1e-6);
+  // Kept, the join leaves one group of 8 images; turned by 12 deg (over
+  // 10), two of 4.
+  EXPECT_EQ(NumLargeGroupsKept(plan, {0, 3}, 10, 4), 1);
+  EXPECT_EQ(NumLargeGroupsKept(plan, turns, 10, 4), 2);
+  EXPECT_EQ(NumLargeGroupsKept(plan, turns, 10, 5), 0);
+  EXPECT_EQ(NumLargeGroupsKept(plan, turns, 15, 5), 1);
   // Part B left out of the new rotations: the join is lost.
   for (image_t i = 5; i <= 8; ++i) rotations.erase(i);
   turns = JoinTurnsDeg(plan, model_, parts, rotations);

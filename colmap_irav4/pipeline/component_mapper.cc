@@ -1,6 +1,7 @@
 #include "colmap_irav4/pipeline/component_mapper.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <utility>
 
@@ -654,34 +655,86 @@ bool ComponentMapper::MergeRigidParts(
               << " pairs across joined parts contradict the join by more "
                  "than "
               << options.max_rotation_error_deg << " deg";
+    for (const PartJoin& join : plan.joins) {
+      const CrossPairCheck& best = plan.checks[join.best_check];
+      LOG(INFO) << prefix_ << round_name << ": parts " << join.part1 << " ("
+                << plan.part_sizes[join.part1] << " images) and " << join.part2
+                << " (" << plan.part_sizes[join.part2]
+                << "): " << join.num_pairs << " confirmed pairs meeting "
+                << join.num_points << " points (best " << best.image_id_a
+                << " -> " << best.image_id_b << ", " << best.num_met << " of "
+                << best.num_points << ")";
+    }
     if (plan.num_confirmed == 0) {
       stop = "no pair across the parts confirmed";
       break;
     }
-    if (plan.contradicted.empty()) {
+    std::set<std::pair<image_t, image_t>> removed = plan.contradicted;
+    if (options.remove_refuted) {
+      removed.insert(plan.refuted.begin(), plan.refuted.end());
+    }
+    LOG(INFO) << prefix_ << round_name << ": " << plan.refuted.size()
+              << " pairs across parts refuted by the parts' points"
+              << (options.remove_refuted ? "" : " (kept)");
+    if (removed.empty()) {
       stop =
-          "no pair contradicts the join (mapping again would not change "
-          "the model)";
+          "no pair contradicts the join nor is refuted (mapping again "
+          "would not change the model)";
       break;
     }
     std::vector<ImagePairGeometry> kept;
     for (const ImagePairGeometry& pair : current_pairs) {
-      if (!plan.contradicted.count(
-              std::minmax(pair.image_id1, pair.image_id2))) {
+      if (!removed.count(std::minmax(pair.image_id1, pair.image_id2))) {
         kept.push_back(pair);
       }
     }
     const std::vector<std::vector<image_t>> components = PairComponents(kept);
     if (components.empty() ||
         static_cast<int>(components[0].size()) < options_.min_model_size) {
-      stop = "no component left after removing the contradicted pairs";
+      stop = "no component left after removing the pairs";
       break;
     }
     kept = PairsWithin(
         kept, std::set<image_t>(components[0].begin(), components[0].end()));
-    LOG(INFO) << prefix_ << round_name << ": " << plan.contradicted.size()
+    LOG(INFO) << prefix_ << round_name << ": " << removed.size()
               << " pairs removed, mapping the component again ("
               << components[0].size() << " images)";
+    // The remaining pairs' rotation averaging first (a small part of a
+    // mapping's cost): a joined part it turns apart again (false pairs
+    // elsewhere still mislead it) splits off again in the re-mapped model.
+    // Mapping again only pays where the joins it keeps leave fewer large
+    // groups than the model has rigid parts.
+    {
+      std::unique_ptr<GlobalMapper> probe = NewMapper(
+          components[0], kept, prefix_ + "[parts joined] ", evidence_);
+      if (probe->RotationAveraging()) {
+        const std::vector<double> turns =
+            JoinTurnsDeg(plan, model->mapper->reconstruction(), rigidity.blocks,
+                         probe->rotations());
+        int worst = 0;
+        int num_turned = 0;
+        for (int p = 0; p < static_cast<int>(turns.size()); ++p) {
+          if (turns[p] > turns[worst]) worst = p;
+          num_turned += turns[p] > options.max_join_turn_deg ? 1 : 0;
+        }
+        const int num_large_kept = NumLargeGroupsKept(
+            plan, turns, options.max_join_turn_deg, options_.min_model_size);
+        LOG(INFO) << prefix_ << round_name
+                  << ": rotation averaging of the remaining pairs turns "
+                  << num_turned << " joined parts by more than "
+                  << options.max_join_turn_deg << " deg (most: part " << worst
+                  << ", " << turns[worst] << " deg); the joins it keeps leave "
+                  << num_large_kept << " large groups";
+        if (num_large_kept >= rigidity.num_large_blocks) {
+          stop = "rotation averaging of the remaining pairs turns " +
+                 std::to_string(num_turned) +
+                 " joined parts apart again (most " +
+                 std::to_string(static_cast<int>(std::lround(turns[worst]))) +
+                 " deg) and keeps no join of large parts";
+          break;
+        }
+      }
+    }
     const std::string failure = failure_;
     std::unique_ptr<GlobalMapper> attempt =
         Attempt(components[0], kept, prefix_ + "[parts joined] ");
@@ -714,7 +767,7 @@ bool ComponentMapper::MergeRigidParts(
     model->fold_outcome = model->mapper->fold_checked() ? "clean" : "";
     current_pairs = std::move(kept);
     rigidity = std::move(merged);
-    num_removed += plan.contradicted.size();
+    num_removed += removed.size();
     ++num_rounds_kept;
   }
   const std::string result =
@@ -733,15 +786,24 @@ bool ComponentMapper::MergeRigidParts(
   return true;
 }
 
-size_t ComponentMapper::NumWrittenImages(const Reconstruction& reconstruction,
-                                         const ModelRigidity& rigidity) const {
-  if (rigidity.num_large_blocks <= 1) return reconstruction.images.size();
-  size_t num_images = 0;
+std::vector<const std::vector<image_t>*> ComponentMapper::WrittenParts(
+    const ModelRigidity& rigidity) const {
+  std::vector<const std::vector<image_t>*> parts;
+  if (rigidity.num_large_blocks <= 1) return parts;
   for (const std::vector<image_t>& block : rigidity.blocks) {
     if (static_cast<int>(block.size()) >= options_.min_model_size) {
-      num_images += block.size();
+      parts.push_back(&block);
     }
   }
+  return parts;
+}
+
+size_t ComponentMapper::NumWrittenImages(const Reconstruction& reconstruction,
+                                         const ModelRigidity& rigidity) const {
+  const std::vector<const std::vector<image_t>*> parts = WrittenParts(rigidity);
+  if (parts.empty()) return reconstruction.images.size();
+  size_t num_images = 0;
+  for (const std::vector<image_t>* part : parts) num_images += part->size();
   return num_images;
 }
 
@@ -755,14 +817,15 @@ std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
                                      ? *checked_rigidity
                                      : model.mapper->CheckRigidity();
   std::vector<ComponentModel> parts;
-  if (rigidity.num_large_blocks <= 1) {
+  const std::vector<const std::vector<image_t>*> blocks =
+      WrittenParts(rigidity);
+  if (blocks.empty()) {
     parts.push_back(std::move(model));
     return parts;
   }
   std::string sizes;
-  for (const std::vector<image_t>& block : rigidity.blocks) {
-    if (static_cast<int>(block.size()) < options_.min_model_size) break;
-    sizes += (sizes.empty() ? "" : ", ") + std::to_string(block.size());
+  for (const std::vector<image_t>* block : blocks) {
+    sizes += (sizes.empty() ? "" : ", ") + std::to_string(block->size());
   }
   const std::string message =
       "the model of " +
@@ -774,12 +837,11 @@ std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
       "and scale are not determined; writing the parts as separate models";
   LOG(WARNING) << prefix_ << message;
   notes_.push_back(prefix_ + message);
-  for (const std::vector<image_t>& block : rigidity.blocks) {
-    if (static_cast<int>(block.size()) < options_.min_model_size) break;
+  for (const std::vector<image_t>* block : blocks) {
     ComponentModel part;
     part.mapper = std::make_unique<GlobalMapper>(*model.mapper);
     part.mapper->RestrictToImages(
-        std::set<image_t>(block.begin(), block.end()));
+        std::set<image_t>(block->begin(), block->end()));
     part.folded = model.folded;
     part.part_merge = model.part_merge;
     part.fold_outcome =

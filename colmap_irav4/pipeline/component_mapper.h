@@ -147,8 +147,14 @@ class ComponentMapper {
   bool MergeRigidParts(ComponentModel* model,
                        const std::vector<ImagePairGeometry>& pairs,
                        ModelRigidity* rigidity);
+  // The parts a model of `rigidity` is written as: none when it is one
+  // rigid piece (written whole), else its blocks of min_model_size images or
+  // more (pointers into rigidity.blocks). The one rule for
+  // NumWrittenImages and SplitIntoRigidParts.
+  std::vector<const std::vector<image_t>*> WrittenParts(
+      const ModelRigidity& rigidity) const;
   // The images a model of `rigidity` is written with: all when it is one
-  // rigid piece, else those of its parts of min_model_size images or more.
+  // rigid piece, else those of its WrittenParts.
   size_t NumWrittenImages(const Reconstruction& reconstruction,
                           const ModelRigidity& rigidity) const;
   // Writes a model that is not one rigid piece as its rigid parts.

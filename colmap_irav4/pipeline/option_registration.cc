@@ -465,6 +465,12 @@ void AddPartMergeOptions(OptionManager* manager, PartMergeOptions* o) {
   manager->Add("PartMerge.max_rotation_error_deg", &o->max_rotation_error_deg,
                "pairs across joined parts contradicting the join by more "
                "than this are removed before mapping again (deg)");
+  manager->Add("PartMerge.max_join_turn_deg", &o->max_join_turn_deg,
+               "map again only when the remaining pairs' rotation averaging "
+               "keeps the joined parts within this angle of the join (deg)");
+  manager->Add("PartMerge.remove_refuted", &o->remove_refuted,
+               "also remove the pairs across parts (joined or not) that the "
+               "parts' points refute before mapping again");
   manager->Add("PartMerge.max_rounds", &o->max_rounds,
                "rounds of joining and mapping again while the model stays "
                "split");

@@ -7,14 +7,13 @@
 
 #include <Eigen/Dense>
 
+#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // The point closest (least squares) to the lines through `points` along
 // the unit `rays` of `indices`; false when the rays are (near) parallel.
@@ -66,6 +65,10 @@ void PartMergeOptions::Check() const {
     throw OptionError(&max_ray_error_deg, "PartMerge.max_ray_error_deg",
                       "must be in (0, 90)");
   }
+  if (!(max_join_turn_deg > 0 && max_join_turn_deg <= 180)) {
+    throw OptionError(&max_join_turn_deg, "PartMerge.max_join_turn_deg",
+                      "must be in (0, 180]");
+  }
   if (min_met_points < 2) {
     throw OptionError(&min_met_points, "PartMerge.min_met_points",
                       "must be >= 2 (two rays always meet a centre)");
@@ -109,6 +112,7 @@ CrossPairCheck CheckCrossPair(
   // itself) at a's matched keypoints, and b's rays to them in A's frame.
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector3d> rays;
+  std::vector<point3D_t> point_ids;
   std::set<point3D_t> used;
   for (const auto& [idx_a, idx_b] : matches) {
     if (idx_a >= image_a.points2D.size() || idx_b >= image_b.points2D.size()) {
@@ -128,6 +132,7 @@ CrossPairCheck CheckCrossPair(
         CameraImageToRay(camera_b, image_b.points2D[idx_b].xy);
     if (!ray.allFinite() || !(ray.norm() > 0)) continue;
     points.push_back(point.xyz);
+    point_ids.push_back(point3D_id);
     rays.push_back((world_from_cam_b * ray).normalized());
   }
   const int n = static_cast<int>(points.size());
@@ -174,6 +179,7 @@ CrossPairCheck CheckCrossPair(
     if (!grew) break;
   }
   check.num_met = static_cast<int>(best.size());
+  for (const int k : best) check.met_point_ids.push_back(point_ids[k]);
   check.center_b = best_center;
   check.confirmed = check.num_met >= options.min_met_points &&
                     check.num_met >= options.min_met_fraction * n;
@@ -196,6 +202,7 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
       part_of[image_id] = p;
       part_sets[p].insert(image_id);
     }
+    plan.part_sizes.push_back(part_sets[p].size());
   }
   std::map<image_pair_t, const TwoViewGeometry*> by_pair;
   for (const TwoViewGeometry& geometry : geometries) {
@@ -217,6 +224,8 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
     if (geometry == by_pair.end()) continue;
     const TwoViewGeometry& g = *geometry->second;
     bool confirmed = false;
+    bool testable = false;  // some direction has enough points to test
+    bool met_enough = false;
     for (const image_t a : {pair.image_id1, pair.image_id2}) {
       const image_t b = a == pair.image_id1 ? pair.image_id2 : pair.image_id1;
       std::vector<std::pair<point2D_t, point2D_t>> matches;
@@ -232,11 +241,55 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
       check.part_a = part_of.at(a);
       check.part_b = part_of.at(b);
       confirmed = confirmed || check.confirmed;
+      testable = testable || check.num_points >= options.min_met_points;
+      met_enough = met_enough || (check.num_points > 0 &&
+                                  check.num_met >= options.min_met_fraction *
+                                                       check.num_points);
       plan.checks.push_back(check);
     }
     plan.num_confirmed += confirmed ? 1 : 0;
+    if (!confirmed && testable && !met_enough) {
+      plan.refuted.insert(std::minmax(pair.image_id1, pair.image_id2));
+    }
   }
   plan.num_pairs_across = static_cast<int>(across.size());
+  // The joins (for the log): per pair of parts, the confirmed checks
+  // between them and the distinct points they meet (per direction: points
+  // of one part).
+  std::map<std::pair<int, int>, std::vector<int>> checks_by_parts;
+  for (size_t k = 0; k < plan.checks.size(); ++k) {
+    const CrossPairCheck& check = plan.checks[k];
+    if (!check.confirmed) continue;
+    checks_by_parts[std::minmax(check.part_a, check.part_b)].push_back(
+        static_cast<int>(k));
+  }
+  for (const auto& [parts_key, indices] : checks_by_parts) {
+    PartJoin join;
+    join.part1 = parts_key.first;
+    join.part2 = parts_key.second;
+    std::set<std::pair<image_t, image_t>> pair_ids;
+    std::set<point3D_t> met_in_part1;
+    std::set<point3D_t> met_in_part2;
+    for (const int k : indices) {
+      const CrossPairCheck& check = plan.checks[k];
+      pair_ids.insert(std::minmax(check.image_id_a, check.image_id_b));
+      std::set<point3D_t>& met =
+          check.part_a == join.part1 ? met_in_part1 : met_in_part2;
+      met.insert(check.met_point_ids.begin(), check.met_point_ids.end());
+      if (join.best_check < 0 ||
+          check.num_met > plan.checks[join.best_check].num_met) {
+        join.best_check = k;
+      }
+    }
+    join.num_pairs = static_cast<int>(pair_ids.size());
+    join.num_points =
+        static_cast<int>(std::max(met_in_part1.size(), met_in_part2.size()));
+    plan.joins.push_back(join);
+  }
+  std::stable_sort(plan.joins.begin(), plan.joins.end(),
+                   [](const PartJoin& x, const PartJoin& y) {
+                     return x.num_points > y.num_points;
+                   });
   // The join: a spanning tree of the parts over the confirmed checks, most
   // met points first (ties: the order of the pairs).
   std::vector<const CrossPairCheck*> confirmed;
@@ -301,6 +354,65 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
     }
   }
   return plan;
+}
+
+std::vector<double> JoinTurnsDeg(
+    const PartMergePlan& plan, const Reconstruction& reconstruction,
+    const std::vector<std::vector<image_t>>& parts,
+    const std::map<image_t, Eigen::Matrix3d>& rotations) {
+  const int num_parts = static_cast<int>(parts.size());
+  // Each part's frame change: new = model x correction x change.
+  std::vector<Eigen::Matrix3d> change(num_parts, Eigen::Matrix3d::Identity());
+  std::vector<bool> has_change(num_parts, false);
+  for (int p = 0; p < num_parts; ++p) {
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+    for (const image_t image_id : parts[p]) {
+      const auto image = reconstruction.images.find(image_id);
+      const auto rotation = rotations.find(image_id);
+      if (image == reconstruction.images.end() || rotation == rotations.end()) {
+        continue;
+      }
+      const Eigen::Matrix3d corrected =
+          image->second.cam_from_world.rotation.toRotationMatrix() *
+          plan.correction[p];
+      sum += corrected.transpose() * rotation->second;
+      has_change[p] = true;
+    }
+    if (!has_change[p]) continue;
+    // The rotation nearest the sum (chordal L2 mean).
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+        sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2) =
+        (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
+    change[p] = svd.matrixU() * D * svd.matrixV().transpose();
+  }
+  std::vector<double> turns(num_parts, 0.0);
+  for (int p = 0; p < num_parts; ++p) {
+    const int root = plan.group[p];
+    if (root == p) continue;
+    if (!has_change[p] || !has_change[root]) {
+      turns[p] = 180;
+      continue;
+    }
+    turns[p] = AngularDistanceDeg(change[root], change[p]);
+  }
+  return turns;
+}
+
+int NumLargeGroupsKept(const PartMergePlan& plan,
+                       const std::vector<double>& turns, double max_turn_deg,
+                       int min_size) {
+  std::map<int, size_t> group_sizes;
+  for (int p = 0; p < plan.num_parts; ++p) {
+    const bool kept = plan.group[p] != p && turns[p] <= max_turn_deg;
+    group_sizes[kept ? plan.group[p] : p] += plan.part_sizes[p];
+  }
+  int num_large = 0;
+  for (const auto& [group, size] : group_sizes) {
+    num_large += static_cast<int>(size) >= min_size ? 1 : 0;
+  }
+  return num_large;
 }
 
 }  // namespace colmap_irav4

@@ -13,6 +13,7 @@
 // parts so joined whose rotation contradicts the join are removed, and the
 // component is mapped again (pipeline/component_mapper.h).
 
+#include <map>
 #include <set>
 #include <utility>
 #include <vector>
@@ -38,6 +39,16 @@ struct PartMergeOptions {
   // Pairs across joined parts whose relative rotation contradicts the join
   // by more than this are removed before mapping again (deg).
   double max_rotation_error_deg = 10.0;
+  // Before mapping again, the remaining pairs' rotation averaging (cheap)
+  // is compared with the join: a joined part it turns by more than this
+  // (deg) will split off again (false pairs elsewhere still mislead it).
+  // The mapping is done only when the joins it keeps leave fewer large
+  // groups than the model has rigid parts.
+  double max_join_turn_deg = 10.0;
+  // Also remove the pairs across parts that the parts' points refute
+  // (PartMergePlan::refuted), joined parts or not: false pairs across parts
+  // not joined still mislead the re-mapping's rotation averaging.
+  bool remove_refuted = true;
   // Rounds of (join, map again) while the model stays split.
   int max_rounds = 3;
   // The re-mapped model is kept only when it writes at least this fraction
@@ -63,9 +74,24 @@ struct CrossPairCheck {
   // Those whose point b's ray reaches from b's fitted centre.
   int num_met = 0;
   bool confirmed = false;
+  // The points of part A met (ids in the model).
+  std::vector<point3D_t> met_point_ids;
   // b's rotation (cam_from_world) in the frame of the model's part A.
   Eigen::Matrix3d R_b = Eigen::Matrix3d::Identity();
   Eigen::Vector3d center_b = Eigen::Vector3d::Zero();
+};
+
+// The confirmed pairs between two parts (a join).
+struct PartJoin {
+  int part1 = -1;  // the smaller part index
+  int part2 = -1;
+  int num_pairs = 0;  // confirmed pairs (either direction)
+  // Distinct points met, in the direction that meets more (points of one
+  // part only: the same scene point seen from both sides counts once).
+  int num_points = 0;
+  // Index into PartMergePlan::checks of the check with most met points
+  // (the join's rotation).
+  int best_check = -1;
 };
 
 struct PartMergePlan {
@@ -73,16 +99,25 @@ struct PartMergePlan {
   std::vector<CrossPairCheck> checks;
   int num_pairs_across = 0;  // view-graph pairs across parts
   int num_confirmed = 0;     // of those, confirmed in either direction
+  // Per pair of parts with a confirmed pair (for the log), most met points
+  // first (ties: the order of the pairs).
+  std::vector<PartJoin> joins;
   // Per part (index into the parts given): its group after the join (the
   // smallest part index of the group), and the rotation that turns its
   // images into the group's frame: R_i -> R_i * correction.
   std::vector<int> group;
   std::vector<Eigen::Matrix3d> correction;
   int num_parts = 0;
+  std::vector<size_t> part_sizes;  // images of each part in the model
   int num_groups = 0;  // parts joined into groups (parts alone count too)
   // Pairs across parts of one group whose relative rotation contradicts
   // the join (image ids, smaller first): to be removed.
   std::set<std::pair<image_t, image_t>> contradicted;
+  // Pairs across parts (of any groups) that the parts' points refute: in
+  // some direction at least min_met_points points to test, and in no
+  // direction confirmed nor min_met_fraction of them met (a random pair's
+  // matches; image ids, smaller first). Removed too with remove_refuted.
+  std::set<std::pair<image_t, image_t>> refuted;
 };
 
 // Checks one direction of a pair: b's rotation is pair rotation x a's; its
@@ -107,5 +142,23 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
                             const std::vector<std::vector<image_t>>& parts,
                             const std::vector<ImagePairGeometry>& pairs,
                             const std::vector<TwoViewGeometry>& geometries);
+
+// How far `rotations` (cam_from_world of the model's images, e.g. a new
+// rotation averaging's) turn each joined part against its group's first
+// part, after the plan's corrections (deg, per part; 0 for a group's first
+// part and for parts alone). A part's frame change is the chordal mean over
+// its images of (model rotation x correction)^T x new rotation; a part with
+// no image in `rotations` is reported as 180 deg turned (the join is lost).
+std::vector<double> JoinTurnsDeg(
+    const PartMergePlan& plan, const Reconstruction& reconstruction,
+    const std::vector<std::vector<image_t>>& parts,
+    const std::map<image_t, Eigen::Matrix3d>& rotations);
+
+// The number of groups of at least `min_size` images (plan.part_sizes)
+// when each part joins its group only if `turns` (JoinTurnsDeg) keeps it
+// within `max_turn_deg`; a part turned further counts alone.
+int NumLargeGroupsKept(const PartMergePlan& plan,
+                       const std::vector<double>& turns, double max_turn_deg,
+                       int min_size);
 
 }  // namespace colmap_irav4

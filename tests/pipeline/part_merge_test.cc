@@ -181,8 +181,64 @@ TEST_F(PartMergeTest, PlanJoinsThePartsAndFindsTheFalsePair) {
         plan.correction[1];
     EXPECT_LT(AngularDistanceDeg(R, true_R_[i]), 1e-6) << i;
   }
-  // Only the false pair contradicts the join.
+  // Only the false pair contradicts the join, and the points refute it.
   EXPECT_EQ(plan.contradicted, (std::set<std::pair<image_t, image_t>>{{2, 6}}));
+  EXPECT_EQ(plan.refuted, (std::set<std::pair<image_t, image_t>>{{2, 6}}));
+}
+
+TEST_F(PartMergeTest, PlanCountsTheDistinctPointsOfAJoin) {
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}},
+                    pairs_, geometries_);
+  ASSERT_EQ(plan.joins.size(), 1u);
+  const PartJoin& join = plan.joins[0];
+  EXPECT_EQ(join.part1, 0);
+  EXPECT_EQ(join.part2, 1);
+  // (1, 5) and (3, 7) meet 20 points of A each, none twice; b's keypoints
+  // observe no point of B (the other direction meets none).
+  EXPECT_EQ(join.num_pairs, 2);
+  EXPECT_EQ(join.num_points, 40);
+  ASSERT_GE(join.best_check, 0);
+  EXPECT_TRUE(plan.checks[join.best_check].confirmed);
+  EXPECT_EQ(plan.checks[join.best_check].num_met, 20);
+}
+
+TEST_F(PartMergeTest, JoinTurnsMeasureHowNewRotationsKeepTheJoin) {
+  const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, parts, pairs_, geometries_);
+  ASSERT_EQ(plan.num_groups, 1);
+  // New rotations that keep the join: the truth in another world frame.
+  const Eigen::Matrix3d frame =
+      AngleAxisToRotation(Eigen::Vector3d(DegToRad(40), DegToRad(-70), 0));
+  std::map<image_t, Eigen::Matrix3d> rotations;
+  for (image_t i = 1; i <= 8; ++i) rotations[i] = true_R_[i] * frame;
+  std::vector<double> turns = JoinTurnsDeg(plan, model_, parts, rotations);
+  ASSERT_EQ(turns.size(), 2u);
+  EXPECT_EQ(turns[0], 0);
+  EXPECT_LT(turns[1], 1e-6);
+  // Part B turned by 12 deg against A (as false pairs elsewhere turn it).
+  const Eigen::Matrix3d turn =
+      AngleAxisToRotation(Eigen::Vector3d(0, 0, DegToRad(12)));
+  for (image_t i = 5; i <= 8; ++i) rotations[i] = true_R_[i] * turn * frame;
+  turns = JoinTurnsDeg(plan, model_, parts, rotations);
+  EXPECT_NEAR(turns[1], 12, 1e-6);
+  // Kept, the join leaves one group of 8 images; turned by 12 deg (over
+  // 10), two of 4.
+  EXPECT_EQ(NumLargeGroupsKept(plan, {0, 3}, 10, 4), 1);
+  EXPECT_EQ(NumLargeGroupsKept(plan, turns, 10, 4), 2);
+  EXPECT_EQ(NumLargeGroupsKept(plan, turns, 10, 5), 0);
+  EXPECT_EQ(NumLargeGroupsKept(plan, turns, 15, 5), 1);
+  // Part B left out of the new rotations: the join is lost.
+  for (image_t i = 5; i <= 8; ++i) rotations.erase(i);
+  turns = JoinTurnsDeg(plan, model_, parts, rotations);
+  EXPECT_EQ(turns[1], 180);
+  // Parts not joined are not measured.
+  const PartMergePlan alone = PlanPartMerge(PartMergeOptions(), model_, parts,
+                                            {pairs_[2]}, {geometries_[2]});
+  ASSERT_EQ(alone.num_groups, 2);
+  turns = JoinTurnsDeg(alone, model_, parts, rotations);
+  EXPECT_EQ(turns[1], 0);
 }
 
 TEST_F(PartMergeTest, NothingJoinedThroughAFalsePairAlone) {
@@ -193,6 +249,19 @@ TEST_F(PartMergeTest, NothingJoinedThroughAFalsePairAlone) {
   EXPECT_EQ(plan.num_confirmed, 0);
   EXPECT_EQ(plan.num_groups, 2);
   EXPECT_TRUE(plan.contradicted.empty());
+  // Not joined, but refuted by A's points all the same: 20 points to test,
+  // fewer than 5 met.
+  EXPECT_EQ(plan.refuted, (std::set<std::pair<image_t, image_t>>{{2, 6}}));
+}
+
+TEST_F(PartMergeTest, TooFewPointsToTestRefuteNothing) {
+  // The false pair with 4 matches only: too few points to test.
+  TwoViewGeometry geometry = geometries_[2];
+  geometry.inlier_matches.resize(4);
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, {{1, 2, 3, 4}, {5, 6, 7, 8}},
+                    {pairs_[2]}, {geometry});
+  EXPECT_TRUE(plan.refuted.empty());
 }
 
 TEST_F(PartMergeTest, ARotationOffByMoreThanTheRayErrorIsNotConfirmed) {
@@ -207,6 +276,9 @@ TEST(PartMergeOptions, Check) {
   PartMergeOptions options;
   EXPECT_NO_THROW(options.Check());
   options.min_met_points = 1;
+  EXPECT_ANY_THROW(options.Check());
+  options = PartMergeOptions();
+  options.max_join_turn_deg = 0;
   EXPECT_ANY_THROW(options.Check());
   options = PartMergeOptions();
   options.max_rounds = 0;

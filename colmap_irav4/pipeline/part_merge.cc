@@ -380,12 +380,7 @@ std::vector<double> JoinTurnsDeg(
     }
     if (!has_change[p]) continue;
     // The rotation nearest the sum (chordal L2 mean).
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(
-        sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-    D(2, 2) =
-        (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
-    change[p] = svd.matrixU() * D * svd.matrixV().transpose();
+    change[p] = ProjectToRotation(sum);
   }
   std::vector<double> turns(num_parts, 0.0);
   for (int p = 0; p < num_parts; ++p) {

@@ -124,10 +124,26 @@ class ComponentMapper {
   // when taken, sets the pairs at them removed and the pairs removed
   // earlier that are given back (each on its own: more may be given back
   // than removed).
-  bool ReorientImagesTurnedAlone(std::unique_ptr<GlobalMapper>* attempt,
-                                 const std::vector<ImagePairGeometry>& pairs,
-                                 size_t* num_pairs_removed,
-                                 size_t* num_pairs_restored);
+  // `mapped_pairs` (optional): set to the pairs the taken model was mapped
+  // from.
+  bool ReorientImagesTurnedAlone(
+      std::unique_ptr<GlobalMapper>* attempt,
+      const std::vector<ImagePairGeometry>& pairs, size_t* num_pairs_removed,
+      size_t* num_pairs_restored,
+      std::vector<ImagePairGeometry>* mapped_pairs = nullptr);
+  // After a settling by the priors (the model `attempt`, mapped from
+  // `pairs`): a camera turned alone that the fold check does not see looks
+  // like a GPS outlier (its prior off the model). Each camera whose prior is
+  // 3 std or more off is turned back across its own pairs (TurnBackAlone);
+  // those whose prior the turned-back pose meets are mapped again with
+  // those pairs instead of the ones at them the model agrees with. The
+  // re-mapped model is taken when it settles them (LoneTurnSettled) and the
+  // images accept it (`num_turned` set); otherwise the model is written
+  // flagged folded and false is returned (the priors say the cameras are
+  // turned; the mapping does not settle it).
+  bool TurnBackLoneCameras(std::unique_ptr<GlobalMapper>* attempt,
+                           const std::vector<ImagePairGeometry>& pairs,
+                           size_t* num_turned);
   // 2. Removal of the suspect pairs, and the component mapped again.
   bool RemoveSuspectPairs();
   // 3. Split at the weakest cut: separate models rather than a folded one.

@@ -443,8 +443,7 @@ bool ComponentMapper::ReorientAcrossCut() {
 bool ComponentMapper::ReorientImagesTurnedAlone(
     std::unique_ptr<GlobalMapper>* attempt,
     const std::vector<ImagePairGeometry>& pairs, size_t* num_pairs_removed,
-    size_t* num_pairs_restored,
-    std::vector<ImagePairGeometry>* mapped_pairs) {
+    size_t* num_pairs_restored, std::vector<ImagePairGeometry>* mapped_pairs) {
   // Cameras turned alone among cameras the right way round are no cut;
   // re-orient them once (their pairs the model agrees with removed), else
   // write the model flagged folded.
@@ -590,11 +589,11 @@ bool ComponentMapper::TurnBackLoneCameras(
   std::unique_ptr<GlobalMapper> again;
   if (!components.empty() &&
       KeepsMost(components[0].size(), num_first_images_)) {
-    again = Attempt(components[0],
-                    PairsWithin(again_pairs,
-                                std::set<image_t>(components[0].begin(),
-                                                  components[0].end())),
-                    prefix_);
+    again = Attempt(
+        components[0],
+        PairsWithin(again_pairs, std::set<image_t>(components[0].begin(),
+                                                   components[0].end())),
+        prefix_);
   }
   if (again != nullptr && Accepted(again.get()) && again->in_prior_frame() &&
       again->reconstruction().images.size() >= model.images.size()) {

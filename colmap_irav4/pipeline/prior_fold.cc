@@ -197,8 +197,9 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
     Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
     Eigen::Vector3d b = Eigen::Vector3d::Zero();
     for (const size_t i : rays) {
-      const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() -
-                                votes[i].direction * votes[i].direction.transpose();
+      const Eigen::Matrix3d P =
+          Eigen::Matrix3d::Identity() -
+          votes[i].direction * votes[i].direction.transpose();
       A += P;
       b += P * votes[i].center;
     }
@@ -210,8 +211,7 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
     std::vector<size_t> kept;
     for (const size_t i : rays) {
       const Eigen::Vector3d to_camera = center - votes[i].center;
-      const double cosine =
-          to_camera.normalized().dot(votes[i].direction);
+      const double cosine = to_camera.normalized().dot(votes[i].direction);
       if (to_camera.norm() > 0 &&
           cosine >= std::cos(max_rotation_error_deg * M_PI / 180)) {
         kept.push_back(i);

@@ -131,11 +131,18 @@ class ComponentMapper {
       const std::vector<ImagePairGeometry>& pairs, size_t* num_pairs_removed,
       size_t* num_pairs_restored,
       std::vector<ImagePairGeometry>* mapped_pairs = nullptr);
+  // Writes the model of `mapper` flagged folded, `num_images` cameras in it
+  // possibly turned alone: outcome "folded (N images may be turned alone" +
+  // `outcome_reason` + ")", the note with `note_reason`.
+  void WriteTurnedAlone(std::unique_ptr<GlobalMapper> mapper, size_t num_images,
+                        const std::string& note_reason,
+                        const std::string& outcome_reason);
   // After a settling by the priors (the model `attempt`, mapped from
   // `pairs`): a camera turned alone that the fold check does not see looks
   // like a GPS outlier (its prior off the model). Each camera whose prior is
-  // 3 std or more off is turned back across its own pairs (TurnBackAlone);
-  // those whose prior the turned-back pose meets are mapped again with
+  // beyond the prior gate is turned back across its own pairs
+  // (TurnBackAlone); those whose prior the turned-back pose meets (within
+  // the gate, at most half as far off) are mapped again with
   // those pairs instead of the ones at them the model agrees with. The
   // re-mapped model is taken when it settles them (LoneTurnSettled) and the
   // images accept it (`num_turned` set); otherwise the model is written

@@ -233,7 +233,11 @@ bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,
   const std::set<image_t> moved(turned.begin(), turned.end());
   for (const image_t image_id : turned) {
     const auto it = after.residuals.find(image_id);
-    if (it == after.residuals.end() || it->second >= max_std) return false;
+    const auto was = before.residuals.find(image_id);
+    if (it == after.residuals.end() || was == before.residuals.end() ||
+        it->second >= std::min(max_std, 0.5 * was->second)) {
+      return false;
+    }
   }
   // The others: each side's priors without the turned cameras.
   auto others = [&](const PriorAgreement& agreement) {

@@ -115,10 +115,11 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
 
 // Whether a model with the cameras `turned` turned back settles them: each
 // within `max_std` of its own prior (the mapper: the prior gate, the priors
-// its bundle adjustment keeps), and the other priors agree no worse (no
-// fewer within 3 std; a capped cost at most 10% higher, a re-mapping's
-// noise). A GPS outlier's camera does not pass: turned, it moves to its
-// mirrored twin's place, not to its fix.
+// its bundle adjustment keeps) and at most half as far off it as in
+// `before`, and the other priors agree no worse (no fewer within 3 std; a
+// capped cost at most 10% higher, a re-mapping's noise). A GPS outlier's
+// camera does not pass: turned, it moves to its mirrored twin's place, not
+// to its fix.
 bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,
                      const std::vector<image_t>& turned, double max_std);
 

@@ -325,6 +325,14 @@ TEST(PriorFold,
   // The others' capped cost up by more than 10%.
   EXPECT_FALSE(LoneTurnSettled(
       before, agreement({{35, 1.0}, {2, 1.5}, {3, 2.2}}), {35}, 6.0));
+  // A right camera's noisy fix (courtyard 100, seed 3): within the gate
+  // either way, not half as far.
+  EXPECT_FALSE(LoneTurnSettled(agreement({{21, 4.9}, {2, 1.0}, {3, 2.0}}),
+                               agreement({{21, 5.4}, {2, 1.0}, {3, 2.0}}), {21},
+                               6.0));
+  EXPECT_FALSE(LoneTurnSettled(agreement({{21, 9.0}, {2, 1.0}, {3, 2.0}}),
+                               agreement({{21, 5.0}, {2, 1.0}, {3, 2.0}}), {21},
+                               6.0));
   // The camera lost.
   EXPECT_FALSE(
       LoneTurnSettled(before, agreement({{2, 1.0}, {3, 2.0}}), {35}, 6.0));

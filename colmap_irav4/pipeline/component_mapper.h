@@ -124,10 +124,33 @@ class ComponentMapper {
   // when taken, sets the pairs at them removed and the pairs removed
   // earlier that are given back (each on its own: more may be given back
   // than removed).
-  bool ReorientImagesTurnedAlone(std::unique_ptr<GlobalMapper>* attempt,
-                                 const std::vector<ImagePairGeometry>& pairs,
-                                 size_t* num_pairs_removed,
-                                 size_t* num_pairs_restored);
+  // `mapped_pairs` (optional): set to the pairs the taken model was mapped
+  // from.
+  bool ReorientImagesTurnedAlone(
+      std::unique_ptr<GlobalMapper>* attempt,
+      const std::vector<ImagePairGeometry>& pairs, size_t* num_pairs_removed,
+      size_t* num_pairs_restored,
+      std::vector<ImagePairGeometry>* mapped_pairs = nullptr);
+  // Writes the model of `mapper` flagged folded, `num_images` cameras in it
+  // possibly turned alone: outcome "folded (N images may be turned alone" +
+  // `outcome_reason` + ")", the note with `note_reason`.
+  void WriteTurnedAlone(std::unique_ptr<GlobalMapper> mapper, size_t num_images,
+                        const std::string& note_reason,
+                        const std::string& outcome_reason);
+  // After a settling by the priors (the model `attempt`, mapped from
+  // `pairs`): a camera turned alone that the fold check does not see looks
+  // like a GPS outlier (its prior off the model). Each camera whose prior is
+  // beyond the prior gate is turned back across its own pairs
+  // (TurnBackAlone); those whose prior the turned-back pose meets (within
+  // the gate, at most half as far off) are mapped again with
+  // those pairs instead of the ones at them the model agrees with. The
+  // re-mapped model is taken when it settles them (LoneTurnSettled) and the
+  // images accept it (`num_turned` set); otherwise the model is written
+  // flagged folded and false is returned (the priors say the cameras are
+  // turned; the mapping does not settle it).
+  bool TurnBackLoneCameras(std::unique_ptr<GlobalMapper>* attempt,
+                           const std::vector<ImagePairGeometry>& pairs,
+                           size_t* num_turned);
   // 2. Removal of the suspect pairs, and the component mapped again.
   bool RemoveSuspectPairs();
   // 3. Split at the weakest cut: separate models rather than a folded one.

@@ -4,6 +4,11 @@
 #include <cmath>
 #include <set>
 #include <sstream>
+#include <tuple>
+
+#include <Eigen/Eigenvalues>
+
+#include "colmap_irav4/geometry/rotation.h"
 
 namespace colmap_irav4 {
 
@@ -122,9 +127,141 @@ double PriorPairContrast(const Reconstruction& reconstruction,
   return median_within > 0 ? Median(across) / median_within : 0;
 }
 
+TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
+                             const std::vector<ImagePairGeometry>& pairs,
+                             image_t image_id, double max_rotation_error_deg) {
+  TurnedBackPose turned;
+  const auto image = reconstruction.images.find(image_id);
+  if (image == reconstruction.images.end()) return turned;
+  // Per pair the model contradicts: the camera's rotation it implies, the
+  // neighbour's centre and the direction from it to the camera (world).
+  struct Vote {
+    const ImagePairGeometry* pair;
+    Eigen::Matrix3d R;
+    Eigen::Vector3d center;
+    Eigen::Vector3d direction;
+  };
+  std::vector<Vote> votes;
+  for (const ImagePairGeometry& pair : pairs) {
+    if (pair.image_id1 != image_id && pair.image_id2 != image_id) continue;
+    const bool first = pair.image_id1 == image_id;
+    const auto other =
+        reconstruction.images.find(first ? pair.image_id2 : pair.image_id1);
+    if (other == reconstruction.images.end() || pair.t.norm() == 0) continue;
+    const Eigen::Matrix3d R_other =
+        other->second.cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R_image =
+        image->second.cam_from_world.rotation.toRotationMatrix();
+    if (RelativeRotationErrorDeg(pair, first ? R_image : R_other,
+                                 first ? R_other : R_image) <=
+        max_rotation_error_deg) {
+      continue;  // the model agrees: not a vote to turn
+    }
+    // pair.R = R2 R1^T and c2 - c1 along -R2^T t (cam2_from_cam1).
+    const Eigen::Vector3d t = pair.t.normalized();
+    Vote vote;
+    vote.pair = &pair;
+    if (first) {
+      vote.R = pair.R.transpose() * R_other;
+      vote.direction = R_other.transpose() * t;
+    } else {
+      vote.R = pair.R * R_other;
+      vote.direction = -(R_other.transpose() * pair.R.transpose() * t);
+    }
+    vote.center = other->second.ProjectionCenter();
+    votes.push_back(vote);
+  }
+  // The rotation most votes agree on.
+  std::vector<size_t> best;
+  for (size_t i = 0; i < votes.size(); ++i) {
+    std::vector<size_t> agreeing;
+    for (size_t j = 0; j < votes.size(); ++j) {
+      if (AngularDistanceDeg(votes[i].R, votes[j].R) <=
+          max_rotation_error_deg) {
+        agreeing.push_back(j);
+      }
+    }
+    if (agreeing.size() > best.size()) best = std::move(agreeing);
+  }
+  if (static_cast<int>(best.size()) < kMinTurnBackPairs) return turned;
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (const size_t i : best) sum += votes[i].R;
+  const Eigen::Matrix3d R = ProjectToRotation(sum);
+  // The centre nearest the rays from the neighbours (least squares over the
+  // distances to the rays), solved again without the rays it leaves more
+  // than the rotation tolerance off.
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  std::vector<size_t> rays = best;
+  for (int round = 0; round < 2; ++round) {
+    if (static_cast<int>(rays.size()) < kMinTurnBackPairs) return turned;
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (const size_t i : rays) {
+      const Eigen::Matrix3d P =
+          Eigen::Matrix3d::Identity() -
+          votes[i].direction * votes[i].direction.transpose();
+      A += P;
+      b += P * votes[i].center;
+    }
+    // Parallel rays (all neighbours on one line with the camera) leave the
+    // centre free along them.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
+    if (eigen.eigenvalues()(0) < 1e-3 * eigen.eigenvalues()(2)) return turned;
+    center = A.ldlt().solve(b);
+    std::vector<size_t> kept;
+    for (const size_t i : rays) {
+      const Eigen::Vector3d to_camera = center - votes[i].center;
+      const double cosine = to_camera.normalized().dot(votes[i].direction);
+      if (to_camera.norm() > 0 &&
+          cosine >= std::cos(max_rotation_error_deg * M_PI / 180)) {
+        kept.push_back(i);
+      }
+    }
+    if (kept.size() == rays.size()) break;
+    rays = std::move(kept);
+  }
+  if (static_cast<int>(rays.size()) < kMinTurnBackPairs) return turned;
+  turned.found = true;
+  turned.cam_from_world.rotation = Eigen::Quaterniond(R);
+  turned.cam_from_world.translation = -(R * center);
+  for (const size_t i : best) turned.pairs.push_back(*votes[i].pair);
+  return turned;
+}
+
+bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,
+                     const std::vector<image_t>& turned, double max_std) {
+  const std::set<image_t> moved(turned.begin(), turned.end());
+  for (const image_t image_id : turned) {
+    const auto it = after.residuals.find(image_id);
+    const auto was = before.residuals.find(image_id);
+    if (it == after.residuals.end() || was == before.residuals.end() ||
+        it->second >= std::min(max_std, 0.5 * was->second)) {
+      return false;
+    }
+  }
+  // The others: each side's priors without the turned cameras.
+  auto others = [&](const PriorAgreement& agreement) {
+    int num_priors = 0;
+    int num_within = 0;
+    double capped_cost = 0;
+    for (const auto& [image_id, r] : agreement.residuals) {
+      if (moved.count(image_id)) continue;
+      ++num_priors;
+      num_within += r < 3.0;
+      capped_cost += std::min(r * r, 9.0);
+    }
+    return std::make_tuple(num_priors, num_within, capped_cost);
+  };
+  const auto [priors_before, within_before, cost_before] = others(before);
+  const auto [priors_after, within_after, cost_after] = others(after);
+  return priors_after >= priors_before && within_after >= within_before &&
+         cost_after <= 1.1 * cost_before;
+}
+
 std::string PriorSettledOutcome(size_t num_turned_back, size_t num_removed,
                                 size_t num_alone_removed,
-                                size_t num_alone_restored) {
+                                size_t num_alone_restored,
+                                size_t num_lone_turned) {
   std::string outcome =
       "resolved by pose priors (" + std::to_string(num_turned_back) +
       " images turned back, " + std::to_string(num_removed) + " pairs removed)";
@@ -132,6 +269,10 @@ std::string PriorSettledOutcome(size_t num_turned_back, size_t num_removed,
     outcome += ", cameras turned alone re-oriented (" +
                std::to_string(num_alone_removed) + " pairs at them removed, " +
                std::to_string(num_alone_restored) + " restored)";
+  }
+  if (num_lone_turned > 0) {
+    outcome += ", " + std::to_string(num_lone_turned) +
+               " cameras turned alone turned back to their priors";
   }
   return outcome;
 }

@@ -91,14 +91,49 @@ double PriorPairContrast(const Reconstruction& reconstruction,
                          const std::vector<ImagePairGeometry>& pairs,
                          const std::vector<image_t>& side);
 
+// A camera turned alone that the fold check does not see (after a settling
+// by the priors, its prior off the model like a GPS outlier's), turned back
+// across its own pairs: those the model contradicts that agree on one
+// rotation (a camera turned alone: its true pairs), with the centre where
+// the directions to its neighbours they measure meet. The cost is that of
+// its pairs, no mapping. `found` false: fewer than kMinTurnBackPairs pairs
+// agree, or their directions do not fix a centre.
+struct TurnedBackPose {
+  bool found = false;
+  Rigid3d cam_from_world;
+  // The pairs at the camera that agree with the turned-back pose.
+  std::vector<ImagePairGeometry> pairs;
+};
+
+// Three pairs: two directions fix a centre, the third checks it (and one
+// mirror pair alone cannot turn a camera).
+constexpr int kMinTurnBackPairs = 3;
+
+TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
+                             const std::vector<ImagePairGeometry>& pairs,
+                             image_t image_id, double max_rotation_error_deg);
+
+// Whether a model with the cameras `turned` turned back settles them: each
+// within `max_std` of its own prior (the mapper: the prior gate, the priors
+// its bundle adjustment keeps) and at most half as far off it as in
+// `before`, and the other priors agree no worse (no fewer within 3 std; a
+// capped cost at most 10% higher, a re-mapping's noise). A GPS outlier's
+// camera does not pass: turned, it moves to its mirrored twin's place, not
+// to its fix.
+bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,
+                     const std::vector<image_t>& turned, double max_std);
+
 // The fold outcome of a model the priors settled: "resolved by pose priors
 // (N images turned back, M pairs removed)", and when cameras it left turned
 // alone were re-oriented after that, the pairs at them removed and those
 // removed earlier that were given back, each counted on its own (a camera
 // the cut left with no pair gets more back than it loses: a difference
 // would be negative).
+// `num_lone_turned`: cameras turned alone that TurnBackAlone turned back
+// after that.
 std::string PriorSettledOutcome(size_t num_turned_back, size_t num_removed,
                                 size_t num_alone_removed = 0,
-                                size_t num_alone_restored = 0);
+                                size_t num_alone_restored = 0,
+                                size_t num_lone_turned = 0);
 
 }  // namespace colmap_irav4

@@ -3,11 +3,14 @@
 // 1 m standard deviation a fixed half metre or so off, and a "turned"
 // group of 8 consecutive cameras moved 10 m (10 standard deviations).
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/pipeline/component_mapper.h"
 #include "colmap_irav4/pipeline/prior_fold.h"
 
@@ -186,6 +189,161 @@ TEST(PriorFold, SettledOutcomeCountsRemovedAndRestoredPairsApart) {
             "resolved by pose priors (28 images turned back, 651 pairs "
             "removed), cameras turned alone re-oriented (18 pairs at them "
             "removed, 22 restored)");
+}
+
+// A ring of 12 cameras 20 m around the origin, looking at it: camera k's
+// mirrored twin (the pose turned 180 deg about the vertical) is camera k + 6.
+Rigid3d RingPose(int k) {
+  const double angle = 2 * M_PI * ((k - 1) % 12) / 12;
+  const Eigen::Vector3d center(20 * std::cos(angle), 20 * std::sin(angle), 0);
+  const Eigen::Vector3d z = -center.normalized();
+  const Eigen::Vector3d y = -Eigen::Vector3d::UnitZ();
+  Eigen::Matrix3d R;
+  R.row(0) = y.cross(z).transpose();
+  R.row(1) = y.transpose();
+  R.row(2) = z.transpose();
+  Rigid3d pose;
+  pose.rotation = Eigen::Quaterniond(R);
+  pose.translation = -(R * center);
+  return pose;
+}
+
+// The relative pose of (a, b) measured from the poses the images were
+// matched at: cam_b_from_cam_a, unit translation.
+ImagePairGeometry RingPair(image_t a, image_t b, const Rigid3d& pose_a,
+                           const Rigid3d& pose_b) {
+  ImagePairGeometry pair;
+  pair.image_id1 = a;
+  pair.image_id2 = b;
+  const Eigen::Matrix3d Ra = pose_a.rotation.toRotationMatrix();
+  const Eigen::Matrix3d Rb = pose_b.rotation.toRotationMatrix();
+  pair.R = Rb * Ra.transpose();
+  pair.t = (pose_b.translation - pair.R * pose_a.translation).normalized();
+  return pair;
+}
+
+// Camera 1's pairs: true ones with its neighbours 2, 3, 11, 12 and mirror
+// ones (its matches made at its twin's place, camera 7's) with 5, 6, 8, 9;
+// camera 1 first in some pairs, second in others.
+std::vector<ImagePairGeometry> RingPairsOfCameraOne() {
+  std::vector<ImagePairGeometry> pairs;
+  for (const image_t other : {2, 3}) {
+    pairs.push_back(RingPair(1, other, RingPose(1), RingPose(other)));
+  }
+  for (const image_t other : {11, 12}) {
+    pairs.push_back(RingPair(other, 1, RingPose(other), RingPose(1)));
+  }
+  for (const image_t other : {8, 9}) {
+    pairs.push_back(RingPair(1, other, RingPose(7), RingPose(other)));
+  }
+  for (const image_t other : {5, 6}) {
+    pairs.push_back(RingPair(other, 1, RingPose(other), RingPose(7)));
+  }
+  return pairs;
+}
+
+// The ring's model, camera 1 at its twin's place (turned alone) or not.
+Reconstruction RingModel(bool turned) {
+  Reconstruction model;
+  for (image_t id = 1; id <= 12; ++id) {
+    model.images[id].image_id = id;
+    model.images[id].cam_from_world = RingPose(turned && id == 1 ? 7 : id);
+  }
+  return model;
+}
+
+TEST(PriorFold, CameraTurnedAloneTurnedBackAcrossItsOwnPairs) {
+  // Camera 1 turned alone: its mirror pairs agree with the model, its four
+  // true pairs contradict it and give back its true pose.
+  const TurnedBackPose turned =
+      TurnBackAlone(RingModel(true), RingPairsOfCameraOne(), 1, 5.0);
+  ASSERT_TRUE(turned.found);
+  EXPECT_LT(
+      AngularDistanceDeg(turned.cam_from_world.rotation.toRotationMatrix(),
+                         RingPose(1).rotation.toRotationMatrix()),
+      1e-6);
+  EXPECT_LT((turned.cam_from_world.Inverse().translation -
+             RingPose(1).Inverse().translation)
+                .norm(),
+            1e-6);
+  ASSERT_EQ(turned.pairs.size(), 4u);
+  for (const ImagePairGeometry& pair : turned.pairs) {
+    const image_t other = pair.image_id1 == 1 ? pair.image_id2 : pair.image_id1;
+    EXPECT_TRUE(other == 2 || other == 3 || other == 11 || other == 12);
+  }
+  // With only two of the true pairs left, no pose: too few to check one.
+  std::vector<ImagePairGeometry> two = RingPairsOfCameraOne();
+  two.erase(two.begin() + 1, two.begin() + 3);
+  EXPECT_FALSE(TurnBackAlone(RingModel(true), two, 1, 5.0).found);
+}
+
+TEST(PriorFold, GpsOutlierTurnedBackMovesToItsTwinNotToItsFix) {
+  // Camera 1 right, its GPS fix 40 m off (3 m std): turned back across the
+  // pairs the model contradicts (the mirror ones), it goes to its twin's
+  // place, still tens of std from the fix; the mapper keeps it.
+  const TurnedBackPose turned =
+      TurnBackAlone(RingModel(false), RingPairsOfCameraOne(), 1, 5.0);
+  ASSERT_TRUE(turned.found);
+  EXPECT_LT((turned.cam_from_world.Inverse().translation -
+             RingPose(7).Inverse().translation)
+                .norm(),
+            1e-6);
+  PosePrior prior;
+  prior.position =
+      RingPose(1).Inverse().translation + Eigen::Vector3d(0, 40, 0);
+  prior.position_covariance = 9 * Eigen::Matrix3d::Identity();
+  const double r =
+      (PositionPriorSqrtInformation(prior, PosePriorOptions()) *
+       (turned.cam_from_world.Inverse().translation - prior.position))
+          .norm();
+  EXPECT_GT(r, PosePriorOptions().gate_std);
+}
+
+TEST(PriorFold,
+     LoneTurnSettledOnlyWhenTheCameraMeetsItsPriorAndNoOtherIsWorse) {
+  auto agreement = [](const std::map<image_t, double>& residuals) {
+    PriorAgreement result;
+    for (const auto& [image_id, r] : residuals) {
+      result.residuals[image_id] = r;
+      ++result.num_priors;
+      result.num_within += r < 3.0;
+      result.capped_cost += std::min(r * r, 9.0);
+    }
+    return result;
+  };
+  // Tower 60, seed 2 (docs/notes/2026-12-04-lone-turned-camera.md):
+  // image35 from 25.9 std off its prior to 3.25.
+  const PriorAgreement before = agreement({{35, 25.9}, {2, 1.0}, {3, 2.0}});
+  EXPECT_TRUE(LoneTurnSettled(
+      before, agreement({{35, 3.25}, {2, 1.1}, {3, 1.9}}), {35}, 6.0));
+  // Not within the bound.
+  EXPECT_FALSE(LoneTurnSettled(
+      before, agreement({{35, 3.25}, {2, 1.1}, {3, 1.9}}), {35}, 3.0));
+  // Another prior pushed beyond 3 std.
+  EXPECT_FALSE(LoneTurnSettled(
+      before, agreement({{35, 1.0}, {2, 1.1}, {3, 3.5}}), {35}, 6.0));
+  // The others' capped cost up by more than 10%.
+  EXPECT_FALSE(LoneTurnSettled(
+      before, agreement({{35, 1.0}, {2, 1.5}, {3, 2.2}}), {35}, 6.0));
+  // A right camera's noisy fix (courtyard 100, seed 3): within the gate
+  // either way, not half as far.
+  EXPECT_FALSE(LoneTurnSettled(agreement({{21, 4.9}, {2, 1.0}, {3, 2.0}}),
+                               agreement({{21, 5.4}, {2, 1.0}, {3, 2.0}}), {21},
+                               6.0));
+  EXPECT_FALSE(LoneTurnSettled(agreement({{21, 9.0}, {2, 1.0}, {3, 2.0}}),
+                               agreement({{21, 5.0}, {2, 1.0}, {3, 2.0}}), {21},
+                               6.0));
+  // The camera lost.
+  EXPECT_FALSE(
+      LoneTurnSettled(before, agreement({{2, 1.0}, {3, 2.0}}), {35}, 6.0));
+}
+
+TEST(PriorFold, SettledOutcomeNamesCamerasTurnedBackByTheirPriors) {
+  EXPECT_EQ(PriorSettledOutcome(29, 684, 25, 23, 1),
+            "resolved by pose priors (29 images turned back, 684 pairs "
+            "removed), cameras turned alone re-oriented (25 pairs at them "
+            "removed, 23 restored), 1 cameras turned alone turned back to "
+            "their priors");
 }
 
 }  // namespace

@@ -72,6 +72,23 @@ std::map<image_t, int> PartOfImages(
   return part_of;
 }
 
+// Whether images a and b lie in two different parts.
+bool Across(const std::map<image_t, int>& part_of, image_t a, image_t b) {
+  const auto part_a = part_of.find(a);
+  const auto part_b = part_of.find(b);
+  return part_a != part_of.end() && part_b != part_of.end() &&
+         part_a->second != part_b->second;
+}
+
+// The pair's geometry in `by_pair` (null when it has none).
+const TwoViewGeometry* FindGeometry(
+    const std::map<image_pair_t, const TwoViewGeometry*>& by_pair,
+    const ImagePairGeometry& pair) {
+  const auto it =
+      by_pair.find(ImagePairToPairId(pair.image_id1, pair.image_id2));
+  return it == by_pair.end() ? nullptr : it->second;
+}
+
 // The geometries of the pairs across two parts, by pair id (only those are
 // looked up; the database holds every pair).
 std::map<image_pair_t, const TwoViewGeometry*> GeometriesAcross(
@@ -79,12 +96,7 @@ std::map<image_pair_t, const TwoViewGeometry*> GeometriesAcross(
     const std::vector<TwoViewGeometry>& geometries) {
   std::map<image_pair_t, const TwoViewGeometry*> by_pair;
   for (const TwoViewGeometry& geometry : geometries) {
-    const auto part1 = part_of.find(geometry.image_id1);
-    const auto part2 = part_of.find(geometry.image_id2);
-    if (part1 == part_of.end() || part2 == part_of.end() ||
-        part1->second == part2->second) {
-      continue;
-    }
+    if (!Across(part_of, geometry.image_id1, geometry.image_id2)) continue;
     by_pair[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
         &geometry;
   }
@@ -283,17 +295,11 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
   // Each pair across parts, both directions.
   std::vector<const ImagePairGeometry*> across;
   for (const ImagePairGeometry& pair : pairs) {
-    const auto part1 = part_of.find(pair.image_id1);
-    const auto part2 = part_of.find(pair.image_id2);
-    if (part1 == part_of.end() || part2 == part_of.end() ||
-        part1->second == part2->second) {
-      continue;
-    }
+    if (!Across(part_of, pair.image_id1, pair.image_id2)) continue;
     across.push_back(&pair);
-    const auto geometry =
-        by_pair.find(ImagePairToPairId(pair.image_id1, pair.image_id2));
-    if (geometry == by_pair.end()) continue;
-    const TwoViewGeometry& g = *geometry->second;
+    const TwoViewGeometry* geometry = FindGeometry(by_pair, pair);
+    if (geometry == nullptr) continue;
+    const TwoViewGeometry& g = *geometry;
     bool confirmed = false;
     bool testable = false;  // some direction has enough points to test
     bool met_enough = false;
@@ -476,16 +482,10 @@ ModelRigidity JoinedRigidity(const Reconstruction& reconstruction,
   const std::map<image_pair_t, const TwoViewGeometry*> by_pair =
       GeometriesAcross(part_of, geometries);
   for (const ImagePairGeometry& pair : pairs) {
-    const auto part1 = part_of.find(pair.image_id1);
-    const auto part2 = part_of.find(pair.image_id2);
-    if (part1 == part_of.end() || part2 == part_of.end() ||
-        part1->second == part2->second) {
-      continue;
-    }
-    const auto geometry =
-        by_pair.find(ImagePairToPairId(pair.image_id1, pair.image_id2));
-    if (geometry == by_pair.end()) continue;
-    const TwoViewGeometry& g = *geometry->second;
+    if (!Across(part_of, pair.image_id1, pair.image_id2)) continue;
+    const TwoViewGeometry* geometry = FindGeometry(by_pair, pair);
+    if (geometry == nullptr) continue;
+    const TwoViewGeometry& g = *geometry;
     for (const FeatureMatch& match : g.inlier_matches) {
       JoinObservations(g.image_id1, match.point2D_idx1, g.image_id2,
                        match.point2D_idx2, &joined);

@@ -42,7 +42,7 @@ struct PartMergeOptions {
   double max_rotation_error_deg = 10.0;
   // Before mapping again, the model's rigidity check is run with the tracks
   // of the pairs across its parts added (JoinedRigidity; the pairs the
-  // re-mapping keeps under the probe's rotations, max_join_turn_deg): when
+  // re-mapping's rotation filter keeps under the probe's rotations): when
   // they tie no rigid parts together (e.g. every pair at one image on one
   // side: an articulation join, whose relative scale no re-mapping fixes),
   // the re-mapped model would not be less split and the mapping is skipped.

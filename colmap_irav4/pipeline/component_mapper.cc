@@ -160,8 +160,11 @@ std::unique_ptr<GlobalMapper> ComponentMapper::NewMapper(
 std::unique_ptr<GlobalMapper> ComponentMapper::Attempt(
     const std::vector<image_t>& images,
     const std::vector<ImagePairGeometry>& pairs, const std::string& prefix) {
-  std::unique_ptr<GlobalMapper> mapper =
-      NewMapper(images, pairs, prefix, evidence_);
+  return Attempt(NewMapper(images, pairs, prefix, evidence_));
+}
+
+std::unique_ptr<GlobalMapper> ComponentMapper::Attempt(
+    std::unique_ptr<GlobalMapper> mapper) {
   if (!mapper->Solve(/*stop_if_folded=*/options_.fold.resolve)) {
     failure_ = mapper->failure();
     return nullptr;
@@ -823,9 +826,11 @@ bool ComponentMapper::MergeRigidParts(
     // elsewhere still mislead it) splits off again in the re-mapped model.
     // Mapping again only pays where the joins it keeps leave fewer large
     // groups than the model has rigid parts.
+    // The probe is the attempt's own mapper: Solve() then goes on from its
+    // rotations (the same ones it would average again).
+    std::unique_ptr<GlobalMapper> probe =
+        NewMapper(components[0], kept, prefix_ + "[parts joined] ", evidence_);
     {
-      std::unique_ptr<GlobalMapper> probe = NewMapper(
-          components[0], kept, prefix_ + "[parts joined] ", evidence_);
       if (probe->RotationAveraging()) {
         const std::vector<double> turns =
             JoinTurnsDeg(plan, model->mapper->reconstruction(), rigidity.blocks,
@@ -852,11 +857,38 @@ bool ComponentMapper::MergeRigidParts(
                  " deg) and keeps no join of large parts";
           break;
         }
+        // Whether the pairs across the parts can make the model rigid at
+        // all: its rigidity check with the tracks of the pairs the
+        // re-mapping keeps (those its rotation filter keeps under these
+        // rotations) added across the parts (a fraction of a second).
+        // Joins whose pairs all hold one image of a part (articulation
+        // joins) or share too few points tie nothing the check counts; no
+        // re-mapping makes them rigid.
+        if (options.check_rigid_joins) {
+          const ModelRigidity joined = JoinedRigidity(
+              model->mapper->reconstruction(), rigidity.blocks,
+              FilterPairsByRotation(
+                  kept, probe->rotations(),
+                  probe->options().skip_rotation_filter
+                      ? 180.0
+                      : probe->options()
+                            .rotation_filter.max_rotation_error_deg),
+              database_.two_view_geometries, options_.min_model_size);
+          LOG(INFO) << prefix_ << round_name
+                    << ": with the tracks of the pairs across the parts "
+                       "added the model would be "
+                    << joined.num_large_blocks << " rigid part(s)";
+          if (joined.num_large_blocks >= rigidity.num_large_blocks) {
+            stop = "the pairs across the parts tie none of them rigidly (" +
+                   std::to_string(joined.num_large_blocks) +
+                   " rigid parts with their tracks added)";
+            break;
+          }
+        }
       }
     }
     const std::string failure = failure_;
-    std::unique_ptr<GlobalMapper> attempt =
-        Attempt(components[0], kept, prefix_ + "[parts joined] ");
+    std::unique_ptr<GlobalMapper> attempt = Attempt(std::move(probe));
     failure_ = failure;
     ModelRigidity merged;
     if (attempt == nullptr || !attempt->Solve()) {

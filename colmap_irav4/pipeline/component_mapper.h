@@ -97,6 +97,9 @@ class ComponentMapper {
   std::unique_ptr<GlobalMapper> Attempt(
       const std::vector<image_t>& images,
       const std::vector<ImagePairGeometry>& pairs, const std::string& prefix);
+  // The same with a mapper made by NewMapper (its rotations possibly
+  // averaged already: Solve() goes on from them).
+  std::unique_ptr<GlobalMapper> Attempt(std::unique_ptr<GlobalMapper> mapper);
   // Refines the attempt if not yet done and adds it to models_ with
   // `outcome` (empty: the fold check's verdict), flagged folded if
   // `folded`. False when the refinement gave up.

@@ -158,8 +158,10 @@ void GlobalMapper::WarnFilteredImages(const FilterSummary& summary) const {
 
 bool GlobalMapper::Solve(bool stop_if_folded) {
   if (state_ == State::kNew) {
-    if (!(RotationAveraging() && RotationFilter() && BuildTracks() &&
-          Positioning())) {
+    // Rotations a caller averaged already (RotationAveraging() before
+    // Solve(): the part merge's probe) are not averaged again.
+    if (!((rotations_averaged_ || RotationAveraging()) && RotationFilter() &&
+          BuildTracks() && Positioning())) {
       state_ = State::kFailed;
       return false;
     }
@@ -236,6 +238,7 @@ bool GlobalMapper::RotationAveraging() {
   stage.Add("pairs", static_cast<double>(graph.NumEdges()));
   stage.Add("rotations", static_cast<double>(rotations_.size()));
   stage.Finish(log_prefix_, &stages_);
+  rotations_averaged_ = true;
   return true;
 }
 

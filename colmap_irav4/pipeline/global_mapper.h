@@ -186,7 +186,8 @@ class GlobalMapper {
   bool refined() const { return state_ == State::kRefined; }
 
   // Absolute rotations of the component's images (those the method
-  // estimated) -> rotations().
+  // estimated) -> rotations(). Called before Solve() (to look at the
+  // rotations first), Solve() goes on from them.
   virtual bool RotationAveraging();
   // Drops the pairs disagreeing with the rotations (all pairs kept with
   // skip_rotation_filter), then keeps the largest connected part.
@@ -314,6 +315,9 @@ class GlobalMapper {
   const FoldEvidence* evidence_;
   FoldReport fold_;
   bool fold_checked_ = false;
+  // Whether GlobalMapper::RotationAveraging() gave rotations_ (Solve() then
+  // does not average again).
+  bool rotations_averaged_ = false;
   State state_ = State::kNew;
 };
 

@@ -465,6 +465,10 @@ void AddPartMergeOptions(OptionManager* manager, PartMergeOptions* o) {
   manager->Add("PartMerge.max_rotation_error_deg", &o->max_rotation_error_deg,
                "pairs across joined parts contradicting the join by more "
                "than this are removed before mapping again (deg)");
+  manager->Add("PartMerge.check_rigid_joins", &o->check_rigid_joins,
+               "map again only when the model's rigidity check, with the "
+               "joins' observations added, finds it less split (skips "
+               "articulation joins)");
   manager->Add("PartMerge.max_join_turn_deg", &o->max_join_turn_deg,
                "map again only when the remaining pairs' rotation averaging "
                "keeps the joined parts within this angle of the join (deg)");

@@ -9,6 +9,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/scene/camera_models.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/union_find.h"
 
@@ -56,6 +57,95 @@ std::vector<int> MetPoints(const std::vector<Eigen::Vector3d>& points,
 // Cam_b_from_cam_a of the pair oriented from `a`.
 Eigen::Matrix3d RotationFrom(const ImagePairGeometry& pair, image_t a) {
   return pair.image_id1 == a ? pair.R : Eigen::Matrix3d(pair.R.transpose());
+}
+
+// Each image of `parts` (those in the model) -> its part.
+std::map<image_t, int> PartOfImages(
+    const Reconstruction& reconstruction,
+    const std::vector<std::vector<image_t>>& parts) {
+  std::map<image_t, int> part_of;
+  for (int p = 0; p < static_cast<int>(parts.size()); ++p) {
+    for (const image_t image_id : parts[p]) {
+      if (reconstruction.images.count(image_id)) part_of[image_id] = p;
+    }
+  }
+  return part_of;
+}
+
+// Whether images a and b lie in two different parts.
+bool Across(const std::map<image_t, int>& part_of, image_t a, image_t b) {
+  const auto part_a = part_of.find(a);
+  const auto part_b = part_of.find(b);
+  return part_a != part_of.end() && part_b != part_of.end() &&
+         part_a->second != part_b->second;
+}
+
+// The pair's geometry in `by_pair` (null when it has none).
+const TwoViewGeometry* FindGeometry(
+    const std::map<image_pair_t, const TwoViewGeometry*>& by_pair,
+    const ImagePairGeometry& pair) {
+  const auto it =
+      by_pair.find(ImagePairToPairId(pair.image_id1, pair.image_id2));
+  return it == by_pair.end() ? nullptr : it->second;
+}
+
+// The geometries of the pairs across two parts, by pair id (only those are
+// looked up; the database holds every pair).
+std::map<image_pair_t, const TwoViewGeometry*> GeometriesAcross(
+    const std::map<image_t, int>& part_of,
+    const std::vector<TwoViewGeometry>& geometries) {
+  std::map<image_pair_t, const TwoViewGeometry*> by_pair;
+  for (const TwoViewGeometry& geometry : geometries) {
+    if (!Across(part_of, geometry.image_id1, geometry.image_id2)) continue;
+    by_pair[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
+        &geometry;
+  }
+  return by_pair;
+}
+
+// Joins the observations (image1, idx1) and (image2, idx2) into one point,
+// as track building joins a match: a keypoint without a point joins the
+// other's point; two points become one (at most one observation per image
+// kept); two keypoints without points make a new point.
+void JoinObservations(image_t image_id1, point2D_t idx1, image_t image_id2,
+                      point2D_t idx2, Reconstruction* reconstruction) {
+  std::vector<Point2D>& points1 = reconstruction->images.at(image_id1).points2D;
+  std::vector<Point2D>& points2 = reconstruction->images.at(image_id2).points2D;
+  if (idx1 >= points1.size() || idx2 >= points2.size()) return;
+  point3D_t id1 = points1[idx1].point3D_id;
+  point3D_t id2 = points2[idx2].point3D_id;
+  if (id1 == kInvalidPoint3DId && id2 == kInvalidPoint3DId) {
+    AddPoint3D(Eigen::Vector3d::Zero(), {{image_id1, idx1}, {image_id2, idx2}},
+               reconstruction);
+    return;
+  }
+  if (id1 == id2) return;
+  std::vector<TrackElement> added;
+  if (id1 == kInvalidPoint3DId) {
+    std::swap(id1, id2);
+    added.push_back({image_id1, idx1});
+  } else if (id2 == kInvalidPoint3DId) {
+    added.push_back({image_id2, idx2});
+  } else {
+    // The larger track absorbs the smaller one.
+    if (reconstruction->points3D.at(id1).track.size() <
+        reconstruction->points3D.at(id2).track.size()) {
+      std::swap(id1, id2);
+    }
+    added = std::move(reconstruction->points3D.at(id2).track);
+    reconstruction->points3D.erase(id2);
+  }
+  std::vector<TrackElement>& track = reconstruction->points3D.at(id1).track;
+  for (const TrackElement& element : added) {
+    const bool seen = std::any_of(track.begin(), track.end(),
+                                  [&element](const TrackElement& other) {
+                                    return other.image_id == element.image_id;
+                                  });
+    reconstruction->images.at(element.image_id)
+        .points2D[element.point2D_idx]
+        .point3D_id = seen ? kInvalidPoint3DId : id1;
+    if (!seen) track.push_back(element);
+  }
 }
 
 }  // namespace
@@ -194,35 +284,22 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
   PartMergePlan plan;
   const int num_parts = static_cast<int>(parts.size());
   plan.num_parts = num_parts;
-  std::map<image_t, int> part_of;
+  const std::map<image_t, int> part_of = PartOfImages(reconstruction, parts);
   std::vector<std::set<image_t>> part_sets(num_parts);
+  for (const auto& [image_id, p] : part_of) part_sets[p].insert(image_id);
   for (int p = 0; p < num_parts; ++p) {
-    for (const image_t image_id : parts[p]) {
-      if (!reconstruction.images.count(image_id)) continue;
-      part_of[image_id] = p;
-      part_sets[p].insert(image_id);
-    }
     plan.part_sizes.push_back(part_sets[p].size());
   }
-  std::map<image_pair_t, const TwoViewGeometry*> by_pair;
-  for (const TwoViewGeometry& geometry : geometries) {
-    by_pair[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
-        &geometry;
-  }
+  const std::map<image_pair_t, const TwoViewGeometry*> by_pair =
+      GeometriesAcross(part_of, geometries);
   // Each pair across parts, both directions.
   std::vector<const ImagePairGeometry*> across;
   for (const ImagePairGeometry& pair : pairs) {
-    const auto part1 = part_of.find(pair.image_id1);
-    const auto part2 = part_of.find(pair.image_id2);
-    if (part1 == part_of.end() || part2 == part_of.end() ||
-        part1->second == part2->second) {
-      continue;
-    }
+    if (!Across(part_of, pair.image_id1, pair.image_id2)) continue;
     across.push_back(&pair);
-    const auto geometry =
-        by_pair.find(ImagePairToPairId(pair.image_id1, pair.image_id2));
-    if (geometry == by_pair.end()) continue;
-    const TwoViewGeometry& g = *geometry->second;
+    const TwoViewGeometry* geometry = FindGeometry(by_pair, pair);
+    if (geometry == nullptr) continue;
+    const TwoViewGeometry& g = *geometry;
     bool confirmed = false;
     bool testable = false;  // some direction has enough points to test
     bool met_enough = false;
@@ -393,6 +470,28 @@ std::vector<double> JoinTurnsDeg(
     turns[p] = AngularDistanceDeg(change[root], change[p]);
   }
   return turns;
+}
+
+ModelRigidity JoinedRigidity(const Reconstruction& reconstruction,
+                             const std::vector<std::vector<image_t>>& parts,
+                             const std::vector<ImagePairGeometry>& pairs,
+                             const std::vector<TwoViewGeometry>& geometries,
+                             int min_model_size) {
+  Reconstruction joined = reconstruction;
+  const std::map<image_t, int> part_of = PartOfImages(reconstruction, parts);
+  const std::map<image_pair_t, const TwoViewGeometry*> by_pair =
+      GeometriesAcross(part_of, geometries);
+  for (const ImagePairGeometry& pair : pairs) {
+    if (!Across(part_of, pair.image_id1, pair.image_id2)) continue;
+    const TwoViewGeometry* geometry = FindGeometry(by_pair, pair);
+    if (geometry == nullptr) continue;
+    const TwoViewGeometry& g = *geometry;
+    for (const FeatureMatch& match : g.inlier_matches) {
+      JoinObservations(g.image_id1, match.point2D_idx1, g.image_id2,
+                       match.point2D_idx2, &joined);
+    }
+  }
+  return AnalyzeModelRigidity(ModelRigidityOptions(), joined, min_model_size);
 }
 
 int NumLargeGroupsKept(const PartMergePlan& plan,

@@ -21,6 +21,7 @@
 #include <Eigen/Core>
 
 #include "colmap_irav4/geometry/two_view_geometry.h"
+#include "colmap_irav4/refinement/model_rigidity.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/view_graph/view_graph.h"
 
@@ -39,6 +40,13 @@ struct PartMergeOptions {
   // Pairs across joined parts whose relative rotation contradicts the join
   // by more than this are removed before mapping again (deg).
   double max_rotation_error_deg = 10.0;
+  // Before mapping again, the model's rigidity check is run with the tracks
+  // of the pairs across its parts added (JoinedRigidity; the pairs the
+  // re-mapping's rotation filter keeps under the probe's rotations): when
+  // they tie no rigid parts together (e.g. every pair at one image on one
+  // side: an articulation join, whose relative scale no re-mapping fixes),
+  // the re-mapped model would not be less split and the mapping is skipped.
+  bool check_rigid_joins = true;
   // Before mapping again, the remaining pairs' rotation averaging (cheap)
   // is compared with the join: a joined part it turns by more than this
   // (deg) will split off again (false pairs elsewhere still mislead it).
@@ -153,6 +161,22 @@ std::vector<double> JoinTurnsDeg(
     const PartMergePlan& plan, const Reconstruction& reconstruction,
     const std::vector<std::vector<image_t>>& parts,
     const std::map<image_t, Eigen::Matrix3d>& rotations);
+
+// The rigidity (refinement/model_rigidity.h) of `reconstruction` with the
+// tracks a re-mapping would build across its parts: the inlier matches
+// (from `geometries`) of every pair of `pairs` (those the re-mapping keeps,
+// after its rotation filter) between two of `parts` join the keypoints'
+// points into one, as track building does (a keypoint without a point
+// joins the other's; two without make a new point). The parts themselves
+// stay as rigid as they are. When its num_large_blocks is not below the
+// model's, the pairs across share too few points to tie any parts rigidly
+// (e.g. all at one image of a part: an articulation join, whose relative
+// scale no re-mapping fixes).
+ModelRigidity JoinedRigidity(const Reconstruction& reconstruction,
+                             const std::vector<std::vector<image_t>>& parts,
+                             const std::vector<ImagePairGeometry>& pairs,
+                             const std::vector<TwoViewGeometry>& geometries,
+                             int min_model_size);
 
 // The number of groups of at least `min_size` images (plan.part_sizes)
 // when each part joins its group only if `turns` (JoinTurnsDeg) keeps it

@@ -253,6 +253,38 @@ TEST(GlobalMapperStages, SolveIsTheStagesInOrder) {
   }
 }
 
+TEST(GlobalMapperStages, SolveGoesOnFromRotationsAveragedBefore) {
+  // The part merge looks at a mapper's rotations before solving it
+  // (pipeline/component_mapper.h): Solve() must not average them again.
+  const StageScene s = MakeStageScene();
+  GlobalMapper probed(TestOptions().ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(probed.RotationAveraging());
+  ASSERT_TRUE(probed.Solve());
+  GlobalMapper whole(TestOptions().ForStages(s.images.size()), s.database,
+                     s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(whole.Solve());
+  // The same stages, rotation averaging once.
+  ASSERT_EQ(probed.stages().size(), whole.stages().size());
+  for (size_t k = 0; k < whole.stages().size(); ++k) {
+    EXPECT_EQ(probed.stages()[k].name, whole.stages()[k].name);
+  }
+  ASSERT_EQ(probed.rotations().size(), whole.rotations().size());
+  for (const auto& [image_id, R] : whole.rotations()) {
+    ASSERT_TRUE(probed.rotations().count(image_id));
+    EXPECT_LT(AngularDistanceDeg(R, probed.rotations().at(image_id)), 1e-9);
+  }
+  ASSERT_EQ(probed.reconstruction().images.size(),
+            whole.reconstruction().images.size());
+  for (const auto& [image_id, image] : whole.reconstruction().images) {
+    const Image& other = probed.reconstruction().images.at(image_id);
+    EXPECT_LT(
+        (image.cam_from_world.translation - other.cam_from_world.translation)
+            .norm(),
+        1e-9);
+  }
+}
+
 // The largest distance between the same image's camera centre in two models
 // (infinity when their images differ).
 double MaxCenterDifference(const Reconstruction& a, const Reconstruction& b) {

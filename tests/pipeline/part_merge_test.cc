@@ -272,6 +272,90 @@ TEST_F(PartMergeTest, ARotationOffByMoreThanTheRayErrorIsNotConfirmed) {
   EXPECT_FALSE(CheckPair(0, &off).confirmed);
 }
 
+// The plan's pairs kept for the re-mapping (contradicted and refuted ones
+// removed).
+std::vector<ImagePairGeometry> Kept(
+    const PartMergePlan& plan, const std::vector<ImagePairGeometry>& pairs) {
+  std::vector<ImagePairGeometry> kept;
+  for (const ImagePairGeometry& pair : pairs) {
+    const auto key = std::minmax(pair.image_id1, pair.image_id2);
+    if (!plan.contradicted.count(key) && !plan.refuted.count(key)) {
+      kept.push_back(pair);
+    }
+  }
+  return kept;
+}
+
+TEST_F(PartMergeTest, JoinAtTwoImagesOnEachSideMakesTheModelRigid) {
+  const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
+  // The parts share no point: two rigid parts of 4 images.
+  EXPECT_EQ(
+      AnalyzeModelRigidity(ModelRigidityOptions(), model_, 4).num_large_blocks,
+      2);
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, parts, pairs_, geometries_);
+  // (1, 5) and (3, 7): images 5 and 7 each see 20 points of A (seen by all
+  // of 1-4), so 5 and 7 are tied to A apart from each other: one piece.
+  const ModelRigidity joined =
+      JoinedRigidity(model_, parts, Kept(plan, pairs_), geometries_,
+                     /*min_model_size=*/4);
+  EXPECT_EQ(joined.num_large_blocks, 1);
+  ASSERT_EQ(joined.blocks.size(), 1u);
+  EXPECT_EQ(joined.blocks[0].size(), 8u);
+  // Without the join's pairs the parts stay apart: the false pair (2, 6),
+  // kept, ties A to image 6 alone (its random keypoints observe no point of
+  // B), an articulation.
+  EXPECT_EQ(JoinedRigidity(model_, parts, {pairs_[2]}, geometries_, 4)
+                .num_large_blocks,
+            2);
+}
+
+TEST_F(PartMergeTest, ArticulationJoinTiesNothing) {
+  // Only (1, 5) confirmed: every tie across goes through image 5, whose
+  // relative scale the points do not fix. The re-mapped model would be
+  // split at 5 again: the step must not map again for it.
+  const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
+  const std::vector<ImagePairGeometry> pairs = {pairs_[0], pairs_[2]};
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, parts, pairs, geometries_);
+  ASSERT_EQ(plan.num_confirmed, 1);
+  ASSERT_EQ(plan.num_groups, 1);
+  const ModelRigidity joined =
+      JoinedRigidity(model_, parts, Kept(plan, pairs), geometries_, 4);
+  EXPECT_EQ(joined.num_large_blocks, 2);
+  ASSERT_EQ(joined.blocks.size(), 2u);
+  EXPECT_EQ(joined.blocks[0], (std::vector<image_t>{1, 2, 3, 4}));
+  EXPECT_EQ(joined.blocks[1], (std::vector<image_t>{5, 6, 7, 8}));
+}
+
+TEST_F(PartMergeTest, JoinThroughPointsOfBothPartsIsRigid) {
+  // (1, 5) only, but image 5's keypoints of A's points also observe points
+  // of B seen by image 6: the pair's matches join each into one point seen
+  // from A and from 5 and 6, which ties 6 to A too (the scale about 5 is
+  // fixed).
+  for (const FeatureMatch& match : geometries_[0].inlier_matches) {
+    const point2D_t idx_6 =
+        static_cast<point2D_t>(model_.images.at(6).points2D.size());
+    model_.images.at(6).points2D.emplace_back();
+    AddPoint3D(Eigen::Vector3d(0, 0, 10), {{5, match.point2D_idx2}, {6, idx_6}},
+               &model_);
+  }
+  const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
+  const std::vector<ImagePairGeometry> pairs = {pairs_[0], pairs_[2]};
+  const PartMergePlan plan =
+      PlanPartMerge(PartMergeOptions(), model_, parts, pairs, geometries_);
+  ASSERT_EQ(plan.num_confirmed, 1);
+  const ModelRigidity joined =
+      JoinedRigidity(model_, parts, Kept(plan, pairs), geometries_, 4);
+  EXPECT_EQ(joined.num_large_blocks, 1);
+  ASSERT_EQ(joined.blocks.size(), 1u);
+  EXPECT_EQ(joined.blocks[0].size(), 8u);
+  // The model itself is untouched (still two parts).
+  EXPECT_EQ(
+      AnalyzeModelRigidity(ModelRigidityOptions(), model_, 4).num_large_blocks,
+      2);
+}
+
 TEST(PartMergeOptions, Check) {
   PartMergeOptions options;
   EXPECT_NO_THROW(options.Check());
@@ -283,6 +367,8 @@ TEST(PartMergeOptions, Check) {
   options = PartMergeOptions();
   options.max_rounds = 0;
   EXPECT_ANY_THROW(options.Check());
+  options = PartMergeOptions();
+  EXPECT_TRUE(options.check_rigid_joins);
   options = PartMergeOptions();
   options.min_image_fraction = 1.5;
   EXPECT_ANY_THROW(options.Check());

@@ -93,11 +93,13 @@ void FilterOptions::Check() const {
                       "FilterOptions::min_num_observations_per_image",
                       "must be >= 0");
   }
-  if (!(min_focal_length_ratio >= 0 &&
-        min_focal_length_ratio < max_focal_length_ratio)) {
+  if (!(min_focal_length_ratio >= 0)) {
     throw OptionError(&min_focal_length_ratio, "Mapper.min_focal_length_ratio",
-                      "need 0 <= min_focal_length_ratio < "
-                      "max_focal_length_ratio");
+                      "must be >= 0");
+  }
+  if (!(max_focal_length_ratio > min_focal_length_ratio)) {
+    throw OptionError(&max_focal_length_ratio, "Mapper.max_focal_length_ratio",
+                      "must be larger than --Mapper.min_focal_length_ratio");
   }
   if (!(max_extra_param >= 0)) {
     throw OptionError(&max_extra_param, "Mapper.max_extra_param",

@@ -225,13 +225,18 @@ TEST(Filtering, RunFilteringDropsImagesWithBogusCameras) {
   };
   const size_t num_expected = num_seen(2) + num_seen(4);
   const size_t num_before = NumObservations(reconstruction);
-  // 44 px on a 1600 px side (r300 seed 1's collapsed camera) and a negative
-  // focal length (seed 2's).
+  // 44 px on a 1600 px side (r300 seed 1's camera collapsed to 44 px on a
+  // 1920 px side) and a negative focal length (as seed 2's).
   reconstruction.cameras.at(reconstruction.images.at(2).camera_id).params[0] =
       44;
   reconstruction.cameras.at(reconstruction.images.at(4).camera_id).params[0] =
       -189;
-  const FilterSummary summary = RunFiltering(FilterOptions(), &reconstruction);
+  // A threshold no reprojection error reaches: only the camera check can
+  // remove the two images (the reprojection filter would remove their
+  // observations, and the image filter then the images).
+  FilterOptions options;
+  options.max_reproj_error = 1e9;
+  const FilterSummary summary = RunFiltering(options, &reconstruction);
   EXPECT_EQ(summary.bogus_camera_images, (std::vector<image_t>{2, 4}));
   EXPECT_EQ(summary.num_bogus_camera_observations, num_expected);
   EXPECT_EQ(summary.num_images_filtered, 0u);
@@ -244,8 +249,8 @@ TEST(Filtering, RunFilteringDropsImagesWithBogusCameras) {
   ExpectConsistent(reconstruction);
 
   // Nothing bogus left: a second filtering removes no image.
-  EXPECT_TRUE(RunFiltering(FilterOptions(), &reconstruction)
-                  .bogus_camera_images.empty());
+  EXPECT_TRUE(
+      RunFiltering(options, &reconstruction).bogus_camera_images.empty());
 }
 
 TEST(Filtering, BogusCameraLimitsAreChecked) {

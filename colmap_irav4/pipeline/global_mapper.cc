@@ -14,6 +14,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/pipeline/option_registration.h"
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/point_colors.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -77,6 +78,8 @@ void AddFilterFigures(int num_observations_filtered_before,
              static_cast<double>(summary.num_points_filtered));
   stage->Add("images filtered",
              static_cast<double>(summary.num_images_filtered));
+  stage->Add("images filtered (bogus camera)",
+             static_cast<double>(summary.bogus_camera_images.size()));
 }
 
 }  // namespace
@@ -140,6 +143,28 @@ void GlobalMapper::AddModelFigures(StageTimer* stage) {
 }
 
 void GlobalMapper::WarnFilteredImages(const FilterSummary& summary) const {
+  if (!summary.bogus_camera_images.empty()) {
+    // The deleted images' cameras stay in the model until Finalize: their
+    // parameters say what went wrong.
+    std::ostringstream names;
+    for (image_t image_id : summary.bogus_camera_images) {
+      const DatabaseImage& image = database_.images.at(image_id);
+      const Camera& camera = reconstruction_.cameras.at(image.camera_id);
+      names << " " << image.name << " (focal length "
+            << CameraMeanFocalLength(camera) << " px, " << camera.width << " x "
+            << camera.height << ")";
+    }
+    LOG(WARNING) << log_prefix_ << summary.bogus_camera_images.size()
+                 << " image(s) removed from the model with their "
+                 << summary.num_bogus_camera_observations
+                 << " observation(s): their camera has bogus parameters "
+                    "(focal length outside ["
+                 << options_.filtering.min_focal_length_ratio << ", "
+                 << options_.filtering.max_focal_length_ratio
+                 << "] x the larger image side, principal point outside the "
+                    "image or a distortion parameter over "
+                 << options_.filtering.max_extra_param << "):" << names.str();
+  }
   if (summary.filtered_images.empty()) return;
   // Not a failure, but the model is smaller than the component: say which
   // images left it and why (their poses had no point to rest on).

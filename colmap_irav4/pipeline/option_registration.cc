@@ -503,6 +503,19 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "refine principal points in bundle adjustment");
   manager->Add("Mapper.ba_refine_extra_params", &ba.refine_extra_params,
                "refine distortion parameters in bundle adjustment");
+  // COLMAP's names for the limits of the filter of bogus cameras.
+  FilterOptions& filtering = o.filtering;
+  manager->Add("Mapper.min_focal_length_ratio",
+               &filtering.min_focal_length_ratio,
+               "after each bundle adjustment, images whose camera's focal "
+               "length is under this fraction of the larger image side are "
+               "removed");
+  manager->Add("Mapper.max_focal_length_ratio",
+               &filtering.max_focal_length_ratio,
+               "... or over this multiple of it");
+  manager->Add("Mapper.max_extra_param", &filtering.max_extra_param,
+               "... or whose camera has a distortion parameter larger in "
+               "absolute value (or its principal point outside the image)");
   manager->Add("Mapper.reset_invalid_cameras", &o.reset_invalid_cameras,
                "start cameras with invalid intrinsics from a default focal "
                "(refined) instead of failing");

@@ -6,6 +6,7 @@
 #include <glog/logging.h>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 
@@ -92,6 +93,32 @@ void FilterOptions::Check() const {
                       "FilterOptions::min_num_observations_per_image",
                       "must be >= 0");
   }
+  if (!(min_focal_length_ratio >= 0)) {
+    throw OptionError(&min_focal_length_ratio, "Mapper.min_focal_length_ratio",
+                      "must be >= 0");
+  }
+  if (!(max_focal_length_ratio > min_focal_length_ratio)) {
+    throw OptionError(&max_focal_length_ratio, "Mapper.max_focal_length_ratio",
+                      "must be larger than --Mapper.min_focal_length_ratio");
+  }
+  if (!(max_extra_param >= 0)) {
+    throw OptionError(&max_extra_param, "Mapper.max_extra_param",
+                      "must be >= 0");
+  }
+}
+
+std::vector<image_t> FindImagesWithBogusCameras(
+    const FilterOptions& options, const Reconstruction& reconstruction) {
+  std::vector<image_t> image_ids;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    if (CameraHasBogusParams(reconstruction.cameras.at(image.camera_id),
+                             options.min_focal_length_ratio,
+                             options.max_focal_length_ratio,
+                             options.max_extra_param)) {
+      image_ids.push_back(image_id);
+    }
+  }
+  return image_ids;
 }
 
 FilterSummary RunFiltering(const FilterOptions& options,
@@ -99,6 +126,16 @@ FilterSummary RunFiltering(const FilterOptions& options,
                            const KeypointScaleNoise* noise) {
   options.Check();
   FilterSummary summary;
+  summary.bogus_camera_images =
+      FindImagesWithBogusCameras(options, *reconstruction);
+  for (const image_t image_id : summary.bogus_camera_images) {
+    for (const Point2D& point2D :
+         reconstruction->images.at(image_id).points2D) {
+      summary.num_bogus_camera_observations +=
+          point2D.point3D_id != kInvalidPoint3DId;
+    }
+    DeleteImage(image_id, reconstruction);
+  }
   summary.num_observations_filtered =
       FilterObservationsWithLargeReprojectionError(options.max_reproj_error,
                                                    reconstruction, noise);

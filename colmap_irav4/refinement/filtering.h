@@ -44,6 +44,16 @@ struct FilterOptions {
   // positioning gave it, e.g. from a false pair whose matches the filters
   // removed since).
   int min_num_observations_per_image = 1;
+  // Images whose camera has parameters no camera has are deleted
+  // (unregistered) with their observations, as COLMAP's incremental mapper
+  // filters images (its Mapper.min_focal_length_ratio, max_focal_length_ratio
+  // and max_extra_param): a barely constrained camera whose intrinsics bundle
+  // adjustment refines can drift to a focal length near zero or below it,
+  // and its pose and points with it. Focal length over the larger image side:
+  double min_focal_length_ratio = 0.1;
+  double max_focal_length_ratio = 10.0;
+  // Largest absolute value of an extra (distortion) parameter.
+  double max_extra_param = 1.0;
 
   // Throws InputError naming the offending option.
   void Check() const;
@@ -54,9 +64,21 @@ struct FilterSummary {
   size_t num_points_filtered = 0;  // by triangulation angle
   size_t num_images_filtered = 0;
   std::vector<image_t> filtered_images;  // the deleted ones, in id order
+  // Images deleted first, as their camera has bogus parameters (not counted
+  // above), in id order, and the observations deleted with them.
+  std::vector<image_t> bogus_camera_images;
+  size_t num_bogus_camera_observations = 0;
 };
 
-// `noise` (optional) scales the reprojection threshold per keypoint, as in
+// The images whose camera has bogus parameters (CameraHasBogusParams with the
+// options' limits), in id order.
+std::vector<image_t> FindImagesWithBogusCameras(
+    const FilterOptions& options, const Reconstruction& reconstruction);
+
+// Deletes the images FindImagesWithBogusCameras finds, then filters
+// observations by reprojection error, points by triangulation angle and
+// images by their observations left. `noise` (optional) scales the
+// reprojection threshold per keypoint, as in
 // FindObservationsWithLargeReprojectionError.
 FilterSummary RunFiltering(const FilterOptions& options,
                            Reconstruction* reconstruction,

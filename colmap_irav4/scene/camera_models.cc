@@ -1,5 +1,6 @@
 #include "colmap_irav4/scene/camera_models.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -141,6 +142,33 @@ double CameraMeanFocalLength(const Camera& camera) {
   double sum = 0.0;
   for (const int idx : idxs) sum += camera.params[idx];
   return sum / idxs.size();
+}
+
+bool CameraHasBogusParams(const Camera& camera, double min_focal_length_ratio,
+                          double max_focal_length_ratio,
+                          double max_extra_param) {
+  CheckCamera(camera);
+  const double max_size =
+      static_cast<double>(std::max(camera.width, camera.height));
+  for (const int idx : CameraModelFocalLengthIdxs(camera.model_id)) {
+    const double ratio = camera.params[idx] / max_size;
+    // Written so that a NaN parameter is bogus too.
+    if (!(ratio >= min_focal_length_ratio && ratio <= max_focal_length_ratio)) {
+      return true;
+    }
+  }
+  const std::vector<int> principal =
+      CameraModelPrincipalPointIdxs(camera.model_id);
+  const double cx = camera.params[principal[0]];
+  const double cy = camera.params[principal[1]];
+  if (!(cx >= 0 && cx <= static_cast<double>(camera.width) && cy >= 0 &&
+        cy <= static_cast<double>(camera.height))) {
+    return true;
+  }
+  for (const int idx : CameraModelExtraParamsIdxs(camera.model_id)) {
+    if (!(std::abs(camera.params[idx]) <= max_extra_param)) return true;
+  }
+  return false;
 }
 
 namespace {

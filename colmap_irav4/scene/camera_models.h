@@ -42,6 +42,14 @@ std::vector<int> CameraModelExtraParamsIdxs(int model_id);
 bool CameraHasValidParams(const Camera& camera);
 // Mean focal length in pixels.
 double CameraMeanFocalLength(const Camera& camera);
+// Whether the parameters are no plausible camera, as COLMAP's
+// Camera::HasBogusParams judges them: a focal length outside
+// [min_focal_length_ratio, max_focal_length_ratio] x the larger image side
+// (negative ones included), a principal point outside the image, or an extra
+// (distortion) parameter larger than max_extra_param in absolute value.
+bool CameraHasBogusParams(const Camera& camera, double min_focal_length_ratio,
+                          double max_focal_length_ratio,
+                          double max_extra_param);
 
 // Pixel -> normalised undistorted camera plane (iterative undistortion where
 // COLMAP's is). A fisheye (or FOV) pixel seen at 90 degrees or more off-axis

@@ -202,5 +202,71 @@ TEST(Filtering, RunFilteringDropsImagesWithoutObservationsByDefault) {
   ExpectConsistent(reconstruction);
 }
 
+// An image whose camera bundle adjustment drove to a focal length near zero
+// (or below it) leaves the model with its observations, as COLMAP's
+// incremental mapper filters images; the others (their own cameras, all
+// plausible) stay, whatever their reprojection errors.
+TEST(Filtering, RunFilteringDropsImagesWithBogusCameras) {
+  SyntheticSceneOptions scene_options;
+  scene_options.num_images = 6;
+  scene_options.num_points = 200;
+  scene_options.camera_model_id = 2;  // SIMPLE_RADIAL
+  scene_options.shared_camera = false;
+  SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  Reconstruction& reconstruction = scene.truth;
+  ASSERT_NE(reconstruction.images.at(2).camera_id,
+            reconstruction.images.at(4).camera_id);
+  const auto num_seen = [&](image_t image_id) {
+    size_t n = 0;
+    for (const Point2D& point2D : reconstruction.images.at(image_id).points2D) {
+      n += point2D.point3D_id != kInvalidPoint3DId;
+    }
+    return n;
+  };
+  const size_t num_expected = num_seen(2) + num_seen(4);
+  const size_t num_before = NumObservations(reconstruction);
+  // 44 px on a 1600 px side (r300 seed 1's camera collapsed to 44 px on a
+  // 1920 px side) and a negative focal length (as seed 2's).
+  reconstruction.cameras.at(reconstruction.images.at(2).camera_id).params[0] =
+      44;
+  reconstruction.cameras.at(reconstruction.images.at(4).camera_id).params[0] =
+      -189;
+  // A threshold no reprojection error reaches: only the camera check can
+  // remove the two images (the reprojection filter would remove their
+  // observations, and the image filter then the images).
+  FilterOptions options;
+  options.max_reproj_error = 1e9;
+  const FilterSummary summary = RunFiltering(options, &reconstruction);
+  EXPECT_EQ(summary.bogus_camera_images, (std::vector<image_t>{2, 4}));
+  EXPECT_EQ(summary.num_bogus_camera_observations, num_expected);
+  EXPECT_EQ(summary.num_images_filtered, 0u);
+  EXPECT_FALSE(reconstruction.images.count(2));
+  EXPECT_FALSE(reconstruction.images.count(4));
+  EXPECT_EQ(reconstruction.images.size(), 4u);
+  // Only their observations went (the scene is noise free).
+  EXPECT_EQ(summary.num_observations_filtered, 0u);
+  EXPECT_LE(NumObservations(reconstruction), num_before - num_expected);
+  ExpectConsistent(reconstruction);
+
+  // Nothing bogus left: a second filtering removes no image.
+  EXPECT_TRUE(
+      RunFiltering(options, &reconstruction).bogus_camera_images.empty());
+}
+
+TEST(Filtering, BogusCameraLimitsAreChecked) {
+  const auto check = [](double min_ratio, double max_ratio, double max_extra) {
+    FilterOptions options;
+    options.min_focal_length_ratio = min_ratio;
+    options.max_focal_length_ratio = max_ratio;
+    options.max_extra_param = max_extra;
+    options.Check();
+  };
+  EXPECT_NO_THROW(check(0.1, 10, 1));
+  EXPECT_NO_THROW(check(0, 10, 0));
+  EXPECT_THROW(check(10, 10, 1), InputError);
+  EXPECT_THROW(check(-0.1, 10, 1), InputError);
+  EXPECT_THROW(check(0.1, 10, -1), InputError);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

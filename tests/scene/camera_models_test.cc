@@ -112,6 +112,38 @@ TEST(CameraModels, MeanFocalLength) {
                    950);
 }
 
+// COLMAP's limits (focal over the larger side in [0.1, 10], |extra| <= 1,
+// principal point in the image): every realistic camera passes, and each way
+// out of them is caught, a negative focal length and NaN too.
+TEST(CameraModels, BogusParams) {
+  const auto bogus = [](const Camera& camera) {
+    return CameraHasBogusParams(camera, 0.1, 10.0, 1.0);
+  };
+  for (const Camera& camera : RealisticCameras()) {
+    EXPECT_FALSE(bogus(camera)) << camera.model_id;
+  }
+  // 1280 x 960: the larger side is the width.
+  EXPECT_FALSE(bogus(MakeCamera(2, {128, 640, 480, 0})));
+  EXPECT_TRUE(bogus(MakeCamera(2, {127, 640, 480, 0})));
+  EXPECT_FALSE(bogus(MakeCamera(2, {12800, 640, 480, 0})));
+  EXPECT_TRUE(bogus(MakeCamera(2, {12801, 640, 480, 0})));
+  EXPECT_TRUE(bogus(MakeCamera(2, {-1049, 640, 480, 0})));
+  EXPECT_TRUE(bogus(MakeCamera(2, {std::nan(""), 640, 480, 0})));
+  // Each focal length of a two-focal model counts.
+  EXPECT_TRUE(bogus(MakeCamera(1, {1000, 44, 640, 480})));
+  EXPECT_FALSE(bogus(MakeCamera(2, {1000, 640, 480, -1.0})));
+  EXPECT_TRUE(bogus(MakeCamera(2, {1000, 640, 480, -1.01})));
+  EXPECT_TRUE(bogus(MakeCamera(4, {1000, 1000, 640, 480, 0, 0, 0, 1.5})));
+  EXPECT_TRUE(bogus(MakeCamera(0, {1000, -1, 480})));
+  EXPECT_TRUE(bogus(MakeCamera(0, {1000, 640, 961})));
+  EXPECT_FALSE(bogus(MakeCamera(0, {1000, 1280, 960})));
+  // Other limits.
+  EXPECT_FALSE(
+      CameraHasBogusParams(MakeCamera(2, {44, 640, 480, 0}), 0.0, 10.0, 1.0));
+  EXPECT_FALSE(CameraHasBogusParams(MakeCamera(2, {1000, 640, 480, 2.0}), 0.1,
+                                    10.0, 3.0));
+}
+
 // Every pixel of the image (on a grid) maps to the camera plane and back.
 TEST(CameraModels, ImageToCameraToImageRoundTrip) {
   for (const Camera& camera : RealisticCameras()) {

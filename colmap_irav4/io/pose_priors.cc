@@ -19,6 +19,8 @@ namespace {
 
 // COLMAP 4's SensorType::CAMERA (-1 INVALID, 0 CAMERA, 1 IMU).
 constexpr int64_t kCameraSensorType = 0;
+// An image row of COLMAP 3.8/3.9 without a GPS fix.
+constexpr char kNoPosition[] = "no position (NULL)";
 
 using StatementPtr = std::unique_ptr<sqlite3_stmt, int (*)(sqlite3_stmt*)>;
 
@@ -117,7 +119,7 @@ StoredPosePriors ReadDatabasePosePriors(const Database& database) {
         }
       }
       if (!complete) {
-        ++stored.num_skipped["no position (NULL)"];
+        ++stored.num_skipped[kNoPosition];
         continue;
       }
       prior.coordinate_system = PriorCoordinateSystem::kWgs84;
@@ -230,8 +232,14 @@ StoredPosePriors ReadPosePriorText(const std::string& path, bool wgs84) {
   return stored;
 }
 
+bool LocalPosePriors::NoneStored() const {
+  return priors.empty() && num_skipped.size() == 1 &&
+         num_skipped.count(kNoPosition) == 1;
+}
+
 std::vector<std::string> LocalPosePriors::Warnings() const {
   std::vector<std::string> warnings;
+  if (NoneStored()) return warnings;
   for (const auto& [reason, count] : num_skipped) {
     warnings.push_back("pose priors (" + source +
                        "): " + std::to_string(count) + " skipped: " + reason);

@@ -77,7 +77,12 @@ struct LocalPosePriors {
   int num_gravity = 0;
   // Priors (or parts of them) left out, by reason.
   std::map<std::string, int> num_skipped;
-  // One line per kind of skipped prior ("12 priors skipped: NaN position").
+  // Whether the source holds no prior at all: no position kept, and every
+  // image skipped only for having none (COLMAP 3.8's image columns of a
+  // capture without GPS). Nothing is wrong then, so nothing is warned.
+  bool NoneStored() const;
+  // One line per kind of skipped prior ("12 priors skipped: NaN position");
+  // none when NoneStored().
   std::vector<std::string> Warnings() const;
 };
 

@@ -25,6 +25,10 @@ LocalPosePriors LoadPosePriors(const GlobalMapperOptions& options,
   for (const std::string& warning : priors.Warnings()) {
     LOG(WARNING) << warning;
   }
+  if (priors.NoneStored()) {
+    LOG(INFO) << "No pose priors: " << priors.source
+              << " holds no position (a capture without GPS)";
+  }
   if (!priors.priors.empty()) {
     LOG(INFO) << "Pose priors from " << priors.source << ": "
               << priors.num_positions << " positions, " << priors.num_gravity

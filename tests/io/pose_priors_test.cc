@@ -128,6 +128,28 @@ TEST(PosePriors, ReadsColmap38ImageColumns) {
   EXPECT_EQ(stored.priors[0].image_name, "c.jpg");
   EXPECT_EQ(stored.priors[0].coordinate_system, PriorCoordinateSystem::kWgs84);
   EXPECT_EQ(stored.num_skipped.at("no position (NULL)"), 2);
+  // Some images with a fix, some without: worth a warning.
+  const LocalPosePriors local =
+      ConvertPosePriors(stored, {{"a.jpg", 1}, {"b.jpg", 2}, {"c.jpg", 3}});
+  EXPECT_FALSE(local.NoneStored());
+  EXPECT_EQ(local.Warnings().size(), 1u);
+}
+
+TEST(PosePriors, Colmap38ColumnsWithoutAnyFixWarnNothing) {
+  TempDir dir;
+  const std::string path = dir.File("colmap38_no_gps.db");
+  {
+    SqliteWriter writer(path);
+    writer.Exec(Colmap38Schema());
+    WriteImages(&writer, false);
+  }
+  const LocalPosePriors local =
+      ConvertPosePriors(ReadDatabasePosePriors(Database(path)),
+                        {{"a.jpg", 1}, {"b.jpg", 2}, {"c.jpg", 3}});
+  EXPECT_TRUE(local.priors.empty());
+  EXPECT_EQ(local.num_skipped.at("no position (NULL)"), 3);
+  EXPECT_TRUE(local.NoneStored());
+  EXPECT_TRUE(local.Warnings().empty());
 }
 
 TEST(PosePriors, WrongBlobSizeNamesTheFileAndImage) {

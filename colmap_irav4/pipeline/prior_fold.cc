@@ -4,11 +4,9 @@
 #include <cmath>
 #include <set>
 #include <sstream>
-#include <tuple>
-
-#include <Eigen/Eigenvalues>
 
 #include "colmap_irav4/geometry/rotation.h"
+#include "colmap_irav4/refinement/triangulation.h"
 
 namespace colmap_irav4 {
 
@@ -31,12 +29,16 @@ PriorAgreement MeasurePriorAgreement(const Reconstruction& reconstruction,
     const double r = (PositionPriorSqrtInformation(it->second, options) *
                       (image.ProjectionCenter() - it->second.position))
                          .norm();
-    agreement.residuals[image_id] = r;
-    ++agreement.num_priors;
-    agreement.num_within += r < 3.0;
-    agreement.capped_cost += std::min(r * r, 9.0);
+    agreement.Add(image_id, r);
   }
   return agreement;
+}
+
+void PriorAgreement::Add(image_t image_id, double r) {
+  residuals[image_id] = r;
+  ++num_priors;
+  num_within += r < 3.0;
+  capped_cost += std::min(r * r, 9.0);
 }
 
 bool PriorsAgreeBetter(const PriorAgreement& before,
@@ -194,20 +196,18 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
   std::vector<size_t> rays = best;
   for (int round = 0; round < 2; ++round) {
     if (static_cast<int>(rays.size()) < kMinTurnBackPairs) return turned;
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    std::vector<Eigen::Vector3d> centers;
+    std::vector<Eigen::Vector3d> directions;
     for (const size_t i : rays) {
-      const Eigen::Matrix3d P =
-          Eigen::Matrix3d::Identity() -
-          votes[i].direction * votes[i].direction.transpose();
-      A += P;
-      b += P * votes[i].center;
+      centers.push_back(votes[i].center);
+      directions.push_back(votes[i].direction);
     }
     // Parallel rays (all neighbours on one line with the camera) leave the
     // centre free along them.
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
-    if (eigen.eigenvalues()(0) < 1e-3 * eigen.eigenvalues()(2)) return turned;
-    center = A.ldlt().solve(b);
+    if (!TriangulateMidpoint(centers, directions, &center,
+                             /*min_relative_eigenvalue=*/1e-3)) {
+      return turned;
+    }
     std::vector<size_t> kept;
     for (const size_t i : rays) {
       const Eigen::Vector3d to_camera = center - votes[i].center;
@@ -240,22 +240,18 @@ bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,
     }
   }
   // The others: each side's priors without the turned cameras.
-  auto others = [&](const PriorAgreement& agreement) {
-    int num_priors = 0;
-    int num_within = 0;
-    double capped_cost = 0;
+  auto others = [&moved](const PriorAgreement& agreement) {
+    PriorAgreement rest;
     for (const auto& [image_id, r] : agreement.residuals) {
-      if (moved.count(image_id)) continue;
-      ++num_priors;
-      num_within += r < 3.0;
-      capped_cost += std::min(r * r, 9.0);
+      if (!moved.count(image_id)) rest.Add(image_id, r);
     }
-    return std::make_tuple(num_priors, num_within, capped_cost);
+    return rest;
   };
-  const auto [priors_before, within_before, cost_before] = others(before);
-  const auto [priors_after, within_after, cost_after] = others(after);
-  return priors_after >= priors_before && within_after >= within_before &&
-         cost_after <= 1.1 * cost_before;
+  const PriorAgreement others_before = others(before);
+  const PriorAgreement others_after = others(after);
+  return others_after.num_priors >= others_before.num_priors &&
+         others_after.num_within >= others_before.num_within &&
+         others_after.capped_cost <= 1.1 * others_before.capped_cost;
 }
 
 std::string PriorSettledOutcome(size_t num_turned_back, size_t num_removed,

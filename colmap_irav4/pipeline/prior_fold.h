@@ -47,6 +47,8 @@ struct PriorAgreement {
   // Whitened residual norm by image.
   std::map<image_t, double> residuals;
 
+  // Counts one image's whitened residual norm `r` in every figure above.
+  void Add(image_t image_id, double r);
   // "97 of 100 priors within 3 std, capped cost 312.4".
   std::string Describe() const;
 };

@@ -95,7 +95,7 @@ double MaxAngleCos(const std::vector<Ray>& rays, const std::vector<int>& subset,
 
 bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
                          const std::vector<Eigen::Vector3d>& directions,
-                         Eigen::Vector3d* xyz) {
+                         Eigen::Vector3d* xyz, double min_relative_eigenvalue) {
   CHECK_EQ(centers.size(), directions.size());
   if (centers.size() < 2) return false;
   // sum_i (I - d_i d_i^T) (X - c_i) = 0.
@@ -109,7 +109,11 @@ bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
   // Parallel rays: A has a (near) null direction along them.
-  if (eigen.eigenvalues()(0) < 1e-12 * centers.size()) return false;
+  if (eigen.eigenvalues()(0) < 1e-12 * centers.size() ||
+      eigen.eigenvalues()(0) <
+          min_relative_eigenvalue * eigen.eigenvalues()(2)) {
+    return false;
+  }
   *xyz = A.ldlt().solve(b);
   return xyz->allFinite();
 }

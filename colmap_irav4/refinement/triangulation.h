@@ -13,10 +13,14 @@ namespace colmap_irav4 {
 
 // The point closest to a bundle of rays in the least-squares sense (sum of
 // squared distances to the rays: the multi-view midpoint). `directions` need
-// not be unit. Returns false if the rays are (nearly) parallel.
+// not be unit. Returns false if the rays are (nearly) parallel: also when
+// the normal matrix's smallest eigenvalue is under `min_relative_eigenvalue`
+// times its largest (a stricter test for callers that need the point fixed
+// in every direction).
 bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
                          const std::vector<Eigen::Vector3d>& directions,
-                         Eigen::Vector3d* xyz);
+                         Eigen::Vector3d* xyz,
+                         double min_relative_eigenvalue = 0);
 
 // Multi-view DLT from cam_from_world matrices and normalised image points
 // (x/z, y/z). Returns false if degenerate or the point is at infinity.

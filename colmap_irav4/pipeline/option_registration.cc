@@ -341,6 +341,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "solve + filter rounds per bundle adjustment");
   manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
                "observations over this error are removed between rounds (px)");
+  manager->Add("BundleAdjustment.min_num_image_observations",
+               &ba.min_num_image_observations,
+               "an image with fewer observations is left out of a bundle "
+               "adjustment (its pose held, its observations weightless; the "
+               "filters after it judge them)");
   manager->Add("BundleAdjustment.linear_solver", &ba.linear_solver,
                EnumNameList<BundleAdjustmentLinearSolver>());
   manager->Add("BundleAdjustment.solver_backend", &ba.solver_backend,

@@ -88,7 +88,10 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
 // connected part holds its first image and one coordinate of a second,
 // and each further 2-connected block of images sharing points, reached
 // through its articulation image, one coordinate of another of its images.
-// A model of one block holds its first two images, as before.
+// A model of one block holds its first two images, as before. Only images
+// of `images` (those adjusted) hold the gauge: a block's first images not
+// among them are passed over, and a block joined through an image not
+// among them is a part of its own.
 struct GaugeHolds {
   std::set<image_t> held;                  // pose constant
   std::map<image_t, image_t> scale_about;  // one coordinate held: the image
@@ -119,22 +122,31 @@ GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
   for (const size_t root : order) {
     if (reached[root]) continue;
     reached[root] = 1;
+    std::vector<image_t> adjusted;
+    for (const image_t image_id : blocks[root]) {
+      if (images.count(image_id) > 0) adjusted.push_back(image_id);
+    }
+    if (adjusted.empty()) continue;
     ++holds.num_pieces;
-    holds.held.insert(blocks[root][0]);
-    holds.scale_about[blocks[root][1]] = blocks[root][0];
+    holds.held.insert(adjusted[0]);
+    if (adjusted.size() > 1) holds.scale_about[adjusted[1]] = adjusted[0];
     std::vector<size_t> queue = {root};
     while (!queue.empty()) {
       const size_t b = queue.back();
       queue.pop_back();
       for (const image_t joint : blocks[b]) {
+        if (images.count(joint) == 0) continue;
         for (const size_t next : blocks_of[joint]) {
           if (reached[next]) continue;
           reached[next] = 1;
           ++holds.num_joints;
           // Blocks form a tree: only the joint is reached already.
-          const image_t other =
-              blocks[next][0] != joint ? blocks[next][0] : blocks[next][1];
-          holds.scale_about[other] = joint;
+          for (const image_t other : blocks[next]) {
+            if (other != joint && images.count(other) > 0) {
+              holds.scale_about[other] = joint;
+              break;
+            }
+          }
           queue.push_back(next);
         }
       }
@@ -199,6 +211,8 @@ class BundleAdjustmentProblem {
   // through one image only (GaugeHolds).
   int NumPieces() const { return num_pieces_; }
   int NumJoints() const { return num_joints_; }
+  // Images left out for few observations (min_num_image_observations).
+  int NumImagesLeftOut() const { return num_images_left_out_; }
 
   // The scale bins' inner edges and their noise at the last reweighting
   // (BundleAdjustmentSummary).
@@ -469,16 +483,41 @@ class BundleAdjustmentProblem {
     std::vector<std::pair<int, point2D_t>> schur_observations;
     std::set<image_t> used_images;
     std::set<camera_t> used_cameras;
+    // Images of fewer observations (in front of them) are left out.
+    std::unordered_set<image_t> left_out;
+    if (options_.min_num_image_observations > 0) {
+      std::unordered_map<image_t, int> num_observations;
+      for (const auto& [point3D_id, point] : reconstruction_->points3D) {
+        for (const TrackElement& element : point.track) {
+          const Image& image = reconstruction_->images.at(element.image_id);
+          if ((image.cam_from_world * point.xyz).z() > 0) {
+            ++num_observations[element.image_id];
+          }
+        }
+      }
+      for (const auto& [image_id, image] : reconstruction_->images) {
+        const int n = num_observations[image_id];
+        if (n > 0 && n < options_.min_num_image_observations) {
+          VLOG(2) << "Bundle adjustment: image " << image_id << " ("
+                  << image.name << ") left out: " << n << " observations";
+          left_out.insert(image_id);
+        }
+      }
+      num_images_left_out_ = static_cast<int>(left_out.size());
+    }
     size_t point_index = 0;
     for (auto& [point3D_id, point] : reconstruction_->points3D) {
       double* point_block = points_[point_index++].second;
       schur_observations.clear();
+      int num_adjusted = 0;
       for (const TrackElement& element : point.track) {
         Image& image = reconstruction_->images.at(element.image_id);
         Camera& camera = reconstruction_->cameras.at(image.camera_id);
         // Points behind the camera would give meaningless residuals; the
         // filtering between rounds removes them.
         if ((image.cam_from_world * point.xyz).z() <= 0) continue;
+        if (left_out.count(element.image_id) > 0) continue;
+        ++num_adjusted;
         const double* weight = nullptr;
         if (weighted_) {
           // Sized once per image, before any address is taken (0: no
@@ -510,7 +549,9 @@ class BundleAdjustmentProblem {
         }
       } else if (problem_->HasParameterBlock(point_block)) {
         ordering_->AddElementToGroup(point_block, 0);
-        if (!options_.refine_points) {
+        // (The Schur solver holds a point of fewer than two weighed
+        // observations itself.)
+        if (!options_.refine_points || num_adjusted < 2) {
           problem_->SetParameterBlockConstant(point_block);
         }
       }
@@ -731,6 +772,7 @@ class BundleAdjustmentProblem {
   int num_images_ = 0;
   int num_pieces_ = 0;
   int num_joints_ = 0;
+  int num_images_left_out_ = 0;
   double schur_density_ = -1;  // computed for linear_solver auto only
 
  public:
@@ -1096,6 +1138,11 @@ void BundleAdjustmentOptions::Check() const {
                       "BundleAdjustment.schur_min_num_observations",
                       "must be >= 0");
   }
+  if (min_num_image_observations < 0) {
+    throw OptionError(&min_num_image_observations,
+                      "BundleAdjustment.min_num_image_observations",
+                      "must be >= 0");
+  }
   if (iterative_schur_min_num_images < 1) {
     throw OptionError(&iterative_schur_min_num_images,
                       "BundleAdjustment.iterative_schur_min_num_images",
@@ -1143,6 +1190,12 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     local_summary.num_gravity_priors = problem.NumGravityPriors();
     local_summary.num_pieces = problem.NumPieces();
     local_summary.num_joints = problem.NumJoints();
+    local_summary.num_images_left_out = problem.NumImagesLeftOut();
+    if (local_summary.num_images_left_out > 0) {
+      VLOG(1) << "Bundle adjustment: " << local_summary.num_images_left_out
+              << " image(s) of fewer than "
+              << options.min_num_image_observations << " observations left out";
+    }
     if (local_summary.num_pieces > 1 || local_summary.num_joints > 0) {
       LOG(INFO) << "Bundle adjustment: the model is "
                 << local_summary.num_pieces

@@ -59,6 +59,21 @@ struct BundleAdjustmentOptions {
   bool refine_extra_params = true;
   bool refine_poses = true;
   bool refine_points = true;
+  // An image with fewer observations than this (of points in front of it)
+  // is left out of the adjustment: its observations weigh nothing, its pose
+  // (and a camera no other image of the adjustment uses) is held; the
+  // filters after it judge its observations against the adjusted points
+  // (0: none left out). An image of a few points is all but free (its focal
+  // length trades against their depth, its pose turns about them):
+  // Levenberg-Marquardt crawls along it for dozens of iterations while the
+  // rest has settled (the photo scenes' focal length collapsing 1,031 -> 44
+  // px on an image of 11 observations); held in place instead, its
+  // observations, often false, pull their points
+  // (docs/notes/2026-12-04-photo-ba-crawl.md). COLMAP registers no image of
+  // fewer than 30 inliers. Counted again in each adjustment: an image left
+  // out of one is adjusted in the next once retriangulation has given it
+  // observations. The gauge is held by images adjusted.
+  int min_num_image_observations = 0;
   // Hold the gauge (see above); off: LM's damping alone handles the 7
   // degrees of freedom.
   bool fix_gauge = true;
@@ -151,6 +166,8 @@ struct BundleAdjustmentSummary {
   // Solves that failed from the options' trust region radius and were
   // started again damped (RunBundleAdjustment).
   int num_damped_restarts = 0;
+  // Images left out for too few observations (min_num_image_observations).
+  int num_images_left_out = 0;
   int num_points = 0;                    // after the last round
   int num_observations = 0;              // after the last round
   int num_observations_filtered = 0;     // over all rounds

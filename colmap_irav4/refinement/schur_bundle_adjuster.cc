@@ -660,6 +660,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     candidate_points = points;
     double model_cost = 0;
     double step_norm2 = 0, x_norm2 = 0;
+    // The largest step of each kind and whose (VLOG 3).
+    double max_point_step = 0, max_rotation_step = 0, max_position_step = 0,
+           max_focal_step = 0, max_extra_step = 0;
+    size_t max_point = 0, max_rotation = 0, max_position = 0, max_focal = 0,
+           max_extra = 0;
     for (size_t p = 0; p < num_points; ++p) {
       lins.clear();
       for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
@@ -684,6 +689,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           x_norm2 += points[3 * p + i] * points[3 * p + i];
         }
         step_norm2 += dx.squaredNorm();
+        if (dx.norm() > max_point_step) {
+          max_point_step = dx.norm();
+          max_point = p;
+        }
       }
       for (const Linearization& lin : lins) {
         model_cost +=
@@ -714,6 +723,14 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
                                             &candidate_poses[7 * i]);
       for (int j = 0; j < 3; ++j)
         candidate_poses[7 * i + 4 + j] += delta[3 + j];
+      if (delta.head<3>().norm() > max_rotation_step) {
+        max_rotation_step = delta.head<3>().norm();
+        max_rotation = i;
+      }
+      if (delta.tail<3>().norm() > max_position_step) {
+        max_position_step = delta.tail<3>().norm();
+        max_position = i;
+      }
       for (int j = 0; j < 7; ++j) {
         const double d = candidate_poses[7 * i + j] - poses[7 * i + j];
         step_norm2 += d * d;
@@ -726,6 +743,15 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       for (size_t j = 0; j < cameras_[i].free.size(); ++j) {
         const double d = step[block_offset_[b] + j];
         candidate_cameras[kMaxNumParams * i + cameras_[i].free[j]] += d;
+        const int param = cameras_[i].free[j];
+        const double value = cameras[kMaxNumParams * i + param];
+        if (param == 0 && value != 0 && std::abs(d / value) > max_focal_step) {
+          max_focal_step = std::abs(d / value);
+          max_focal = i;
+        } else if (param > 2 && std::abs(d) > max_extra_step) {
+          max_extra_step = std::abs(d);
+          max_extra = i;
+        }
         step_norm2 += d * d;
       }
       for (int j = 0; j < cameras_[i].num_params; ++j) {
@@ -733,6 +759,15 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             cameras[kMaxNumParams * i + j] * cameras[kMaxNumParams * i + j];
       }
     }
+    VLOG(3) << "Schur bundle adjustment step parts: rotation "
+            << max_rotation_step << " (pose " << max_rotation << "), position "
+            << max_position_step << " (pose " << max_position
+            << "), relative focal " << max_focal_step << " (camera "
+            << max_focal << ", focal " << cameras[kMaxNumParams * max_focal]
+            << "), extra " << max_extra_step << " (camera " << max_extra
+            << "), point " << max_point_step << " (point " << max_point << ", "
+            << point_begin_[max_point + 1] - point_begin_[max_point]
+            << " observations)";
     const double x_norm = std::sqrt(x_norm2);
     if (std::sqrt(step_norm2) <=
         options.parameter_tolerance * (x_norm + options.parameter_tolerance)) {

@@ -572,6 +572,74 @@ TEST(BundleAdjustment, FailedUndampedSolveStartsAgainDamped) {
   }
 }
 
+// An image of a handful of observations is left out (its pose and camera
+// held: min_num_image_observations); the well observed ones are refined as
+// before, with either backend.
+TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
+  SyntheticSceneOptions scene_options = SceneOptions();
+  scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
+  scene_options.extra_param = -0.05;
+  scene_options.shared_camera = false;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  Reconstruction start = scene.truth;
+  PerturbModel(0.3, 0.05, 0.02, 1.0, 8, &start);
+  // Image 5 keeps 6 of its observations.
+  const image_t weak = 5;
+  int num_kept = 0;
+  const Image& weak_image = start.images.at(weak);
+  for (point2D_t idx = 0; idx < weak_image.points2D.size(); ++idx) {
+    if (weak_image.points2D[idx].point3D_id == kInvalidPoint3DId ||
+        ++num_kept <= 6) {
+      continue;
+    }
+    DeleteObservation(weak, idx, &start);
+  }
+  const camera_t weak_camera = weak_image.camera_id;
+  for (auto& [camera_id, camera] : start.cameras) {
+    camera.params[0] *= 1.05;
+    camera.params[3] = 0.0;
+  }
+  for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
+                             BundleAdjustmentSolverBackend::kSchur}) {
+    for (const int min_num_observations : {0, 20}) {
+      SCOPED_TRACE(min_num_observations);
+      BundleAdjustmentOptions options = LeastSquaresOptions();
+      options.refine_extra_params = true;
+      options.solver_backend = backend;
+      options.min_num_image_observations = min_num_observations;
+      Reconstruction reconstruction = start;
+      BundleAdjustmentSummary summary;
+      ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+      EXPECT_EQ(summary.num_images_left_out, min_num_observations > 0 ? 1 : 0);
+      EXPECT_TRUE(summary.converged);
+      const Rigid3d& pose = reconstruction.images.at(weak).cam_from_world;
+      const Rigid3d& pose_before = start.images.at(weak).cam_from_world;
+      if (min_num_observations > 0) {
+        // (Normalised when the problem is built.)
+        EXPECT_LT(
+            (pose.rotation.coeffs() - pose_before.rotation.coeffs()).norm(),
+            1e-12);
+        EXPECT_EQ(pose.translation, pose_before.translation);
+      } else {
+        EXPECT_NE(pose.translation, pose_before.translation);
+      }
+      for (const auto& [camera_id, camera] : reconstruction.cameras) {
+        const Camera& before = start.cameras.at(camera_id);
+        if (camera_id == weak_camera && min_num_observations > 0) {
+          EXPECT_EQ(camera.params, before.params);
+        } else {
+          EXPECT_NE(camera.params[0], before.params[0]) << camera_id;
+          EXPECT_NE(camera.params[3], before.params[3]) << camera_id;
+        }
+        if (camera_id != weak_camera) {
+          EXPECT_NEAR(camera.params[0], 1200.0, 6.0) << camera_id;
+          EXPECT_NEAR(camera.params[3], -0.05, 0.01) << camera_id;
+        }
+      }
+    }
+  }
+}
+
 TEST(BundleAdjustment, OptionsCheck) {
   BundleAdjustmentOptions options;
   EXPECT_NO_THROW(options.Check());
@@ -581,6 +649,9 @@ TEST(BundleAdjustment, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
   options = BundleAdjustmentOptions();
   options.iterative_schur_min_num_images = 0;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.min_num_image_observations = -1;
   EXPECT_THROW(options.Check(), InputError);
 }
 

@@ -354,6 +354,8 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.schur_min_num_observations,
                "solver_backend auto: the Schur solver from this many "
                "observations");
+  manager->Add("BundleAdjustment.schur_linear_solver", &ba.schur_linear_solver,
+               EnumNameList<SchurLinearSolver>());
   manager->Add("BundleAdjustment.iterative_schur_min_num_images",
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "

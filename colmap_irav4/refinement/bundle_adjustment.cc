@@ -183,7 +183,8 @@ class BundleAdjustmentProblem {
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
     if (schur_) {
-      schur_adjuster_ = std::make_unique<SchurBundleAdjuster>(use_centers_);
+      schur_adjuster_ = std::make_unique<SchurBundleAdjuster>(
+          use_centers_, options.schur_linear_solver);
     }
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -299,11 +300,12 @@ class BundleAdjustmentProblem {
       summary.message = schur.message;
       summary.num_iterations = schur.num_iterations;
       summary.linear_solver_seconds = schur.linear_solver_seconds;
-      summary.linear_solver = "SCHUR_SIMPLICIAL_LLT";
+      summary.linear_solver =
+          schur.supernodal ? "SCHUR_SUPERNODAL_LLT" : "SCHUR_SIMPLICIAL_LLT";
       linear_solver_reason_ =
           "schur (ours): " + std::to_string(schur.num_reduced_parameters) +
           " reduced parameters, " + std::to_string(schur.num_reduced_nonzeros) +
-          " stored entries";
+          " stored entries; " + schur.linear_solver_reason;
     } else {
       linear_solver_reason_ = ChooseLinearSolver(options_, num_images_,
                                                  schur_density_, &solver.ceres);
@@ -1091,6 +1093,15 @@ bool ChooseSchurBackend(const BundleAdjustmentOptions& options,
   }
   if (reason != nullptr) *reason = why;
   return schur;
+}
+
+template <>
+const EnumNames<SchurLinearSolver>& NamesOf<SchurLinearSolver>() {
+  static const EnumNames<SchurLinearSolver> names = {
+      {SchurLinearSolver::kAuto, "auto"},
+      {SchurLinearSolver::kSimplicial, "simplicial"},
+      {SchurLinearSolver::kSupernodal, "supernodal"}};
+  return names;
 }
 
 template <>

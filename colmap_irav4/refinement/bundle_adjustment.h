@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "colmap_irav4/refinement/keypoint_noise.h"
+#include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 #include "colmap_irav4/scene/pose_prior.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/ceres_solve.h"
@@ -51,6 +52,8 @@ enum class BundleAdjustmentSolverBackend { kAuto, kCeres, kSchur };
 template <>
 const EnumNames<BundleAdjustmentSolverBackend>&
 NamesOf<BundleAdjustmentSolverBackend>();
+template <>
+const EnumNames<SchurLinearSolver>& NamesOf<SchurLinearSolver>();
 
 struct BundleAdjustmentOptions {
   // Intrinsics to refine (COLMAP's ba_refine_* options).
@@ -118,6 +121,9 @@ struct BundleAdjustmentOptions {
   BundleAdjustmentSolverBackend solver_backend =
       BundleAdjustmentSolverBackend::kAuto;
   int schur_min_num_observations = 20000;
+  // The Schur solver's factorisation (SchurLinearSolver): auto (supernodal
+  // once the factor is dense: photo collections), simplicial, supernodal.
+  SchurLinearSolver schur_linear_solver = SchurLinearSolver::kAuto;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter

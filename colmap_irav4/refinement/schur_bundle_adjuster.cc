@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
+#include <iomanip>
 #include <limits>
+#include <sstream>
 #include <unordered_set>
 
+#include <cholmod.h>
 #include <glog/logging.h>
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
@@ -67,6 +71,56 @@ bool EvaluateReprojection(int num_params, int model_id,
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 }  // namespace
+
+// CHOLMOD's workspace and the supernodal factor of the reduced system, its
+// pattern analysed once (CHOLMOD's ordering: AMD, or METIS when AMD fills
+// in much). CHOLMOD (SuiteSparse 5, Debian) runs its factorisation in the
+// calling thread; its BLAS follows LimitBlasThreads (util/threading.h).
+struct SchurBundleAdjuster::Cholmod {
+  cholmod_common common;
+  cholmod_factor* factor = nullptr;
+
+  Cholmod() {
+    cholmod_start(&common);
+    // Failures (not positive definite, out of memory) are read from the
+    // status and handled by the caller; CHOLMOD prints nothing.
+    common.print = 0;
+  }
+  ~Cholmod() {
+    if (factor != nullptr) cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+  Cholmod(const Cholmod&) = delete;
+  Cholmod& operator=(const Cholmod&) = delete;
+
+  // The reduced system's upper triangle (CSC, sorted rows) as CHOLMOD's
+  // symmetric matrix, without a copy; entries below the diagonal of the
+  // diagonal blocks are ignored (stype 1).
+  static cholmod_sparse View(int n, std::vector<int>* outer,
+                             std::vector<int>* inner,
+                             std::vector<double>* values) {
+    cholmod_sparse a{};
+    a.nrow = n;
+    a.ncol = n;
+    a.nzmax = values->size();
+    a.p = outer->data();
+    a.i = inner->data();
+    a.x = values->data();
+    a.stype = 1;
+    a.itype = CHOLMOD_INT;
+    a.xtype = CHOLMOD_REAL;
+    a.dtype = CHOLMOD_DOUBLE;
+    a.sorted = 1;
+    a.packed = 1;
+    return a;
+  }
+};
+
+SchurBundleAdjuster::SchurBundleAdjuster(bool center,
+                                         SchurLinearSolver linear_solver)
+    : center_(center), linear_solver_(linear_solver) {}
+
+SchurBundleAdjuster::~SchurBundleAdjuster() = default;
 
 int SchurBundleAdjuster::AddCamera(double* params, int model_id) {
   CameraBlock camera;
@@ -400,6 +454,75 @@ void SchurBundleAdjuster::BuildStructure() {
   }
 }
 
+void SchurBundleAdjuster::AnalyzeReducedSystem() {
+  cholmod_.reset();
+  if (num_scalars_ == 0 || linear_solver_ == SchurLinearSolver::kSimplicial) {
+    linear_solver_reason_ = "simplicial (Eigen): asked";
+    return;
+  }
+  auto cholmod = std::make_unique<Cholmod>();
+  cholmod_common& common = cholmod->common;
+  const bool automatic = linear_solver_ == SchurLinearSolver::kAuto;
+  common.supernodal = automatic ? CHOLMOD_AUTO : CHOLMOD_SUPERNODAL;
+  common.supernodal_switch = kSupernodalMinFlopsPerEntry;
+  cholmod_sparse reduced =
+      Cholmod::View(num_scalars_, &outer_, &inner_, &values_);
+  cholmod->factor = cholmod_analyze(&reduced, &common);
+  if (cholmod->factor == nullptr) {
+    linear_solver_reason_ =
+        "simplicial (Eigen): CHOLMOD's analysis failed (status " +
+        std::to_string(common.status) + ")";
+    LOG(WARNING) << "Schur bundle adjustment: " << linear_solver_reason_;
+    return;
+  }
+  std::ostringstream why;
+  why << std::setprecision(3) << ": factor " << common.lnz << " entries, "
+      << common.fl << " flops, " << common.fl / std::max(1.0, common.lnz)
+      << " per entry ("
+      << (automatic
+              ? "auto: supernodal from " + std::to_string(static_cast<int>(
+                                               kSupernodalMinFlopsPerEntry))
+              : std::string("asked"))
+      << ")";
+  if (!cholmod->factor->is_super) {
+    linear_solver_reason_ = "simplicial (Eigen)" + why.str();
+    return;
+  }
+  linear_solver_reason_ = "supernodal (CHOLMOD)" + why.str();
+  cholmod_ = std::move(cholmod);
+}
+
+bool SchurBundleAdjuster::SolveSupernodal(const Eigen::VectorXd& rhs,
+                                          Eigen::VectorXd* step) {
+  cholmod_common& common = cholmod_->common;
+  cholmod_factor* factor = cholmod_->factor;
+  cholmod_sparse reduced =
+      Cholmod::View(num_scalars_, &outer_, &inner_, &values_);
+  if (!cholmod_factorize(&reduced, factor, &common) ||
+      common.status != CHOLMOD_OK || factor->minor < factor->n) {
+    if (common.status < CHOLMOD_OK) {
+      LOG(WARNING) << "Schur bundle adjustment: CHOLMOD's factorisation "
+                      "failed (status "
+                   << common.status << ")";
+    }
+    return false;  // not positive definite (minor: the failed column)
+  }
+  cholmod_dense b{};
+  b.nrow = num_scalars_;
+  b.ncol = 1;
+  b.nzmax = num_scalars_;
+  b.d = num_scalars_;
+  b.x = const_cast<double*>(rhs.data());
+  b.xtype = CHOLMOD_REAL;
+  b.dtype = CHOLMOD_DOUBLE;
+  cholmod_dense* x = cholmod_solve(CHOLMOD_A, factor, &b, &common);
+  if (x == nullptr) return false;
+  *step = Eigen::Map<const Eigen::VectorXd>(static_cast<const double*>(x->x),
+                                            num_scalars_);
+  cholmod_free_dense(&x, &common);
+  return true;
+}
+
 size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
   // The column's cells, by row block.
   const auto begin = cell_offset_.begin() + column_cells_[col_block];
@@ -446,15 +569,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   if (values_.empty()) {
     NumberBlocks();
     BuildStructure();
+    AnalyzeReducedSystem();
   }
   const int n = num_scalars_;
   summary.num_reduced_parameters = n;
   summary.num_reduced_nonzeros = values_.size();
+  summary.supernodal = cholmod_ != nullptr;
+  summary.linear_solver_reason = linear_solver_reason_;
   const Eigen::Map<const SparseMatrix> reduced(
       n, n, static_cast<int>(values_.size()), outer_.data(), inner_.data(),
       values_.data());
   Eigen::SimplicialLLT<SparseMatrix, Eigen::Upper> llt;
-  if (n > 0) llt.analyzePattern(reduced);
+  if (n > 0 && cholmod_ == nullptr) llt.analyzePattern(reduced);
 
   auto damped = [&options](double diagonal, double radius) {
     return std::clamp(diagonal, options.min_lm_diagonal,
@@ -541,6 +667,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   summary.message = "maximum number of iterations reached";
   while (summary.num_iterations <= options.max_num_iterations) {
     ThrowIfInterrupted();
+    // CPU time of the iteration and of its linear solve (VLOG 2; the
+    // process's: the solver runs on one thread).
+    const std::clock_t iteration_clock = std::clock();
     // Linearise at x and eliminate the points (damped by the radius).
     std::fill(values_.begin(), values_.end(), 0.0);
     rhs.setZero();
@@ -633,14 +762,19 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     }
     ++summary.num_iterations;
     linear_timer.Restart();
+    const std::clock_t linear_clock = std::clock();
     bool solved = true;
-    if (n > 0) {
+    if (n > 0 && cholmod_ != nullptr) {
+      solved = SolveSupernodal(rhs, &step) && step.allFinite();
+    } else if (n > 0) {
       llt.factorize(reduced);
       solved = llt.info() == Eigen::Success;
       if (solved) step = llt.solve(rhs);
       solved = solved && step.allFinite();
     }
     summary.linear_solver_seconds += linear_timer.ElapsedSeconds();
+    const double linear_cpu_seconds =
+        static_cast<double>(std::clock() - linear_clock) / CLOCKS_PER_SEC;
     check_gradient = false;
     if (!solved) {
       if (++num_invalid > options.max_num_consecutive_invalid_steps) {
@@ -788,7 +922,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
             << ": cost " << cost << " -> " << candidate_cost << " (model "
             << model_cost << "), step " << std::sqrt(step_norm2) << ", radius "
-            << radius;
+            << radius << "; linear solve " << linear_cpu_seconds << " CPU s of "
+            << static_cast<double>(std::clock() - iteration_clock) /
+                   CLOCKS_PER_SEC;
     if (std::isfinite(candidate_cost) && model_cost_change > 0 &&
         rho > options.min_relative_decrease) {
       poses.swap(candidate_poses);

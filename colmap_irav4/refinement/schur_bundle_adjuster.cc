@@ -893,14 +893,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             cameras[kMaxNumParams * i + j] * cameras[kMaxNumParams * i + j];
       }
     }
+    // (Guarded: a solve may have no camera or no point block.)
     VLOG(3) << "Schur bundle adjustment step parts: rotation "
             << max_rotation_step << " (pose " << max_rotation << "), position "
             << max_position_step << " (pose " << max_position
             << "), relative focal " << max_focal_step << " (camera "
-            << max_focal << ", focal " << cameras[kMaxNumParams * max_focal]
+            << max_focal << ", focal "
+            << (cameras.empty() ? 0.0 : cameras[kMaxNumParams * max_focal])
             << "), extra " << max_extra_step << " (camera " << max_extra
             << "), point " << max_point_step << " (point " << max_point << ", "
-            << point_begin_[max_point + 1] - point_begin_[max_point]
+            << (num_points == 0
+                    ? 0
+                    : point_begin_[max_point + 1] - point_begin_[max_point])
             << " observations)";
     const double x_norm = std::sqrt(x_norm2);
     if (std::sqrt(step_norm2) <=

@@ -385,8 +385,7 @@ TEST(SceneGenerator, RandomPairsSkipKeypointsOnNoRay) {
     for (const Point2D& point2D : image.points2D) {
       ++num_keypoints;
       ASSERT_TRUE(point2D.xy.allFinite()) << "image " << image_id;
-      num_beyond_fold +=
-          !CameraImageToCamera(camera, point2D.xy).allFinite();
+      num_beyond_fold += !CameraImageToCamera(camera, point2D.xy).allFinite();
     }
   }
   // The test means something: keypoints beyond the fold exist.

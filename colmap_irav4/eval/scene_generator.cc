@@ -1345,6 +1345,10 @@ void AddRandomPairInliers(const SceneGeneratorOptions& options,
     if (!used.insert(idx1).second) continue;
     const Eigen::Vector2d x1 =
         CameraImageToCamera(camera1, image1.points2D[idx1].xy);
+    // A clutter keypoint beyond the radius where the distortion folds over
+    // (wide portrait cameras with k < 0) is on no ray: NaN, which every
+    // range check below would let through.
+    if (!x1.allFinite()) continue;
     const Eigen::Vector3d X1 = (3 + 27 * random->Unit()) * x1.homogeneous();
     const Eigen::Vector3d X2 = pose * X1;
     if (X2.z() < 0.5) continue;

@@ -356,6 +356,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "observations");
   manager->Add("BundleAdjustment.schur_linear_solver", &ba.schur_linear_solver,
                EnumNameList<SchurLinearSolver>());
+  manager->Add("BundleAdjustment.rejected_start_trust_region_radius",
+               &ba.rejected_start_trust_region_radius,
+               "Schur solver: after a rejected first step, the trust "
+               "region cuts down to this radius are made without trying "
+               "their steps (0: every cut tried, as Ceres)");
   manager->Add("BundleAdjustment.iterative_schur_min_num_images",
                &ba.iterative_schur_min_num_images,
                "linear_solver auto: iterative_schur from this many images "

@@ -294,8 +294,8 @@ class BundleAdjustmentProblem {
       solver.ceres.initial_trust_region_radius = initial_trust_region_radius;
     }
     if (schur_) {
-      const SchurBundleAdjuster::Summary schur =
-          schur_adjuster_->Solve(solver.ceres);
+      const SchurBundleAdjuster::Summary schur = schur_adjuster_->Solve(
+          solver.ceres, options_.rejected_start_trust_region_radius);
       summary.termination = schur.termination;
       summary.message = schur.message;
       summary.num_iterations = schur.num_iterations;
@@ -1124,6 +1124,11 @@ BundleAdjustmentOptions::BundleAdjustmentOptions() {
 }
 
 void BundleAdjustmentOptions::Check() const {
+  if (!(rejected_start_trust_region_radius >= 0)) {
+    throw OptionError(&rejected_start_trust_region_radius,
+                      "BundleAdjustment.rejected_start_trust_region_radius",
+                      "must be >= 0 (0: off)");
+  }
   if (!(loss_scale > 0))
     throw OptionError(&loss_scale, "BundleAdjustment.loss_scale",
                       "must be positive");

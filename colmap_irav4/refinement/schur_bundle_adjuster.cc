@@ -538,7 +538,7 @@ size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
 }
 
 SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
-    const ceres::Solver::Options& options) {
+    const ceres::Solver::Options& options, double rejected_start_radius) {
   Summary summary;
   Timer linear_timer;
   // The parameters: poses (7 each), cameras (kMaxNumParams each), points.
@@ -654,6 +654,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   summary.initial_cost = cost;
   double radius = options.initial_trust_region_radius;
   double decrease_factor = 2;
+  bool step_accepted = false;  // any step of this solve
+  // A rejected step or failed factorisation: Ceres' cut; after a step
+  // rejected before the first accepted one (`skip`), the cuts down to
+  // rejected_start_radius at once (the steps there repeat the rejected one:
+  // too little damping to change it).
+  auto reject = [&](bool skip) {
+    do {
+      radius /= decrease_factor;
+      decrease_factor *= 2;
+    } while (skip && !step_accepted && rejected_start_radius > 0 &&
+             radius > rejected_start_radius);
+  };
   int num_invalid = 0;
   std::vector<double> candidate_poses, candidate_cameras, candidate_points;
   summary.num_iterations = 1;
@@ -782,8 +794,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         summary.message = "too many consecutive failed linear solves";
         break;
       }
-      radius /= decrease_factor;
-      decrease_factor *= 2;
+      VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
+              << ": factorisation failed, radius " << radius;
+      reject(/*skip=*/false);
       continue;
     }
     num_invalid = 0;
@@ -940,9 +953,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           radius / std::max(1.0 / 3.0, 1.0 - std::pow(2 * rho - 1, 3)));
       decrease_factor = 2;
       check_gradient = true;
+      step_accepted = true;
     } else {
-      radius /= decrease_factor;
-      decrease_factor *= 2;
+      reject(/*skip=*/true);
       if (radius < options.min_trust_region_radius) {
         summary.termination = ceres::CONVERGENCE;
         summary.message = "minimum trust region radius reached";

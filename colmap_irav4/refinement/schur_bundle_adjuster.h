@@ -104,7 +104,12 @@ class SchurBundleAdjuster {
   // Reads max_num_iterations, function/gradient/parameter_tolerance,
   // initial/max/min_trust_region_radius, min_relative_decrease,
   // min/max_lm_diagonal and max_num_consecutive_invalid_steps.
-  Summary Solve(const ceres::Solver::Options& options);
+  // `rejected_start_radius`: after a step rejected before any step of the
+  // solve was accepted, Ceres' cuts (radius / 2, / 4, / 8, ...) are made at
+  // once, without trying a step, until the radius is at most this (a failed
+  // factorisation is cut once, as Ceres does); 0: each cut tried (Ceres).
+  Summary Solve(const ceres::Solver::Options& options,
+                double rejected_start_radius = 0);
 
  private:
   struct CameraBlock {

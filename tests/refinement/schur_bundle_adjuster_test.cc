@@ -2,7 +2,8 @@
 // the Ceres path: the same optimum on small synthetic scenes, the gauge and
 // the held parameters kept, pose priors under their loss, and the losses it
 // cannot hold sent to Ceres; its two factorisations of the reduced camera
-// system (simplicial, supernodal) give the same solution.
+// system (simplicial, supernodal) give the same solution; after a rejected
+// undamped first step the radii its damping cannot change are skipped.
 
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 
@@ -16,6 +17,7 @@
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
+#include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/random.h"
 #include "tests/test_utils/scene_test_utils.h"
 
@@ -331,6 +333,63 @@ TEST(SchurBundleAdjuster, SupernodalSameSolutionAsSimplicial) {
   EXPECT_EQ(automatic.linear_solver, "SCHUR_SUPERNODAL_LLT");
   EXPECT_NE(automatic.linear_solver_reason.find("auto: supernodal from 40"),
             std::string::npos);
+}
+
+// Least squares on one camera per image (SIMPLE_RADIAL), no filtering, by
+// the Schur solver from the undamped start (1e16); a step is accepted when
+// its cost decrease is at least `min_relative_decrease` of its model's.
+BundleAdjustmentSummary AdjustWithRejectedStartRadius(
+    double rejected_start_radius, double min_relative_decrease,
+    Reconstruction* model) {
+  BundleAdjustmentOptions options;
+  options.solver.ceres.num_threads = 1;
+  options.solver.ceres.min_relative_decrease = min_relative_decrease;
+  options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
+  options.max_reproj_error = 0;
+  options.rejected_start_trust_region_radius = rejected_start_radius;
+  BundleAdjustmentSummary summary;
+  EXPECT_TRUE(RunBundleAdjustment(options, model, &summary));
+  EXPECT_EQ(summary.backend, "schur");
+  EXPECT_EQ(summary.num_solves, 1);
+  return summary;
+}
+
+// After a rejected first step the cuts of the radius down to
+// rejected_start_radius are made without trying their steps. A start whose
+// Gauss-Newton step is rejected (every step must realise 99.9% of its
+// model's decrease: the steps from radius 1e16 down to 3e11 are the same
+// step, rejected each time): the same radii are tried from 4.8e9 on, so the
+// same model, bit for bit, in exactly 5 iterations fewer (5e15, 1.25e15,
+// 1.6e14, 9.8e12, 3.1e11 not tried). A start whose first step is accepted
+// (Ceres' own threshold): nothing changes.
+TEST(SchurBundleAdjuster, RejectedStartSkipsTheUndampedRadii) {
+  const SyntheticScene scene =
+      Scene(CameraModelNameToId("SIMPLE_RADIAL"), /*shared_camera=*/false);
+  Reconstruction start = scene.truth;
+  PerturbModel(0.5, 0.05, 0.02, 1.02, 6, &start);
+  for (const double min_relative_decrease : {0.999, 1e-3}) {
+    SCOPED_TRACE(min_relative_decrease);
+    Reconstruction tried = start, skipped = start;
+    const BundleAdjustmentSummary every_cut =
+        AdjustWithRejectedStartRadius(0, min_relative_decrease, &tried);
+    const BundleAdjustmentSummary skipping =
+        AdjustWithRejectedStartRadius(1e10, min_relative_decrease, &skipped);
+    EXPECT_EQ(skipping.final_mean_reproj_error,
+              every_cut.final_mean_reproj_error);
+    const Difference d = Compare(tried, skipped);
+    EXPECT_EQ(d.center, 0.0);
+    EXPECT_EQ(d.rotation_deg, 0.0);
+    EXPECT_EQ(d.point, 0.0);
+    EXPECT_EQ(d.param, 0.0);
+    EXPECT_LT(every_cut.final_mean_reproj_error, 1.5);  // noise 1 px
+    EXPECT_EQ(skipping.num_iterations,
+              every_cut.num_iterations - (min_relative_decrease > 0.5 ? 5 : 0));
+  }
+
+  BundleAdjustmentOptions options;
+  options.rejected_start_trust_region_radius = -1;
+  EXPECT_THROW(options.Check(), OptionError);
 }
 
 // Ceres' losses are the Ceres path's, whatever is asked; auto takes the

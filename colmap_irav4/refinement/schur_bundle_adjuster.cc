@@ -107,10 +107,10 @@ void SubtractSymmetricProduct(const double* a, int lda, const double* b,
   for (int c = 0; c < size; ++c) {
     double* column = values + static_cast<size_t>(c) * height;
     for (int r = 0; r < size; ++r) {
-      const double m_rc =
-          a[r] * b[c] + a[lda + r] * b[ldb + c] + a[2 * lda + r] * b[2 * ldb + c];
-      const double m_cr =
-          a[c] * b[r] + a[lda + c] * b[ldb + r] + a[2 * lda + c] * b[2 * ldb + r];
+      const double m_rc = a[r] * b[c] + a[lda + r] * b[ldb + c] +
+                          a[2 * lda + r] * b[2 * ldb + c];
+      const double m_cr = a[c] * b[r] + a[lda + c] * b[ldb + r] +
+                          a[2 * lda + c] * b[2 * ldb + r];
       column[r] -= m_rc + m_cr;
     }
   }
@@ -524,7 +524,8 @@ void SchurBundleAdjuster::BuildStructure() {
     if (num_live < 2) continue;
     std::sort(blocks.begin(), blocks.end());
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
-    point_block_ids_.insert(point_block_ids_.end(), blocks.begin(), blocks.end());
+    point_block_ids_.insert(point_block_ids_.end(), blocks.begin(),
+                            blocks.end());
     for (size_t j = 0; j < blocks.size(); ++j) {
       for (size_t i = 0; i <= j; ++i) {
         point_cells_.push_back(

@@ -33,7 +33,10 @@ enum class SchurLinearSolver { kAuto, kSimplicial, kSupernodal };
 // once per adjuster), and back-substitutes the points (their Jacobians
 // evaluated again). Nothing is stored per observation but its image and
 // keypoint (8 bytes): no Jacobian, no residual block objects, no per-point
-// chunks.
+// chunks; per point, the cells of the reduced system its pairs of blocks
+// fill (found once per adjuster: 4 bytes per pair of the point's m pose and
+// camera blocks, m (m + 1) / 2 pairs), so that the accumulation, half an
+// iteration's time on dense photo collections, searches no cell.
 //
 // The parameter blocks are the caller's (e.g. ParameterBlockCopies); the
 // solve reads them when it starts and writes the result back when it ends.

@@ -387,8 +387,9 @@ void AddModel(bool gauge, Reconstruction* model,
 TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
   for (const bool shared_camera : {false, true}) {
     for (const bool gauge : {false, true}) {
-      SCOPED_TRACE(std::string(shared_camera ? "shared camera" : "camera per image") +
-                   (gauge ? ", gauge" : ""));
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          (gauge ? ", gauge" : ""));
       Reconstruction start = Scene(2, shared_camera).truth;
       PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
       Reconstruction tables_model = start, search_model = start;
@@ -417,8 +418,7 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
         EXPECT_GT(a.num_iterations, 2);
         EXPECT_LT(a.final_cost, a.initial_cost);
         EXPECT_EQ(a.num_iterations, b.num_iterations);
-        EXPECT_NEAR(a.initial_cost, b.initial_cost,
-                    tolerance * b.initial_cost);
+        EXPECT_NEAR(a.initial_cost, b.initial_cost, tolerance * b.initial_cost);
         EXPECT_NEAR(a.final_cost, b.final_cost, tolerance * b.final_cost);
       }
       EXPECT_GT(tables.CellTableBytes(), 0u);

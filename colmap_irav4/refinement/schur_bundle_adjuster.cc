@@ -524,6 +524,14 @@ void SchurBundleAdjuster::BuildStructure() {
     if (num_live < 2) continue;
     std::sort(blocks.begin(), blocks.end());
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+    // Every entry saves the same search per iteration: the points in order
+    // while the budget lasts.
+    const size_t num_cells = blocks.size() * (blocks.size() + 1) / 2;
+    if ((point_block_ids_.size() + blocks.size()) * sizeof(int) +
+            (point_cells_.size() + num_cells) * sizeof(uint32_t) >
+        kMaxCellTableBytes) {
+      continue;
+    }
     point_block_ids_.insert(point_block_ids_.end(), blocks.begin(),
                             blocks.end());
     for (size_t j = 0; j < blocks.size(); ++j) {
@@ -750,6 +758,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   auto cell = [&](int i, int j) {
     return &values_[cells[static_cast<size_t>(j) * (j + 1) / 2 + i]];
   };
+  // The same through the table (`cells` non-null) or the search: the cell
+  // of row block rb and column block cb (rb <= cb), local indexes li, lj.
+  auto find = [&](int rb, int li, int cb, int lj) {
+    return cells != nullptr ? cell(li, lj) : &values_[ValueIndex(rb, cb)];
+  };
   std::vector<PoseLinearization> pose_lins(pose_residuals_.size());
   using Wmat =
       Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
@@ -813,6 +826,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           }
         }
         cells = &point_cells_[point_cells_begin_[p]];
+      } else {
+        cells = nullptr;
       }
       Matrix3 v = Matrix3::Zero();
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
@@ -851,17 +866,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         q[k] = w[k] * v_inv;
         block_vector(lins[k], &rhs, (q[k] * g).eval(), 1.0);
       }
-      if (!table) {
-        for (size_t k = 0; k < lins.size(); ++k) {
-          for (size_t l = k; l < lins.size(); ++l) {
-            const auto m = (-(q[k] * w[l].transpose())).eval();
-            add_pair(lins[k], lins[l], m, k == l);
-          }
-        }
-        continue;
-      }
-      // S -= Q_k W_l^T cell by cell through the table, as add_pair adds
-      // them (the same cells, values and order).
+      // S -= Q_k W_l^T cell by cell (through the table or the search), as
+      // add_pair adds a matrix's blocks.
       for (size_t k = 0; k < lins.size(); ++k) {
         const Linearization& lin_k = lins[k];
         const int ldq = static_cast<int>(q[k].rows());
@@ -870,24 +876,25 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           const int ldw = static_cast<int>(w[l].rows());
           for (int i = 0; i < lin_k.num_blocks; ++i) {
             const int rb = lin_k.blocks[i];
-            const int li = local[2 * k + i];
+            const int li = table ? local[2 * k + i] : -1;
             const double* qk = q[k].data() + lin_k.cols[i];
             for (int j = 0; j < lin_l.num_blocks; ++j) {
               const int cb = lin_l.blocks[j];
-              const int lj = local[2 * l + j];
+              const int lj = table ? local[2 * l + j] : -1;
               const double* wl = w[l].data() + lin_l.cols[j];
               if (rb < cb || (rb == cb && k == l)) {
                 SubtractProduct(qk, ldq, wl, ldw, block_size_[rb],
-                                block_size_[cb], cell(li, lj),
+                                block_size_[cb], find(rb, li, cb, lj),
                                 column_height_[cb]);
               } else if (rb > cb) {
                 if (k == l) continue;
                 SubtractProduct(wl, ldw, qk, ldq, block_size_[cb],
-                                block_size_[rb], cell(lj, li),
+                                block_size_[rb], find(cb, lj, rb, li),
                                 column_height_[rb]);
               } else {
                 SubtractSymmetricProduct(qk, ldq, wl, ldw, block_size_[rb],
-                                         cell(li, li), column_height_[rb]);
+                                         find(rb, li, rb, li),
+                                         column_height_[rb]);
               }
             }
           }

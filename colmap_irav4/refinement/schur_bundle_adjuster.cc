@@ -74,9 +74,10 @@ using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 // of the Schur complement's -Q_k W_l^T, added straight into the reduced
 // system (column-major, leading dimension `height`) without the (up to
 // 18x18) product as a dynamic-size matrix. a and b are column-major with
-// leading dimensions lda and ldb. Each sum runs t = 0, 1, 2 in turn as
-// Eigen's product does: the same result to the bit. kRows: the rows known
-// at compile time (a pose block's 6), 0: `rows`.
+// leading dimensions lda and ldb. Each sum runs t = 0, 1, 2 in turn, as
+// Eigen's product of main did but for the rows its vectorisation peels off
+// an odd-sized block (t0 + (t1 + t2) there): rounding, not the algorithm.
+// kRows: the rows known at compile time (a pose block's 6), 0: `rows`.
 template <int kRows>
 void SubtractProduct(const double* a, int lda, const double* b, int ldb,
                      int rows, int cols, double* values, int height) {
@@ -101,7 +102,7 @@ void SubtractProduct(const double* a, int lda, const double* b, int ldb,
 
 // The same for a diagonal cell of a pair of observations sharing a block
 // (e.g. a camera): M + M^T of M(r, c) = sum_t a(r, t) b(c, t), summed as
-// (M + M^T)(r, c) before it is subtracted, as the reference does.
+// (M + M^T)(r, c) before it is subtracted, as add_pair adds it.
 void SubtractSymmetricProduct(const double* a, int lda, const double* b,
                               int ldb, int size, double* values, int height) {
   for (int c = 0; c < size; ++c) {
@@ -500,7 +501,7 @@ void SchurBundleAdjuster::BuildStructure() {
   }
   // The points' cell tables: the pattern is the same at every iteration, so
   // the searches of ValueIndex run once here instead of for every block pair
-  // of every point at every iteration (a third of an iteration's time on
+  // of every point at every iteration (a sixth of an iteration's time on
   // dense photo collections).
   const size_t num_points = point_blocks_.size();
   point_block_ids_begin_.assign(num_points + 1, 0);
@@ -807,9 +808,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           break;
         }
       }
-      // The point's cell table (none: a point held, or not eliminated when
-      // the structure was built, or the reference asked) and each
-      // observation's blocks' indexes in it.
+      // The point's cell table (none: a point held, not eliminated when the
+      // structure was built or beyond the budget, or SetUseCellTables(false))
+      // and each observation's blocks' indexes in it.
       const size_t ids_begin = point_block_ids_begin_[p];
       const int num_ids =
           static_cast<int>(point_block_ids_begin_[p + 1] - ids_begin);

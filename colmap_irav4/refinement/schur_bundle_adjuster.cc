@@ -875,6 +875,31 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         for (size_t l = k; l < lins.size(); ++l) {
           const Linearization& lin_l = lins[l];
           const int ldw = static_cast<int>(w[l].rows());
+          // Eigen's lazy product (below its GEMM threshold, 20) sums the
+          // rows it peels off an odd-sized product as t0 + (t1 + t2): that
+          // product as main formed it, for the same result to the bit.
+          const int rows_k = static_cast<int>(q[k].rows());
+          if (rows_k % 2 == 1 && rows_k + w[l].rows() + 3 < 20) {
+            const auto m = (-(q[k] * w[l].transpose())).eval();
+            for (int i = 0; i < lin_k.num_blocks; ++i) {
+              const int rb = lin_k.blocks[i];
+              const int li = table ? local[2 * k + i] : -1;
+              for (int j = 0; j < lin_l.num_blocks; ++j) {
+                const int cb = lin_l.blocks[j];
+                const int lj = table ? local[2 * l + j] : -1;
+                const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
+                                         block_size_[rb], block_size_[cb]);
+                if (rb < cb || (rb == cb && k == l)) {
+                  add_at(find(rb, li, cb, lj), cb, sub);
+                } else if (rb > cb) {
+                  if (k != l) add_at(find(cb, lj, rb, li), rb, sub.transpose());
+                } else {
+                  add_at(find(rb, li, rb, li), rb, sub + sub.transpose());
+                }
+              }
+            }
+            continue;
+          }
           for (int i = 0; i < lin_k.num_blocks; ++i) {
             const int rb = lin_k.blocks[i];
             const int li = table ? local[2 * k + i] : -1;

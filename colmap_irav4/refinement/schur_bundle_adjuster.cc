@@ -70,6 +70,53 @@ bool EvaluateReprojection(int num_params, int model_id,
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
+// values(r, c) -= sum_t a(r, t) b(c, t) (r < rows, c < cols, t < 3): a cell
+// of the Schur complement's -Q_k W_l^T, added straight into the reduced
+// system (column-major, leading dimension `height`) without the (up to
+// 18x18) product as a dynamic-size matrix. a and b are column-major with
+// leading dimensions lda and ldb. Each sum runs t = 0, 1, 2 in turn, as
+// Eigen's product of main did but for the rows its vectorisation peels off
+// an odd-sized block (t0 + (t1 + t2) there): rounding, not the algorithm.
+// kRows: the rows known at compile time (a pose block's 6), 0: `rows`.
+template <int kRows>
+void SubtractProduct(const double* a, int lda, const double* b, int ldb,
+                     int rows, int cols, double* values, int height) {
+  const int num_rows = kRows > 0 ? kRows : rows;
+  for (int c = 0; c < cols; ++c) {
+    const double b0 = b[c], b1 = b[ldb + c], b2 = b[2 * ldb + c];
+    double* column = values + static_cast<size_t>(c) * height;
+    for (int r = 0; r < num_rows; ++r) {
+      column[r] -= a[r] * b0 + a[lda + r] * b1 + a[2 * lda + r] * b2;
+    }
+  }
+}
+
+void SubtractProduct(const double* a, int lda, const double* b, int ldb,
+                     int rows, int cols, double* values, int height) {
+  if (rows == 6) {
+    SubtractProduct<6>(a, lda, b, ldb, rows, cols, values, height);
+  } else {
+    SubtractProduct<0>(a, lda, b, ldb, rows, cols, values, height);
+  }
+}
+
+// The same for a diagonal cell of a pair of observations sharing a block
+// (e.g. a camera): M + M^T of M(r, c) = sum_t a(r, t) b(c, t), summed as
+// (M + M^T)(r, c) before it is subtracted, as add_pair adds it.
+void SubtractSymmetricProduct(const double* a, int lda, const double* b,
+                              int ldb, int size, double* values, int height) {
+  for (int c = 0; c < size; ++c) {
+    double* column = values + static_cast<size_t>(c) * height;
+    for (int r = 0; r < size; ++r) {
+      const double m_rc = a[r] * b[c] + a[lda + r] * b[ldb + c] +
+                          a[2 * lda + r] * b[2 * ldb + c];
+      const double m_cr = a[c] * b[r] + a[lda + c] * b[ldb + r] +
+                          a[2 * lda + c] * b[2 * ldb + r];
+      column[r] -= m_rc + m_cr;
+    }
+  }
+}
+
 }  // namespace
 
 // CHOLMOD's workspace and the supernodal factor of the reduced system, its
@@ -452,6 +499,63 @@ void SchurBundleAdjuster::BuildStructure() {
   for (int b = 0; b < num_blocks; ++b) {
     column_cells_[b + 1] += column_cells_[b];
   }
+  // The points' cell tables: the pattern is the same at every iteration, so
+  // the searches of ValueIndex run once here instead of for every block pair
+  // of every point at every iteration (a sixth of an iteration's time on
+  // dense photo collections).
+  const size_t num_points = point_blocks_.size();
+  point_block_ids_begin_.assign(num_points + 1, 0);
+  point_cells_begin_.assign(num_points + 1, 0);
+  point_block_ids_.clear();
+  point_cells_.clear();
+  for (size_t p = 0; p < num_points; ++p) {
+    point_block_ids_begin_[p] = point_block_ids_.size();
+    point_cells_begin_[p] = point_cells_.size();
+    if (point_constant_[p]) continue;
+    blocks.clear();
+    int num_live = 0;
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      if (!(Weight(observations_[k]) > 0)) continue;
+      ++num_live;
+      const int a = pose_block_[observations_[k].pose];
+      const int c = camera_block_[poses_[observations_[k].pose].camera];
+      if (a >= 0) blocks.push_back(a);
+      if (c >= 0) blocks.push_back(c);
+    }
+    if (num_live < 2) continue;
+    std::sort(blocks.begin(), blocks.end());
+    blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
+    // Every entry saves the same search per iteration: the points in order
+    // while the budget lasts.
+    const size_t num_cells = blocks.size() * (blocks.size() + 1) / 2;
+    if ((point_block_ids_.size() + blocks.size()) * sizeof(int) +
+            (point_cells_.size() + num_cells) * sizeof(uint32_t) >
+        kMaxCellTableBytes) {
+      continue;
+    }
+    point_block_ids_.insert(point_block_ids_.end(), blocks.begin(),
+                            blocks.end());
+    for (size_t j = 0; j < blocks.size(); ++j) {
+      for (size_t i = 0; i <= j; ++i) {
+        point_cells_.push_back(
+            static_cast<uint32_t>(ValueIndex(blocks[i], blocks[j])));
+      }
+    }
+  }
+  point_block_ids_begin_[num_points] = point_block_ids_.size();
+  point_cells_begin_[num_points] = point_cells_.size();
+  point_block_ids_.shrink_to_fit();
+  point_cells_.shrink_to_fit();
+  VLOG(1) << "Schur bundle adjustment: " << values_.size()
+          << " reduced system entries, cell tables " << point_cells_.size()
+          << " entries (" << CellTableBytes() / 1048576.0 << " MiB)";
+}
+
+size_t SchurBundleAdjuster::CellTableBytes() const {
+  return point_block_ids_begin_.capacity() * sizeof(size_t) +
+         point_cells_begin_.capacity() * sizeof(size_t) +
+         point_block_ids_.capacity() * sizeof(int) +
+         point_cells_.capacity() * sizeof(uint32_t);
 }
 
 void SchurBundleAdjuster::AnalyzeReducedSystem() {
@@ -587,13 +691,16 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
                       options.max_lm_diagonal) /
            radius;
   };
-  // S(row_block, col_block) += sign * M (row_block <= col_block).
-  auto add_cell = [this](int row_block, int col_block, const auto& m) {
-    double* values = &values_[ValueIndex(row_block, col_block)];
+  // S(row_block, col_block) += M (row_block <= col_block) at `values`, the
+  // cell's first value (column height: col_block's).
+  auto add_at = [this](double* values, int col_block, const auto& m) {
     const int height = column_height_[col_block];
     for (int c = 0; c < m.cols(); ++c) {
       for (int r = 0; r < m.rows(); ++r) values[c * height + r] += m(r, c);
     }
+  };
+  auto add_cell = [&](int row_block, int col_block, const auto& m) {
+    add_at(&values_[ValueIndex(row_block, col_block)], col_block, m);
   };
   // Adds M (rows: lin_k's variables, columns: lin_l's) of a pair k < l (or
   // k == l with `same`) and its transpose to the upper block triangle.
@@ -645,6 +752,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   };
 
   std::vector<Linearization> lins;
+  // The current point's cell table and its observations' blocks in it.
+  const uint32_t* cells = nullptr;
+  std::vector<int> local;
+  // The first value of the cell of the point's blocks i <= j (local).
+  auto cell = [&](int i, int j) {
+    return &values_[cells[static_cast<size_t>(j) * (j + 1) / 2 + i]];
+  };
+  // The same through the table (`cells` non-null) or the search: the cell
+  // of row block rb and column block cb (rb <= cb), local indexes li, lj.
+  auto find = [&](int rb, int li, int cb, int lj) {
+    return cells != nullptr ? cell(li, lj) : &values_[ValueIndex(rb, cb)];
+  };
   std::vector<PoseLinearization> pose_lins(pose_residuals_.size());
   using Wmat =
       Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
@@ -701,11 +820,47 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           break;
         }
       }
+      // The point's cell table (none: a point held, not eliminated when the
+      // structure was built or beyond the budget, or SetUseCellTables(false))
+      // and each observation's blocks' indexes in it.
+      const size_t ids_begin = point_block_ids_begin_[p];
+      const int num_ids =
+          static_cast<int>(point_block_ids_begin_[p + 1] - ids_begin);
+      const bool table = use_cell_tables_ && num_ids > 0;
+      if (table) {
+        const int* ids = &point_block_ids_[ids_begin];
+        local.resize(2 * lins.size());
+        for (size_t k = 0; k < lins.size(); ++k) {
+          for (int i = 0; i < lins[k].num_blocks; ++i) {
+            const int id = static_cast<int>(
+                std::lower_bound(ids, ids + num_ids, lins[k].blocks[i]) - ids);
+            CHECK(id < num_ids && ids[id] == lins[k].blocks[i]);
+            local[2 * k + i] = id;
+          }
+        }
+        cells = &point_cells_[point_cells_begin_[p]];
+      } else {
+        cells = nullptr;
+      }
       Matrix3 v = Matrix3::Zero();
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      for (const Linearization& lin : lins) {
+      for (size_t k = 0; k < lins.size(); ++k) {
+        const Linearization& lin = lins[k];
         const auto ata = (lin.A.transpose() * lin.A).eval();
-        add_pair(lin, lin, ata, /*same=*/true);
+        if (table) {
+          for (int i = 0; i < lin.num_blocks; ++i) {
+            for (int j = 0; j < lin.num_blocks; ++j) {
+              const int rb = lin.blocks[i];
+              const int cb = lin.blocks[j];
+              if (rb > cb) continue;
+              add_at(cell(local[2 * k + i], local[2 * k + j]), cb,
+                     ata.block(lin.cols[i], lin.cols[j], block_size_[rb],
+                               block_size_[cb]));
+            }
+          }
+        } else {
+          add_pair(lin, lin, ata, /*same=*/true);
+        }
         const auto atr = (lin.A.transpose() * lin.r).eval();
         block_vector(lin, &camera_gradient, atr, 1.0);
         block_vector(lin, &diagonal, ata.diagonal(), 1.0);
@@ -724,10 +879,63 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         q[k] = w[k] * v_inv;
         block_vector(lins[k], &rhs, (q[k] * g).eval(), 1.0);
       }
+      // S -= Q_k W_l^T cell by cell (through the table or the search), as
+      // add_pair adds a matrix's blocks.
       for (size_t k = 0; k < lins.size(); ++k) {
+        const Linearization& lin_k = lins[k];
+        const int ldq = static_cast<int>(q[k].rows());
         for (size_t l = k; l < lins.size(); ++l) {
-          const auto m = (-(q[k] * w[l].transpose())).eval();
-          add_pair(lins[k], lins[l], m, k == l);
+          const Linearization& lin_l = lins[l];
+          const int ldw = static_cast<int>(w[l].rows());
+          // Eigen's lazy product (below its GEMM threshold, 20) sums the
+          // rows it peels off an odd-sized product as t0 + (t1 + t2): that
+          // product as main formed it, for the same result to the bit.
+          const int rows_k = static_cast<int>(q[k].rows());
+          if (rows_k % 2 == 1 && rows_k + w[l].rows() + 3 < 20) {
+            const auto m = (-(q[k] * w[l].transpose())).eval();
+            for (int i = 0; i < lin_k.num_blocks; ++i) {
+              const int rb = lin_k.blocks[i];
+              const int li = table ? local[2 * k + i] : -1;
+              for (int j = 0; j < lin_l.num_blocks; ++j) {
+                const int cb = lin_l.blocks[j];
+                const int lj = table ? local[2 * l + j] : -1;
+                const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
+                                         block_size_[rb], block_size_[cb]);
+                if (rb < cb || (rb == cb && k == l)) {
+                  add_at(find(rb, li, cb, lj), cb, sub);
+                } else if (rb > cb) {
+                  if (k != l) add_at(find(cb, lj, rb, li), rb, sub.transpose());
+                } else {
+                  add_at(find(rb, li, rb, li), rb, sub + sub.transpose());
+                }
+              }
+            }
+            continue;
+          }
+          for (int i = 0; i < lin_k.num_blocks; ++i) {
+            const int rb = lin_k.blocks[i];
+            const int li = table ? local[2 * k + i] : -1;
+            const double* qk = q[k].data() + lin_k.cols[i];
+            for (int j = 0; j < lin_l.num_blocks; ++j) {
+              const int cb = lin_l.blocks[j];
+              const int lj = table ? local[2 * l + j] : -1;
+              const double* wl = w[l].data() + lin_l.cols[j];
+              if (rb < cb || (rb == cb && k == l)) {
+                SubtractProduct(qk, ldq, wl, ldw, block_size_[rb],
+                                block_size_[cb], find(rb, li, cb, lj),
+                                column_height_[cb]);
+              } else if (rb > cb) {
+                if (k == l) continue;
+                SubtractProduct(wl, ldw, qk, ldq, block_size_[cb],
+                                block_size_[rb], find(cb, lj, rb, li),
+                                column_height_[rb]);
+              } else {
+                SubtractSymmetricProduct(qk, ldq, wl, ldw, block_size_[rb],
+                                         find(rb, li, rb, li),
+                                         column_height_[rb]);
+              }
+            }
+          }
         }
       }
     }

@@ -2,12 +2,14 @@
 // the Ceres path: the same optimum on small synthetic scenes, the gauge and
 // the held parameters kept, pose priors under their loss, and the losses it
 // cannot hold sent to Ceres; its two factorisations of the reduced camera
-// system (simplicial, supernodal) give the same solution; after a rejected
+// system (simplicial, supernodal) give the same solution, and so do its two
+// accumulations of that system (cell tables, cell search); after a rejected
 // undamped first step the radii its damping cannot change are skipped.
 
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 
 #include <iterator>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -394,6 +396,97 @@ TEST(SchurBundleAdjuster, RejectedStartSkipsTheUndampedRadii) {
 
 // Ceres' losses are the Ceres path's, whatever is asked; auto takes the
 // Schur solver from the size on, pose priors or not.
+// A model's parameters in a SchurBundleAdjuster (centres false: poses as
+// rotation and translation): one camera block per camera, the first pose
+// held (and with `gauge` one coordinate of the second), the principal
+// points held, every seventh observation unweighted and every fiftieth
+// point held.
+void AddModel(bool gauge, Reconstruction* model,
+              std::map<image_t, std::vector<double>>* weights,
+              SchurBundleAdjuster* adjuster) {
+  std::map<camera_t, int> cameras;
+  for (auto& [camera_id, camera] : model->cameras) {
+    cameras[camera_id] =
+        adjuster->AddCamera(camera.params.data(), camera.model_id);
+    adjuster->SetCameraConstant(cameras[camera_id],
+                                CameraModelPrincipalPointIdxs(camera.model_id));
+  }
+  std::map<image_t, int> poses;
+  for (auto& [image_id, image] : model->images) {
+    std::vector<double>& image_weights = (*weights)[image_id];
+    image_weights.assign(image.points2D.size(), 1.0);
+    for (size_t i = 0; i < image_weights.size(); i += 7) image_weights[i] = 0;
+    poses[image_id] = adjuster->AddPose(
+        image.cam_from_world.rotation.coeffs().data(),
+        image.cam_from_world.translation.data(), cameras.at(image.camera_id),
+        &image.points2D, &image_weights);
+    adjuster->SetPoseConstant(poses[image_id], poses.size() == 1,
+                              gauge && poses.size() == 2 ? 0 : -1);
+  }
+  size_t index = 0;
+  for (auto& [point3D_id, point] : model->points3D) {
+    std::vector<std::pair<int, point2D_t>> observations;
+    for (const TrackElement& element : point.track) {
+      observations.emplace_back(poses.at(element.image_id),
+                                element.point2D_idx);
+    }
+    adjuster->AddPoint(point.xyz.data(), index++ % 50 == 0, observations);
+  }
+}
+
+// The cell tables add the same products in the same order as the search of
+// every block pair's cell: the same iterations and the same solution to the
+// bit, with one camera per image (the photo collections' pattern: all four
+// kinds of cells) and with a shared camera (pairs of observations on one
+// camera block), with and without a gauge coordinate (a pose block of 5),
+// over two solves (the second with fewer observations).
+TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
+  for (const bool shared_camera : {false, true}) {
+    for (const bool gauge : {false, true}) {
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          (gauge ? ", gauge" : ""));
+      Reconstruction start = Scene(2, shared_camera).truth;
+      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      Reconstruction tables_model = start, search_model = start;
+      std::map<image_t, std::vector<double>> tables_weights, search_weights;
+      SchurBundleAdjuster tables(/*center=*/false), search(/*center=*/false);
+      search.SetUseCellTables(false);
+      AddModel(gauge, &tables_model, &tables_weights, &tables);
+      AddModel(gauge, &search_model, &search_weights, &search);
+      ceres::Solver::Options options;
+      options.max_num_iterations = 30;
+      for (int solve = 0; solve < 2; ++solve) {
+        if (solve == 1) {
+          for (auto* weights : {&tables_weights, &search_weights}) {
+            for (auto& [image_id, image_weights] : *weights) {
+              for (size_t i = 3; i < image_weights.size(); i += 5) {
+                image_weights[i] = 0;
+              }
+            }
+          }
+        }
+        const SchurBundleAdjuster::Summary a = tables.Solve(options);
+        const SchurBundleAdjuster::Summary b = search.Solve(options);
+        EXPECT_NE(a.termination, ceres::FAILURE);
+        EXPECT_GT(a.num_iterations, 2);
+        EXPECT_LT(a.final_cost, a.initial_cost);
+        EXPECT_EQ(a.num_iterations, b.num_iterations);
+        EXPECT_EQ(a.initial_cost, b.initial_cost);
+        EXPECT_EQ(a.final_cost, b.final_cost);
+      }
+      EXPECT_GT(tables.CellTableBytes(), 0u);
+      const Difference d = Compare(tables_model, search_model);
+      EXPECT_EQ(d.center, 0.0);
+      EXPECT_EQ(d.rotation_deg, 0.0);
+      EXPECT_EQ(d.point, 0.0);
+      EXPECT_EQ(d.param, 0.0);
+      // The solves moved the model (the comparison is not of two starts).
+      EXPECT_GT(Compare(start, tables_model).point, 1e-3);
+    }
+  }
+}
+
 TEST(SchurBundleAdjuster, FallsBackToCeresForLosses) {
   const SyntheticScene scene = Scene();
   BundleAdjustmentOptions options = TightOptions();

@@ -456,7 +456,8 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
   // Only those whose own pairs say so (all of the component's: a cut may
   // have removed a turned camera's true pairs). Each costs its pairs; a
   // false candidate costs a whole mapping: the 1,000-image photo scene's 46
-  // were all the right way round (docs/notes/2026-12-04-turned-alone-by-own-pairs.md).
+  // were all the right way round
+  // (docs/notes/2026-12-04-turned-alone-by-own-pairs.md).
   std::set<image_t> alone;
   for (const image_t image_id : weak_alone) {
     if (TurnedAloneByItsPairs(resolved, *component_pairs_, image_id,

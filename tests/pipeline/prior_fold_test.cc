@@ -291,9 +291,8 @@ std::vector<ImagePairGeometry> RingPairsWithInliers(int true_inliers,
 TEST(PriorFold, TurnedAloneOnlyWhenItsOwnPairsSaySo) {
   // Turned alone: its true pairs (against the model) agree on its true pose
   // and outweigh its mirror ones.
-  EXPECT_TRUE(
-      TurnedAloneByItsPairs(RingModel(true), RingPairsWithInliers(100, 30), 1,
-                            5.0));
+  EXPECT_TRUE(TurnedAloneByItsPairs(RingModel(true),
+                                    RingPairsWithInliers(100, 30), 1, 5.0));
   // The right way round, a few weak mirror pairs against it: they agree on
   // its twin's pose (TurnBackAlone finds it), but carry too few inliers.
   const Reconstruction right = RingModel(false);
@@ -305,10 +304,10 @@ TEST(PriorFold, TurnedAloneOnlyWhenItsOwnPairsSaySo) {
   // false pairs: each a pose of its own), no other pose at all.
   std::vector<ImagePairGeometry> scattered = RingPairsWithInliers(100, 100);
   for (size_t i = 4; i < scattered.size(); ++i) {
-    scattered[i].R =
-        Eigen::AngleAxisd(0.3 * static_cast<double>(i), Eigen::Vector3d::UnitX())
-            .toRotationMatrix() *
-        scattered[i].R;
+    scattered[i].R = Eigen::AngleAxisd(0.3 * static_cast<double>(i),
+                                       Eigen::Vector3d::UnitX())
+                         .toRotationMatrix() *
+                     scattered[i].R;
   }
   EXPECT_FALSE(TurnedAloneByItsPairs(right, scattered, 1, 5.0));
   // Half the inliers is the line: mirror pairs as strong as the true ones

@@ -228,6 +228,37 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
   return turned;
 }
 
+bool TurnedAloneByItsPairs(const Reconstruction& reconstruction,
+                           const std::vector<ImagePairGeometry>& pairs,
+                           image_t image_id, double max_rotation_error_deg) {
+  const TurnedBackPose turned =
+      TurnBackAlone(reconstruction, pairs, image_id, max_rotation_error_deg);
+  if (!turned.found) return false;
+  const auto image = reconstruction.images.find(image_id);
+  const Eigen::Matrix3d R_image =
+      image->second.cam_from_world.rotation.toRotationMatrix();
+  int64_t num_against = 0;
+  for (const ImagePairGeometry& pair : turned.pairs) {
+    num_against += pair.num_inliers;
+  }
+  int64_t num_for = 0;
+  for (const ImagePairGeometry& pair : pairs) {
+    if (pair.image_id1 != image_id && pair.image_id2 != image_id) continue;
+    const bool first = pair.image_id1 == image_id;
+    const auto other =
+        reconstruction.images.find(first ? pair.image_id2 : pair.image_id1);
+    if (other == reconstruction.images.end()) continue;
+    const Eigen::Matrix3d R_other =
+        other->second.cam_from_world.rotation.toRotationMatrix();
+    if (RelativeRotationErrorDeg(pair, first ? R_image : R_other,
+                                 first ? R_other : R_image) <=
+        max_rotation_error_deg) {
+      num_for += pair.num_inliers;
+    }
+  }
+  return 2 * num_against >= num_for;
+}
+
 bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,
                      const std::vector<image_t>& turned, double max_std) {
   const std::set<image_t> moved(turned.begin(), turned.end());

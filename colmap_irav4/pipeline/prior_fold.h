@@ -115,6 +115,19 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
                              const std::vector<ImagePairGeometry>& pairs,
                              image_t image_id, double max_rotation_error_deg);
 
+// Whether camera `image_id`'s own pairs say it is turned alone: the pairs
+// at it that the model contradicts agree on another pose (TurnBackAlone
+// finds one) and carry at least half as many inliers as the pairs at it
+// that the model agrees with. A camera turned alone among cameras the right
+// way round has its true pairs against the model and only its false ones
+// (mirror-twin) for it; a camera the right way round that the fold check
+// finds weak alone only because a few false pairs contradict it (random
+// ones agree on no pose; its mirror-twin ones are few next to its true
+// ones) has not.
+bool TurnedAloneByItsPairs(const Reconstruction& reconstruction,
+                           const std::vector<ImagePairGeometry>& pairs,
+                           image_t image_id, double max_rotation_error_deg);
+
 // Whether a model with the cameras `turned` turned back settles them: each
 // within `max_std` of its own prior (the mapper: the prior gate, the priors
 // its bundle adjustment keeps) and at most half as far off it as in

@@ -277,6 +277,47 @@ TEST(PriorFold, CameraTurnedAloneTurnedBackAcrossItsOwnPairs) {
   EXPECT_FALSE(TurnBackAlone(RingModel(true), two, 1, 5.0).found);
 }
 
+// Camera 1's ring pairs with `true_inliers` on each true pair and
+// `mirror_inliers` on each mirror one.
+std::vector<ImagePairGeometry> RingPairsWithInliers(int true_inliers,
+                                                    int mirror_inliers) {
+  std::vector<ImagePairGeometry> pairs = RingPairsOfCameraOne();
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    pairs[i].num_inliers = i < 4 ? true_inliers : mirror_inliers;
+  }
+  return pairs;
+}
+
+TEST(PriorFold, TurnedAloneOnlyWhenItsOwnPairsSaySo) {
+  // Turned alone: its true pairs (against the model) agree on its true pose
+  // and outweigh its mirror ones.
+  EXPECT_TRUE(TurnedAloneByItsPairs(RingModel(true),
+                                    RingPairsWithInliers(100, 30), 1, 5.0));
+  // The right way round, a few weak mirror pairs against it: they agree on
+  // its twin's pose (TurnBackAlone finds it), but carry too few inliers.
+  const Reconstruction right = RingModel(false);
+  ASSERT_TRUE(
+      TurnBackAlone(right, RingPairsWithInliers(100, 30), 1, 5.0).found);
+  EXPECT_FALSE(
+      TurnedAloneByItsPairs(right, RingPairsWithInliers(100, 30), 1, 5.0));
+  // ... and with its pairs against it disagreeing with each other (random
+  // false pairs: each a pose of its own), no other pose at all.
+  std::vector<ImagePairGeometry> scattered = RingPairsWithInliers(100, 100);
+  for (size_t i = 4; i < scattered.size(); ++i) {
+    scattered[i].R = Eigen::AngleAxisd(0.3 * static_cast<double>(i),
+                                       Eigen::Vector3d::UnitX())
+                         .toRotationMatrix() *
+                     scattered[i].R;
+  }
+  EXPECT_FALSE(TurnedAloneByItsPairs(right, scattered, 1, 5.0));
+  // Half the inliers is the line: mirror pairs as strong as the true ones
+  // make either pose as likely, and the camera stays a candidate.
+  EXPECT_TRUE(
+      TurnedAloneByItsPairs(right, RingPairsWithInliers(100, 50), 1, 5.0));
+  EXPECT_FALSE(
+      TurnedAloneByItsPairs(right, RingPairsWithInliers(100, 49), 1, 5.0));
+}
+
 TEST(PriorFold, GpsOutlierTurnedBackMovesToItsTwinNotToItsFix) {
   // Camera 1 right, its GPS fix 40 m off (3 m std): turned back across the
   // pairs the model contradicts (the mirror ones), it goes to its twin's

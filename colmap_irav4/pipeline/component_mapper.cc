@@ -13,24 +13,6 @@
 namespace colmap_irav4 {
 namespace {
 
-// Whether the model's rotations contradict the pair's measured rotation
-// (false when an image is not in the model).
-bool ContradictedByModel(const ImagePairGeometry& pair,
-                         const Reconstruction& reconstruction,
-                         double max_rotation_error_deg) {
-  const auto image1 = reconstruction.images.find(pair.image_id1);
-  const auto image2 = reconstruction.images.find(pair.image_id2);
-  if (image1 == reconstruction.images.end() ||
-      image2 == reconstruction.images.end()) {
-    return false;
-  }
-  const Eigen::Matrix3d R1 =
-      image1->second.cam_from_world.rotation.toRotationMatrix();
-  const Eigen::Matrix3d R2 =
-      image2->second.cam_from_world.rotation.toRotationMatrix();
-  return RelativeRotationErrorDeg(pair, R1, R2) > max_rotation_error_deg;
-}
-
 // `pairs` less those at images with a single pair among `component_pairs`.
 // In a component found folded such an image cannot be checked: no second
 // pair closes a loop with its pair and the fold check predicts no overlap

@@ -129,6 +129,21 @@ double PriorPairContrast(const Reconstruction& reconstruction,
   return median_within > 0 ? Median(across) / median_within : 0;
 }
 
+bool ContradictedByModel(const ImagePairGeometry& pair,
+                         const Reconstruction& reconstruction,
+                         double max_rotation_error_deg) {
+  const auto image1 = reconstruction.images.find(pair.image_id1);
+  const auto image2 = reconstruction.images.find(pair.image_id2);
+  if (image1 == reconstruction.images.end() ||
+      image2 == reconstruction.images.end()) {
+    return false;
+  }
+  return RelativeRotationErrorDeg(
+             pair, image1->second.cam_from_world.rotation.toRotationMatrix(),
+             image2->second.cam_from_world.rotation.toRotationMatrix()) >
+         max_rotation_error_deg;
+}
+
 TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
                              const std::vector<ImagePairGeometry>& pairs,
                              image_t image_id, double max_rotation_error_deg) {
@@ -149,16 +164,14 @@ TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
     const bool first = pair.image_id1 == image_id;
     const auto other =
         reconstruction.images.find(first ? pair.image_id2 : pair.image_id1);
-    if (other == reconstruction.images.end() || pair.t.norm() == 0) continue;
-    const Eigen::Matrix3d R_other =
-        other->second.cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Matrix3d R_image =
-        image->second.cam_from_world.rotation.toRotationMatrix();
-    if (RelativeRotationErrorDeg(pair, first ? R_image : R_other,
-                                 first ? R_other : R_image) <=
-        max_rotation_error_deg) {
+    if (other == reconstruction.images.end()) continue;
+    if (!ContradictedByModel(pair, reconstruction, max_rotation_error_deg)) {
+      turned.num_agreeing_inliers += pair.num_inliers;
       continue;  // the model agrees: not a vote to turn
     }
+    if (pair.t.norm() == 0) continue;
+    const Eigen::Matrix3d R_other =
+        other->second.cam_from_world.rotation.toRotationMatrix();
     // pair.R = R2 R1^T and c2 - c1 along -R2^T t (cam2_from_cam1).
     const Eigen::Vector3d t = pair.t.normalized();
     Vote vote;
@@ -234,29 +247,11 @@ bool TurnedAloneByItsPairs(const Reconstruction& reconstruction,
   const TurnedBackPose turned =
       TurnBackAlone(reconstruction, pairs, image_id, max_rotation_error_deg);
   if (!turned.found) return false;
-  const auto image = reconstruction.images.find(image_id);
-  const Eigen::Matrix3d R_image =
-      image->second.cam_from_world.rotation.toRotationMatrix();
   int64_t num_against = 0;
   for (const ImagePairGeometry& pair : turned.pairs) {
     num_against += pair.num_inliers;
   }
-  int64_t num_for = 0;
-  for (const ImagePairGeometry& pair : pairs) {
-    if (pair.image_id1 != image_id && pair.image_id2 != image_id) continue;
-    const bool first = pair.image_id1 == image_id;
-    const auto other =
-        reconstruction.images.find(first ? pair.image_id2 : pair.image_id1);
-    if (other == reconstruction.images.end()) continue;
-    const Eigen::Matrix3d R_other =
-        other->second.cam_from_world.rotation.toRotationMatrix();
-    if (RelativeRotationErrorDeg(pair, first ? R_image : R_other,
-                                 first ? R_other : R_image) <=
-        max_rotation_error_deg) {
-      num_for += pair.num_inliers;
-    }
-  }
-  return 2 * num_against >= num_for;
+  return 2 * num_against >= turned.num_agreeing_inliers;
 }
 
 bool LoneTurnSettled(const PriorAgreement& before, const PriorAgreement& after,

@@ -105,11 +105,20 @@ struct TurnedBackPose {
   Rigid3d cam_from_world;
   // The pairs at the camera that agree with the turned-back pose.
   std::vector<ImagePairGeometry> pairs;
+  // The inliers of the pairs at the camera that the model agrees with
+  // (summed whether or not a pose is found).
+  int64_t num_agreeing_inliers = 0;
 };
 
 // Three pairs: two directions fix a centre, the third checks it (and one
 // mirror pair alone cannot turn a camera).
 constexpr int kMinTurnBackPairs = 3;
+
+// Whether the model's rotations contradict the pair's measured rotation by
+// more than max_rotation_error_deg (false when an image is not in the model).
+bool ContradictedByModel(const ImagePairGeometry& pair,
+                         const Reconstruction& reconstruction,
+                         double max_rotation_error_deg);
 
 TurnedBackPose TurnBackAlone(const Reconstruction& reconstruction,
                              const std::vector<ImagePairGeometry>& pairs,

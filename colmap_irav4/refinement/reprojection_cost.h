@@ -1,7 +1,9 @@
 #pragma once
 
+#include <cmath>
 #include <type_traits>
 
+#include <ceres/jet.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -46,6 +48,61 @@ struct ReprojectionCost {
   const double* weight_;
   const bool center_;
 };
+
+// ReprojectionCost's residual (unweighted) and its Jacobians, the rotation's
+// in the tangent space of ceres::EigenQuaternionManifold (Plus(q, d) =
+// Exp(d) q, a rotation by 2 d: -2 [R x]_x through the projection), without
+// differentiating the rotation automatically: only the projection of the
+// point in camera coordinates (u, v, w) and the camera parameters go through
+// Ceres' Jet (3 + kNumParams dual parts instead of 10 + kNumParams), the
+// rest is the chain rule. Equal to the automatic Jacobians times the
+// manifold's PlusJacobian up to rounding (unit quaternion).
+template <int kNumParams>
+struct ReprojectionJacobians {
+  Eigen::Matrix<double, 2, 3> rotation;  // tangent of the quaternion
+  Eigen::Matrix<double, 2, 3> position;  // translation or centre
+  Eigen::Matrix<double, 2, 3> point;
+  Eigen::Matrix<double, 2, kNumParams> params;
+};
+
+template <int kNumParams>
+bool LinearizeReprojection(int model_id, const Eigen::Vector2d& xy, bool center,
+                           const double* rotation, const double* position,
+                           const double* point, const double* params,
+                           double residual[2],
+                           ReprojectionJacobians<kNumParams>* jacobians) {
+  using Jet = ceres::Jet<double, 3 + kNumParams>;
+  const Eigen::Map<const Eigen::Quaterniond> q(rotation);
+  const Eigen::Map<const Eigen::Vector3d> p(position);
+  const Eigen::Map<const Eigen::Vector3d> xyz(point);
+  // The point rotated into the camera's axes (before the translation).
+  const Eigen::Vector3d rotated =
+      center ? Eigen::Vector3d(q * (xyz - p)) : Eigen::Vector3d(q * xyz);
+  const Eigen::Vector3d in_cam =
+      center ? rotated : Eigen::Vector3d(rotated + p);
+  Jet jet_params[kNumParams];
+  for (int i = 0; i < kNumParams; ++i) {
+    jet_params[i] = Jet(params[i], 3 + i);
+  }
+  Jet x, y;
+  CameraModelImgFromCam<Jet>(model_id, jet_params, Jet(in_cam[0], 0),
+                             Jet(in_cam[1], 1), Jet(in_cam[2], 2), &x, &y);
+  residual[0] = x.a - xy[0];
+  residual[1] = y.a - xy[1];
+  Eigen::Matrix<double, 2, 3> d_in_cam;
+  d_in_cam.row(0) = x.v.template head<3>().transpose();
+  d_in_cam.row(1) = y.v.template head<3>().transpose();
+  jacobians->params.row(0) = x.v.template tail<kNumParams>().transpose();
+  jacobians->params.row(1) = y.v.template tail<kNumParams>().transpose();
+  jacobians->point = d_in_cam * q.toRotationMatrix();
+  jacobians->position =
+      center ? Eigen::Matrix<double, 2, 3>(-jacobians->point) : d_in_cam;
+  Eigen::Matrix3d cross;  // [rotated]_x
+  cross << 0, -rotated[2], rotated[1], rotated[2], 0, -rotated[0], -rotated[1],
+      rotated[0], 0;
+  jacobians->rotation = -2 * d_in_cam * cross;
+  return std::isfinite(residual[0]) && std::isfinite(residual[1]);
+}
 
 // Calls f(std::integral_constant<int, N>()) with N = num_params, one of the
 // camera models' parameter counts (3, 4, 5, 8, 12): the size of

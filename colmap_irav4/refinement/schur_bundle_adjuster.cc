@@ -37,32 +37,44 @@ namespace {
 
 constexpr int kMaxNumParams = 12;
 
-// The residual and (with `jacobians`) its Jacobians by the four blocks of
-// ReprojectionCost, as Ceres' AutoDiffCostFunction evaluates them.
-template <int kNumParams>
-bool EvaluateModel(int model_id, const Eigen::Vector2d& xy, bool center,
-                   double const* const* parameters, double* residual,
-                   double** jacobians) {
-  const ReprojectionCost<kNumParams> cost(model_id, xy, nullptr, center);
-  if (jacobians == nullptr) {
-    return cost(parameters[0], parameters[1], parameters[2], parameters[3],
-                residual);
-  }
-  return ceres::internal::AutoDifferentiate<
-      2, ceres::internal::StaticParameterDims<4, 3, 3, kNumParams>>(
-      cost, parameters, 2, residual, jacobians);
-}
-
+// The residual of ReprojectionCost (unweighted).
 bool EvaluateReprojection(int num_params, int model_id,
                           const Eigen::Vector2d& xy, bool center,
-                          double const* const* parameters, double* residual,
-                          double** jacobians) {
+                          double const* const* parameters, double* residual) {
   bool ok = false;
   CHECK(WithNumCameraParams(num_params,
                             [&](auto n) {
-                              ok = EvaluateModel<decltype(n)::value>(
-                                  model_id, xy, center, parameters, residual,
-                                  jacobians);
+                              const ReprojectionCost<decltype(n)::value> cost(
+                                  model_id, xy, nullptr, center);
+                              ok = cost(parameters[0], parameters[1],
+                                        parameters[2], parameters[3], residual);
+                            }))
+      << "unsupported camera model " << model_id;
+  return ok;
+}
+
+// The residual and its Jacobians (LinearizeReprojection): the rotation's in
+// the manifold's tangent, the camera's num_params columns in `dc`.
+bool LinearizeObservation(
+    int num_params, int model_id, const Eigen::Vector2d& xy, bool center,
+    double const* const* parameters, double* residual,
+    Eigen::Matrix<double, 2, 3>* drotation, Eigen::Matrix<double, 2, 3>* dp,
+    Eigen::Matrix<double, 2, 3>* dx,
+    Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor, 2, kMaxNumParams>*
+        dc) {
+  bool ok = false;
+  CHECK(WithNumCameraParams(num_params,
+                            [&](auto n) {
+                              constexpr int kNumParams = decltype(n)::value;
+                              ReprojectionJacobians<kNumParams> jacobians;
+                              ok = LinearizeReprojection<kNumParams>(
+                                  model_id, xy, center, parameters[0],
+                                  parameters[1], parameters[2], parameters[3],
+                                  residual, &jacobians);
+                              *drotation = jacobians.rotation;
+                              *dp = jacobians.position;
+                              *dx = jacobians.point;
+                              *dc = jacobians.params;
                             }))
       << "unsupported camera model " << model_id;
   return ok;
@@ -322,25 +334,21 @@ bool SchurBundleAdjuster::Evaluate(const Observation& observation,
   const double weight = Weight(observation);
   if (lin == nullptr) {
     if (!EvaluateReprojection(camera.num_params, camera.model_id, xy, center_,
-                              parameters, residual, nullptr)) {
+                              parameters, residual)) {
       return false;
     }
     residual[0] *= weight;
     residual[1] *= weight;
     return std::isfinite(residual[0]) && std::isfinite(residual[1]);
   }
-  Eigen::Matrix<double, 2, 4, Eigen::RowMajor> dq;
-  Eigen::Matrix<double, 2, 3, Eigen::RowMajor> dp, dx;
-  Eigen::Matrix<double, 2, kMaxNumParams, Eigen::RowMajor> dc;
-  double* jacobians[4] = {dq.data(), dp.data(), dx.data(), dc.data()};
-  if (!EvaluateReprojection(camera.num_params, camera.model_id, xy, center_,
-                            parameters, residual, jacobians)) {
+  Eigen::Matrix<double, 2, 3> drotation, dp, dx;
+  Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor, 2, kMaxNumParams>
+      dcam;
+  if (!LinearizeObservation(camera.num_params, camera.model_id, xy, center_,
+                            parameters, residual, &drotation, &dp, &dx,
+                            &dcam)) {
     return false;
   }
-  // dc holds num_params columns per row, packed (row stride num_params).
-  const Eigen::Map<const Eigen::Matrix<double, 2, Eigen::Dynamic,
-                                       Eigen::RowMajor, 2, kMaxNumParams>>
-      dcam(dc.data(), 2, camera.num_params);
   lin->r = weight * Eigen::Vector2d(residual[0], residual[1]);
   residual[0] = lin->r[0];
   residual[1] = lin->r[1];
@@ -354,11 +362,8 @@ bool SchurBundleAdjuster::Evaluate(const Observation& observation,
   lin->A.resize(2, num_cols);
   int col = 0;
   if (pose_block >= 0) {
-    // Tangent of the quaternion: Ceres' EigenQuaternionManifold.
-    Eigen::Matrix<double, 4, 3, Eigen::RowMajor> plus;
-    ceres::EigenQuaternionManifold().PlusJacobian(parameters[0], plus.data());
     Eigen::Matrix<double, 2, 6> tangent;
-    tangent.leftCols<3>() = dq * plus;
+    tangent.leftCols<3>() = drotation;
     tangent.rightCols<3>() = dp;
     lin->blocks[lin->num_blocks] = pose_block;
     lin->cols[lin->num_blocks++] = col;

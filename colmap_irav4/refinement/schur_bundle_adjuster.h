@@ -24,15 +24,15 @@ enum class SchurLinearSolver { kAuto, kSimplicial, kSupernodal };
 // Levenberg-Marquardt as Ceres' trust region minimizer runs it (the same
 // radius updates, initial radius, tolerances and damping diag(J^T J) /
 // radius), where each iteration loops over the points, evaluates each
-// observation's residual and Jacobian on the fly (ReprojectionCost through
-// Ceres' automatic differentiation; rotation steps in the tangent space of
-// ceres::EigenQuaternionManifold), eliminates the point's 3x3 block while it
-// accumulates the reduced camera system (poses and refined intrinsics) in a
-// block-sparse matrix, factors that with a sparse Cholesky (SchurLinearSolver:
-// Eigen's simplicial LLT or CHOLMOD's supernodal one, the pattern analysed
-// once per adjuster), and back-substitutes the points (their Jacobians
-// evaluated again). Nothing is stored per observation but its image and
-// keypoint (8 bytes): no Jacobian, no residual block objects, no per-point
+// observation's residual and Jacobian on the fly (LinearizeReprojection: the
+// chain rule, Ceres' Jets in the projection only; rotation steps in the tangent
+// space of ceres::EigenQuaternionManifold), eliminates the point's 3x3 block
+// while it accumulates the reduced camera system (poses and refined intrinsics)
+// in a block-sparse matrix, factors that with a sparse Cholesky
+// (SchurLinearSolver: Eigen's simplicial LLT or CHOLMOD's supernodal one, the
+// pattern analysed once per adjuster), and back-substitutes the points (their
+// Jacobians evaluated again). Nothing is stored per observation but its image
+// and keypoint (8 bytes): no Jacobian, no residual block objects, no per-point
 // chunks; per point, the cells of the reduced system its pairs of blocks
 // fill (found once per adjuster: 4 bytes per pair of the point's m pose and
 // camera blocks, m (m + 1) / 2 pairs), so that the accumulation, half an

@@ -5,8 +5,8 @@
 #include <functional>
 #include <limits>
 #include <set>
-#include <utility>
 #include <sstream>
+#include <utility>
 
 #include <glog/logging.h>
 
@@ -238,8 +238,7 @@ double EssentialSingularValueCost(const Eigen::Matrix3d& F,
   const double r01 = c0.dot(c1) / r00;
   const double r11 = c0.cross(c1).norm() / r00;
   const double sum = std::sqrt((r00 + r11) * (r00 + r11) + r01 * r01);
-  return sum > 0 ? std::sqrt((r00 - r11) * (r00 - r11) + r01 * r01) / sum
-                 : 1.0;
+  return sum > 0 ? std::sqrt((r00 - r11) * (r00 - r11) + r01 * r01) / sum : 1.0;
 }
 
 std::vector<FocalCalibrationResult> CalibrateFocalLengths(

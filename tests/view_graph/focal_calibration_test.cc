@@ -161,15 +161,15 @@ TEST(FocalCalibration, EssentialCostIsThatOfTheSingularValues) {
   int num_small = 0;
   for (int trial = 0; trial < 500; ++trial) {
     const Eigen::Matrix3d R =
-        Eigen::AngleAxisd(unit(rng) * M_PI,
-                          Eigen::Vector3d(unit(rng), unit(rng), unit(rng))
-                              .normalized())
+        Eigen::AngleAxisd(
+            unit(rng) * M_PI,
+            Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized())
             .toRotationMatrix();
     const Eigen::Vector3d t(unit(rng), unit(rng), unit(rng));
-    const Eigen::Matrix3d K1 = CameraCalibrationMatrix(
-        MakePinhole(1, 1000 + 500 * unit(rng), false));
-    const Eigen::Matrix3d K2 = CameraCalibrationMatrix(
-        MakePinhole(2, 1000 + 500 * unit(rng), false));
+    const Eigen::Matrix3d K1 =
+        CameraCalibrationMatrix(MakePinhole(1, 1000 + 500 * unit(rng), false));
+    const Eigen::Matrix3d K2 =
+        CameraCalibrationMatrix(MakePinhole(2, 1000 + 500 * unit(rng), false));
     const Eigen::Matrix3d F =
         K2.inverse().transpose() * Skew(t) * R * K1.inverse();
     // The true calibration (cost ~0) half the time, else one off by up to 2x.
@@ -191,8 +191,8 @@ TEST(FocalCalibration, EssentialCostIsThatOfTheSingularValues) {
                                        Eigen::Matrix3d::Identity(),
                                        Eigen::Matrix3d::Identity()),
             1.0);
-  Eigen::Matrix3d rank1 = Eigen::Vector3d(1, 2, 3) *
-                          Eigen::Vector3d(0.5, -1, 2).transpose();
+  Eigen::Matrix3d rank1 =
+      Eigen::Vector3d(1, 2, 3) * Eigen::Vector3d(0.5, -1, 2).transpose();
   EXPECT_EQ(EssentialSingularValueCost(rank1, Eigen::Matrix3d::Identity(),
                                        Eigen::Matrix3d::Identity()),
             1.0);

@@ -153,6 +153,51 @@ TEST(FocalCalibration, CostIsZeroForTrueFocalOnly) {
   EXPECT_GT(EssentialSingularValueCost(F, K_wrong, K_wrong), 0.01);
 }
 
+// The closed form against the singular values of an SVD, on random rank-2
+// fundamental matrices and calibrations near and far from the true ones.
+TEST(FocalCalibration, EssentialCostIsThatOfTheSingularValues) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  int num_small = 0;
+  for (int trial = 0; trial < 500; ++trial) {
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(
+            unit(rng) * M_PI,
+            Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized())
+            .toRotationMatrix();
+    const Eigen::Vector3d t(unit(rng), unit(rng), unit(rng));
+    const Eigen::Matrix3d K1 =
+        CameraCalibrationMatrix(MakePinhole(1, 1000 + 500 * unit(rng), false));
+    const Eigen::Matrix3d K2 =
+        CameraCalibrationMatrix(MakePinhole(2, 1000 + 500 * unit(rng), false));
+    const Eigen::Matrix3d F =
+        K2.inverse().transpose() * Skew(t) * R * K1.inverse();
+    // The true calibration (cost ~0) half the time, else one off by up to 2x.
+    const double off = trial % 2 == 0 ? 1.0 : std::exp(0.7 * unit(rng));
+    Eigen::Matrix3d K1_tried = K1;
+    K1_tried(0, 0) *= off;
+    K1_tried(1, 1) *= off;
+    const Eigen::Matrix3d E = K2.transpose() * F * K1_tried;
+    const Eigen::Vector3d s =
+        Eigen::JacobiSVD<Eigen::Matrix3d>(E).singularValues();
+    const double expected = (s(0) - s(1)) / (s(0) + s(1));
+    const double cost = EssentialSingularValueCost(F, K1_tried, K2);
+    EXPECT_NEAR(cost, expected, 1e-12) << "trial " << trial;
+    if (expected < 1e-9) ++num_small;
+  }
+  EXPECT_GE(num_small, 200);  // the true calibrations were tried
+  // Rank below 2: the largest cost.
+  EXPECT_EQ(EssentialSingularValueCost(Eigen::Matrix3d::Zero(),
+                                       Eigen::Matrix3d::Identity(),
+                                       Eigen::Matrix3d::Identity()),
+            1.0);
+  Eigen::Matrix3d rank1 =
+      Eigen::Vector3d(1, 2, 3) * Eigen::Vector3d(0.5, -1, 2).transpose();
+  EXPECT_EQ(EssentialSingularValueCost(rank1, Eigen::Matrix3d::Identity(),
+                                       Eigen::Matrix3d::Identity()),
+            1.0);
+}
+
 TEST(FocalCalibration, SharedCameraGuessOff30Percent) {
   for (const double factor : {1.3, 1.0 / 1.3}) {
     std::mt19937 rng(7);

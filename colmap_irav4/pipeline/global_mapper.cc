@@ -337,9 +337,12 @@ bool GlobalMapper::BuildTracks() {
     const PositioningTrackSelectionOptions& selection =
         options_.positioning_tracks;
     std::vector<std::pair<image_t, image_t>> pair_ids;
+    std::vector<double> pair_inliers;  // the pair quota's pairs' strengths
     pair_ids.reserve(pairs_.size());
+    pair_inliers.reserve(pairs_.size());
     for (const ImagePairGeometry& pair : pairs_) {
       pair_ids.emplace_back(pair.image_id1, pair.image_id2);
+      pair_inliers.push_back(pair.num_inliers);
     }
     const ObservationCellFn cell = [&](const TrackElement& element) {
       const Image& image = reconstruction_.images.at(element.image_id);
@@ -348,7 +351,8 @@ bool GlobalMapper::BuildTracks() {
       return GridCell(xy.x(), xy.y(), static_cast<double>(camera.width),
                       static_cast<double>(camera.height), selection.grid_size);
     };
-    selected = SelectTracksForPositioning(selection, tracks_, pair_ids, cell);
+    selected = SelectTracksForPositioning(selection, tracks_, pair_ids, cell,
+                                          pair_inliers);
   }
   // The cap: positioning's tracks first (they keep every pair tied), then
   // the longest; the others are dropped.
@@ -457,6 +461,8 @@ bool GlobalMapper::Positioning() {
     }
     stage.Add("iterations",
               static_cast<double>(positioner_summary.num_iterations));
+    stage.Add("observations",
+              static_cast<double>(positioner_summary.num_observations));
     stage.Add(
         "observations filtered",
         static_cast<double>(positioner_summary.num_observations_filtered));

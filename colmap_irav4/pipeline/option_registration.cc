@@ -254,6 +254,20 @@ void AddGlobalPositioningOptions(OptionManager* manager,
   manager->Add("GlobalPositioning.max_angular_error_deg",
                &gp.max_angular_error_deg,
                "observations disagreeing more are unlinked (deg)");
+  manager->Add("GlobalPositioning.linear_solver", &gp.linear_solver,
+               EnumNameList<PositioningLinearSolver>());
+  manager->Add("GlobalPositioning.iterative_schur_min_num_images",
+               &gp.iterative_schur_min_num_images,
+               "linear_solver auto: iterative_schur from this many images "
+               "(sparse_schur from 50)");
+  manager->Add("GlobalPositioning.iterative_schur_dense_min_num_images",
+               &gp.iterative_schur_dense_min_num_images,
+               "... or from this many when the reduced camera system is "
+               "dense (iterative_schur_min_density)");
+  manager->Add("GlobalPositioning.iterative_schur_min_density",
+               &gp.iterative_schur_min_density,
+               "... at least this fraction of the image pairs sharing a "
+               "point (above 1: never)");
   AddSolverOptions(manager, "GlobalPositioning.", &gp.solver);
 }
 
@@ -558,6 +572,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
   manager->Add("Mapper.positioning_tracks_per_pair", &selection.tracks_per_pair,
                "... and every view-graph pair keeps this many of its tracks "
                "(0: no pair quota)");
+  manager->Add("Mapper.positioning_quota_pairs_per_image",
+               &selection.quota_pairs_per_image,
+               "... the pairs of a maximum spanning forest by inliers and "
+               "each image's this many strongest pairs (-1: every pair)");
   manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
                "skip the rotation-consistency filter");
   manager->Add("Mapper.skip_bundle_adjustment", &o.skip_bundle_adjustment,

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <iomanip>
 #include <memory>
 #include <random>
 #include <set>
+#include <sstream>
 #include <unordered_map>
 
 #include <ceres/ceres.h>
@@ -49,8 +51,104 @@ void GlobalPositionerOptions::Check() const {
                       "GlobalPositioning.max_angular_error_deg",
                       "must be in [0, 180)");
   }
+  if (iterative_schur_min_num_images < 0) {
+    throw OptionError(&iterative_schur_min_num_images,
+                      "GlobalPositioning.iterative_schur_min_num_images",
+                      "must be >= 0");
+  }
+  if (iterative_schur_dense_min_num_images < 0) {
+    throw OptionError(&iterative_schur_dense_min_num_images,
+                      "GlobalPositioning.iterative_schur_dense_min_num_images",
+                      "must be >= 0");
+  }
+  if (!(iterative_schur_min_density >= 0)) {
+    throw OptionError(&iterative_schur_min_density,
+                      "GlobalPositioning.iterative_schur_min_density",
+                      "must be >= 0");
+  }
   solver.Check("GlobalPositioning.");
   pose_priors.Check();
+}
+
+template <>
+const EnumNames<PositioningLinearSolver>& NamesOf<PositioningLinearSolver>() {
+  static const EnumNames<PositioningLinearSolver> names = {
+      {PositioningLinearSolver::kAuto, "auto"},
+      {PositioningLinearSolver::kSparseSchur, "sparse_schur"},
+      {PositioningLinearSolver::kDenseSchur, "dense_schur"},
+      {PositioningLinearSolver::kIterativeSchur, "iterative_schur"}};
+  return names;
+}
+
+std::string ChoosePositioningLinearSolver(
+    const GlobalPositionerOptions& options, int num_images,
+    double schur_density, ceres::Solver::Options* ceres_options) {
+  using Solver = PositioningLinearSolver;
+  const Solver solver = options.linear_solver;
+  const bool automatic = solver == Solver::kAuto;
+  std::ostringstream size;
+  size << num_images << " images";
+  if (schur_density >= 0) {
+    size << ", " << std::fixed << std::setprecision(1) << 100 * schur_density
+         << "% of pairs share a point";
+  }
+  const bool large = num_images >= options.iterative_schur_min_num_images;
+  const bool dense =
+      num_images >= options.iterative_schur_dense_min_num_images &&
+      schur_density >= options.iterative_schur_min_density;
+  std::string reason;
+  if (solver == Solver::kDenseSchur || (automatic && num_images < 50)) {
+    ceres_options->linear_solver_type = ceres::DENSE_SCHUR;
+    reason = automatic ? "fewer than 50 images" : "asked";
+  } else if (solver == Solver::kIterativeSchur ||
+             (automatic && (large || dense))) {
+    ceres_options->linear_solver_type = ceres::ITERATIVE_SCHUR;
+    ceres_options->preconditioner_type = ceres::SCHUR_JACOBI;
+    ceres_options->use_explicit_schur_complement = false;
+    reason = !automatic ? "asked"
+             : large
+                 ? "at least " +
+                       std::to_string(options.iterative_schur_min_num_images) +
+                       " images"
+                 : "dense reduced camera system";
+  } else {
+    ceres_options->linear_solver_type = ceres::SPARSE_SCHUR;
+    reason = automatic ? "sparse or small reduced camera system" : "asked";
+  }
+  return std::string(ceres::LinearSolverTypeToString(
+             ceres_options->linear_solver_type)) +
+         ": " + reason + " (" + size.str() + ")";
+}
+
+double PositioningSchurDensity(const Reconstruction& reconstruction,
+                               int max_num_images) {
+  const size_t n = reconstruction.images.size();
+  if (n < 2) return 0;
+  if (n > static_cast<size_t>(max_num_images)) return -1;
+  std::unordered_map<image_t, size_t> index;
+  for (const auto& [image_id, image] : reconstruction.images) {
+    index.emplace(image_id, index.size());
+  }
+  std::vector<bool> shared(n * n, false);
+  size_t num_shared = 0;
+  std::vector<size_t> images;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    images.clear();
+    for (const TrackElement& element : point.track) {
+      const auto it = index.find(element.image_id);
+      if (it != index.end()) images.push_back(it->second);
+    }
+    for (size_t a = 0; a < images.size(); ++a) {
+      for (size_t b = a + 1; b < images.size(); ++b) {
+        const size_t i = std::min(images[a], images[b]);
+        const size_t j = std::max(images[a], images[b]);
+        if (i == j || shared[i * n + j]) continue;
+        shared[i * n + j] = true;
+        ++num_shared;
+      }
+    }
+  }
+  return static_cast<double>(num_shared) / (n * (n - 1) / 2.0);
 }
 
 namespace {
@@ -560,9 +658,20 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   // The scales are eliminated in the cost (ProjectedDirectionCost), so Schur
   // elimination of the points leaves a camera-sized system: on a synthetic
   // 100-image scene (200k observations) 13 s with explicit scales and a sparse
-  // Cholesky, DENSE_SCHUR/SPARSE_SCHUR here.
-  solver.ceres.linear_solver_type =
-      centers.size() < 50 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  // Cholesky, a Schur solver here; which one by its size and density.
+  const int num_images = static_cast<int>(centers.size());
+  local_summary.schur_density =
+      options.linear_solver == PositioningLinearSolver::kAuto &&
+              num_images >= 50
+          ? PositioningSchurDensity(*reconstruction)
+          : -1;
+  local_summary.linear_solver_reason = ChoosePositioningLinearSolver(
+      options, num_images, local_summary.schur_density, &solver.ceres);
+  local_summary.linear_solver =
+      ceres::LinearSolverTypeToString(solver.ceres.linear_solver_type);
+  LOG(INFO) << "Global positioning: " << observations.size()
+            << " observations, " << reconstruction->points3D.size()
+            << " points; linear solver " << local_summary.linear_solver_reason;
   solver.ceres.linear_solver_ordering = blocks.Ordering(problem);
   const ceres::Solver::Summary solver_summary =
       SolveProblem("global positioning", solver, &problem);

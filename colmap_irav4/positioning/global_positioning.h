@@ -5,10 +5,13 @@
 #include <set>
 #include <string>
 
+#include <ceres/ceres.h>
+
 #include "colmap_irav4/geometry/sim3d.h"
 #include "colmap_irav4/scene/pose_prior.h"
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/util/ceres_solve.h"
+#include "colmap_irav4/util/enum_names.h"
 
 namespace colmap_irav4 {
 
@@ -33,6 +36,16 @@ namespace colmap_irav4 {
 // deviations under least squares with a Cauchy tail (PosePriorOptions), so
 // that an outlier 50 m off barely pulls, and the result mapped into the
 // priors' frame (metric).
+// The linear solver of global positioning's Levenberg-Marquardt steps.
+enum class PositioningLinearSolver {
+  kAuto,
+  kSparseSchur,
+  kDenseSchur,
+  kIterativeSchur
+};
+template <>
+const EnumNames<PositioningLinearSolver>& NamesOf<PositioningLinearSolver>();
+
 struct GlobalPositionerOptions {
   // Tracks with fewer observations in the model's images are left out (and
   // their points deleted: retriangulation recovers them later).
@@ -56,6 +69,23 @@ struct GlobalPositionerOptions {
   // take 9 iterations instead of 39 (1.3 s instead of 4.7 s) and give the
   // same model after bundle adjustment.
   SolverOptions solver;
+  // auto: by the size and density of the reduced camera system (the Schur
+  // complement of the points; ChoosePositioningLinearSolver): DENSE_SCHUR
+  // below 50 images, ITERATIVE_SCHUR (Schur-Jacobi preconditioner, implicit
+  // Schur products: neither the reduced system nor a factor is stored) from
+  // iterative_schur_min_num_images images or from
+  // iterative_schur_dense_min_num_images when at least
+  // iterative_schur_min_density of the image pairs share a point,
+  // SPARSE_SCHUR otherwise; or sparse_schur, dense_schur, iterative_schur
+  // whatever the size. A dense view graph (photo collections) fills the
+  // sparse Cholesky factor of the reduced system in: at 4,953 photo images
+  // (8.8% of the pairs share a point, 6.7 M observations) 65 CPU s per
+  // iteration and a 5.3 GB peak; at 990 (16.3%) SPARSE_SCHUR is still cheap
+  // (docs/notes/2026-12-05-positioning-density.md).
+  PositioningLinearSolver linear_solver = PositioningLinearSolver::kAuto;
+  int iterative_schur_min_num_images = 10000;
+  int iterative_schur_dense_min_num_images = 2000;
+  double iterative_schur_min_density = 0.05;
   // Weights of the pose priors (used only when priors are given).
   PosePriorOptions pose_priors;
 
@@ -72,6 +102,11 @@ struct GlobalPositionerSummary {
   int num_observations = 0;    // residuals
   int num_observations_filtered = 0;  // unlinked by max_angular_error_deg
   int num_iterations = 0;
+  // Ceres' name of the linear solver and why (ChoosePositioningLinearSolver);
+  // the fraction of the image pairs sharing a point (-1: not computed).
+  std::string linear_solver;
+  std::string linear_solver_reason;
+  double schur_density = -1;
   double initial_cost = 0;
   double final_cost = 0;
   double seconds = 0;
@@ -91,6 +126,21 @@ struct GlobalPositionerSummary {
   // Why it was not placed ("" when it was or no priors were given).
   std::string prior_problem;
 };
+
+// Sets the linear solver (and preconditioner) of a global positioning of
+// `num_images` images in `ceres_options` (options.linear_solver, above);
+// `schur_density`: the fraction of the images' pairs that share a point
+// (negative: unknown). Returns the reason, e.g. "ITERATIVE_SCHUR: dense
+// reduced camera system (5000 images, 31.0% of pairs share a point)".
+std::string ChoosePositioningLinearSolver(
+    const GlobalPositionerOptions& options, int num_images,
+    double schur_density, ceres::Solver::Options* ceres_options);
+
+// The fraction of the n (n - 1) / 2 pairs of the model's n images that share
+// a point (0 for fewer than two images; -1 beyond max_num_images, where the
+// n^2 bits it takes would not be small).
+double PositioningSchurDensity(const Reconstruction& reconstruction,
+                               int max_num_images = 30000);
 
 // Reads cameras, the images' cam_from_world rotations, their keypoints and
 // the points' tracks; writes cam_from_world translations (t_i = -R_i c_i) and

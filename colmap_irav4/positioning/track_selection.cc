@@ -6,6 +6,8 @@
 #include <numeric>
 #include <unordered_map>
 
+#include <glog/logging.h>
+
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
@@ -23,6 +25,11 @@ void PositioningTrackSelectionOptions::Check() const {
     throw OptionError(&tracks_per_pair, "Mapper.positioning_tracks_per_pair",
                       "must be >= 0");
   }
+  if (quota_pairs_per_image < -1) {
+    throw OptionError(&quota_pairs_per_image,
+                      "Mapper.positioning_quota_pairs_per_image",
+                      "must be >= -1");
+  }
 }
 
 int GridCell(double x, double y, double width, double height, int grid_size) {
@@ -34,12 +41,63 @@ int GridCell(double x, double y, double width, double height, int grid_size) {
   return index(y, height) * grid_size + index(x, width);
 }
 
+std::vector<size_t> PairQuotaPairs(
+    const std::vector<std::pair<image_t, image_t>>& pairs,
+    const std::vector<double>& weights, int pairs_per_image) {
+  CHECK_EQ(weights.size(), pairs.size());
+  std::vector<size_t> kept;
+  if (pairs_per_image < 0) {
+    kept.resize(pairs.size());
+    std::iota(kept.begin(), kept.end(), 0);
+    return kept;
+  }
+  std::vector<size_t> order(pairs.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return weights[a] > weights[b]; });
+  // Union-find over the images (path halving), for Kruskal's forest.
+  std::unordered_map<image_t, size_t> index;
+  for (const auto& [image_id1, image_id2] : pairs) {
+    index.emplace(image_id1, index.size());
+    index.emplace(image_id2, index.size());
+  }
+  std::vector<size_t> parent(index.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  std::vector<int> num_strongest(index.size(), 0);
+  std::vector<char> keep(pairs.size(), 0);
+  for (const size_t k : order) {
+    const size_t i = index.at(pairs[k].first);
+    const size_t j = index.at(pairs[k].second);
+    const size_t root_i = find(i);
+    const size_t root_j = find(j);
+    if (root_i != root_j) {
+      parent[root_i] = root_j;
+      keep[k] = 1;
+    }
+    for (const size_t image : {i, j}) {
+      if (num_strongest[image] < pairs_per_image) {
+        ++num_strongest[image];
+        keep[k] = 1;
+      }
+    }
+  }
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    if (keep[k]) kept.push_back(k);
+  }
+  return kept;
+}
+
 std::vector<size_t> SelectTracksForPositioning(
     const PositioningTrackSelectionOptions& options,
     const std::vector<Track>& tracks,
     const std::vector<std::pair<image_t, image_t>>& pairs,
-    const ObservationCellFn& cell) {
+    const ObservationCellFn& cell, const std::vector<double>& pair_weights) {
   options.Check();
+  CHECK(pair_weights.empty() || pair_weights.size() == pairs.size());
   std::vector<size_t> selected;
   if (options.tracks_per_image <= 0) {
     selected.resize(tracks.size());
@@ -73,9 +131,33 @@ std::vector<size_t> SelectTracksForPositioning(
   std::unordered_map<image_t, int> image_count;
   std::unordered_map<image_pair_t, int> pair_count;
   if (options.tracks_per_pair > 0) {
-    pair_count.reserve(pairs.size());
-    for (const auto& [image_id1, image_id2] : pairs) {
-      pair_count.emplace(ImagePairToPairId(image_id1, image_id2), 0);
+    std::vector<double> weights = pair_weights;
+    if (weights.empty() && options.quota_pairs_per_image >= 0) {
+      // The tracks spanning each pair.
+      std::unordered_map<image_pair_t, size_t> pair_index;
+      pair_index.reserve(pairs.size());
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        pair_index.emplace(ImagePairToPairId(pairs[k].first, pairs[k].second),
+                           k);
+      }
+      weights.assign(pairs.size(), 0.0);
+      for (const Track& track : tracks) {
+        for (size_t a = 0; a < track.size(); ++a) {
+          for (size_t b = a + 1; b < track.size(); ++b) {
+            const auto it = pair_index.find(
+                ImagePairToPairId(track[a].image_id, track[b].image_id));
+            if (it != pair_index.end()) ++weights[it->second];
+          }
+        }
+      }
+    } else if (weights.empty()) {
+      weights.assign(pairs.size(), 0.0);
+    }
+    const std::vector<size_t> quota_pairs =
+        PairQuotaPairs(pairs, weights, options.quota_pairs_per_image);
+    pair_count.reserve(quota_pairs.size());
+    for (const size_t k : quota_pairs) {
+      pair_count.emplace(ImagePairToPairId(pairs[k].first, pairs[k].second), 0);
     }
   }
   // Calls visit(count) for the counter of every view-graph pair the track

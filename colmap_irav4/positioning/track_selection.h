@@ -32,6 +32,16 @@ struct PositioningTrackSelectionOptions {
   // quota: positioning then places the parts independently, at an arbitrary
   // relative offset and scale that no later stage can repair.
   int tracks_per_pair = 10;
+  // The pairs that have the pair quota: a maximum spanning forest of the
+  // view graph by pair strength (every pair that alone ties two parts of
+  // the graph is in it) plus each image's this many strongest pairs
+  // (PairQuotaPairs; -1: every view-graph pair). Bounds the pair quota's
+  // tracks by the images instead of the pairs; on the photo scenes measured
+  // the per-image quota's long tracks already cover the pairs (5: 164,548
+  // -> 164,208 tracks at 5,000 images, 66,480 -> 66,432 at 1,000, whose
+  // fold cut and models then came out differently, not better), so every
+  // pair by default (docs/notes/2026-12-05-positioning-density.md).
+  int quota_pairs_per_image = -1;
 
   // Throws OptionError naming the offending option.
   void Check() const;
@@ -44,15 +54,28 @@ typedef std::function<int(const TrackElement&)> ObservationCellFn;
 // grid_size grid (keypoints outside the image: the nearest cell).
 int GridCell(double x, double y, double width, double height, int grid_size);
 
+// The indices (increasing) of the pairs given the pair quota: those of a
+// maximum spanning forest by `weights` (Kruskal, ties by index) and each
+// image's `pairs_per_image` strongest (ties by index); every pair when
+// pairs_per_image < 0. At most (images - 1) + pairs_per_image x images pairs:
+// linear in the images whatever the graph's density. `weights`: parallel to
+// `pairs`.
+std::vector<size_t> PairQuotaPairs(
+    const std::vector<std::pair<image_t, image_t>>& pairs,
+    const std::vector<double>& weights, int pairs_per_image);
+
 // Returns the indices of the selected tracks, in increasing order. `pairs`:
 // the view graph's pairs (image ids in either order); tracks spanning other
 // image pairs count for the per-image quota only. `cell`: each
 // observation's grid cell (GridCell); null: no spreading (as grid_size 1).
-// Deterministic.
+// `pair_weights`: the pairs' strengths (the mapper: their inliers), parallel
+// to `pairs`, choosing the pairs of the pair quota (PairQuotaPairs); empty:
+// the number of tracks spanning each pair. Deterministic.
 std::vector<size_t> SelectTracksForPositioning(
     const PositioningTrackSelectionOptions& options,
     const std::vector<Track>& tracks,
     const std::vector<std::pair<image_t, image_t>>& pairs,
-    const ObservationCellFn& cell = nullptr);
+    const ObservationCellFn& cell = nullptr,
+    const std::vector<double>& pair_weights = {});
 
 }  // namespace colmap_irav4

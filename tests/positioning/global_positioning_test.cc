@@ -144,6 +144,102 @@ TEST(GlobalPositioning, OptionsCheck) {
   options = GlobalPositionerOptions();
   options.min_track_length = 1;
   EXPECT_THROW(options.Check(), InputError);
+  options = GlobalPositionerOptions();
+  options.iterative_schur_min_density = -0.1;
+  EXPECT_THROW(options.Check(), OptionError);
+  options = GlobalPositionerOptions();
+  options.iterative_schur_dense_min_num_images = -1;
+  EXPECT_THROW(options.Check(), OptionError);
+  EXPECT_TRUE(ParseEnum("iterative_schur", &options.linear_solver));
+  EXPECT_EQ(options.linear_solver, PositioningLinearSolver::kIterativeSchur);
+}
+
+TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
+  GlobalPositionerOptions options;
+  options.iterative_schur_min_num_images = 5000;
+  options.iterative_schur_dense_min_num_images = 2000;
+  options.iterative_schur_min_density = 0.2;
+  // The defaults: the 5,000-image photo scene (4,953 images, 8.8% of the
+  // pairs) iterative, the 1,000-image one (990, 16.3%) sparse.
+  ceres::Solver::Options defaults;
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 4953, 0.088,
+                                &defaults);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 990, 0.163,
+                                &defaults);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
+  auto choose = [&](int num_images, double density,
+                    ceres::Solver::Options* ceres_options) {
+    return ChoosePositioningLinearSolver(options, num_images, density,
+                                         ceres_options);
+  };
+  ceres::Solver::Options ceres_options;
+  choose(30, 1.0, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::DENSE_SCHUR);
+  // The 1,000-image courtyard or photo scene: sparse Cholesky is cheap.
+  choose(1000, 0.6, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  choose(3000, 0.05, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  // Dense and large: neither the reduced system nor its factor is stored.
+  ceres_options = ceres::Solver::Options();
+  const std::string dense = choose(3000, 0.4, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  EXPECT_EQ(ceres_options.preconditioner_type, ceres::SCHUR_JACOBI);
+  EXPECT_FALSE(ceres_options.use_explicit_schur_complement);
+  EXPECT_NE(dense.find("dense reduced camera system"), std::string::npos)
+      << dense;
+  EXPECT_NE(dense.find("3000 images, 40.0% of pairs"), std::string::npos)
+      << dense;
+  // Large whatever the density (or unknown).
+  const std::string large = choose(6000, -1, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  EXPECT_NE(large.find("at least 5000 images"), std::string::npos) << large;
+  // Asked: whatever the size.
+  options.linear_solver = PositioningLinearSolver::kSparseSchur;
+  choose(6000, 0.9, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  options.linear_solver = PositioningLinearSolver::kIterativeSchur;
+  choose(60, 0.01, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+}
+
+TEST(GlobalPositioning, SchurDensityCountsThePairsSharingAPoint) {
+  Reconstruction reconstruction;
+  Camera camera;
+  camera.camera_id = 1;
+  reconstruction.cameras[1] = camera;
+  for (image_t image_id = 1; image_id <= 4; ++image_id) {
+    Image image;
+    image.image_id = image_id;
+    image.camera_id = 1;
+    image.points2D.resize(2);
+    reconstruction.images[image_id] = image;
+  }
+  EXPECT_EQ(PositioningSchurDensity(reconstruction), 0.0);
+  // Tracks (1, 2, 3) and (3, 4): pairs 12, 13, 23, 34 of 6.
+  AddTracksToReconstruction({{{1, 0}, {2, 0}, {3, 0}}, {{3, 1}, {4, 0}}},
+                            &reconstruction);
+  EXPECT_DOUBLE_EQ(PositioningSchurDensity(reconstruction), 4.0 / 6.0);
+  EXPECT_EQ(PositioningSchurDensity(reconstruction, 3), -1.0);
+}
+
+TEST(GlobalPositioning, IterativeSchurRecoversTheSameCenters) {
+  const SyntheticSceneOptions scene_options = SceneOptions();
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  Reconstruction reconstruction = PrepareFromTracks(scene);
+  GlobalPositionerOptions options;
+  options.linear_solver = PositioningLinearSolver::kIterativeSchur;
+  options.solver.ceres.function_tolerance = 1e-10;
+  options.solver.ceres.parameter_tolerance = 1e-10;
+  GlobalPositionerSummary summary;
+  ASSERT_TRUE(RunGlobalPositioning(options, &reconstruction, &summary));
+  EXPECT_EQ(summary.linear_solver, "ITERATIVE_SCHUR");
+  EXPECT_NE(summary.linear_solver_reason.find("asked"), std::string::npos);
+  EXPECT_EQ(reconstruction.images.size(), 15u);
+  EXPECT_LT(MaxRelativeCenterError(reconstruction, scene.truth,
+                                   scene_options.arc_radius),
+            1e-4);
 }
 
 }  // namespace

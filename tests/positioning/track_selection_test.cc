@@ -171,6 +171,113 @@ TEST(TrackSelection, GridKeepsThePairQuota) {
             0);
 }
 
+// Two dense clusters of `n` images each (every pair of a cluster a view-graph
+// pair with 15 two-image tracks, as a photo collection's graph), tied by one
+// pair (n, n + 1) of 12 tracks, the weakest pair of the graph.
+struct DenseClusters {
+  std::vector<Track> tracks;
+  std::vector<std::pair<image_t, image_t>> pairs;
+  explicit DenseClusters(image_t n) {
+    for (const image_t first : {image_t{1}, n + 1}) {
+      for (image_t a = first; a < first + n; ++a) {
+        for (image_t b = a + 1; b < first + n; ++b) {
+          pairs.emplace_back(a, b);
+          for (int k = 0; k < 15; ++k) tracks.push_back(MakeTrack({a, b}));
+        }
+      }
+    }
+    pairs.emplace_back(n, n + 1);
+    for (int k = 0; k < 12; ++k) tracks.push_back(MakeTrack({n, n + 1}));
+  }
+  size_t NumObservations(const std::vector<size_t>& selected) const {
+    size_t num = 0;
+    for (const size_t k : selected) num += tracks[k].size();
+    return num;
+  }
+  int NumBridgeTracks(const std::vector<size_t>& selected, image_t n) const {
+    return static_cast<int>(
+        std::count_if(selected.begin(), selected.end(), [&](size_t k) {
+          return tracks[k][0].image_id == n && tracks[k][1].image_id == n + 1;
+        }));
+  }
+};
+
+TEST(TrackSelection, PairQuotaOnASparseSubgraphGrowsLinearlyWithTheImages) {
+  PositioningTrackSelectionOptions options;
+  options.tracks_per_image = 20;
+  options.tracks_per_pair = 10;
+  options.quota_pairs_per_image = 3;
+  const DenseClusters small(20);
+  const DenseClusters large(40);
+  const std::vector<size_t> small_selected =
+      SelectTracksForPositioning(options, small.tracks, small.pairs);
+  const std::vector<size_t> large_selected =
+      SelectTracksForPositioning(options, large.tracks, large.pairs);
+  // The bridge, the weakest pair and no image's strongest, keeps its tracks:
+  // it is in every spanning forest.
+  EXPECT_EQ(small.NumBridgeTracks(small_selected, 20), 10);
+  EXPECT_EQ(large.NumBridgeTracks(large_selected, 40), 10);
+  // Twice the images (four times the pairs): about twice the observations.
+  const double ratio =
+      static_cast<double>(large.NumObservations(large_selected)) /
+      small.NumObservations(small_selected);
+  EXPECT_LT(ratio, 2.2);
+  EXPECT_GT(ratio, 1.8);
+  // Bounded per image: the forest and 3 strongest pairs per image, 10
+  // tracks of 2 observations each, and each image's quota of 20.
+  EXPECT_LE(large.NumObservations(large_selected),
+            (79u + 3 * 80) * 10 * 2 + 80 * 20 * 2);
+
+  // The quota on every pair: the observations follow the pairs.
+  options.quota_pairs_per_image = -1;
+  const std::vector<size_t> small_all =
+      SelectTracksForPositioning(options, small.tracks, small.pairs);
+  const std::vector<size_t> large_all =
+      SelectTracksForPositioning(options, large.tracks, large.pairs);
+  EXPECT_GT(static_cast<double>(large.NumObservations(large_all)) /
+                small.NumObservations(small_all),
+            3.5);
+  EXPECT_EQ(large.NumBridgeTracks(large_all, 40), 10);
+}
+
+TEST(TrackSelection, PairQuotaPairsKeepTheBridgesAndEachImagesStrongest) {
+  // A path 1-2-3-4 of weak pairs plus strong pairs (1, 3) and (2, 4), and a
+  // chord (1, 4) weaker than all.
+  const std::vector<std::pair<image_t, image_t>> pairs = {
+      {1, 2}, {2, 3}, {3, 4}, {1, 3}, {2, 4}, {1, 4}, {4, 5}};
+  const std::vector<double> weights = {5, 6, 7, 50, 40, 1, 2};
+  // The forest: (1, 3), (2, 4), then (3, 4) joins them; (4, 5) the bridge.
+  EXPECT_EQ(PairQuotaPairs(pairs, weights, 0),
+            (std::vector<size_t>{2, 3, 4, 6}));
+  // ... and each image's strongest: 1 -> (1, 3), 2 -> (2, 4), 3 -> (1, 3),
+  // 4 -> (2, 4), 5 -> (4, 5): nothing more.
+  EXPECT_EQ(PairQuotaPairs(pairs, weights, 1),
+            (std::vector<size_t>{2, 3, 4, 6}));
+  // Two each: also 1 -> (1, 2), 2 -> (2, 3), 3 and 4 -> (3, 4).
+  EXPECT_EQ(PairQuotaPairs(pairs, weights, 2),
+            (std::vector<size_t>{0, 1, 2, 3, 4, 6}));
+  EXPECT_EQ(PairQuotaPairs(pairs, weights, -1).size(), pairs.size());
+}
+
+TEST(TrackSelection, PairQuotaWeightsGivenOrCounted) {
+  const TwoChains scene;
+  PositioningTrackSelectionOptions options;
+  options.tracks_per_image = 10;
+  options.tracks_per_pair = 10;
+  options.quota_pairs_per_image = 0;  // the spanning forest only
+  // Counted from the tracks or the inliers given: the junction is a bridge.
+  EXPECT_EQ(scene.NumJunctionTracks(
+                SelectTracksForPositioning(options, scene.tracks, scene.pairs)),
+            10);
+  const std::vector<double> weights(scene.pairs.size(), 1.0);
+  EXPECT_EQ(scene.NumJunctionTracks(SelectTracksForPositioning(
+                options, scene.tracks, scene.pairs, nullptr, weights)),
+            10);
+  options.quota_pairs_per_image = -2;
+  EXPECT_THROW(SelectTracksForPositioning(options, scene.tracks, scene.pairs),
+               OptionError);
+}
+
 TEST(TrackSelection, GridCellOfAKeypoint) {
   EXPECT_EQ(GridCell(0, 0, 1600, 1200, 4), 0);
   EXPECT_EQ(GridCell(1599, 0, 1600, 1200, 4), 3);

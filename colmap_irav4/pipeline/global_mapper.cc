@@ -552,6 +552,10 @@ bool GlobalMapper::IterativeBundleAdjustment() {
             options_.filtering, &reconstruction_, &keypoint_noise_);
         stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
         stage.Add("solves", static_cast<double>(ba_summary.num_solves));
+        if (ba_summary.num_linear_iterations > 0) {
+          stage.Add("conjugate gradient iterations",
+                    static_cast<double>(ba_summary.num_linear_iterations));
+        }
         if (ba_summary.num_images_left_out > 0) {
           stage.Add("images left out (few observations)",
                     static_cast<double>(ba_summary.num_images_left_out));

@@ -370,6 +370,17 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "observations");
   manager->Add("BundleAdjustment.schur_linear_solver", &ba.schur_linear_solver,
                EnumNameList<SchurLinearSolver>());
+  manager->Add("BundleAdjustment.schur_max_factor_mib",
+               &ba.schur_max_factor_mib,
+               "Schur solver, schur_linear_solver auto: iterative when the "
+               "Cholesky factor would take more MiB");
+  manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
+               "Schur solver, iterative: conjugate gradients stop at a "
+               "residual of min(eta, sqrt(|b| / |b_0|)) |b|");
+  manager->Add("BundleAdjustment.schur_max_cg_iterations",
+               &ba.schur_max_cg_iterations,
+               "Schur solver, iterative: at most this many conjugate gradient "
+               "iterations per step");
   manager->Add("BundleAdjustment.rejected_start_trust_region_radius",
                &ba.rejected_start_trust_region_radius,
                "Schur solver: after a rejected first step, the trust "

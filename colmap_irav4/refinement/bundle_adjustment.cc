@@ -183,8 +183,13 @@ class BundleAdjustmentProblem {
                   (options.num_rounds > 1 && options.max_reproj_error > 0)),
         ordering_(std::make_shared<ceres::ParameterBlockOrdering>()) {
     if (schur_) {
-      schur_adjuster_ = std::make_unique<SchurBundleAdjuster>(
-          use_centers_, options.schur_linear_solver);
+      SchurSolverOptions schur_options;
+      schur_options.linear_solver = options.schur_linear_solver;
+      schur_options.max_factor_mib = options.schur_max_factor_mib;
+      schur_options.eta = options.schur_iterative_eta;
+      schur_options.max_cg_iterations = options.schur_max_cg_iterations;
+      schur_adjuster_ =
+          std::make_unique<SchurBundleAdjuster>(use_centers_, schur_options);
     }
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -280,7 +285,8 @@ class BundleAdjustmentProblem {
   struct SolveSummary {
     ceres::TerminationType termination = ceres::FAILURE;
     std::string message;
-    int num_iterations = 0;  // Ceres' count (iteration 0 included)
+    int num_iterations = 0;         // Ceres' count (iteration 0 included)
+    int num_linear_iterations = 0;  // the Schur solver's conjugate gradients
     double preprocessor_seconds = 0;
     double linear_solver_seconds = 0;
     std::string linear_solver;
@@ -299,9 +305,11 @@ class BundleAdjustmentProblem {
       summary.termination = schur.termination;
       summary.message = schur.message;
       summary.num_iterations = schur.num_iterations;
+      summary.num_linear_iterations = schur.num_linear_iterations;
       summary.linear_solver_seconds = schur.linear_solver_seconds;
-      summary.linear_solver =
-          schur.supernodal ? "SCHUR_SUPERNODAL_LLT" : "SCHUR_SIMPLICIAL_LLT";
+      summary.linear_solver = schur.iterative    ? "SCHUR_ITERATIVE_PCG"
+                              : schur.supernodal ? "SCHUR_SUPERNODAL_LLT"
+                                                 : "SCHUR_SIMPLICIAL_LLT";
       linear_solver_reason_ =
           "schur (ours): " + std::to_string(schur.num_reduced_parameters) +
           " reduced parameters, " + std::to_string(schur.num_reduced_nonzeros) +
@@ -1100,7 +1108,8 @@ const EnumNames<SchurLinearSolver>& NamesOf<SchurLinearSolver>() {
   static const EnumNames<SchurLinearSolver> names = {
       {SchurLinearSolver::kAuto, "auto"},
       {SchurLinearSolver::kSimplicial, "simplicial"},
-      {SchurLinearSolver::kSupernodal, "supernodal"}};
+      {SchurLinearSolver::kSupernodal, "supernodal"},
+      {SchurLinearSolver::kIterative, "iterative"}};
   return names;
 }
 
@@ -1158,6 +1167,21 @@ void BundleAdjustmentOptions::Check() const {
     throw OptionError(&min_num_image_observations,
                       "BundleAdjustment.min_num_image_observations",
                       "must be >= 0");
+  }
+  if (!(schur_max_factor_mib > 0)) {
+    throw OptionError(&schur_max_factor_mib,
+                      "BundleAdjustment.schur_max_factor_mib",
+                      "must be positive");
+  }
+  if (!(schur_iterative_eta > 0 && schur_iterative_eta < 1)) {
+    throw OptionError(&schur_iterative_eta,
+                      "BundleAdjustment.schur_iterative_eta",
+                      "must be in (0, 1)");
+  }
+  if (schur_max_cg_iterations < 1) {
+    throw OptionError(&schur_max_cg_iterations,
+                      "BundleAdjustment.schur_max_cg_iterations",
+                      "must be at least 1");
   }
   if (iterative_schur_min_num_images < 1) {
     throw OptionError(&iterative_schur_min_num_images,
@@ -1234,6 +1258,8 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
         const auto solve_from = [&](double initial_trust_region_radius) {
           solver_summary = problem.Solve(initial_trust_region_radius);
           local_summary.num_iterations += solver_summary.num_iterations;
+          local_summary.num_linear_iterations +=
+              solver_summary.num_linear_iterations;
           ++local_summary.num_solves;
           local_summary.preprocessor_seconds +=
               solver_summary.preprocessor_seconds;
@@ -1316,7 +1342,9 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
   local_summary.num_observations = NumObservations(*reconstruction);
   local_summary.seconds = timer.ElapsedSeconds();
   VLOG(1) << "Bundle adjustment: " << local_summary.num_rounds << " rounds, "
-          << local_summary.num_iterations << " iterations, reprojection error "
+          << local_summary.num_iterations << " iterations ("
+          << local_summary.num_linear_iterations
+          << " conjugate gradient), reprojection error "
           << local_summary.initial_mean_reproj_error << " -> "
           << local_summary.final_mean_reproj_error << " px, "
           << local_summary.num_observations_filtered

@@ -121,9 +121,20 @@ struct BundleAdjustmentOptions {
   BundleAdjustmentSolverBackend solver_backend =
       BundleAdjustmentSolverBackend::kAuto;
   int schur_min_num_observations = 20000;
-  // The Schur solver's factorisation (SchurLinearSolver): auto (supernodal
-  // once the factor is dense: photo collections), simplicial, supernodal.
+  // The Schur solver's linear solver (SchurLinearSolver): auto (iterative
+  // when the Cholesky factor would exceed schur_max_factor_mib, else
+  // supernodal once the factor is dense: photo collections), simplicial,
+  // supernodal, iterative (conjugate gradients, Schur-Jacobi preconditioner:
+  // no factor; docs/notes/2026-12-05-iterative-schur.md).
   SchurLinearSolver schur_linear_solver = SchurLinearSolver::kAuto;
+  // auto: iterative above this estimated factor size (MiB; a dense factor of
+  // 40,000 parameters, 5,000 photo images, would take 6,100; the 5,000-image
+  // photo scene's true tracks give 474).
+  double schur_max_factor_mib = 1024;
+  // Iterative: conjugate gradients stop at a residual of min(eta, sqrt(|b| /
+  // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
+  double schur_iterative_eta = 1e-3;
+  int schur_max_cg_iterations = 500;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
@@ -182,10 +193,12 @@ struct BundleAdjustmentSummary {
   int num_damped_restarts = 0;
   // Images left out for too few observations (min_num_image_observations).
   int num_images_left_out = 0;
-  int num_points = 0;                    // after the last round
-  int num_observations = 0;              // after the last round
-  int num_observations_filtered = 0;     // over all rounds
-  int num_iterations = 0;                // over all rounds
+  int num_points = 0;                 // after the last round
+  int num_observations = 0;           // after the last round
+  int num_observations_filtered = 0;  // over all rounds
+  int num_iterations = 0;             // over all rounds
+  // The Schur solver's conjugate gradient iterations (iterative), all rounds.
+  int num_linear_iterations = 0;
   double initial_mean_reproj_error = 0;  // px, before the first round
   double final_mean_reproj_error = 0;    // px, after filtering
   double seconds = 0;

@@ -177,7 +177,15 @@ struct SchurBundleAdjuster::Cholmod {
 
 SchurBundleAdjuster::SchurBundleAdjuster(bool center,
                                          SchurLinearSolver linear_solver)
-    : center_(center), linear_solver_(linear_solver) {}
+    : SchurBundleAdjuster(center, SchurSolverOptions{linear_solver}) {}
+
+SchurBundleAdjuster::SchurBundleAdjuster(bool center,
+                                         const SchurSolverOptions& options)
+    : center_(center), solver_options_(options) {
+  CHECK_GT(options.max_factor_mib, 0);
+  CHECK(options.eta > 0 && options.eta < 1);
+  CHECK_GT(options.max_cg_iterations, 0);
+}
 
 SchurBundleAdjuster::~SchurBundleAdjuster() = default;
 
@@ -473,29 +481,13 @@ void SchurBundleAdjuster::BuildStructure() {
     offset = column_height_[column];
     column_height_[column] += block_size_[row];
   }
-  outer_.assign(num_scalars_ + 1, 0);
   size_t num_values = 0;
   for (int b = 0; b < num_blocks; ++b) {
     column_begin_[b] = num_values;
-    for (int c = 0; c < block_size_[b]; ++c) {
-      outer_[block_offset_[b] + c] = static_cast<int>(num_values);
-      num_values += column_height_[b];
-    }
+    num_values += static_cast<size_t>(block_size_[b]) * column_height_[b];
   }
+  // (Value indexes are ints in the scalar pattern, 32 bits in the tables.)
   CHECK_LT(num_values, static_cast<size_t>(std::numeric_limits<int>::max()));
-  outer_[num_scalars_] = static_cast<int>(num_values);
-  inner_.assign(num_values, 0);
-  for (const auto& [cell, offset] : cell_offset_) {
-    const int column = static_cast<int>(cell >> 32);
-    const int row = static_cast<int>(cell & 0xffffffffu);
-    for (int c = 0; c < block_size_[column]; ++c) {
-      int* rows =
-          &inner_[column_begin_[column] + c * column_height_[column] + offset];
-      for (int r = 0; r < block_size_[row]; ++r) {
-        rows[r] = block_offset_[row] + r;
-      }
-    }
-  }
   values_.assign(num_values, 0.0);
   column_cells_.assign(num_blocks + 1, 0);
   for (const auto& [cell, offset] : cell_offset_) {
@@ -556,6 +548,260 @@ void SchurBundleAdjuster::BuildStructure() {
           << " entries (" << CellTableBytes() / 1048576.0 << " MiB)";
 }
 
+void SchurBundleAdjuster::BuildScalarPattern() {
+  outer_.assign(num_scalars_ + 1, 0);
+  for (size_t b = 0; b < block_size_.size(); ++b) {
+    for (int c = 0; c < block_size_[b]; ++c) {
+      outer_[block_offset_[b] + c] = static_cast<int>(
+          column_begin_[b] + static_cast<size_t>(c) * column_height_[b]);
+    }
+  }
+  outer_[num_scalars_] = static_cast<int>(values_.size());
+  inner_.assign(values_.size(), 0);
+  for (const auto& [cell, offset] : cell_offset_) {
+    const int column = static_cast<int>(cell >> 32);
+    const int row = static_cast<int>(cell & 0xffffffffu);
+    for (int c = 0; c < block_size_[column]; ++c) {
+      int* rows =
+          &inner_[column_begin_[column] + c * column_height_[column] + offset];
+      for (int r = 0; r < block_size_[row]; ++r) {
+        rows[r] = block_offset_[row] + r;
+      }
+    }
+  }
+}
+
+double SchurBundleAdjuster::EstimateFactorEntries() const {
+  const int num_blocks = static_cast<int>(block_size_.size());
+  const double n = num_scalars_;
+  const double dense = n * (n + 1) / 2;
+  if (num_blocks == 0) return 0;
+  // The block pattern (upper triangle, one entry a cell) as CHOLMOD's
+  // symmetric pattern matrix; cell_offset_ is sorted by column, then row.
+  std::vector<int> outer(column_cells_.begin(), column_cells_.end());
+  std::vector<int> inner(cell_offset_.size());
+  for (size_t k = 0; k < cell_offset_.size(); ++k) {
+    inner[k] = static_cast<int>(cell_offset_[k].first & 0xffffffffu);
+  }
+  cholmod_common common;
+  cholmod_start(&common);
+  common.print = 0;
+  common.supernodal = CHOLMOD_SIMPLICIAL;  // column counts, no row indexes
+  cholmod_sparse pattern{};
+  pattern.nrow = num_blocks;
+  pattern.ncol = num_blocks;
+  pattern.nzmax = inner.size();
+  pattern.p = outer.data();
+  pattern.i = inner.data();
+  pattern.stype = 1;
+  pattern.itype = CHOLMOD_INT;
+  pattern.xtype = CHOLMOD_PATTERN;
+  pattern.dtype = CHOLMOD_DOUBLE;
+  pattern.sorted = 1;
+  pattern.packed = 1;
+  cholmod_factor* factor = cholmod_analyze(&pattern, &common);
+  double entries = dense;  // the analysis failed: dense
+  if (factor != nullptr) {
+    // Column j of the block factor is block perm[j] with count[j] blocks
+    // (its diagonal one included): its diagonal block's upper triangle and
+    // the rows below at the mean block size.
+    const int* perm = static_cast<const int*>(factor->Perm);
+    const int* count = static_cast<const int*>(factor->ColCount);
+    const double mean_size = n / num_blocks;
+    entries = 0;
+    for (int j = 0; j < num_blocks; ++j) {
+      const double size = block_size_[perm[j]];
+      entries += size * (size + 1) / 2 + size * (count[j] - 1) * mean_size;
+    }
+    cholmod_free_factor(&factor, &common);
+  }
+  cholmod_finish(&common);
+  return std::min(entries, dense);
+}
+
+void SchurBundleAdjuster::MultiplyReduced(const Eigen::VectorXd& x,
+                                          Eigen::VectorXd* y) const {
+  y->setZero(num_scalars_);
+  double* out = y->data();
+  const double* in = x.data();
+  for (size_t cb = 0; cb < block_size_.size(); ++cb) {
+    const int cols = block_size_[cb];
+    const int col_offset = block_offset_[cb];
+    const int height = column_height_[cb];
+    const double* column = &values_[column_begin_[cb]];
+    for (size_t k = column_cells_[cb]; k < column_cells_[cb + 1]; ++k) {
+      const int rb = static_cast<int>(cell_offset_[k].first & 0xffffffffu);
+      const double* cell = column + cell_offset_[k].second;
+      const int rows = block_size_[rb];
+      const int row_offset = block_offset_[rb];
+      if (rb == static_cast<int>(cb)) {
+        // The diagonal block: its upper triangle, mirrored.
+        for (int c = 0; c < cols; ++c) {
+          const double* values = cell + static_cast<size_t>(c) * height;
+          double sum = values[c] * in[col_offset + c];
+          for (int r = 0; r < c; ++r) {
+            out[row_offset + r] += values[r] * in[col_offset + c];
+            sum += values[r] * in[row_offset + r];
+          }
+          out[col_offset + c] += sum;
+        }
+        continue;
+      }
+      // An off-diagonal block M: y_r += M x_c and y_c += M^T x_r.
+      for (int c = 0; c < cols; ++c) {
+        const double* values = cell + static_cast<size_t>(c) * height;
+        const double xc = in[col_offset + c];
+        double sum = 0;
+        for (int r = 0; r < rows; ++r) {
+          out[row_offset + r] += values[r] * xc;
+          sum += values[r] * in[row_offset + r];
+        }
+        out[col_offset + c] += sum;
+      }
+    }
+  }
+}
+
+bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
+                                         double relative_tolerance,
+                                         Eigen::VectorXd* step,
+                                         int* iterations) const {
+  const int n = num_scalars_;
+  *iterations = 0;
+  // The Schur-Jacobi preconditioner: the inverse of each group's diagonal
+  // block of the reduced system (PreconditionerGroups; diagonal blocks' upper
+  // triangles mirrored), packed.
+  constexpr int kMaxGroupSize = 6 + kMaxNumParams;
+  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0,
+                              kMaxGroupSize, kMaxGroupSize>;
+  using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxGroupSize, 1>;
+  const size_t num_groups = preconditioner_groups_.size();
+  auto group_size = [&](size_t g) {
+    const auto& [first, second] = preconditioner_groups_[g];
+    return block_size_[first] + (second >= 0 ? block_size_[second] : 0);
+  };
+  std::vector<size_t> inverse_begin(num_groups + 1, 0);
+  for (size_t g = 0; g < num_groups; ++g) {
+    inverse_begin[g + 1] =
+        inverse_begin[g] + static_cast<size_t>(group_size(g)) * group_size(g);
+  }
+  std::vector<double> inverses(inverse_begin[num_groups]);
+  for (size_t g = 0; g < num_groups; ++g) {
+    const auto& [first, second] = preconditioner_groups_[g];
+    const int size = group_size(g);
+    Block d(size, size);
+    int offset = 0;
+    for (const int b : {first, second}) {
+      if (b < 0) continue;
+      const double* cell = &values_[ValueIndex(b, b)];
+      for (int c = 0; c < block_size_[b]; ++c) {
+        for (int r = 0; r <= c; ++r) {
+          d(offset + r, offset + c) = d(offset + c, offset + r) =
+              cell[static_cast<size_t>(c) * column_height_[b] + r];
+        }
+      }
+      offset += block_size_[b];
+    }
+    if (second >= 0) {
+      // The coupling cell (first < second: stored in second's column).
+      const double* cell = &values_[ValueIndex(first, second)];
+      const int rows = block_size_[first];
+      for (int c = 0; c < block_size_[second]; ++c) {
+        for (int r = 0; r < rows; ++r) {
+          d(r, rows + c) = d(rows + c, r) =
+              cell[static_cast<size_t>(c) * column_height_[second] + r];
+        }
+      }
+    }
+    const Eigen::LLT<Block> llt(d);
+    if (llt.info() != Eigen::Success) return false;
+    Eigen::Map<Block>(&inverses[inverse_begin[g]], size, size) =
+        llt.solve(Block::Identity(size, size));
+  }
+  auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd* z) {
+    Vector local;
+    for (size_t g = 0; g < num_groups; ++g) {
+      const auto& [first, second] = preconditioner_groups_[g];
+      const int size = group_size(g);
+      const Eigen::Map<const Block> inverse(&inverses[inverse_begin[g]], size,
+                                            size);
+      if (second < 0) {
+        z->segment(block_offset_[first], size).noalias() =
+            inverse * r.segment(block_offset_[first], size);
+        continue;
+      }
+      const int rows = block_size_[first];
+      local.resize(size);
+      local.head(rows) = r.segment(block_offset_[first], rows);
+      local.tail(size - rows) = r.segment(block_offset_[second], size - rows);
+      local = (inverse * local).eval();
+      z->segment(block_offset_[first], rows) = local.head(rows);
+      z->segment(block_offset_[second], size - rows) = local.tail(size - rows);
+    }
+  };
+  step->setZero(n);
+  const double rhs_norm = rhs.norm();
+  if (!(rhs_norm > 0)) return std::isfinite(rhs_norm);
+  const double tolerance = relative_tolerance * rhs_norm;
+  Eigen::VectorXd r = rhs, z(n), p(n), q(n);
+  precondition(r, &z);
+  p = z;
+  double rz = r.dot(z);
+  for (int i = 0; i < solver_options_.max_cg_iterations; ++i) {
+    MultiplyReduced(p, &q);
+    const double pq = p.dot(q);
+    if (!(pq > 0)) {
+      // Not positive definite along p: a failure before any step, else the
+      // step so far (a descent direction of the model).
+      return i > 0;
+    }
+    const double alpha = rz / pq;
+    *step += alpha * p;
+    r -= alpha * q;
+    *iterations = i + 1;
+    if (r.norm() <= tolerance) break;
+    precondition(r, &z);
+    const double rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+  }
+  return true;
+}
+
+void SchurBundleAdjuster::BuildPreconditionerGroups() {
+  // Each camera block's refined pose blocks (-2: more than one).
+  std::vector<int> user(block_size_.size(), -1);
+  for (size_t i = 0; i < poses_.size(); ++i) {
+    const int a = pose_block_[i];
+    const int c = camera_block_[poses_[i].camera];
+    if (a < 0 || c < 0) continue;
+    user[c] = user[c] == -1 ? a : -2;
+  }
+  std::vector<int> partner(block_size_.size(), -1);
+  std::vector<bool> grouped(block_size_.size(), false);
+  for (size_t c = 0; c < block_size_.size(); ++c) {
+    const int a = user[c];
+    if (a < 0) continue;
+    // The coupling cell exists when the pose has a weighed observation.
+    const auto begin = cell_offset_.begin() + column_cells_[c];
+    const auto end = cell_offset_.begin() + column_cells_[c + 1];
+    const uint64_t cell =
+        static_cast<uint64_t>(c) << 32 | static_cast<uint32_t>(a);
+    const auto it =
+        std::lower_bound(begin, end, cell,
+                         [](const std::pair<uint64_t, int>& entry,
+                            uint64_t value) { return entry.first < value; });
+    if (it == end || it->first != cell) continue;
+    partner[a] = static_cast<int>(c);
+    grouped[c] = true;
+  }
+  for (size_t b = 0; b < block_size_.size(); ++b) {
+    if (!grouped[b]) {
+      preconditioner_groups_.push_back({static_cast<int>(b), partner[b]});
+    }
+  }
+}
+
 size_t SchurBundleAdjuster::CellTableBytes() const {
   return point_block_ids_begin_.capacity() * sizeof(size_t) +
          point_cells_begin_.capacity() * sizeof(size_t) +
@@ -565,13 +811,48 @@ size_t SchurBundleAdjuster::CellTableBytes() const {
 
 void SchurBundleAdjuster::AnalyzeReducedSystem() {
   cholmod_.reset();
-  if (num_scalars_ == 0 || linear_solver_ == SchurLinearSolver::kSimplicial) {
+  iterative_ = false;
+  factor_bytes_estimate_ = 0;
+  preconditioner_groups_.clear();
+  const SchurLinearSolver type = solver_options_.linear_solver;
+  // Iterative, or auto: the factor's size before it is allocated.
+  std::string estimate;
+  if (num_scalars_ > 0 && (type == SchurLinearSolver::kAuto ||
+                           type == SchurLinearSolver::kIterative)) {
+    factor_bytes_estimate_ = sizeof(double) * EstimateFactorEntries();
+    const double mib = factor_bytes_estimate_ / 1048576.0;
+    std::ostringstream size, rule;
+    size << std::setprecision(3) << "factor ~" << mib
+         << " MiB by the block pattern";
+    rule << " (auto: iterative above " << solver_options_.max_factor_mib
+         << " MiB)";
+    if (type == SchurLinearSolver::kIterative ||
+        mib > solver_options_.max_factor_mib) {
+      BuildPreconditionerGroups();
+    }
+    if (type == SchurLinearSolver::kIterative) {
+      iterative_ = true;
+      linear_solver_reason_ =
+          "iterative (conjugate gradients, Schur-Jacobi): asked, " + size.str();
+      return;
+    }
+    if (mib > solver_options_.max_factor_mib) {
+      iterative_ = true;
+      linear_solver_reason_ =
+          "iterative (conjugate gradients, Schur-Jacobi): " + size.str() +
+          rule.str();
+      return;
+    }
+    estimate = "; " + size.str() + rule.str();
+  }
+  BuildScalarPattern();
+  if (num_scalars_ == 0 || type == SchurLinearSolver::kSimplicial) {
     linear_solver_reason_ = "simplicial (Eigen): asked";
     return;
   }
   auto cholmod = std::make_unique<Cholmod>();
   cholmod_common& common = cholmod->common;
-  const bool automatic = linear_solver_ == SchurLinearSolver::kAuto;
+  const bool automatic = type == SchurLinearSolver::kAuto;
   common.supernodal = automatic ? CHOLMOD_AUTO : CHOLMOD_SUPERNODAL;
   common.supernodal_switch = kSupernodalMinFlopsPerEntry;
   cholmod_sparse reduced =
@@ -580,7 +861,7 @@ void SchurBundleAdjuster::AnalyzeReducedSystem() {
   if (cholmod->factor == nullptr) {
     linear_solver_reason_ =
         "simplicial (Eigen): CHOLMOD's analysis failed (status " +
-        std::to_string(common.status) + ")";
+        std::to_string(common.status) + ")" + estimate;
     LOG(WARNING) << "Schur bundle adjustment: " << linear_solver_reason_;
     return;
   }
@@ -594,10 +875,10 @@ void SchurBundleAdjuster::AnalyzeReducedSystem() {
               : std::string("asked"))
       << ")";
   if (!cholmod->factor->is_super) {
-    linear_solver_reason_ = "simplicial (Eigen)" + why.str();
+    linear_solver_reason_ = "simplicial (Eigen)" + why.str() + estimate;
     return;
   }
-  linear_solver_reason_ = "supernodal (CHOLMOD)" + why.str();
+  linear_solver_reason_ = "supernodal (CHOLMOD)" + why.str() + estimate;
   cholmod_ = std::move(cholmod);
 }
 
@@ -679,17 +960,28 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     NumberBlocks();
     BuildStructure();
     AnalyzeReducedSystem();
+    VLOG(1) << "Schur bundle adjustment: " << num_scalars_
+            << " reduced parameters; " << linear_solver_reason_;
   }
   const int n = num_scalars_;
   summary.num_reduced_parameters = n;
   summary.num_reduced_nonzeros = values_.size();
   summary.supernodal = cholmod_ != nullptr;
+  summary.iterative = iterative_;
+  summary.factor_bytes_estimate = factor_bytes_estimate_;
   summary.linear_solver_reason = linear_solver_reason_;
-  const Eigen::Map<const SparseMatrix> reduced(
-      n, n, static_cast<int>(values_.size()), outer_.data(), inner_.data(),
-      values_.data());
+  // The factorisations' view of the reduced system (not the iterative
+  // solver's: it has no scalar pattern).
+  const auto reduced = [&] {
+    return Eigen::Map<const SparseMatrix>(
+        n, n, static_cast<int>(values_.size()), outer_.data(), inner_.data(),
+        values_.data());
+  };
+  const bool simplicial = n > 0 && cholmod_ == nullptr && !iterative_;
   Eigen::SimplicialLLT<SparseMatrix, Eigen::Upper> llt;
-  if (n > 0 && cholmod_ == nullptr) llt.analyzePattern(reduced);
+  if (simplicial) llt.analyzePattern(reduced());
+  // Iterative: the first right-hand side's norm (the forcing term's scale).
+  double first_rhs_norm = -1;
 
   auto damped = [&options](double diagonal, double radius) {
     return std::clamp(diagonal, options.min_lm_diagonal,
@@ -989,10 +1281,21 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     linear_timer.Restart();
     const std::clock_t linear_clock = std::clock();
     bool solved = true;
-    if (n > 0 && cholmod_ != nullptr) {
+    int cg_iterations = 0;
+    if (n > 0 && iterative_) {
+      const double rhs_norm = rhs.norm();
+      if (first_rhs_norm < 0) first_rhs_norm = rhs_norm;
+      const double eta = first_rhs_norm > 0
+                             ? std::min(solver_options_.eta,
+                                        std::sqrt(rhs_norm / first_rhs_norm))
+                             : solver_options_.eta;
+      solved =
+          SolveIterative(rhs, eta, &step, &cg_iterations) && step.allFinite();
+      summary.num_linear_iterations += cg_iterations;
+    } else if (n > 0 && cholmod_ != nullptr) {
       solved = SolveSupernodal(rhs, &step) && step.allFinite();
-    } else if (n > 0) {
-      llt.factorize(reduced);
+    } else if (simplicial) {
+      llt.factorize(reduced());
       solved = llt.info() == Eigen::Success;
       if (solved) step = llt.solve(rhs);
       solved = solved && step.allFinite();
@@ -1152,7 +1455,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
             << ": cost " << cost << " -> " << candidate_cost << " (model "
             << model_cost << "), step " << std::sqrt(step_norm2) << ", radius "
-            << radius << "; linear solve " << linear_cpu_seconds << " CPU s of "
+            << radius << "; linear solve " << linear_cpu_seconds << " CPU s"
+            << (iterative_ ? " (" + std::to_string(cg_iterations) +
+                                 " conjugate gradient iterations)"
+                           : std::string())
+            << " of "
             << static_cast<double>(std::clock() - iteration_clock) /
                    CLOCKS_PER_SEC;
     if (std::isfinite(candidate_cost) && model_cost_change > 0 &&

@@ -12,13 +12,38 @@
 
 namespace colmap_irav4 {
 
-// The Cholesky factorisation of the reduced camera system: simplicial
-// (Eigen's SimplicialLLT, AMD: one column at a time), supernodal (CHOLMOD:
-// dense blocks of columns through BLAS, the faster once the factor is dense:
-// photo collections), or auto: supernodal when CHOLMOD's analysis counts at
-// least SchurBundleAdjuster::kSupernodalMinFlopsPerEntry flops per factor
-// entry (CHOLMOD's own switch; tiny or very sparse systems stay simplicial).
-enum class SchurLinearSolver { kAuto, kSimplicial, kSupernodal };
+// The solve of the reduced camera system: a Cholesky factorisation,
+// simplicial (Eigen's SimplicialLLT, AMD: one column at a time) or
+// supernodal (CHOLMOD: dense blocks of columns through BLAS, the faster once
+// the factor is dense: photo collections); iterative (preconditioned
+// conjugate gradients on the accumulated matrix, the Schur-Jacobi
+// preconditioner: no factor, its memory the matrix's nonzero blocks); or
+// auto: iterative when the factor would take more than
+// SchurSolverOptions::max_factor_mib (estimated before it is allocated, from
+// the symbolic analysis of the system's block pattern), else supernodal when
+// CHOLMOD's analysis counts at least
+// SchurBundleAdjuster::kSupernodalMinFlopsPerEntry flops per factor entry
+// (CHOLMOD's own switch; tiny or very sparse systems stay simplicial).
+enum class SchurLinearSolver { kAuto, kSimplicial, kSupernodal, kIterative };
+
+struct SchurSolverOptions {
+  SchurLinearSolver linear_solver = SchurLinearSolver::kAuto;
+  // auto: iterative when the Cholesky factor of the reduced system would
+  // take more than this many MiB (8 bytes a factor entry, the count
+  // estimated from the block pattern's symbolic analysis).
+  double max_factor_mib = 1024;
+  // Iterative: conjugate gradients stop once the residual is at most
+  // eta_k |b| (b: the reduced system's right-hand side), eta_k = min(eta,
+  // sqrt(|b| / |b_0|)) with b_0 the solve's first right-hand side: an
+  // inexact Newton step whose forcing term shrinks as Levenberg-Marquardt
+  // converges; or after max_cg_iterations. Ceres' eta is 0.1 (on its
+  // quadratic model's decrease): with 0.1 here the 300-image photo scene's
+  // weakest model came out 24% worse in rotation (the solves stop on the
+  // function tolerance short of the optimum), with 1e-3 as the
+  // factorisation's (docs/notes/2026-12-05-iterative-schur.md).
+  double eta = 1e-3;
+  int max_cg_iterations = 500;
+};
 
 // One weighted least-squares bundle adjustment solve without Ceres' problem:
 // Levenberg-Marquardt as Ceres' trust region minimizer runs it (the same
@@ -51,6 +76,7 @@ class SchurBundleAdjuster {
   // `center`: poses as rotation and projection centre (R (X - C)).
   explicit SchurBundleAdjuster(
       bool center, SchurLinearSolver linear_solver = SchurLinearSolver::kAuto);
+  SchurBundleAdjuster(bool center, const SchurSolverOptions& options);
   ~SchurBundleAdjuster();
 
   // SchurLinearSolver auto: supernodal from this many flops per factor entry
@@ -114,8 +140,15 @@ class SchurBundleAdjuster {
     int num_reduced_parameters = 0;    // size of the reduced camera system
     size_t num_reduced_nonzeros = 0;   // its stored (upper block) entries
     bool supernodal = false;           // CHOLMOD's supernodal factorisation
+    bool iterative = false;            // conjugate gradients
+    int num_linear_iterations = 0;     // conjugate gradients' (all solves)
+    // The Cholesky factor's size estimated from the block pattern (auto and
+    // iterative; 0: not estimated), bytes.
+    double factor_bytes_estimate = 0;
     // The factorisation and why, e.g. "supernodal (CHOLMOD): factor 1.2e+07
-    // entries, 2.1e+10 flops, 1750 per entry (auto: from 40)".
+    // entries, 2.1e+10 flops, 1750 per entry (auto: from 40)", or "iterative
+    // (conjugate gradients, Schur-Jacobi): factor ~6100 MiB (auto: from
+    // 1024 MiB)".
     std::string linear_solver_reason;
   };
   // Reads max_num_iterations, function/gradient/parameter_tolerance,
@@ -190,9 +223,33 @@ class SchurBundleAdjuster {
   void AnalyzeReducedSystem();
   // Factorises the reduced system and solves it for `rhs` (supernodal).
   bool SolveSupernodal(const Eigen::VectorXd& rhs, Eigen::VectorXd* step);
+  // The scalar CSC pattern of the reduced system (the factorisations').
+  void BuildScalarPattern();
+  // The number of entries of the Cholesky factor of the structure just
+  // built, estimated from the symbolic analysis (fill-reducing ordering and
+  // column counts, CHOLMOD) of its block pattern: each block column's rows
+  // counted at the mean block size.
+  double EstimateFactorEntries() const;
+  // y = S x for the reduced system's upper block triangle S (the upper
+  // triangles of its diagonal blocks).
+  void MultiplyReduced(const Eigen::VectorXd& x, Eigen::VectorXd* y) const;
+  // The preconditioner's groups of blocks: a pose with its own camera (one
+  // no other refined pose uses: a photo collection's image, whose focal
+  // length and pose are strongly coupled), every other block alone.
+  void BuildPreconditionerGroups();
+  // Conjugate gradients on the reduced system preconditioned by the inverses
+  // of its groups' diagonal blocks (Schur-Jacobi, by image); false when the
+  // system is not positive definite.
+  // `relative_tolerance`: on |r| / |rhs|; `iterations`: those run.
+  bool SolveIterative(const Eigen::VectorXd& rhs, double relative_tolerance,
+                      Eigen::VectorXd* step, int* iterations) const;
 
   const bool center_;
-  const SchurLinearSolver linear_solver_;
+  const SchurSolverOptions solver_options_;
+  bool iterative_ = false;  // the reduced system solved by SolveIterative
+  // BuildPreconditionerGroups': (block, its partner or -1), each block once.
+  std::vector<std::pair<int, int>> preconditioner_groups_;
+  double factor_bytes_estimate_ = 0;
   std::vector<CameraBlock> cameras_;
   std::vector<PoseBlock> poses_;
   std::vector<double*> point_blocks_;
@@ -212,7 +269,8 @@ class SchurBundleAdjuster {
   // column, sorted; column_cells_: each column's first cell in it.
   std::vector<std::pair<uint64_t, int>> cell_offset_;
   std::vector<size_t> column_cells_;
-  std::vector<int> outer_, inner_;  // CSC of the scalar matrix
+  // CSC of the scalar matrix (the factorisations only).
+  std::vector<int> outer_, inner_;
   // Per point eliminated when the structure was built (while within
   // kMaxCellTableBytes): its blocks (sorted, CSR by point) and the value
   // index of the cell of each pair of them (by local index i <= j at

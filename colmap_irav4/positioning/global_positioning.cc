@@ -122,33 +122,12 @@ std::string ChoosePositioningLinearSolver(
 
 double PositioningSchurDensity(const Reconstruction& reconstruction,
                                int max_num_images) {
-  const size_t n = reconstruction.images.size();
-  if (n < 2) return 0;
-  if (n > static_cast<size_t>(max_num_images)) return -1;
-  std::unordered_map<image_t, size_t> index;
-  for (const auto& [image_id, image] : reconstruction.images) {
-    index.emplace(image_id, index.size());
-  }
-  std::vector<bool> shared(n * n, false);
-  size_t num_shared = 0;
-  std::vector<size_t> images;
+  std::vector<const Track*> tracks;
+  tracks.reserve(reconstruction.points3D.size());
   for (const auto& [point3D_id, point] : reconstruction.points3D) {
-    images.clear();
-    for (const TrackElement& element : point.track) {
-      const auto it = index.find(element.image_id);
-      if (it != index.end()) images.push_back(it->second);
-    }
-    for (size_t a = 0; a < images.size(); ++a) {
-      for (size_t b = a + 1; b < images.size(); ++b) {
-        const size_t i = std::min(images[a], images[b]);
-        const size_t j = std::max(images[a], images[b]);
-        if (i == j || shared[i * n + j]) continue;
-        shared[i * n + j] = true;
-        ++num_shared;
-      }
-    }
+    tracks.push_back(&point.track);
   }
-  return static_cast<double>(num_shared) / (n * (n - 1) / 2.0);
+  return SchurDensity(tracks, max_num_images);
 }
 
 namespace {

@@ -136,9 +136,8 @@ std::string ChoosePositioningLinearSolver(
     const GlobalPositionerOptions& options, int num_images,
     double schur_density, ceres::Solver::Options* ceres_options);
 
-// The fraction of the n (n - 1) / 2 pairs of the model's n images that share
-// a point (0 for fewer than two images; -1 beyond max_num_images, where the
-// n^2 bits it takes would not be small).
+// SchurDensity of the model's points: the fraction of the pairs of the
+// images observing them that share a point.
 double PositioningSchurDensity(const Reconstruction& reconstruction,
                                int max_num_images = 30000);
 

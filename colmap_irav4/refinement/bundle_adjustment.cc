@@ -1022,38 +1022,6 @@ std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
          ": " + reason + " (" + size.str() + ")";
 }
 
-double SchurDensity(const std::vector<const Track*>& tracks,
-                    int max_num_images) {
-  std::unordered_map<image_t, size_t> index;
-  for (const Track* track : tracks) {
-    for (const TrackElement& element : *track) {
-      index.emplace(element.image_id, index.size());
-    }
-  }
-  const size_t n = index.size();
-  if (n < 2) return 0;
-  if (n > static_cast<size_t>(max_num_images)) return -1;
-  std::vector<bool> shared(n * n, false);
-  size_t num_shared = 0;
-  std::vector<size_t> images;
-  for (const Track* track : tracks) {
-    images.clear();
-    for (const TrackElement& element : *track) {
-      images.push_back(index.at(element.image_id));
-    }
-    for (size_t a = 0; a < images.size(); ++a) {
-      for (size_t b = a + 1; b < images.size(); ++b) {
-        const size_t i = std::min(images[a], images[b]);
-        const size_t j = std::max(images[a], images[b]);
-        if (i == j || shared[i * n + j]) continue;
-        shared[i * n + j] = true;
-        ++num_shared;
-      }
-    }
-  }
-  return static_cast<double>(num_shared) / (n * (n - 1) / 2.0);
-}
-
 template <>
 const EnumNames<BundleAdjustmentLoss>& NamesOf<BundleAdjustmentLoss>() {
   static const EnumNames<BundleAdjustmentLoss> names = {

@@ -7,6 +7,7 @@
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 #include "colmap_irav4/scene/pose_prior.h"
 #include "colmap_irav4/scene/reconstruction.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/ceres_solve.h"
 
 namespace colmap_irav4 {
@@ -272,13 +273,6 @@ PosePriorGate GatePosePriors(const Reconstruction& reconstruction,
 std::string ChooseLinearSolver(const BundleAdjustmentOptions& options,
                                int num_images, double schur_density,
                                ceres::Solver::Options* ceres_options);
-// The fraction of the n (n - 1) / 2 pairs of the n images observing the
-// points of `tracks` that share at least one point (0 for fewer than two
-// images; -1 beyond max_num_images, where the n^2 bits it takes would not
-// be small).
-double SchurDensity(const std::vector<const Track*>& tracks,
-                    int max_num_images = 30000);
-
 // Whether `options.solver_backend` sends a bundle adjustment of
 // `num_observations` observations to the Schur solver (pose priors or not:
 // both backends hold them); `reason` (may be null): why, e.g. "schur:

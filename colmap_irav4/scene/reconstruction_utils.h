@@ -64,4 +64,11 @@ struct DenseImageIndex {
 // Mean over points of the number of observations (0 without points).
 double MeanTrackLength(const Reconstruction& reconstruction);
 
+// The fraction of the n (n - 1) / 2 pairs of the n images observing the
+// points of `tracks` that share at least one point (0 for fewer than two
+// images; -1 beyond max_num_images, where the n^2 bits it takes would not
+// be small).
+double SchurDensity(const std::vector<const Track*>& tracks,
+                    int max_num_images = 30000);
+
 }  // namespace colmap_irav4

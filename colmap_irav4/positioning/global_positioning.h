@@ -81,9 +81,12 @@ struct GlobalPositionerOptions {
   // sparse Cholesky factor of the reduced system in: at 4,953 photo images
   // (8.8% of the pairs share a point, 6.7 M observations) 65 CPU s per
   // iteration and a 5.3 GB peak; at 990 (16.3%) SPARSE_SCHUR is still cheap
-  // (docs/notes/2026-12-05-positioning-density.md).
+  // (docs/notes/2026-12-05-positioning-density.md). The size rule starts
+  // where the density is no longer counted (30,000 images): the sparse
+  // 10,000-image courtyard was measured with SPARSE_SCHUR (8.2 GB peak),
+  // not with ITERATIVE_SCHUR.
   PositioningLinearSolver linear_solver = PositioningLinearSolver::kAuto;
-  int iterative_schur_min_num_images = 10000;
+  int iterative_schur_min_num_images = 30000;
   int iterative_schur_dense_min_num_images = 2000;
   double iterative_schur_min_density = 0.05;
   // Weights of the pose priors (used only when priors are given).

@@ -783,15 +783,7 @@ void SchurBundleAdjuster::BuildPreconditionerGroups() {
     const int a = user[c];
     if (a < 0) continue;
     // The coupling cell exists when the pose has a weighed observation.
-    const auto begin = cell_offset_.begin() + column_cells_[c];
-    const auto end = cell_offset_.begin() + column_cells_[c + 1];
-    const uint64_t cell =
-        static_cast<uint64_t>(c) << 32 | static_cast<uint32_t>(a);
-    const auto it =
-        std::lower_bound(begin, end, cell,
-                         [](const std::pair<uint64_t, int>& entry,
-                            uint64_t value) { return entry.first < value; });
-    if (it == end || it->first != cell) continue;
+    if (FindCell(a, static_cast<int>(c)) < 0) continue;
     partner[a] = static_cast<int>(c);
     grouped[c] = true;
   }
@@ -913,7 +905,7 @@ bool SchurBundleAdjuster::SolveSupernodal(const Eigen::VectorXd& rhs,
   return true;
 }
 
-size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
+int SchurBundleAdjuster::FindCell(int row_block, int col_block) const {
   // The column's cells, by row block.
   const auto begin = cell_offset_.begin() + column_cells_[col_block];
   const auto end = cell_offset_.begin() + column_cells_[col_block + 1];
@@ -923,8 +915,13 @@ size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
       std::lower_bound(begin, end, cell,
                        [](const std::pair<uint64_t, int>& entry,
                           uint64_t value) { return entry.first < value; });
-  CHECK(it != end && it->first == cell);
-  return column_begin_[col_block] + it->second;
+  return it != end && it->first == cell ? it->second : -1;
+}
+
+size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
+  const int offset = FindCell(row_block, col_block);
+  CHECK_GE(offset, 0);
+  return column_begin_[col_block] + offset;
 }
 
 SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(

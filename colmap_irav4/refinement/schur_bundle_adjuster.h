@@ -217,6 +217,10 @@ class SchurBundleAdjuster {
   double Cost(const std::vector<double>& poses,
               const std::vector<double>& cameras,
               const std::vector<double>& points) const;
+  // The offset of cell (row_block, col_block) in its column's values, -1
+  // when the pattern has no such cell.
+  int FindCell(int row_block, int col_block) const;
+  // The index in values_ of an existing cell.
   size_t ValueIndex(int row_block, int col_block) const;
   // Chooses the factorisation of the structure just built (CHOLMOD's
   // symbolic analysis, kept for the supernodal one).

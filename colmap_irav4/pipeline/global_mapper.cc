@@ -333,6 +333,9 @@ bool GlobalMapper::BuildTracks() {
   // Global positioning needs only enough tracks to tie every camera down;
   // the others are triangulated from the refined poses afterwards.
   std::vector<size_t> selected;
+  // Parallel to `selected`: the observations each gives positioning.
+  std::vector<Track> selected_observations;
+  positioning_dropped_.clear();
   if (global_positioning) {
     const PositioningTrackSelectionOptions& selection =
         options_.positioning_tracks;
@@ -352,7 +355,7 @@ bool GlobalMapper::BuildTracks() {
                       static_cast<double>(camera.height), selection.grid_size);
     };
     selected = SelectTracksForPositioning(selection, tracks_, pair_ids, cell,
-                                          pair_inliers);
+                                          pair_inliers, &selected_observations);
   }
   // The cap: positioning's tracks first (they keep every pair tied), then
   // the longest; the others are dropped.
@@ -372,10 +375,19 @@ bool GlobalMapper::BuildTracks() {
     for (size_t k = 0; k < cap; ++k) keep[order[k]] = 1;
     std::vector<Track> kept;
     std::vector<size_t> kept_selected;
+    std::vector<Track> kept_observations;
     kept.reserve(cap);
+    size_t next_selected = 0;  // `selected` is increasing
     for (size_t k = 0; k < tracks_.size(); ++k) {
+      const bool is_selected =
+          next_selected < selected.size() && selected[next_selected] == k;
+      if (is_selected) ++next_selected;
       if (!keep[k]) continue;
-      if (priority[k]) kept_selected.push_back(kept.size());
+      if (is_selected) {
+        kept_selected.push_back(kept.size());
+        kept_observations.push_back(
+            std::move(selected_observations[next_selected - 1]));
+      }
       kept.push_back(std::move(tracks_[k]));
     }
     num_capped = tracks_.size() - kept.size();
@@ -386,14 +398,15 @@ bool GlobalMapper::BuildTracks() {
                     "the cap or set it to 0 for all)";
     tracks_ = std::move(kept);
     selected = std::move(kept_selected);
+    selected_observations = std::move(kept_observations);
     // A cap that leaves a camera with too few of positioning's observations
     // cannot place it: the model would be wrong (cameras hundreds of metres
     // off), not smaller. 5: a camera centre's 3 unknowns with some margin.
     if (global_positioning) {
       constexpr int kMinObservations = 5;
       std::map<image_t, int> observations;
-      for (const size_t k : selected) {
-        for (const TrackElement& element : tracks_[k]) {
+      for (const Track& track : selected_observations) {
+        for (const TrackElement& element : track) {
           ++observations[element.image_id];
         }
       }
@@ -414,12 +427,41 @@ bool GlobalMapper::BuildTracks() {
   }
   size_t num_positioning_tracks = 0;
   if (global_positioning) {
-    std::vector<Track> positioning_tracks;
-    positioning_tracks.reserve(selected.size());
-    for (const size_t k : selected) positioning_tracks.push_back(tracks_[k]);
-    AddTracksToReconstruction(positioning_tracks, &reconstruction_);
-    num_positioning_tracks = positioning_tracks.size();
+    const std::vector<point3D_t> point3D_ids =
+        AddTracksToReconstruction(selected_observations, &reconstruction_);
+    num_positioning_tracks = selected.size();
+    // The observations the cap left out, to be added back after positioning.
+    size_t num_observations = 0;
+    for (size_t i = 0; i < selected.size(); ++i) {
+      const Track& track = tracks_[selected[i]];
+      const Track& kept = selected_observations[i];
+      num_observations += track.size();
+      if (kept.size() == track.size()) continue;
+      // `kept` is a subsequence of `track`.
+      size_t j = 0;
+      for (const TrackElement& element : track) {
+        if (j < kept.size() && kept[j].image_id == element.image_id &&
+            kept[j].point2D_idx == element.point2D_idx) {
+          ++j;
+        } else {
+          positioning_dropped_.emplace_back(point3D_ids[i], element);
+        }
+      }
+    }
+    if (!positioning_dropped_.empty()) {
+      LOG(INFO) << log_prefix_ << "positioning: " << positioning_dropped_.size()
+                << " of " << num_observations << " observations of its "
+                << selected.size()
+                << " tracks left out by "
+                   "--Mapper.positioning_max_observations_per_image "
+                << options_.positioning_tracks.max_observations_per_image
+                << " (added back after it)";
+      stage.Add("positioning observations left out (per-image cap)",
+                static_cast<double>(positioning_dropped_.size()));
+    }
   }
+  selected_observations.clear();
+  selected_observations.shrink_to_fit();
   stage.Add("tracks", static_cast<double>(track_stats.num_tracks));
   stage.Add("tracks for positioning",
             static_cast<double>(num_positioning_tracks));
@@ -440,6 +482,19 @@ bool GlobalMapper::Positioning() {
             options_.global_positioning, &reconstruction_, &positioner_summary,
             options_.use_pose_priors ? &database_.pose_priors : nullptr)) {
       return Fail("global positioning failed");
+    }
+    if (!positioning_dropped_.empty()) {
+      const size_t num_restored = RestorePositioningObservations(
+          positioning_dropped_,
+          options_.global_positioning.max_angular_error_deg, &reconstruction_);
+      stage.Add("observations added back (per-image cap)",
+                static_cast<double>(num_restored));
+      LOG(INFO) << log_prefix_ << "positioning: " << num_restored << " of "
+                << positioning_dropped_.size()
+                << " observations left out of it added back (within "
+                << options_.global_positioning.max_angular_error_deg << " deg)";
+      positioning_dropped_.clear();
+      positioning_dropped_.shrink_to_fit();
     }
     // Pose priors: the model is in their frame from here on.
     in_prior_frame_ = positioner_summary.in_prior_frame;

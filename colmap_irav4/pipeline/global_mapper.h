@@ -299,6 +299,9 @@ class GlobalMapper {
   std::map<image_t, Eigen::Matrix3d> rotations_;
   std::vector<Track> tracks_;
   Reconstruction reconstruction_;
+  // The observations of positioning's points left out of its problem by
+  // --Mapper.positioning_max_observations_per_image, added back after it.
+  std::vector<std::pair<point3D_t, TrackElement>> positioning_dropped_;
   bool retriangulated_ = false;
   // Whether a bundle adjustment of the model succeeded (the model to fall
   // back on when a later one fails).

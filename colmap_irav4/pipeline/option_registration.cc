@@ -587,6 +587,14 @@ void AddGlobalMapperOptions(OptionManager* manager,
                &selection.quota_pairs_per_image,
                "... the pairs of a maximum spanning forest by inliers and "
                "each image's this many strongest pairs (-1: every pair)");
+  manager->Add("Mapper.positioning_max_observations_per_image",
+               &selection.max_observations_per_image,
+               "a selected track gives positioning only its observations in "
+               "images with fewer than this many yet (and those that selected "
+               "it, at least 3); the others are added back after it (0: all)");
+  manager->Add("Mapper.positioning_max_observations_min_num_images",
+               &selection.max_observations_min_num_images,
+               "... from this many images in the tracks (0: always)");
   manager->Add("Mapper.skip_rotation_filter", &o.skip_rotation_filter,
                "skip the rotation-consistency filter");
   manager->Add("Mapper.skip_bundle_adjustment", &o.skip_bundle_adjustment,

@@ -5,6 +5,7 @@
 #include <utility>
 #include <vector>
 
+#include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/types.h"
 
@@ -42,6 +43,19 @@ struct PositioningTrackSelectionOptions {
   // fold cut and models then came out differently, not better), so every
   // pair by default (docs/notes/2026-12-05-positioning-density.md).
   int quota_pairs_per_image = -1;
+  // Observations per image in the positioning problem: a selected track
+  // gives positioning its observations that selected it (below a cell's,
+  // image's or pair's quota), those in images with fewer than this many
+  // kept so far (selection order) and at least 3 (positioning's shortest
+  // track); its others are added back after positioning (0: all). On dense
+  // graphs the long tracks otherwise put ~1,350 observations per image into
+  // the problem at 5,000 photo images, ~570 bytes each at the peak
+  // (docs/notes/2026-12-05-positioning-observation-cap.md).
+  int max_observations_per_image = 1000;
+  // ... from this many images in the tracks: below, the problem is small
+  // (< 1.5 GB at 2,000 photo images) and small scenes with long tracks
+  // (castle-P19: up to ~1,300 per image) keep every observation.
+  int max_observations_min_num_images = 2000;
 
   // Throws OptionError naming the offending option.
   void Check() const;
@@ -70,12 +84,25 @@ std::vector<size_t> PairQuotaPairs(
 // observation's grid cell (GridCell); null: no spreading (as grid_size 1).
 // `pair_weights`: the pairs' strengths (the mapper: their inliers), parallel
 // to `pairs`, choosing the pairs of the pair quota (PairQuotaPairs); empty:
-// the number of tracks spanning each pair. Deterministic.
+// the number of tracks spanning each pair. `observations`: if not null,
+// parallel to the result, each selected track's observations positioning
+// uses (all of them unless max_observations_per_image drops some; in the
+// track's order). Deterministic.
 std::vector<size_t> SelectTracksForPositioning(
     const PositioningTrackSelectionOptions& options,
     const std::vector<Track>& tracks,
     const std::vector<std::pair<image_t, image_t>>& pairs,
     const ObservationCellFn& cell = nullptr,
-    const std::vector<double>& pair_weights = {});
+    const std::vector<double>& pair_weights = {},
+    std::vector<Track>* observations = nullptr);
+
+// Links the observations `dropped` (a point and one of its track's
+// observations left out of positioning) to their point when the point and
+// the observation's image are in the model, the keypoint is free and its
+// bearing is within max_angular_error_deg of the ray from the camera centre
+// to the point (positioning's own filter; 0: always). Returns how many.
+size_t RestorePositioningObservations(
+    const std::vector<std::pair<point3D_t, TrackElement>>& dropped,
+    double max_angular_error_deg, Reconstruction* reconstruction);
 
 }  // namespace colmap_irav4

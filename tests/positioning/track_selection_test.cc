@@ -1,10 +1,13 @@
 #include "colmap_irav4/positioning/track_selection.h"
 
 #include <algorithm>
+#include <map>
 #include <set>
 
 #include <gtest/gtest.h>
 
+#include "colmap_irav4/eval/synthetic_scene.h"
+#include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 
 namespace colmap_irav4 {
@@ -88,6 +91,14 @@ TEST(TrackSelection, ZeroPerImageQuotaSelectsEveryTrack) {
 }
 
 TEST(TrackSelection, RejectsNegativeQuotas) {
+  {
+    PositioningTrackSelectionOptions options;
+    options.max_observations_per_image = -1;
+    EXPECT_THROW(options.Check(), OptionError);
+    options.max_observations_per_image = 1000;
+    options.max_observations_min_num_images = -1;
+    EXPECT_THROW(options.Check(), OptionError);
+  }
   const TwoChains scene;
   PositioningTrackSelectionOptions options;
   options.tracks_per_pair = -1;
@@ -276,6 +287,174 @@ TEST(TrackSelection, PairQuotaWeightsGivenOrCounted) {
   options.quota_pairs_per_image = -2;
   EXPECT_THROW(SelectTracksForPositioning(options, scene.tracks, scene.pairs),
                OptionError);
+}
+
+// Images 1-9 share 100 tracks seen by all nine; image 10 is seen only by 20
+// shorter tracks that also cross images 1-5. Quota 50: the first 50 long
+// tracks fill images 1-9, then each short track is selected for image 10.
+struct CrossingTracks {
+  std::vector<Track> tracks;
+  CrossingTracks() {
+    for (int k = 0; k < 100; ++k) {
+      tracks.push_back(MakeTrack({1, 2, 3, 4, 5, 6, 7, 8, 9}));
+    }
+    for (int k = 0; k < 20; ++k)
+      tracks.push_back(MakeTrack({1, 2, 3, 4, 5, 10}));
+  }
+};
+
+std::map<image_t, int> CountPerImage(const std::vector<Track>& tracks) {
+  std::map<image_t, int> count;
+  for (const Track& track : tracks) {
+    for (const TrackElement& element : track) ++count[element.image_id];
+  }
+  return count;
+}
+
+TEST(TrackSelection, ObservationCapBoundsEachImageAndKeepsTheSelectingOnes) {
+  const CrossingTracks scene;
+  PositioningTrackSelectionOptions options;
+  options.tracks_per_image = 50;
+  options.tracks_per_pair = 0;
+  options.max_observations_per_image = 0;
+  std::vector<Track> all;
+  const std::vector<size_t> uncapped =
+      SelectTracksForPositioning(options, scene.tracks, {}, nullptr, {}, &all);
+  ASSERT_EQ(uncapped.size(), 70u);
+  ASSERT_EQ(all.size(), uncapped.size());
+  for (size_t i = 0; i < uncapped.size(); ++i) {
+    EXPECT_EQ(all[i].size(), scene.tracks[uncapped[i]].size());
+  }
+  // Without the cap images 1-5 get 50 + 20 observations.
+  EXPECT_EQ(CountPerImage(all).at(1), 70);
+
+  options.max_observations_per_image = 50;
+  // Not below 11 images (the scene has 10).
+  options.max_observations_min_num_images = 11;
+  std::vector<Track> kept;
+  EXPECT_EQ(
+      SelectTracksForPositioning(options, scene.tracks, {}, nullptr, {}, &kept),
+      uncapped);
+  EXPECT_EQ(CountPerImage(kept), CountPerImage(all));
+  options.max_observations_min_num_images = 10;
+  const std::vector<size_t> capped =
+      SelectTracksForPositioning(options, scene.tracks, {}, nullptr, {}, &kept);
+  // The same tracks, fewer observations.
+  EXPECT_EQ(capped, uncapped);
+  ASSERT_EQ(kept.size(), capped.size());
+  std::map<image_t, int> num_minimal;  // tracks kept at 3 observations
+  for (size_t i = 0; i < capped.size(); ++i) {
+    const Track& track = scene.tracks[capped[i]];
+    ASSERT_GE(kept[i].size(), 3u);
+    // A subsequence of the track.
+    size_t j = 0;
+    for (const TrackElement& element : track) {
+      if (j < kept[i].size() && kept[i][j].image_id == element.image_id) ++j;
+    }
+    EXPECT_EQ(j, kept[i].size());
+    if (track.size() == 6) {
+      // Selected for image 10: that observation stays, 2 more in 1-5.
+      EXPECT_EQ(kept[i].size(), 3u);
+      EXPECT_TRUE(std::any_of(
+          kept[i].begin(), kept[i].end(),
+          [](const TrackElement& element) { return element.image_id == 10; }));
+    } else {
+      EXPECT_EQ(kept[i].size(), track.size());
+    }
+    if (kept[i].size() == 3) {
+      for (const TrackElement& element : kept[i])
+        ++num_minimal[element.image_id];
+    }
+  }
+  // The cap holds but for the 3 observations every track keeps.
+  const std::map<image_t, int> count = CountPerImage(kept);
+  EXPECT_EQ(count.at(10), 20);
+  for (image_t image_id = 1; image_id <= 9; ++image_id) {
+    EXPECT_LE(count.at(image_id), 50 + num_minimal[image_id]) << image_id;
+  }
+  // The 40 observations over 3 per short track spread over images 1-5.
+  for (image_t image_id = 1; image_id <= 5; ++image_id) {
+    EXPECT_LE(count.at(image_id), 50 + 8) << image_id;
+  }
+}
+
+TEST(TrackSelection, ObservationCapKeepsThePairThatSelectedATrack) {
+  // 60 long tracks over images 1-4 (and 7, 8) cover the pairs of 1-4; 12
+  // tracks cross 1-4 and 5, the only tie to image 5 (pair (4, 5)). Quota 5
+  // per image: 5 of them are selected for image 5, 5 more for the pair
+  // (4, 5), whose images are both at the cap by then.
+  std::vector<Track> tracks;
+  for (int k = 0; k < 60; ++k) tracks.push_back(MakeTrack({1, 2, 3, 4, 7, 8}));
+  for (int k = 0; k < 12; ++k) tracks.push_back(MakeTrack({1, 2, 3, 4, 5}));
+  const std::vector<std::pair<image_t, image_t>> pairs = {
+      {1, 2}, {1, 3}, {1, 4}, {2, 3}, {2, 4}, {3, 4}, {4, 5}};
+  PositioningTrackSelectionOptions options;
+  options.tracks_per_image = 5;
+  options.tracks_per_pair = 10;
+  options.max_observations_per_image = 5;
+  options.max_observations_min_num_images = 0;
+  std::vector<Track> kept;
+  const std::vector<size_t> selected =
+      SelectTracksForPositioning(options, tracks, pairs, nullptr, {}, &kept);
+  ASSERT_EQ(kept.size(), selected.size());
+  int num_ties = 0;
+  for (size_t i = 0; i < selected.size(); ++i) {
+    if (tracks[selected[i]].size() != 5) continue;
+    ++num_ties;
+    std::set<image_t> images;
+    for (const TrackElement& element : kept[i]) images.insert(element.image_id);
+    EXPECT_EQ(images.size(), 3u);
+    EXPECT_EQ(images.count(5), 1u) << selected[i];
+    // The last five (in selection order) by the pair quota: both of it.
+    if (selected[i] >= 65) {
+      EXPECT_EQ(images.count(4), 1u) << selected[i];
+    }
+  }
+  EXPECT_EQ(num_ties, 10);
+  // Image 5 by the selecting observations (its quota, the pair's quota),
+  // beyond the cap.
+  const std::map<image_t, int> count = CountPerImage(kept);
+  EXPECT_EQ(count.at(5), 10);
+}
+
+TEST(TrackSelection, RestoresTheObservationsLeftOutWithinTheAngle) {
+  SyntheticSceneOptions scene_options;
+  scene_options.num_images = 6;
+  scene_options.num_points = 50;
+  scene_options.visibility = 1.0;
+  Reconstruction model = GenerateSyntheticScene(scene_options).truth;
+  ASSERT_GE(model.points3D.size(), 2u);
+  auto it = model.points3D.begin();
+  const point3D_t a = it->first;
+  const Eigen::Vector3d xyz_a = it->second.xyz;
+  const point3D_t b = (++it)->first;
+  ASSERT_GE(model.points3D.at(a).track.size(), 4u);
+  ASSERT_GE(model.points3D.at(b).track.size(), 4u);
+  // One observation of each taken out of its point.
+  const TrackElement of_a = model.points3D.at(a).track.back();
+  const TrackElement of_b = model.points3D.at(b).track.back();
+  UnlinkObservation(of_a.image_id, of_a.point2D_idx, &model);
+  UnlinkObservation(of_b.image_id, of_b.point2D_idx, &model);
+  // b's observation handed to a: its bearing is off a's ray.
+  const Image& image_b = model.images.at(of_b.image_id);
+  const Eigen::Vector3d to_a = xyz_a - image_b.ProjectionCenter();
+  const Eigen::Vector3d to_b =
+      model.points3D.at(b).xyz - image_b.ProjectionCenter();
+  ASSERT_LT(to_a.normalized().dot(to_b.normalized()),
+            std::cos(5.0 * 3.14159265358979 / 180));
+  const std::vector<std::pair<point3D_t, TrackElement>> dropped = {{a, of_a},
+                                                                   {a, of_b}};
+  EXPECT_EQ(RestorePositioningObservations(dropped, 5.0, &model), 1u);
+  EXPECT_EQ(
+      model.images.at(of_a.image_id).points2D.at(of_a.point2D_idx).point3D_id,
+      a);
+  EXPECT_EQ(
+      model.images.at(of_b.image_id).points2D.at(of_b.point2D_idx).point3D_id,
+      kInvalidPoint3DId);
+  // Not twice.
+  EXPECT_EQ(RestorePositioningObservations(dropped, 5.0, &model), 0u);
+  // No angle: every free one.
+  EXPECT_EQ(RestorePositioningObservations(dropped, 0.0, &model), 1u);
 }
 
 TEST(TrackSelection, GridCellOfAKeypoint) {

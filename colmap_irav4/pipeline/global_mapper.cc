@@ -448,7 +448,17 @@ bool GlobalMapper::BuildTracks() {
         }
       }
     }
+    positioning_schur_density_ = -1;
     if (!positioning_dropped_.empty()) {
+      // The linear solver is chosen by the density of the tracks as
+      // selected: the cap thins the problem, not the graph's coupling
+      // (5,000 photo images: 5.2% -> 4.9% counted after it, under the 5%
+      // of --GlobalPositioning.iterative_schur_min_density, and a sparse
+      // factor that fills in to nearly dense).
+      std::vector<const Track*> uncapped;
+      uncapped.reserve(selected.size());
+      for (const size_t k : selected) uncapped.push_back(&tracks_[k]);
+      positioning_schur_density_ = SchurDensity(uncapped);
       LOG(INFO) << log_prefix_ << "positioning: " << positioning_dropped_.size()
                 << " of " << num_observations << " observations of its "
                 << selected.size()
@@ -480,7 +490,8 @@ bool GlobalMapper::Positioning() {
     GlobalPositionerSummary positioner_summary;
     if (!RunGlobalPositioning(
             options_.global_positioning, &reconstruction_, &positioner_summary,
-            options_.use_pose_priors ? &database_.pose_priors : nullptr)) {
+            options_.use_pose_priors ? &database_.pose_priors : nullptr,
+            positioning_schur_density_)) {
       return Fail("global positioning failed");
     }
     if (!positioning_dropped_.empty()) {

@@ -302,6 +302,8 @@ class GlobalMapper {
   // The observations of positioning's points left out of its problem by
   // --Mapper.positioning_max_observations_per_image, added back after it.
   std::vector<std::pair<point3D_t, TrackElement>> positioning_dropped_;
+  // SchurDensity of the positioning tracks before that cap (-1: not capped).
+  double positioning_schur_density_ = -1;
   bool retriangulated_ = false;
   // Whether a bundle adjustment of the model succeeded (the model to fall
   // back on when a later one fails).

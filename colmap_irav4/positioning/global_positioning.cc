@@ -595,7 +595,7 @@ void FilterObservationsByAngle(
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           Reconstruction* reconstruction,
                           GlobalPositionerSummary* summary,
-                          const PosePriors* priors) {
+                          const PosePriors* priors, double schur_density) {
   options.Check();
   Timer timer;
   GlobalPositionerSummary local_summary;
@@ -640,10 +640,10 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
   // Cholesky, a Schur solver here; which one by its size and density.
   const int num_images = static_cast<int>(centers.size());
   local_summary.schur_density =
-      options.linear_solver == PositioningLinearSolver::kAuto &&
-              num_images >= 50
-          ? PositioningSchurDensity(*reconstruction)
-          : -1;
+      options.linear_solver != PositioningLinearSolver::kAuto || num_images < 50
+          ? -1
+      : schur_density >= 0 ? schur_density
+                           : PositioningSchurDensity(*reconstruction);
   local_summary.linear_solver_reason = ChoosePositioningLinearSolver(
       options, num_images, local_summary.schur_density, &solver.ceres);
   local_summary.linear_solver =

@@ -151,10 +151,13 @@ double PositioningSchurDensity(const Reconstruction& reconstruction,
 // failed. With `priors` (by image id), the model is placed in their frame
 // when at least pose_priors.min_num_positions of its images have a position
 // prior and a similarity could be found (summary->in_prior_frame).
+// `schur_density` >= 0: the density the automatic linear solver is chosen
+// by, instead of that of the model's points (whose tracks may be thinned).
 bool RunGlobalPositioning(const GlobalPositionerOptions& options,
                           Reconstruction* reconstruction,
                           GlobalPositionerSummary* summary = nullptr,
-                          const PosePriors* priors = nullptr);
+                          const PosePriors* priors = nullptr,
+                          double schur_density = -1);
 
 // The similarity mapping camera centres (by image id) onto their position
 // priors: RANSAC (inliers within 3 median standard deviations, at most the

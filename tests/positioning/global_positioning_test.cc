@@ -224,6 +224,30 @@ TEST(GlobalPositioning, SchurDensityCountsThePairsSharingAPoint) {
   EXPECT_EQ(PositioningSchurDensity(reconstruction, 3), -1.0);
 }
 
+TEST(GlobalPositioning, ChoosesTheSolverByTheDensityGivenInsteadOfCounted) {
+  // The mapper gives the density of the tracks before the per-image cap
+  // thins them; the choice must follow it, not the thinned points'.
+  SyntheticSceneOptions scene_options = SceneOptions();
+  scene_options.num_images = 50;
+  scene_options.num_points = 300;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  GlobalPositionerOptions options;
+  options.iterative_schur_dense_min_num_images = 50;
+  options.iterative_schur_min_density = 0.5;
+  options.solver.ceres.max_num_iterations = 2;  // only the choice matters
+  Reconstruction counted = PrepareFromTracks(scene);
+  const double density = PositioningSchurDensity(counted);
+  ASSERT_GE(density, 0.5);
+  GlobalPositionerSummary summary;
+  ASSERT_TRUE(RunGlobalPositioning(options, &counted, &summary));
+  EXPECT_DOUBLE_EQ(summary.schur_density, density);
+  EXPECT_EQ(summary.linear_solver, "ITERATIVE_SCHUR");
+  Reconstruction given = PrepareFromTracks(scene);
+  ASSERT_TRUE(RunGlobalPositioning(options, &given, &summary, nullptr, 0.1));
+  EXPECT_DOUBLE_EQ(summary.schur_density, 0.1);
+  EXPECT_EQ(summary.linear_solver, "SPARSE_SCHUR");
+}
+
 TEST(GlobalPositioning, IterativeSchurRecoversTheSameCenters) {
   const SyntheticSceneOptions scene_options = SceneOptions();
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);

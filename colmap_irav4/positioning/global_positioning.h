@@ -84,11 +84,14 @@ struct GlobalPositionerOptions {
   // (docs/notes/2026-12-05-positioning-density.md). The size rule starts
   // where the density is no longer counted (30,000 images): the sparse
   // 10,000-image courtyard was measured with SPARSE_SCHUR (8.2 GB peak),
-  // not with ITERATIVE_SCHUR.
+  // not with ITERATIVE_SCHUR. The density threshold lies between the
+  // courtyards (4.0% at 1,000 images, 1.4% at 3,000: it falls as 1 / n)
+  // and the 5,000-image photo scene re-mapped after its fold cut (4.97%,
+  // where SPARSE_SCHUR sat over 9 minutes in its first iteration).
   PositioningLinearSolver linear_solver = PositioningLinearSolver::kAuto;
   int iterative_schur_min_num_images = 30000;
   int iterative_schur_dense_min_num_images = 2000;
-  double iterative_schur_min_density = 0.05;
+  double iterative_schur_min_density = 0.04;
   // Weights of the pose priors (used only when priors are given).
   PosePriorOptions pose_priors;
 

@@ -168,6 +168,14 @@ TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
   ChoosePositioningLinearSolver(GlobalPositionerOptions(), 990, 0.163,
                                 &defaults);
   EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
+  // Its re-mapping after the fold cut (4,935 images, 4.97%) iterative, the
+  // 3,000-image courtyard (1.4%) sparse.
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 4935, 0.0497,
+                                &defaults);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 3000, 0.014,
+                                &defaults);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
   auto choose = [&](int num_images, double density,
                     ceres::Solver::Options* ceres_options) {
     return ChoosePositioningLinearSolver(options, num_images, density,

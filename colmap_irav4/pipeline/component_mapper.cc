@@ -147,6 +147,8 @@ std::unique_ptr<GlobalMapper> ComponentMapper::Attempt(
 
 std::unique_ptr<GlobalMapper> ComponentMapper::Attempt(
     std::unique_ptr<GlobalMapper> mapper) {
+  // The model held meanwhile keeps no copy of the database's keypoints.
+  if (best_ != nullptr) best_->SuspendKeypoints();
   if (!mapper->Solve(/*stop_if_folded=*/options_.fold.resolve)) {
     failure_ = mapper->failure();
     return nullptr;
@@ -229,6 +231,7 @@ std::vector<ComponentModel> ComponentMapper::Map(
                                 MergeRigidParts(&models_[0], pairs, &rigidity);
   std::vector<ComponentModel> models;
   for (ComponentModel& model : models_) {
+    model.mapper->ResumeKeypoints();
     for (ComponentModel& part : SplitIntoRigidParts(
              std::move(model), rigidity_checked ? &rigidity : nullptr)) {
       models.push_back(std::move(part));
@@ -298,6 +301,7 @@ bool ComponentMapper::SettleFoldWithPriors(
     const std::vector<ImagePairGeometry> component_pairs = PairsWithin(
         reoriented,
         std::set<image_t>(components[0].begin(), components[0].end()));
+    first.SuspendKeypoints();
     std::unique_ptr<GlobalMapper> attempt =
         Attempt(components[0], component_pairs, prefix_);
     failure_ = failure;
@@ -500,6 +504,7 @@ bool ComponentMapper::ReorientImagesTurnedAlone(
     std::vector<ImagePairGeometry> again_pairs =
         PairsWithin(kept, std::set<image_t>(kept_components[0].begin(),
                                             kept_components[0].end()));
+    (*attempt)->SuspendKeypoints();
     std::unique_ptr<GlobalMapper> again =
         Attempt(kept_components[0], again_pairs, prefix_);
     if (again != nullptr && Accepted(again.get()) &&
@@ -605,6 +610,7 @@ bool ComponentMapper::TurnBackLoneCameras(
   std::unique_ptr<GlobalMapper> again;
   if (!components.empty() &&
       KeepsMost(components[0].size(), num_first_images_)) {
+    (*attempt)->SuspendKeypoints();
     again = Attempt(
         components[0],
         PairsWithin(again_pairs, std::set<image_t>(components[0].begin(),
@@ -890,6 +896,7 @@ bool ComponentMapper::MergeRigidParts(
       }
     }
     const std::string failure = failure_;
+    model->mapper->SuspendKeypoints();
     std::unique_ptr<GlobalMapper> attempt = Attempt(std::move(probe));
     failure_ = failure;
     ModelRigidity merged;

@@ -24,6 +24,47 @@
 namespace colmap_irav4 {
 namespace {
 
+// An image's keypoints as the database holds them (point3D ids unset).
+std::vector<Point2D> DatabasePoints2D(const DatabaseContents& database,
+                                      image_t image_id) {
+  std::vector<Point2D> points2D;
+  const auto keypoints = database.keypoints.find(image_id);
+  if (keypoints == database.keypoints.end()) return points2D;
+  points2D.resize(keypoints->second.size());
+  for (size_t k = 0; k < keypoints->second.size(); ++k) {
+    points2D[k].xy = keypoints->second[k].cast<double>();
+  }
+  const auto scales = database.keypoint_scales.find(image_id);
+  if (scales != database.keypoint_scales.end()) {
+    for (size_t k = 0; k < scales->second.size(); ++k) {
+      points2D[k].scale = scales->second[k];
+    }
+  }
+  return points2D;
+}
+
+// Whether `points2D` are the database's keypoints of `image_id` (those
+// DatabasePoints2D reads, whatever their point3D ids).
+bool AreDatabasePoints2D(const DatabaseContents& database, image_t image_id,
+                         const std::vector<Point2D>& points2D) {
+  const auto keypoints = database.keypoints.find(image_id);
+  if (keypoints == database.keypoints.end() ||
+      keypoints->second.size() != points2D.size()) {
+    return false;
+  }
+  const auto scales = database.keypoint_scales.find(image_id);
+  const std::vector<float>* scale =
+      scales == database.keypoint_scales.end() ? nullptr : &scales->second;
+  if (scale != nullptr && scale->size() != points2D.size()) return false;
+  for (size_t k = 0; k < points2D.size(); ++k) {
+    if (points2D[k].xy != keypoints->second[k].cast<double>() ||
+        points2D[k].scale != (scale == nullptr ? 0.0f : (*scale)[k])) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // The images of the model with their rotations and all their keypoints.
 Reconstruction MakeReconstruction(
     const DatabaseContents& database, const std::map<camera_t, Camera>& cameras,
@@ -36,19 +77,7 @@ Reconstruction MakeReconstruction(
     image.name = database_image.name;
     image.camera_id = database_image.camera_id;
     image.cam_from_world.rotation = Eigen::Quaterniond(R).normalized();
-    const auto keypoints = database.keypoints.find(image_id);
-    if (keypoints != database.keypoints.end()) {
-      image.points2D.resize(keypoints->second.size());
-      for (size_t k = 0; k < keypoints->second.size(); ++k) {
-        image.points2D[k].xy = keypoints->second[k].cast<double>();
-      }
-      const auto scales = database.keypoint_scales.find(image_id);
-      if (scales != database.keypoint_scales.end()) {
-        for (size_t k = 0; k < scales->second.size(); ++k) {
-          image.points2D[k].scale = scales->second[k];
-        }
-      }
-    }
+    image.points2D = DatabasePoints2D(database, image_id);
     reconstruction.cameras[image.camera_id] = cameras.at(image.camera_id);
   }
   return reconstruction;
@@ -182,6 +211,7 @@ void GlobalMapper::WarnFilteredImages(const FilterSummary& summary) const {
 }
 
 bool GlobalMapper::Solve(bool stop_if_folded) {
+  ResumeKeypoints();
   if (state_ == State::kNew) {
     // Rotations a caller averaged already (RotationAveraging() before
     // Solve(): the part merge's probe) are not averaged again.
@@ -199,6 +229,9 @@ bool GlobalMapper::Solve(bool stop_if_folded) {
       return false;
     }
     state_ = State::kRefined;
+    // Retriangulation made the points of every track it could: the tracks
+    // are not read again (a model kept for writing holds no copy of them).
+    tracks_ = std::vector<Track>();
     CheckFold("after refinement");
   }
   return state_ == State::kRefined;
@@ -206,6 +239,7 @@ bool GlobalMapper::Solve(bool stop_if_folded) {
 
 bool GlobalMapper::CheckFold(const std::string& when) {
   if (evidence_ == nullptr || !options_.fold.detect) return false;
+  ResumeKeypoints();
   StageTimer stage("fold check (" + when + ")");
   // After positioning the model holds only the tracks selected for it: the
   // predicted overlap is scaled to all the tracks, which the verified
@@ -231,6 +265,7 @@ bool GlobalMapper::CheckFold(const std::string& when) {
 }
 
 ModelRigidity GlobalMapper::CheckRigidity() {
+  ResumeKeypoints();
   StageTimer stage("rigidity check");
   const ModelRigidity rigidity = AnalyzeModelRigidity(
       ModelRigidityOptions(), reconstruction_, options_.min_model_size);
@@ -783,6 +818,7 @@ bool GlobalMapper::Finalize() {
 }
 
 void GlobalMapper::RestrictToImages(const std::set<image_t>& images) {
+  ResumeKeypoints();
   std::vector<image_t> dropped;
   for (const auto& [image_id, image] : reconstruction_.images) {
     if (!images.count(image_id)) dropped.push_back(image_id);
@@ -795,6 +831,7 @@ void GlobalMapper::RestrictToImages(const std::set<image_t>& images) {
 }
 
 int GlobalMapper::ColorPoints(const std::string& image_path) {
+  ResumeKeypoints();
   StageTimer stage("colours");
   int num_missing = 0;
   if (!image_path.empty() && !options_.skip_colors) {
@@ -812,6 +849,59 @@ int GlobalMapper::ColorPoints(const std::string& image_path) {
   }
   stage.Finish(log_prefix_, &stages_);
   return num_missing;
+}
+
+void GlobalMapper::SuspendKeypoints() {
+  // Only where ResumeKeypoints gives back exactly what is released: the
+  // database's keypoints, linked to the points whose tracks name them and
+  // to no other.
+  std::map<image_t, size_t> num_linked;
+  std::set<image_t> kept;
+  for (const auto& [point3D_id, point] : reconstruction_.points3D) {
+    for (const TrackElement& element : point.track) {
+      const auto image = reconstruction_.images.find(element.image_id);
+      if (image == reconstruction_.images.end()) continue;
+      const std::vector<Point2D>& points2D = image->second.points2D;
+      if (element.point2D_idx >= points2D.size() ||
+          points2D[element.point2D_idx].point3D_id != point3D_id) {
+        kept.insert(element.image_id);
+      }
+      ++num_linked[element.image_id];
+    }
+  }
+  for (auto& [image_id, image] : reconstruction_.images) {
+    if (image.points2D.empty() || kept.count(image_id) ||
+        suspended_images_.count(image_id) ||
+        !AreDatabasePoints2D(database_, image_id, image.points2D)) {
+      continue;
+    }
+    const size_t num_points2D_linked = static_cast<size_t>(
+        std::count_if(image.points2D.begin(), image.points2D.end(),
+                      [](const Point2D& point2D) {
+                        return point2D.point3D_id != kInvalidPoint3DId;
+                      }));
+    if (num_points2D_linked != num_linked[image_id]) continue;
+    image.points2D = {};
+    suspended_images_.insert(image_id);
+  }
+}
+
+void GlobalMapper::ResumeKeypoints() {
+  if (suspended_images_.empty()) return;
+  for (const image_t image_id : suspended_images_) {
+    reconstruction_.images.at(image_id).points2D =
+        DatabasePoints2D(database_, image_id);
+  }
+  for (const auto& [point3D_id, point] : reconstruction_.points3D) {
+    for (const TrackElement& element : point.track) {
+      if (suspended_images_.count(element.image_id)) {
+        reconstruction_.images.at(element.image_id)
+            .points2D[element.point2D_idx]
+            .point3D_id = point3D_id;
+      }
+    }
+  }
+  suspended_images_.clear();
 }
 
 void RotationFilterOptions::Check() const {

@@ -374,6 +374,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.schur_max_factor_mib,
                "Schur solver, schur_linear_solver auto: iterative when the "
                "Cholesky factor would take more MiB");
+  manager->Add("BundleAdjustment.schur_max_cell_table_mib",
+               &ba.schur_max_cell_table_mib,
+               "Schur solver: its per-point cell tables take at most this "
+               "many MiB (the points beyond search their cells at each "
+               "iteration)");
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");

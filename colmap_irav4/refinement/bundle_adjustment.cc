@@ -186,6 +186,7 @@ class BundleAdjustmentProblem {
       SchurSolverOptions schur_options;
       schur_options.linear_solver = options.schur_linear_solver;
       schur_options.max_factor_mib = options.schur_max_factor_mib;
+      schur_options.max_cell_table_mib = options.schur_max_cell_table_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
       schur_adjuster_ =
@@ -1140,6 +1141,11 @@ void BundleAdjustmentOptions::Check() const {
     throw OptionError(&schur_max_factor_mib,
                       "BundleAdjustment.schur_max_factor_mib",
                       "must be positive");
+  }
+  if (!(schur_max_cell_table_mib >= 0)) {
+    throw OptionError(&schur_max_cell_table_mib,
+                      "BundleAdjustment.schur_max_cell_table_mib",
+                      "must be >= 0");
   }
   if (!(schur_iterative_eta > 0 && schur_iterative_eta < 1)) {
     throw OptionError(&schur_iterative_eta,

@@ -132,6 +132,9 @@ struct BundleAdjustmentOptions {
   // 40,000 parameters, 5,000 photo images, would take 6,100; the 5,000-image
   // photo scene's true tracks give 474).
   double schur_max_factor_mib = 1024;
+  // The Schur solver's per-point cell tables (SchurSolverOptions): at most
+  // this many MiB; the points beyond search their cells at each iteration.
+  double schur_max_cell_table_mib = 256;
   // Iterative: conjugate gradients stop at a residual of min(eta, sqrt(|b| /
   // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
   double schur_iterative_eta = 1e-3;

@@ -32,6 +32,12 @@ struct SchurSolverOptions {
   // take more than this many MiB (8 bytes a factor entry, the count
   // estimated from the block pattern's symbolic analysis).
   double max_factor_mib = 1024;
+  // The points' cell tables (SchurBundleAdjuster::SetUseCellTables) take at
+  // most this many MiB: 4 bytes a pair of a point's pose and camera blocks,
+  // 157 MiB for the 1,000-image photo scene's bundle adjustment, past 1 GiB
+  // at 5,000 (tracks of 30 images: 1,830 pairs a point); the points beyond
+  // it search their cells at every iteration instead.
+  double max_cell_table_mib = 256;
   // Iterative: conjugate gradients stop once the residual is at most
   // eta_k |b| (b: the reduced system's right-hand side), eta_k = min(eta,
   // sqrt(|b| / |b_0|)) with b_0 the solve's first right-hand side: an
@@ -119,16 +125,13 @@ class SchurBundleAdjuster {
   // How the accumulation of the reduced camera system finds a block pair's
   // cell: in its point's cell table (true, the default: the value indexes of
   // the point's block pairs, found once when the structure is built, for
-  // the points up to kMaxCellTableBytes), or by searching the cell's column
-  // at every iteration (false; the points beyond the budget). Both add the
-  // same products in the same order: the same solution to the bit.
+  // the points up to SchurSolverOptions::max_cell_table_mib), or by
+  // searching the cell's column at every iteration (false: no tables; the
+  // points beyond the budget). Both add the same products in the same
+  // order: the same solution to the bit.
   void SetUseCellTables(bool use) { use_cell_tables_ = use; }
   // The cell tables' size in bytes (0 before the first solve).
   size_t CellTableBytes() const;
-  // The cell tables' budget: 4 bytes a pair of a point's blocks; 157 MiB for
-  // a 1,000-image photo collection's bundle adjustment (39 million pairs),
-  // each saving a search per iteration.
-  static constexpr size_t kMaxCellTableBytes = size_t{1} << 30;
 
   struct Summary {
     ceres::TerminationType termination = ceres::NO_CONVERGENCE;
@@ -276,9 +279,9 @@ class SchurBundleAdjuster {
   // CSC of the scalar matrix (the factorisations only).
   std::vector<int> outer_, inner_;
   // Per point eliminated when the structure was built (while within
-  // kMaxCellTableBytes): its blocks (sorted, CSR by point) and the value
-  // index of the cell of each pair of them (by local index i <= j at
-  // j (j + 1) / 2 + i), so that the accumulation searches no cell; m blocks
+  // SchurSolverOptions::max_cell_table_mib): its blocks (sorted, CSR by point)
+  // and the value index of the cell of each pair of them (by local index i <= j
+  // at j (j + 1) / 2 + i), so that the accumulation searches no cell; m blocks
   // take m (m + 1) / 2 entries. Empty for the others.
   std::vector<size_t> point_block_ids_begin_, point_cells_begin_;
   std::vector<int> point_block_ids_;

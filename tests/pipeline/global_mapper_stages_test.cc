@@ -115,6 +115,92 @@ double MaxRelativeRotationErrorDeg(
   return max_error;
 }
 
+// The keypoints a held mapper releases come back exactly: the database's
+// keypoints with the links of the points' tracks; an image whose keypoints
+// are not the database's keeps them; the refinement goes on from a resumed
+// mapper as from one never suspended.
+TEST(GlobalMapperStages, SuspendedKeypointsComeBackExactly) {
+  StageScene s = MakeStageScene();
+  const GlobalMapperOptions options = TestOptions().ForStages(s.images.size());
+  GlobalMapper mapper(options, s.database, s.database.cameras, s.images,
+                      s.pairs);
+  GlobalMapper untouched(options, s.database, s.database.cameras, s.images,
+                         s.pairs);
+  ASSERT_TRUE(mapper.RotationAveraging() && mapper.RotationFilter() &&
+              mapper.BuildTracks() && mapper.Positioning());
+  ASSERT_TRUE(untouched.RotationAveraging() && untouched.RotationFilter() &&
+              untouched.BuildTracks() && untouched.Positioning());
+  // One image's keypoint moved off the database's: that image keeps them.
+  const image_t moved = s.images[2];
+  mapper.reconstruction().images.at(moved).points2D[0].xy.x() += 0.25;
+  const Reconstruction before = mapper.reconstruction();
+  size_t num_linked = 0;
+  for (const auto& [image_id, image] : before.images) {
+    for (const Point2D& point2D : image.points2D) {
+      num_linked += point2D.point3D_id != kInvalidPoint3DId ? 1 : 0;
+    }
+  }
+  ASSERT_GT(num_linked, 100u);
+
+  mapper.SuspendKeypoints();
+  EXPECT_TRUE(mapper.keypoints_suspended());
+  for (const auto& [image_id, image] : mapper.reconstruction().images) {
+    EXPECT_EQ(
+        image.points2D.size(),
+        image_id == moved ? before.images.at(image_id).points2D.size() : 0u)
+        << image_id;
+  }
+  // Poses and points stay.
+  EXPECT_EQ(mapper.reconstruction().points3D.size(), before.points3D.size());
+  mapper.ResumeKeypoints();
+  EXPECT_FALSE(mapper.keypoints_suspended());
+  for (const auto& [image_id, image] : before.images) {
+    const std::vector<Point2D>& again =
+        mapper.reconstruction().images.at(image_id).points2D;
+    ASSERT_EQ(again.size(), image.points2D.size()) << image_id;
+    for (size_t k = 0; k < again.size(); ++k) {
+      EXPECT_EQ(again[k].xy, image.points2D[k].xy);
+      EXPECT_EQ(again[k].scale, image.points2D[k].scale);
+      EXPECT_EQ(again[k].point3D_id, image.points2D[k].point3D_id);
+    }
+  }
+
+  // Refined after a suspension: the same model as the mapper never
+  // suspended (the moved keypoint put back first).
+  mapper.reconstruction().images.at(moved).points2D[0].xy.x() -= 0.25;
+  mapper.SuspendKeypoints();
+  mapper.ResumeKeypoints();
+  ASSERT_TRUE(mapper.IterativeBundleAdjustment());
+  ASSERT_TRUE(untouched.IterativeBundleAdjustment());
+  ASSERT_EQ(mapper.reconstruction().points3D.size(),
+            untouched.reconstruction().points3D.size());
+  for (const auto& [image_id, image] : untouched.reconstruction().images) {
+    const Image& other = mapper.reconstruction().images.at(image_id);
+    EXPECT_EQ(other.cam_from_world.translation,
+              image.cam_from_world.translation);
+  }
+
+  // Solve() resumes first: a solved mapper suspended is whole after it, and
+  // holds no tracks once refined.
+  GlobalMapper solved(options, s.database, s.database.cameras, s.images,
+                      s.pairs);
+  ASSERT_TRUE(solved.Solve());
+  EXPECT_TRUE(solved.tracks().empty());
+  const Reconstruction whole = solved.reconstruction();
+  solved.SuspendKeypoints();
+  EXPECT_TRUE(solved.keypoints_suspended());
+  ASSERT_TRUE(solved.Solve());
+  EXPECT_FALSE(solved.keypoints_suspended());
+  for (const auto& [image_id, image] : whole.images) {
+    const std::vector<Point2D>& again =
+        solved.reconstruction().images.at(image_id).points2D;
+    ASSERT_EQ(again.size(), image.points2D.size());
+    for (size_t k = 0; k < again.size(); ++k) {
+      EXPECT_EQ(again[k].point3D_id, image.points2D[k].point3D_id);
+    }
+  }
+}
+
 TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
   const StageScene s = MakeStageScene();
   const size_t num_pairs = s.pairs.size();

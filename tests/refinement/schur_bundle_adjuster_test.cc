@@ -443,7 +443,8 @@ void AddModel(bool gauge, Reconstruction* model,
 // bit, with one camera per image (the photo collections' pattern: all four
 // kinds of cells) and with a shared camera (pairs of observations on one
 // camera block), with and without a gauge coordinate (a pose block of 5),
-// over two solves (the second with fewer observations).
+// over two solves (the second with fewer observations); and with tables for
+// only the points within a smaller max_cell_table_mib (the others search).
 TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
   for (const bool shared_camera : {false, true}) {
     for (const bool gauge : {false, true}) {
@@ -452,17 +453,22 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
           (gauge ? ", gauge" : ""));
       Reconstruction start = Scene(2, shared_camera).truth;
       PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
-      Reconstruction tables_model = start, search_model = start;
-      std::map<image_t, std::vector<double>> tables_weights, search_weights;
+      Reconstruction tables_model = start, search_model = start,
+                     partial_model = start;
+      std::map<image_t, std::vector<double>> tables_weights, search_weights,
+          partial_weights;
       SchurBundleAdjuster tables(/*center=*/false), search(/*center=*/false);
       search.SetUseCellTables(false);
       AddModel(gauge, &tables_model, &tables_weights, &tables);
       AddModel(gauge, &search_model, &search_weights, &search);
+      // The partial budget: half of what the tables take with every point.
+      std::unique_ptr<SchurBundleAdjuster> partial;
       ceres::Solver::Options options;
       options.max_num_iterations = 30;
       for (int solve = 0; solve < 2; ++solve) {
         if (solve == 1) {
-          for (auto* weights : {&tables_weights, &search_weights}) {
+          for (auto* weights :
+               {&tables_weights, &search_weights, &partial_weights}) {
             for (auto& [image_id, image_weights] : *weights) {
               for (size_t i = 3; i < image_weights.size(); i += 5) {
                 image_weights[i] = 0;
@@ -472,19 +478,32 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
         }
         const SchurBundleAdjuster::Summary a = tables.Solve(options);
         const SchurBundleAdjuster::Summary b = search.Solve(options);
+        if (solve == 0) {
+          SchurSolverOptions half;
+          half.max_cell_table_mib = tables.CellTableBytes() / 2 / 1048576.0;
+          partial = std::make_unique<SchurBundleAdjuster>(false, half);
+          AddModel(gauge, &partial_model, &partial_weights, partial.get());
+        }
+        const SchurBundleAdjuster::Summary c = partial->Solve(options);
         EXPECT_NE(a.termination, ceres::FAILURE);
         EXPECT_GT(a.num_iterations, 2);
         EXPECT_LT(a.final_cost, a.initial_cost);
         EXPECT_EQ(a.num_iterations, b.num_iterations);
         EXPECT_EQ(a.initial_cost, b.initial_cost);
         EXPECT_EQ(a.final_cost, b.final_cost);
+        EXPECT_EQ(c.final_cost, b.final_cost);
       }
       EXPECT_GT(tables.CellTableBytes(), 0u);
-      const Difference d = Compare(tables_model, search_model);
-      EXPECT_EQ(d.center, 0.0);
-      EXPECT_EQ(d.rotation_deg, 0.0);
-      EXPECT_EQ(d.point, 0.0);
-      EXPECT_EQ(d.param, 0.0);
+      // Some points tabled, not all.
+      EXPECT_LT(partial->CellTableBytes(), tables.CellTableBytes());
+      EXPECT_GT(partial->CellTableBytes(), search.CellTableBytes());
+      for (const Reconstruction* model : {&tables_model, &partial_model}) {
+        const Difference d = Compare(*model, search_model);
+        EXPECT_EQ(d.center, 0.0);
+        EXPECT_EQ(d.rotation_deg, 0.0);
+        EXPECT_EQ(d.point, 0.0);
+        EXPECT_EQ(d.param, 0.0);
+      }
       // The solves moved the model (the comparison is not of two starts).
       EXPECT_GT(Compare(start, tables_model).point, 1e-3);
     }

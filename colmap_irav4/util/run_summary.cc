@@ -1,6 +1,9 @@
 #include "colmap_irav4/util/run_summary.h"
 
 #include <sys/resource.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -58,11 +61,17 @@ std::string StageReport::LogLine() const {
   return line.str();
 }
 
+void ReleaseFreedMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 StageTimer::StageTimer(std::string name)
-    : report_(std::move(name)),
-      cpu_start_(std::clock()),
-      peak_start_mib_(ReadProcessMemory().peak_mib) {
+    : report_(std::move(name)), cpu_start_(std::clock()) {
   ThrowIfInterrupted();  // every stage is a checkpoint (util/interrupt.h)
+  ReleaseFreedMemory();
+  peak_start_mib_ = ReadProcessMemory().peak_mib;
 }
 
 const StageReport& StageTimer::Finish(const std::string& prefix,

@@ -597,6 +597,10 @@ void RelativePoseOptions::Check() const {
     throw OptionError(&max_error_px, "RelativePose.max_error_px",
                       "must be > 0");
   }
+  if (!(retry_max_error_px >= 0)) {
+    throw OptionError(&retry_max_error_px, "RelativePose.retry_max_error_px",
+                      "must be >= 0 (0: no second scoring)");
+  }
   if (!(refine_loss_scale_px > 0)) {
     throw OptionError(&refine_loss_scale_px,
                       "RelativePose.refine_loss_scale_px", "must be > 0");
@@ -1045,6 +1049,19 @@ RelativePose EstimateFromCorrespondences(const TwoViewGeometry& geometry,
   const int best =
       ChooseCandidate(geometry, corrs, focal, K1, K2, options, candidates);
   if (best < 0 || candidates[best].support < 5) {
+    if (options.retry_max_error_px > options.max_error_px) {
+      // Intrinsics a few percent off (a focal prior from EXIF, distortion the
+      // database does not model) move every match of a wide-angle pair by
+      // more than max_error_px from any essential matrix: score once more
+      // with the looser threshold rather than lose the pair.
+      RelativePoseOptions retry = options;
+      retry.max_error_px = options.retry_max_error_px;
+      retry.retry_max_error_px = 0;
+      result =
+          EstimateFromCorrespondences(geometry, camera1, camera2, corrs, retry);
+      result.retried = result.success;
+      return result;
+    }
     result.failure = "no candidate pose is supported by 5 inlier matches";
     return result;
   }

@@ -91,6 +91,13 @@ struct RelativePoseOptions {
   // Below this median triangulation angle of the supporting matches the
   // translation direction is marked unreliable (near pure rotation).
   double min_tri_angle_deg = 0.5;
+  // Where no candidate is supported by 5 matches within max_error_px, score
+  // the candidates once more within this threshold (pixels) before dropping
+  // the pair; 0 (or not above max_error_px): no second scoring. Photo
+  // collections with focal priors a few percent off and unmodelled
+  // distortion lose wide-angle true pairs of hundreds of inliers at 4 px
+  // (docs/notes/2026-12-05-photo-100-registration.md).
+  double retry_max_error_px = 0.0;
 
   void Check() const;  // throws InputError naming the option
 };
@@ -124,6 +131,8 @@ struct RelativePose {
   double rotation_std_deg = -1;
   // Passes of the refinement over the supporting matches (0: not run).
   int num_refine_passes = 0;
+  // Supported only within RelativePoseOptions::retry_max_error_px.
+  bool retried = false;
   std::string failure;  // why success is false
 };
 

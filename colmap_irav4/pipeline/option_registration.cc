@@ -87,6 +87,9 @@ void AddViewGraphOptions(OptionManager* manager,
   RelativePoseOptions& rp = options->relative_pose;
   manager->Add("RelativePose.max_error_px", &rp.max_error_px,
                "epipolar error threshold of a supporting match (pixels)");
+  manager->Add("RelativePose.retry_max_error_px", &rp.retry_max_error_px,
+               "score once more within this threshold (pixels) a pair no "
+               "pose supports with 5 matches (0: drop it)");
   manager->Add("RelativePose.refine", &rp.refine,
                "refine each pose on its inliers (robust Sampson error)");
   manager->Add("RelativePose.refine_loss_scale_px", &rp.refine_loss_scale_px,

@@ -394,6 +394,46 @@ TEST(TwoViewGeometry, FailsWithoutEnoughMatches) {
   EXPECT_FALSE(pose.failure.empty());
 }
 
+TEST(TwoViewGeometry, RetriedWithinTheLooserThresholdWhereNonePasses) {
+  // A photo collection's pair: the matcher fitted E with the true
+  // intrinsics (radial distortion -0.09), the database holds a focal prior
+  // 3% off and no distortion. No candidate, the eight-point re-estimate
+  // included, then has 5 matches within 4 px (nor 8); within 16 px the
+  // stored E's pose is supported and kept.
+  std::mt19937_64 rng(60);
+  Camera truth = MakeCamera(CameraModelNameToId("SIMPLE_RADIAL"));
+  truth.params[3] = -0.09;
+  const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(20), &rng);
+  const Eigen::Vector3d t(1, 0.1, -0.2);
+  SyntheticPair pair =
+      MakeSyntheticPair(truth, truth, R, t, 300, 0.5, false, &rng);
+  pair.geometry.F.setZero();
+  pair.geometry.H.setZero();
+  Camera prior = truth;
+  prior.params = {1.03 * truth.params[0], truth.params[1], truth.params[2], 0};
+  RelativePoseOptions options;
+  const RelativePose dropped = EstimateRelativePose(
+      pair.geometry, prior, prior, pair.keypoints1, pair.keypoints2, options);
+  ASSERT_FALSE(dropped.success);
+  EXPECT_FALSE(dropped.failure.empty());
+  options.retry_max_error_px = 8;
+  EXPECT_FALSE(EstimateRelativePose(pair.geometry, prior, prior,
+                                    pair.keypoints1, pair.keypoints2, options)
+                   .success);
+  options.retry_max_error_px = 16;
+  const RelativePose retried = EstimateRelativePose(
+      pair.geometry, prior, prior, pair.keypoints1, pair.keypoints2, options);
+  ASSERT_TRUE(retried.success);
+  EXPECT_TRUE(retried.retried);
+  EXPECT_LT(AngularDistanceDeg(retried.R, R), 1.0);
+  // With the true intrinsics nothing is retried.
+  const RelativePose exact = EstimateRelativePose(
+      pair.geometry, truth, truth, pair.keypoints1, pair.keypoints2, options);
+  ASSERT_TRUE(exact.success);
+  EXPECT_FALSE(exact.retried);
+  EXPECT_LT(AngularDistanceDeg(exact.R, R), 0.1);
+}
+
 TEST(TwoViewGeometry, OptionsCheck) {
   RelativePoseOptions options;
   EXPECT_NO_THROW(options.Check());
@@ -407,6 +447,9 @@ TEST(TwoViewGeometry, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
   options.skip_eight_point_min_support = 1.5;  // never skipped
   EXPECT_NO_THROW(options.Check());
+  options = RelativePoseOptions();
+  options.retry_max_error_px = -1;
+  EXPECT_THROW(options.Check(), InputError);
 }
 
 TEST(TwoViewGeometry, ConfigNames) {

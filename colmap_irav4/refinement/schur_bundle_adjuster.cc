@@ -522,8 +522,8 @@ void SchurBundleAdjuster::BuildStructure() {
     return true;
   };
   // Two passes: the tables' sizes first, so that they are allocated once at
-  // their size (grown by push_back and shrunk to fit, the largest took twice
-  // its size while copied: 0.3 GB more at 5,000 photo images).
+  // their size (grown by push_back and shrunk to fit, the largest took up to
+  // twice its size while copied).
   // Every entry saves the same search per iteration: the points in order
   // while the budget lasts.
   point_block_ids_begin_.assign(num_points + 1, 0);

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <functional>
 #include <iomanip>
+#include <numeric>
 #include <random>
 #include <unordered_map>
 #include <unordered_set>
@@ -1548,6 +1549,218 @@ FeatureKeypoints Keypoints(const Image& image) {
   return keypoints;
 }
 
+// Appends raw_outlier_ratio x its size wrong (random) matches to `matches`.
+void AddWrongMatches(const SceneGeneratorOptions& options, const Image& image1,
+                     const Image& image2, std::mt19937_64* rng,
+                     FeatureMatches* matches) {
+  const int num_wrong =
+      static_cast<int>(std::round(options.raw_outlier_ratio * matches->size()));
+  if (image1.points2D.empty() || image2.points2D.empty()) return;
+  std::uniform_int_distribution<point2D_t> pick1(0, image1.points2D.size() - 1);
+  std::uniform_int_distribution<point2D_t> pick2(0, image2.points2D.size() - 1);
+  for (int k = 0; k < num_wrong; ++k)
+    matches->push_back({pick1(*rng), pick2(*rng)});
+}
+
+// COLMAP's two-view geometry estimation: max_error (px) of F's, E's and H's
+// inliers, the share of F's inliers E must have for a calibrated pair, and
+// the share of E's (or F's) above which H's make the pair planar or
+// panoramic.
+constexpr double kMatcherMaxErrorPx = 4.0;
+constexpr double kMatcherMinEFInlierRatio = 0.95;
+constexpr double kMatcherMaxHInlierRatio = 0.8;
+
+// A two-view matrix (F, E: x2^T M x1 = 0; H: x2 ~ M x1) fitted as a
+// matcher's RANSAC would, and its inliers (error within max_error).
+struct TwoViewFit {
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  std::vector<char> is_inlier;
+  int num_inliers = 0;
+};
+
+using LinearSolver = bool (*)(const std::vector<Eigen::Vector2d>&,
+                              const std::vector<Eigen::Vector2d>&,
+                              Eigen::Matrix3d*);
+using SquaredError = double (*)(const Eigen::Matrix3d&, const Eigen::Vector2d&,
+                                const Eigen::Vector2d&);
+
+// Hypotheses: `seeds`, the least-squares fit to all correspondences and fits
+// to random minimal samples of sample_size (until 99.9% confidence of an
+// all-inlier sample at the best inlier ratio, 20 to 500 samples); the one
+// with most inliers is then refitted to its inliers while their number grows
+// (local optimisation).
+TwoViewFit FitTwoViewMatrix(const std::vector<Eigen::Vector2d>& points1,
+                            const std::vector<Eigen::Vector2d>& points2,
+                            double max_error, LinearSolver solver,
+                            SquaredError squared_error, int sample_size,
+                            const std::vector<Eigen::Matrix3d>& seeds,
+                            std::mt19937_64* rng) {
+  const int num = static_cast<int>(points1.size());
+  const double max_error_sq = max_error * max_error;
+  TwoViewFit best;
+  best.is_inlier.assign(num, 0);
+  std::vector<char> is_inlier(num);
+  auto consider = [&](const Eigen::Matrix3d& M) {
+    if (!M.allFinite() || !(M.norm() > 0)) return false;
+    int count = 0;
+    for (int i = 0; i < num; ++i) {
+      // NaN (a point on no ray) is no inlier.
+      is_inlier[i] = squared_error(M, points1[i], points2[i]) <= max_error_sq;
+      count += is_inlier[i];
+    }
+    if (count <= best.num_inliers) return false;
+    best.M = M / M.norm();
+    best.is_inlier = is_inlier;
+    best.num_inliers = count;
+    return true;
+  };
+  for (const Eigen::Matrix3d& seed : seeds) consider(seed);
+  if (num < sample_size) return best;
+  Eigen::Matrix3d M;
+  if (solver(points1, points2, &M)) consider(M);
+  std::vector<int> order(num);
+  std::iota(order.begin(), order.end(), 0);
+  std::vector<Eigen::Vector2d> sample1(sample_size), sample2(sample_size);
+  constexpr int kMinTrials = 20;
+  constexpr int kMaxTrials = 500;
+  for (int trial = 0; trial < kMaxTrials; ++trial) {
+    for (int k = 0; k < sample_size; ++k) {
+      std::uniform_int_distribution<int> pick(k, num - 1);
+      std::swap(order[k], order[pick(*rng)]);
+      sample1[k] = points1[order[k]];
+      sample2[k] = points2[order[k]];
+    }
+    if (solver(sample1, sample2, &M)) consider(M);
+    const double all_inlier_sample =
+        std::pow(static_cast<double>(best.num_inliers) / num, sample_size);
+    if (trial + 1 >= kMinTrials &&
+        (all_inlier_sample >= 1 ||
+         trial + 1 >= std::log(1e-3) / std::log1p(-all_inlier_sample))) {
+      break;
+    }
+  }
+  for (int pass = 0; pass < 10 && best.num_inliers >= sample_size; ++pass) {
+    std::vector<Eigen::Vector2d> inliers1, inliers2;
+    for (int i = 0; i < num; ++i) {
+      if (!best.is_inlier[i]) continue;
+      inliers1.push_back(points1[i]);
+      inliers2.push_back(points2[i]);
+    }
+    if (!solver(inliers1, inliers2, &M) || !consider(M)) break;
+  }
+  return best;
+}
+
+FeatureMatches SelectMatches(const FeatureMatches& matches,
+                             const std::vector<char>& keep) {
+  FeatureMatches selected;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    if (keep[i]) selected.push_back(matches[i]);
+  }
+  return selected;
+}
+
+// What a matcher's two-view geometry estimation stores for `matches` (the
+// rule of COLMAP's, not its code). F is fitted in pixels (pinhole, no
+// distortion), H in pixels (transfer error); where both database cameras
+// have a prior focal, E too, on the keypoints normalised by the database's
+// cameras (threshold 4 px over their focal lengths). Then: E's inliers more
+// than 0.95 of F's (and >= min_num_inliers): calibrated, the larger of E's
+// and F's inliers; else F's >= min_num_inliers: uncalibrated, F's; either
+// way PLANAR_OR_PANORAMIC (with H's inliers if more) where H's exceed 0.8 of
+// E's (calibrated) or F's (uncalibrated), else CALIBRATED / UNCALIBRATED;
+// else H's >= min_num_inliers: PLANAR_OR_PANORAMIC; else DEGENERATE, no
+// inliers. E, F and H are stored as fitted. The true geometry (its F with
+// the true cameras' K, its E) seeds the F and E fits, as the best of a
+// matcher's many samples would be near it.
+void MatcherTwoViewGeometry(const GeneratedScene& scene, const Image& image1,
+                            const Image& image2, const Rigid3d& relative,
+                            const FeatureMatches& matches, std::mt19937_64* rng,
+                            TwoViewGeometry* geometry) {
+  const int min_num_inliers = scene.options.min_num_inliers;
+  std::vector<Eigen::Vector2d> pixels1, pixels2;
+  pixels1.reserve(matches.size());
+  pixels2.reserve(matches.size());
+  for (const FeatureMatch& match : matches) {
+    pixels1.push_back(image1.points2D[match.point2D_idx1].xy);
+    pixels2.push_back(image2.points2D[match.point2D_idx2].xy);
+  }
+  const Eigen::Matrix3d true_E = EssentialFromPose(
+      relative.rotation.toRotationMatrix(), relative.translation.normalized());
+  const Eigen::Matrix3d true_K1 =
+      CameraCalibrationMatrix(scene.truth.cameras.at(image1.camera_id));
+  const Eigen::Matrix3d true_K2 =
+      CameraCalibrationMatrix(scene.truth.cameras.at(image2.camera_id));
+  const TwoViewFit fundamental = FitTwoViewMatrix(
+      pixels1, pixels2, kMatcherMaxErrorPx, &EstimateFundamentalEightPoint,
+      &SampsonErrorSquared, 8,
+      {true_K2.inverse().transpose() * true_E * true_K1.inverse()}, rng);
+  const TwoViewFit homography = FitTwoViewMatrix(
+      pixels1, pixels2, kMatcherMaxErrorPx, &EstimateHomographyDLT,
+      &HomographyTransferErrorSquared, 4, {}, rng);
+  geometry->F = fundamental.M;
+  geometry->H = homography.M;
+  geometry->E.setZero();
+
+  TwoViewFit essential;
+  const Camera& camera1 = DatabaseCamera(scene, image1.camera_id);
+  const Camera& camera2 = DatabaseCamera(scene, image2.camera_id);
+  if (camera1.has_prior_focal_length && camera2.has_prior_focal_length) {
+    std::vector<Eigen::Vector2d> normalized1, normalized2;
+    normalized1.reserve(matches.size());
+    normalized2.reserve(matches.size());
+    for (size_t i = 0; i < matches.size(); ++i) {
+      normalized1.push_back(CameraImageToCamera(camera1, pixels1[i]));
+      normalized2.push_back(CameraImageToCamera(camera2, pixels2[i]));
+    }
+    const Eigen::Matrix3d K1 = CameraCalibrationMatrix(camera1);
+    const Eigen::Matrix3d K2 = CameraCalibrationMatrix(camera2);
+    const double max_error =
+        0.5 * (kMatcherMaxErrorPx / (0.5 * (K1(0, 0) + K1(1, 1))) +
+               kMatcherMaxErrorPx / (0.5 * (K2(0, 0) + K2(1, 1))));
+    // E from the fitted F with the database's K, projected onto the
+    // essential matrices.
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+        K2.transpose() * fundamental.M * K1,
+        Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Matrix3d E_of_F = svd.matrixU() *
+                                   Eigen::Vector3d(1, 1, 0).asDiagonal() *
+                                   svd.matrixV().transpose();
+    essential = FitTwoViewMatrix(
+        normalized1, normalized2, max_error, &EstimateEssentialEightPoint,
+        &SampsonErrorSquared, 8, {true_E, E_of_F}, rng);
+    geometry->E = essential.M;
+  }
+
+  const TwoViewFit* best = nullptr;
+  int planar_reference = 0;  // H's inliers are compared with these
+  if (essential.num_inliers >= min_num_inliers &&
+      essential.num_inliers >
+          kMatcherMinEFInlierRatio * fundamental.num_inliers) {
+    geometry->config = TwoViewGeometry::CALIBRATED;
+    best = essential.num_inliers >= fundamental.num_inliers ? &essential
+                                                            : &fundamental;
+    planar_reference = essential.num_inliers;
+  } else if (fundamental.num_inliers >= min_num_inliers) {
+    geometry->config = TwoViewGeometry::UNCALIBRATED;
+    best = &fundamental;
+    planar_reference = fundamental.num_inliers;
+  } else if (homography.num_inliers >= min_num_inliers) {
+    geometry->config = TwoViewGeometry::PLANAR_OR_PANORAMIC;
+    best = &homography;
+  } else {
+    geometry->config = TwoViewGeometry::DEGENERATE;
+    geometry->inlier_matches.clear();
+    return;
+  }
+  if (planar_reference > 0 &&
+      homography.num_inliers > kMatcherMaxHInlierRatio * planar_reference) {
+    geometry->config = TwoViewGeometry::PLANAR_OR_PANORAMIC;
+    if (homography.num_inliers > best->num_inliers) best = &homography;
+  }
+  geometry->inlier_matches = SelectMatches(matches, best->is_inlier);
+}
+
 // The stored geometry from the pair's candidate matches (ignored for random
 // pairs, whose inliers are fixed).
 TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
@@ -1594,6 +1807,35 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
   }
 
   const Rigid3d relative = PairRelativePose(scene, pair);
+  if (options.matcher_geometry) {
+    // Its own stream, so that the wrong raw matches are those drawn without.
+    std::mt19937_64 fit_rng(
+        Mix(options.seed ^ 0x6d61746368ULL ^
+            Mix(ImagePairToPairId(pair.image_id1, pair.image_id2))));
+    FeatureMatches matches = std::move(geometry.inlier_matches);
+    MatcherTwoViewGeometry(scene, image1, image2, relative, matches, &fit_rng,
+                           &geometry);
+    if (options.store_relative_pose && !geometry.inlier_matches.empty()) {
+      RelativePoseOptions fit;
+      fit.refine = false;
+      const RelativePose estimate = EstimateRelativePose(
+          geometry, DatabaseCamera(scene, image1.camera_id),
+          DatabaseCamera(scene, image2.camera_id), Keypoints(image1),
+          Keypoints(image2), fit);
+      if (estimate.success && estimate.has_translation) {
+        geometry.has_pose = true;
+        const Eigen::Quaterniond rotation(estimate.R);
+        geometry.qvec = Eigen::Vector4d(rotation.w(), rotation.x(),
+                                        rotation.y(), rotation.z());
+        geometry.tvec = estimate.t;
+      }
+    }
+    if (raw_matches) {
+      *raw_matches = std::move(matches);
+      AddWrongMatches(options, image1, image2, &rng, raw_matches);
+    }
+    return geometry;
+  }
   Eigen::Matrix3d R = relative.rotation.toRotationMatrix();
   Eigen::Vector3d t = relative.translation.normalized();
   geometry.E = EssentialFromPose(R, t);
@@ -1627,16 +1869,7 @@ TwoViewGeometry FinishPairGeometry(const GeneratedScene& scene,
 
   if (raw_matches) {
     *raw_matches = geometry.inlier_matches;
-    const int num_wrong = static_cast<int>(
-        std::round(options.raw_outlier_ratio * geometry.inlier_matches.size()));
-    if (!image1.points2D.empty() && !image2.points2D.empty()) {
-      std::uniform_int_distribution<point2D_t> pick1(
-          0, image1.points2D.size() - 1);
-      std::uniform_int_distribution<point2D_t> pick2(
-          0, image2.points2D.size() - 1);
-      for (int k = 0; k < num_wrong; ++k)
-        raw_matches->push_back({pick1(rng), pick2(rng)});
-    }
+    AddWrongMatches(options, image1, image2, &rng, raw_matches);
   }
   return geometry;
 }
@@ -1656,7 +1889,9 @@ TwoViewGeometry PairGeometry(const GeneratedScene& scene,
   return FinishPairGeometry(scene, pair, std::move(candidates), raw_matches);
 }
 
-void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
+void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path,
+                        std::vector<int>* num_inliers) {
+  if (num_inliers) num_inliers->assign(scene.pairs.size(), 0);
   DatabaseWriter writer(path);
   for (const auto& [camera_id, camera] : scene.truth.cameras)
     writer.WriteCamera(DatabaseCamera(scene, camera_id));
@@ -1721,6 +1956,10 @@ void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path) {
       }
       const TwoViewGeometry geometry =
           FinishPairGeometry(scene, pair, std::move(candidates), &raw_matches);
+      // A matcher writes no pair it could not verify.
+      if (geometry.config == TwoViewGeometry::DEGENERATE) continue;
+      if (num_inliers)
+        (*num_inliers)[k] = static_cast<int>(geometry.inlier_matches.size());
       writer.WriteMatches(pair.image_id1, pair.image_id2, raw_matches);
       writer.WriteTwoViewGeometry(geometry);
     }

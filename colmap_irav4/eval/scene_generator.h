@@ -150,6 +150,15 @@ struct SceneGeneratorOptions {
   // the truth to a mapper that decomposes it without refining (COLMAP 4's
   // global_mapper; docs/notes/2026-12-03-colmap4-at-1000-images.md).
   bool exact_two_view_geometry = true;
+  // Store what a matcher's two-view geometry estimation would (COLMAP's
+  // rule, MatcherTwoViewGeometry): inliers within 4 px of a pinhole F fitted
+  // by RANSAC to the pair's matches (or of E fitted with the database's
+  // cameras, CALIBRATED, where both have a prior focal and E has > 0.95 of
+  // F's inliers; PLANAR_OR_PANORAMIC where a fitted H has > 0.8 of them),
+  // pairs left under min_num_inliers not written; overrides
+  // exact_two_view_geometry. false: the matches of the true (or false) pose
+  // all stored, E/F of the true cameras.
+  bool matcher_geometry = false;
   uint64_t seed = 1;
 
   void Check() const;  // throws InputError naming the option
@@ -211,9 +220,12 @@ std::vector<int> PairsAcrossCorners(const GeneratedScene& scene);
 
 // The stored geometry of a pair (database orientation image_id1 <
 // image_id2): inlier matches, CALIBRATED config, E and F of its (possibly
-// false) relative pose, the pose itself if store_relative_pose. Deterministic
-// (seeded by the scene's seed and the pair), independent of call order.
-// raw_matches (may be null): the inliers plus wrong matches.
+// false) relative pose, the pose itself if store_relative_pose; with
+// matcher_geometry what a matcher fits to the pair's matches (config
+// DEGENERATE, no inliers, where fewer than min_num_inliers are left).
+// Deterministic (seeded by the scene's seed and the pair), independent of
+// call order. raw_matches (may be null): the pair's matches (the inliers
+// without matcher_geometry) plus wrong matches.
 TwoViewGeometry PairGeometry(const GeneratedScene& scene,
                              const GeneratedPair& pair,
                              FeatureMatches* raw_matches);
@@ -228,8 +240,11 @@ Rigid3d MirrorTwinPose(const Rigid3d& cam_from_world);
 
 // Writes `scene` as a new COLMAP 3.8 database (cameras, images, keypoints,
 // matches, two_view_geometries), to a temporary name renamed when complete.
-// Throws InputError if `path` exists.
-void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path);
+// Throws InputError if `path` exists. num_inliers (may be null): the stored
+// inliers of each of scene.pairs, 0 where the pair was not written
+// (matcher_geometry).
+void WriteSceneDatabase(const GeneratedScene& scene, const std::string& path,
+                        std::vector<int>* num_inliers = nullptr);
 
 // GPS-like pose priors of a generated scene: each camera centre in a local
 // east-north-up frame at `origin` (the scene's world mapped so that its

@@ -730,12 +730,14 @@ void DecomposeHomographyMatrix(const Eigen::Matrix3d& H_in,
   }
 }
 
-bool EstimateEssentialEightPoint(const std::vector<Eigen::Vector2d>& points1,
-                                 const std::vector<Eigen::Vector2d>& points2,
-                                 Eigen::Matrix3d* E) {
+namespace {
+
+// Linear eight-point solution of x2^T M x1 = 0 from >= 8 correspondences,
+// Hartley-normalised for conditioning, in the points' own coordinates (not
+// projected onto any manifold).
+Eigen::Matrix3d LinearEightPoint(const std::vector<Eigen::Vector2d>& points1,
+                                 const std::vector<Eigen::Vector2d>& points2) {
   const size_t num = points1.size();
-  if (num < 8 || points2.size() != num) return false;
-  // Hartley normalisation of each point set for conditioning.
   auto normalisation = [](const std::vector<Eigen::Vector2d>& points) {
     Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
     for (const auto& p : points) centroid += p;
@@ -761,14 +763,87 @@ bool EstimateEssentialEightPoint(const std::vector<Eigen::Vector2d>& points1,
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(AtA);
   const Eigen::Matrix<double, 9, 1> e = eig.eigenvectors().col(0);
-  Eigen::Matrix3d En;
-  En << e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7), e(8);
-  const Eigen::Matrix3d M = T2.transpose() * En * T1;
+  Eigen::Matrix3d Mn;
+  Mn << e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7), e(8);
+  return T2.transpose() * Mn * T1;
+}
+
+}  // namespace
+
+bool EstimateEssentialEightPoint(const std::vector<Eigen::Vector2d>& points1,
+                                 const std::vector<Eigen::Vector2d>& points2,
+                                 Eigen::Matrix3d* E) {
+  if (points1.size() < 8 || points2.size() != points1.size()) return false;
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(
-      M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      LinearEightPoint(points1, points2),
+      Eigen::ComputeFullU | Eigen::ComputeFullV);
   *E = svd.matrixU() * Eigen::Vector3d(1, 1, 0).asDiagonal() *
        svd.matrixV().transpose();
   return true;
+}
+
+bool EstimateFundamentalEightPoint(const std::vector<Eigen::Vector2d>& points1,
+                                   const std::vector<Eigen::Vector2d>& points2,
+                                   Eigen::Matrix3d* F) {
+  if (points1.size() < 8 || points2.size() != points1.size()) return false;
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+      LinearEightPoint(points1, points2),
+      Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Vector3d singular = svd.singularValues();
+  singular(2) = 0;
+  *F = svd.matrixU() * singular.asDiagonal() * svd.matrixV().transpose();
+  const double norm = F->norm();
+  if (!(norm > 0) || !F->allFinite()) return false;
+  *F /= norm;
+  return true;
+}
+
+bool EstimateHomographyDLT(const std::vector<Eigen::Vector2d>& points1,
+                           const std::vector<Eigen::Vector2d>& points2,
+                           Eigen::Matrix3d* H) {
+  const size_t num = points1.size();
+  if (num < 4 || points2.size() != num) return false;
+  auto normalisation = [](const std::vector<Eigen::Vector2d>& points) {
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (const auto& p : points) centroid += p;
+    centroid /= points.size();
+    double mean_dist = 0;
+    for (const auto& p : points) mean_dist += (p - centroid).norm();
+    mean_dist /= points.size();
+    const double s = mean_dist > 0 ? std::sqrt(2.0) / mean_dist : 1.0;
+    Eigen::Matrix3d T;
+    T << s, 0, -s * centroid(0), 0, s, -s * centroid(1), 0, 0, 1;
+    return T;
+  };
+  const Eigen::Matrix3d T1 = normalisation(points1);
+  const Eigen::Matrix3d T2 = normalisation(points2);
+  Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
+  for (size_t i = 0; i < num; ++i) {
+    const Eigen::Vector3d x1 = T1 * points1[i].homogeneous();
+    const Eigen::Vector3d x2 = T2 * points2[i].homogeneous();
+    // x2 x (H x1) = 0: two independent rows per correspondence.
+    Eigen::Matrix<double, 9, 1> row_u, row_v;
+    row_u << -x1(0), -x1(1), -1, 0, 0, 0, x2(0) * x1(0), x2(0) * x1(1), x2(0);
+    row_v << 0, 0, 0, -x1(0), -x1(1), -1, x2(1) * x1(0), x2(1) * x1(1), x2(1);
+    AtA += row_u * row_u.transpose() + row_v * row_v.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(AtA);
+  const Eigen::Matrix<double, 9, 1> h = eig.eigenvectors().col(0);
+  Eigen::Matrix3d Hn;
+  Hn << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  *H = T2.inverse() * Hn * T1;
+  const double norm = H->norm();
+  if (!(norm > 0) || !H->allFinite()) return false;
+  *H /= norm;
+  return true;
+}
+
+double HomographyTransferErrorSquared(const Eigen::Matrix3d& H,
+                                      const Eigen::Vector2d& x1,
+                                      const Eigen::Vector2d& x2) {
+  const Eigen::Vector3d p = H * x1.homogeneous();
+  if (!(std::abs(p.z()) > 0)) return std::numeric_limits<double>::infinity();
+  return (p.hnormalized() - x2).squaredNorm();
 }
 
 double SampsonErrorSquared(const Eigen::Matrix3d& E, const Eigen::Vector2d& x1,

@@ -179,7 +179,24 @@ Eigen::Matrix3d EssentialFromPose(const Eigen::Matrix3d& R,
 bool EstimateEssentialEightPoint(const std::vector<Eigen::Vector2d>& points1,
                                  const std::vector<Eigen::Vector2d>& points2,
                                  Eigen::Matrix3d* E);
-// Squared Sampson error of x2^T E x1 = 0 (normalised coordinates).
+// Linear (Hartley-normalised) eight-point estimate of a fundamental matrix
+// x2^T F x1 = 0 from >= 8 correspondences in pixels, rank 2, unit Frobenius
+// norm. False if fewer than 8 or degenerate.
+bool EstimateFundamentalEightPoint(const std::vector<Eigen::Vector2d>& points1,
+                                   const std::vector<Eigen::Vector2d>& points2,
+                                   Eigen::Matrix3d* F);
+// Linear (Hartley-normalised) DLT estimate of a homography x2 ~ H x1 from
+// >= 4 correspondences, unit Frobenius norm. False if fewer than 4 or
+// degenerate.
+bool EstimateHomographyDLT(const std::vector<Eigen::Vector2d>& points1,
+                           const std::vector<Eigen::Vector2d>& points2,
+                           Eigen::Matrix3d* H);
+// Squared transfer error |x2 - H x1|^2 (infinite where H x1 is at infinity).
+double HomographyTransferErrorSquared(const Eigen::Matrix3d& H,
+                                      const Eigen::Vector2d& x1,
+                                      const Eigen::Vector2d& x2);
+// Squared Sampson error of x2^T E x1 = 0 (normalised coordinates; with F and
+// pixel coordinates, in pixels squared).
 double SampsonErrorSquared(const Eigen::Matrix3d& E, const Eigen::Vector2d& x1,
                            const Eigen::Vector2d& x2);
 // Linear triangulation of x2 = R x1 + t; returns the depths in camera 1 and

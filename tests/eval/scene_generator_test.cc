@@ -608,5 +608,129 @@ TEST(SceneGenerator, PhotoLayoutIsAPhotoCollection) {
   }
 }
 
+// Matcher geometry on photo scenes, with and without distortion: what is
+// stored is what a matcher fitting a pinhole F and E with the database's
+// cameras would keep.
+struct MatcherGeometryStats {
+  int num_matches = 0;  // the pairs' matches (after the match rates)
+  int num_inliers = 0;  // of them stored
+  int num_both_priors = 0;
+  int num_both_priors_uncalibrated = 0;  // E fell short of F
+  int num_planar = 0;
+  int num_degenerate = 0;
+};
+
+MatcherGeometryStats CheckMatcherGeometry(double max_radial_distortion,
+                                          double prior_focal_error) {
+  SceneGeneratorOptions options;
+  options.layout = SceneLayout::kPhoto;
+  options.num_images = 60;
+  options.point_density = 10;
+  options.noise_px = 0.5;
+  options.random_pair_rate = 0.1;
+  options.mirror_pair_rate = 0.05;
+  options.raw_outlier_ratio = 0;  // raw matches: the pair's matches
+  options.max_keypoints_per_image = 1500;
+  options.max_radial_distortion = max_radial_distortion;
+  options.prior_focal_error = prior_focal_error;
+  options.matcher_geometry = true;
+  const GeneratedScene scene = GenerateScene(options);
+  MatcherGeometryStats stats;
+  std::vector<int> expected_written;
+  for (const GeneratedPair& pair : scene.pairs) {
+    FeatureMatches matches;
+    const TwoViewGeometry geometry = PairGeometry(scene, pair, &matches);
+    const Image& image1 = scene.truth.images.at(pair.image_id1);
+    const Image& image2 = scene.truth.images.at(pair.image_id2);
+    const Camera& camera1 = scene.database_cameras.at(image1.camera_id);
+    const Camera& camera2 = scene.database_cameras.at(image2.camera_id);
+    const bool both_priors =
+        camera1.has_prior_focal_length && camera2.has_prior_focal_length;
+    stats.num_matches += static_cast<int>(matches.size());
+    stats.num_inliers += static_cast<int>(geometry.inlier_matches.size());
+    expected_written.push_back(
+        static_cast<int>(geometry.inlier_matches.size()));
+    if (geometry.config == TwoViewGeometry::DEGENERATE) {
+      ++stats.num_degenerate;
+      EXPECT_TRUE(geometry.inlier_matches.empty());
+      continue;
+    }
+    EXPECT_GE(geometry.inlier_matches.size(),
+              static_cast<size_t>(options.min_num_inliers));
+    std::set<std::pair<point2D_t, point2D_t>> matched;
+    for (const FeatureMatch& match : matches)
+      matched.insert({match.point2D_idx1, match.point2D_idx2});
+    // E only where both cameras have a prior focal; CALIBRATED only there.
+    EXPECT_EQ(geometry.E.isZero(), !both_priors);
+    EXPECT_FALSE(geometry.F.isZero());
+    EXPECT_FALSE(geometry.H.isZero());
+    if (both_priors) {
+      ++stats.num_both_priors;
+      stats.num_both_priors_uncalibrated +=
+          geometry.config == TwoViewGeometry::UNCALIBRATED;
+    } else {
+      EXPECT_NE(geometry.config, TwoViewGeometry::CALIBRATED);
+    }
+    stats.num_planar += geometry.config == TwoViewGeometry::PLANAR_OR_PANORAMIC;
+    // The stored inliers are those of one of the fitted matrices: within
+    // 4 px of F or H (pixels), or within 4 px over the database's focal
+    // lengths of E (normalised by the database's cameras).
+    const double focal1 = CameraMeanFocalLength(camera1);
+    const double focal2 = CameraMeanFocalLength(camera2);
+    size_t within_F = 0, within_E = 0, within_H = 0;
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      EXPECT_TRUE(matched.count({match.point2D_idx1, match.point2D_idx2}));
+      const Eigen::Vector2d x1 = image1.points2D[match.point2D_idx1].xy;
+      const Eigen::Vector2d x2 = image2.points2D[match.point2D_idx2].xy;
+      within_F += SampsonErrorSquared(geometry.F, x1, x2) <= 16.0;
+      within_H += HomographyTransferErrorSquared(geometry.H, x1, x2) <= 16.0;
+      if (both_priors) {
+        within_E += std::sqrt(SampsonErrorSquared(
+                        geometry.E, CameraImageToCamera(camera1, x1),
+                        CameraImageToCamera(camera2, x2))) <=
+                    0.5 * (4.0 / focal1 + 4.0 / focal2) * (1 + 1e-12);
+      }
+    }
+    const size_t num_inliers = geometry.inlier_matches.size();
+    if (geometry.config == TwoViewGeometry::UNCALIBRATED) {
+      EXPECT_EQ(within_F, num_inliers);
+    } else if (geometry.config == TwoViewGeometry::CALIBRATED) {
+      EXPECT_TRUE(within_F == num_inliers || within_E == num_inliers);
+    } else {
+      EXPECT_EQ(geometry.config, TwoViewGeometry::PLANAR_OR_PANORAMIC);
+      EXPECT_TRUE(within_F == num_inliers || within_E == num_inliers ||
+                  within_H == num_inliers);
+    }
+  }
+  // The database holds the verified pairs only.
+  test::TempDir temp;
+  std::vector<int> written;
+  WriteSceneDatabase(scene, temp.File("database.db"), &written);
+  EXPECT_EQ(written, expected_written);
+  const DatabaseContents contents = ReadDatabase(temp.File("database.db"));
+  EXPECT_EQ(contents.two_view_geometries.size(),
+            scene.pairs.size() - stats.num_degenerate);
+  return stats;
+}
+
+TEST(SceneGenerator, MatcherGeometryIsWhatAMatcherWouldStore) {
+  // Pinhole cameras with exact focal priors: F keeps (nearly) every match,
+  // and E of every pair of two priors as many (CALIBRATED, or planar); the
+  // walls' relief leaves most pairs non-planar.
+  const MatcherGeometryStats exact = CheckMatcherGeometry(0.0, 0.0);
+  EXPECT_GT(exact.num_inliers, 0.99 * exact.num_matches);
+  EXPECT_GT(exact.num_both_priors, 20);
+  EXPECT_EQ(exact.num_both_priors_uncalibrated, 0);
+  EXPECT_LT(exact.num_planar, 0.5 * exact.num_both_priors);
+  // Radial distortion up to 0.09 and priors up to 5% off: a pinhole F leaves
+  // out matches, and E with the database's cameras misses enough of F's
+  // inliers that pairs of two priors become UNCALIBRATED.
+  const MatcherGeometryStats distorted = CheckMatcherGeometry(0.09, 0.05);
+  EXPECT_LT(static_cast<double>(distorted.num_inliers) / distorted.num_matches,
+            static_cast<double>(exact.num_inliers) / exact.num_matches);
+  EXPECT_GT(distorted.num_both_priors, 20);
+  EXPECT_GT(distorted.num_both_priors_uncalibrated, 0);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

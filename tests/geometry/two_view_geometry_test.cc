@@ -103,6 +103,69 @@ TEST(TwoViewGeometry, EightPointRecoversEssentialMatrix) {
                                            {x2.begin(), x2.begin() + 7}, &E));
 }
 
+TEST(TwoViewGeometry, EightPointRecoversFundamentalMatrix) {
+  std::mt19937_64 rng(5);
+  const Camera camera1 = MakeCamera(CameraModelNameToId("PINHOLE"), 1);
+  Camera camera2 = MakeCamera(CameraModelNameToId("SIMPLE_PINHOLE"), 2);
+  camera2.params = {1100, 790, 610};
+  const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(15), &rng);
+  const Eigen::Vector3d t(-1, 0.3, 0.2);
+  const SyntheticPair pair =
+      MakeSyntheticPair(camera1, camera2, R, t, 60, 0, false, &rng);
+  std::vector<Eigen::Vector2d> x1, x2;
+  for (const FeatureMatch& m : pair.geometry.inlier_matches) {
+    x1.push_back(pair.keypoints1[m.point2D_idx1].cast<double>());
+    x2.push_back(pair.keypoints2[m.point2D_idx2].cast<double>());
+  }
+  Eigen::Matrix3d F;
+  ASSERT_TRUE(EstimateFundamentalEightPoint(x1, x2, &F));
+  Eigen::Matrix3d F_true =
+      CameraCalibrationMatrix(camera2).inverse().transpose() *
+      EssentialFromPose(R, t.normalized()) *
+      CameraCalibrationMatrix(camera1).inverse();
+  F_true /= F_true.norm();
+  EXPECT_NEAR(F.norm(), 1.0, 1e-12);
+  EXPECT_LT(std::min((F - F_true).norm(), (F + F_true).norm()), 1e-4);
+  // Rank 2, and the matches on its epipolar lines (pixels).
+  EXPECT_LT(std::abs(F.determinant()), 1e-12);
+  for (size_t i = 0; i < x1.size(); ++i)
+    EXPECT_LT(SampsonErrorSquared(F, x1[i], x2[i]), 1e-8);
+  EXPECT_FALSE(EstimateFundamentalEightPoint({x1.begin(), x1.begin() + 7},
+                                             {x2.begin(), x2.begin() + 7}, &F));
+}
+
+TEST(TwoViewGeometry, DltRecoversHomography) {
+  // x2 ~ H x1 for the points of a plane: H = K2 (R + t n^T) K1^-1 with
+  // n^T X1 = 1 on the plane.
+  std::mt19937_64 rng(6);
+  const Eigen::Matrix3d K1 =
+      CameraCalibrationMatrix(MakeCamera(CameraModelNameToId("PINHOLE")));
+  Eigen::Matrix3d K2 = K1;
+  K2(0, 0) = K2(1, 1) = 1100;
+  const Eigen::Matrix3d R = RandomRotationWithAngle(DegToRad(12), &rng);
+  const Eigen::Vector3d t(0.4, -0.1, 0.05);
+  const Eigen::Vector3d n(0.1, 0.05, 0.2);  // the plane z ~ 5
+  Eigen::Matrix3d H_true = K2 * (R + t * n.transpose()) * K1.inverse();
+  H_true /= H_true.norm();
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<Eigen::Vector2d> x1, x2;
+  for (int i = 0; i < 30; ++i) {
+    const Eigen::Vector2d xy(unit(rng), unit(rng));
+    const Eigen::Vector3d ray = xy.homogeneous();
+    const Eigen::Vector3d X1 = ray / n.dot(ray);
+    x1.push_back((K1 * X1).hnormalized());
+    x2.push_back((K2 * (R * X1 + t)).hnormalized());
+  }
+  Eigen::Matrix3d H;
+  ASSERT_TRUE(EstimateHomographyDLT(x1, x2, &H));
+  EXPECT_NEAR(H.norm(), 1.0, 1e-12);
+  EXPECT_LT(std::min((H - H_true).norm(), (H + H_true).norm()), 1e-8);
+  for (size_t i = 0; i < x1.size(); ++i)
+    EXPECT_LT(HomographyTransferErrorSquared(H, x1[i], x2[i]), 1e-12);
+  EXPECT_FALSE(EstimateHomographyDLT({x1.begin(), x1.begin() + 3},
+                                     {x2.begin(), x2.begin() + 3}, &H));
+}
+
 TEST(TwoViewGeometry, InverseSwapsEverything) {
   std::mt19937_64 rng(4);
   const Camera camera = MakeCamera(CameraModelNameToId("PINHOLE"));

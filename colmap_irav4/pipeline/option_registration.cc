@@ -382,6 +382,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "Schur solver: its per-point cell tables take at most this "
                "many MiB (the points beyond search their cells at each "
                "iteration)");
+  manager->Add("BundleAdjustment.schur_locality_order_min_mib",
+               &ba.schur_locality_order_min_mib,
+               "Schur solver: from this many MiB of reduced system, the "
+               "points are eliminated in an order that keeps their cells "
+               "in the caches (the same solution up to rounding)");
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");

@@ -187,6 +187,8 @@ class BundleAdjustmentProblem {
       schur_options.linear_solver = options.schur_linear_solver;
       schur_options.max_factor_mib = options.schur_max_factor_mib;
       schur_options.max_cell_table_mib = options.schur_max_cell_table_mib;
+      schur_options.locality_order_min_mib =
+          options.schur_locality_order_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
       schur_adjuster_ =
@@ -1145,6 +1147,11 @@ void BundleAdjustmentOptions::Check() const {
   if (!(schur_max_cell_table_mib >= 0)) {
     throw OptionError(&schur_max_cell_table_mib,
                       "BundleAdjustment.schur_max_cell_table_mib",
+                      "must be >= 0");
+  }
+  if (!(schur_locality_order_min_mib >= 0)) {
+    throw OptionError(&schur_locality_order_min_mib,
+                      "BundleAdjustment.schur_locality_order_min_mib",
                       "must be >= 0");
   }
   if (!(schur_iterative_eta > 0 && schur_iterative_eta < 1)) {

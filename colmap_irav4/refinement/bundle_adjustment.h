@@ -135,6 +135,10 @@ struct BundleAdjustmentOptions {
   // The Schur solver's per-point cell tables (SchurSolverOptions): at most
   // this many MiB; the points beyond search their cells at each iteration.
   double schur_max_cell_table_mib = 256;
+  // The Schur solver eliminates the points in an order that keeps
+  // consecutive points' cells together from this size of its reduced
+  // system (MiB; SchurSolverOptions::locality_order_min_mib).
+  double schur_locality_order_min_mib = 16;
   // Iterative: conjugate gradients stop at a residual of min(eta, sqrt(|b| /
   // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
   double schur_iterative_eta = 1e-3;

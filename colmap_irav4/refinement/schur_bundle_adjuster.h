@@ -38,6 +38,13 @@ struct SchurSolverOptions {
   // at 5,000 (tracks of 30 images: 1,830 pairs a point); the points beyond
   // it search their cells at every iteration instead.
   double max_cell_table_mib = 256;
+  // From this size of the reduced system's values (MiB), the points are
+  // eliminated in an order that keeps consecutive points' cells together
+  // (each point's updates scatter over the system; in order of their
+  // largest blocks consecutive points share most cells): 1.66x less CPU an
+  // iteration at 5,000 photo images (294 MiB), 1.35x at 1,000 (24 MiB);
+  // below, the points' own order (not measured under 24 MiB).
+  double locality_order_min_mib = 16;
   // Iterative: conjugate gradients stop once the residual is at most
   // eta_k |b| (b: the reduced system's right-hand side), eta_k = min(eta,
   // sqrt(|b| / |b_0|)) with b_0 the solve's first right-hand side: an
@@ -132,6 +139,10 @@ class SchurBundleAdjuster {
   void SetUseCellTables(bool use) { use_cell_tables_ = use; }
   // The cell tables' size in bytes (0 before the first solve).
   size_t CellTableBytes() const;
+  // Whether the points are eliminated in the locality order
+  // (SchurSolverOptions::locality_order_min_mib; false before the first
+  // solve).
+  bool OrdersPointsForLocality() const { return !point_order_.empty(); }
 
   struct Summary {
     ceres::TerminationType termination = ceres::NO_CONVERGENCE;
@@ -232,6 +243,10 @@ class SchurBundleAdjuster {
   bool SolveSupernodal(const Eigen::VectorXd& rhs, Eigen::VectorXd* step);
   // The scalar CSC pattern of the reduced system (the factorisations').
   void BuildScalarPattern();
+  // values_ from the cell layout into the scalar CSC layout of outer_ and
+  // inner_, column by column in place (the next accumulation starts from
+  // zeros, in the cell layout again).
+  void ToScalarLayout();
   // The number of entries of the Cholesky factor of the structure just
   // built, estimated from the symbolic analysis (fill-reducing ordering and
   // column counts, CHOLMOD) of its block pattern: each block column's rows
@@ -270,8 +285,16 @@ class SchurBundleAdjuster {
   std::vector<int> pose_block_, camera_block_;  // -1: held
   std::vector<int> block_size_, block_offset_;
   int num_scalars_ = 0;
-  std::vector<size_t> column_begin_;  // by block: first value of its column
-  std::vector<int> column_height_;    // by block: rows stored per column
+  // By block: the first value of its column and the rows stored in it. A
+  // column's cells are accumulated each as one contiguous column-major
+  // block (leading dimension: its rows; row offset r -> values r x the
+  // column's width in), because the Schur updates of a point scatter over
+  // cells: in the scalar layout each cell column is a separate cache line
+  // (a stride of the column's height apart). ToScalarLayout() rearranges
+  // each column in place into the scalar CSC layout for the
+  // factorisations.
+  std::vector<size_t> column_begin_;
+  std::vector<int> column_height_;
   // (column block << 32 | row block) -> row offset within the block
   // column, sorted; column_cells_: each column's first cell in it.
   std::vector<std::pair<uint64_t, int>> cell_offset_;
@@ -285,8 +308,12 @@ class SchurBundleAdjuster {
   // take m (m + 1) / 2 entries. Empty for the others.
   std::vector<size_t> point_block_ids_begin_, point_cells_begin_;
   std::vector<int> point_block_ids_;
+  // The order the points are eliminated in (empty: their own; see
+  // SchurSolverOptions::locality_order_min_mib).
+  std::vector<uint32_t> point_order_;
   std::vector<uint32_t> point_cells_;
   bool use_cell_tables_ = true;
+  // The reduced system, in the cell layout while accumulated (above).
   std::vector<double> values_;
   // CHOLMOD's workspace and supernodal factor (null: simplicial).
   struct Cholmod;

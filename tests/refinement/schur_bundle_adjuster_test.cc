@@ -510,6 +510,43 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
   }
 }
 
+// The points eliminated in the locality order (by their largest blocks,
+// forced on a small system) give the solution of the points' own order up
+// to rounding: the same updates, summed in another order.
+TEST(SchurBundleAdjuster, LocalityOrderSameSolutionUpToRounding) {
+  for (const bool shared_camera : {false, true}) {
+    SCOPED_TRACE(shared_camera ? "shared camera" : "camera per image");
+    Reconstruction start = Scene(2, shared_camera).truth;
+    PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+    Reconstruction own_model = start, ordered_model = start;
+    std::map<image_t, std::vector<double>> own_weights, ordered_weights;
+    SchurSolverOptions ordered_options;
+    ordered_options.locality_order_min_mib = 0;
+    SchurBundleAdjuster own(/*center=*/false),
+        ordered(/*center=*/false, ordered_options);
+    AddModel(/*gauge=*/true, &own_model, &own_weights, &own);
+    AddModel(/*gauge=*/true, &ordered_model, &ordered_weights, &ordered);
+    ceres::Solver::Options options;
+    options.max_num_iterations = 30;
+    const SchurBundleAdjuster::Summary a = own.Solve(options);
+    const SchurBundleAdjuster::Summary b = ordered.Solve(options);
+    // The default threshold (16 MiB) is far above this system.
+    EXPECT_FALSE(own.OrdersPointsForLocality());
+    EXPECT_TRUE(ordered.OrdersPointsForLocality());
+    EXPECT_NE(a.termination, ceres::FAILURE);
+    EXPECT_NE(b.termination, ceres::FAILURE);
+    EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
+    EXPECT_EQ(a.initial_cost, b.initial_cost);
+    EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
+    const Difference d = Compare(ordered_model, own_model);
+    EXPECT_LT(d.center, 1e-7);
+    EXPECT_LT(d.rotation_deg, 1e-7);
+    EXPECT_LT(d.point, 1e-7);
+    EXPECT_LT(d.param, 1e-6);
+    EXPECT_GT(Compare(start, own_model).point, 1e-3);
+  }
+}
+
 // The iterative solver (conjugate gradients on the reduced camera system,
 // Schur-Jacobi preconditioner) against the supernodal factorisation. One
 // Levenberg-Marquardt step solved to a relative residual of 1e-10: the same

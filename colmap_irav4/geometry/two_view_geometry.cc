@@ -732,26 +732,30 @@ void DecomposeHomographyMatrix(const Eigen::Matrix3d& H_in,
 
 namespace {
 
+// Hartley's normalisation: the similarity taking the points' centroid to
+// the origin and their mean distance from it to sqrt(2).
+Eigen::Matrix3d HartleyNormalisation(
+    const std::vector<Eigen::Vector2d>& points) {
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (const auto& p : points) centroid += p;
+  centroid /= points.size();
+  double mean_dist = 0;
+  for (const auto& p : points) mean_dist += (p - centroid).norm();
+  mean_dist /= points.size();
+  const double s = mean_dist > 0 ? std::sqrt(2.0) / mean_dist : 1.0;
+  Eigen::Matrix3d T;
+  T << s, 0, -s * centroid(0), 0, s, -s * centroid(1), 0, 0, 1;
+  return T;
+}
+
 // Linear eight-point solution of x2^T M x1 = 0 from >= 8 correspondences,
 // Hartley-normalised for conditioning, in the points' own coordinates (not
 // projected onto any manifold).
 Eigen::Matrix3d LinearEightPoint(const std::vector<Eigen::Vector2d>& points1,
                                  const std::vector<Eigen::Vector2d>& points2) {
   const size_t num = points1.size();
-  auto normalisation = [](const std::vector<Eigen::Vector2d>& points) {
-    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-    for (const auto& p : points) centroid += p;
-    centroid /= points.size();
-    double mean_dist = 0;
-    for (const auto& p : points) mean_dist += (p - centroid).norm();
-    mean_dist /= points.size();
-    const double s = mean_dist > 0 ? std::sqrt(2.0) / mean_dist : 1.0;
-    Eigen::Matrix3d T;
-    T << s, 0, -s * centroid(0), 0, s, -s * centroid(1), 0, 0, 1;
-    return T;
-  };
-  const Eigen::Matrix3d T1 = normalisation(points1);
-  const Eigen::Matrix3d T2 = normalisation(points2);
+  const Eigen::Matrix3d T1 = HartleyNormalisation(points1);
+  const Eigen::Matrix3d T2 = HartleyNormalisation(points2);
   Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
   for (size_t i = 0; i < num; ++i) {
     const Eigen::Vector3d x1 = T1 * points1[i].homogeneous();
@@ -803,20 +807,8 @@ bool EstimateHomographyDLT(const std::vector<Eigen::Vector2d>& points1,
                            Eigen::Matrix3d* H) {
   const size_t num = points1.size();
   if (num < 4 || points2.size() != num) return false;
-  auto normalisation = [](const std::vector<Eigen::Vector2d>& points) {
-    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-    for (const auto& p : points) centroid += p;
-    centroid /= points.size();
-    double mean_dist = 0;
-    for (const auto& p : points) mean_dist += (p - centroid).norm();
-    mean_dist /= points.size();
-    const double s = mean_dist > 0 ? std::sqrt(2.0) / mean_dist : 1.0;
-    Eigen::Matrix3d T;
-    T << s, 0, -s * centroid(0), 0, s, -s * centroid(1), 0, 0, 1;
-    return T;
-  };
-  const Eigen::Matrix3d T1 = normalisation(points1);
-  const Eigen::Matrix3d T2 = normalisation(points2);
+  const Eigen::Matrix3d T1 = HartleyNormalisation(points1);
+  const Eigen::Matrix3d T2 = HartleyNormalisation(points2);
   Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
   for (size_t i = 0; i < num; ++i) {
     const Eigen::Vector3d x1 = T1 * points1[i].homogeneous();

@@ -41,9 +41,11 @@ struct SchurSolverOptions {
   // From this size of the reduced system's values (MiB), the points are
   // eliminated in an order that keeps consecutive points' cells together
   // (each point's updates scatter over the system; in order of their
-  // largest blocks consecutive points share most cells): 1.66x less CPU an
-  // iteration at 5,000 photo images (294 MiB), 1.35x at 1,000 (24 MiB);
-  // below, the points' own order (not measured under 24 MiB).
+  // largest blocks consecutive points share most cells): with the cell
+  // layout and huge pages, 1.6x less CPU an iteration on the 5,000-image
+  // photo scene's true model (294 MiB); the order alone about 1.35x on the
+  // 1,000-image one's (24 MiB); below, the points' own order (not measured
+  // under 24 MiB).
   double locality_order_min_mib = 16;
   // Iterative: conjugate gradients stop once the residual is at most
   // eta_k |b| (b: the reduced system's right-hand side), eta_k = min(eta,

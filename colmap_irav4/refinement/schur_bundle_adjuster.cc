@@ -539,10 +539,22 @@ void SchurBundleAdjuster::BuildStructure() {
   size_t num_cells = 0;
   const double max_bytes =
       use_cell_tables_ ? solver_options_.max_cell_table_mib * 1048576.0 : 0;
+  // The locality order's keys (below) from the same pass: each point's
+  // three largest blocks, descending.
+  const bool locality_order =
+      values_.size() * sizeof(double) >=
+      solver_options_.locality_order_min_mib * 1048576.0;
+  std::vector<std::array<int, 3>> keys(locality_order ? num_points : 0,
+                                       {-1, -1, -1});
   for (size_t p = 0; p < num_points; ++p) {
     point_block_ids_begin_[p] = num_block_ids;
     point_cells_begin_[p] = num_cells;
     if (!live_blocks(p)) continue;
+    if (locality_order) {
+      for (size_t i = 0; i < 3 && i < blocks.size(); ++i) {
+        keys[p][i] = blocks[blocks.size() - 1 - i];
+      }
+    }
     const size_t point_cells = blocks.size() * (blocks.size() + 1) / 2;
     if ((num_block_ids + blocks.size()) * sizeof(int) +
             (num_cells + point_cells) * sizeof(uint32_t) >
@@ -575,15 +587,7 @@ void SchurBundleAdjuster::BuildStructure() {
   // they are in the caches, once the reduced system is too large for them
   // (locality_order_min_mib). Smaller systems keep the points' order.
   point_order_.clear();
-  if (values_.size() * sizeof(double) >=
-      solver_options_.locality_order_min_mib * 1048576.0) {
-    std::vector<std::array<int, 3>> keys(num_points, {-1, -1, -1});
-    for (size_t p = 0; p < num_points; ++p) {
-      if (!live_blocks(p)) continue;
-      for (size_t i = 0; i < 3 && i < blocks.size(); ++i) {
-        keys[p][i] = blocks[blocks.size() - 1 - i];
-      }
-    }
+  if (locality_order) {
     point_order_.resize(num_points);
     std::iota(point_order_.begin(), point_order_.end(), 0u);
     std::stable_sort(

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
+#include <sstream>
 #include <utility>
 
 #include <glog/logging.h>
@@ -997,6 +999,22 @@ std::vector<ComponentModel> ComponentMapper::SplitIntoRigidParts(
       "and scale are not determined; writing the parts as separate models";
   LOG(WARNING) << prefix_ << message;
   notes_.push_back(prefix_ + message);
+  if (VLOG_IS_ON(1)) {
+    // Images of blocks under min_model_size images, and images in no block.
+    std::set<image_t> written;
+    for (const std::vector<image_t>* block : blocks) {
+      written.insert(block->begin(), block->end());
+    }
+    std::ostringstream left;
+    for (const auto& [image_id, image] :
+         model.mapper->reconstruction().images) {
+      if (!written.count(image_id)) {
+        left << " " << database_.images.at(image_id).name;
+      }
+    }
+    VLOG(1) << prefix_
+            << "rigidity split: images in no written part:" << left.str();
+  }
   for (const std::vector<image_t>* block : blocks) {
     ComponentModel part;
     part.mapper = std::make_unique<GlobalMapper>(*model.mapper);

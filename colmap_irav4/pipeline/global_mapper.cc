@@ -210,24 +210,69 @@ void GlobalMapper::WarnFilteredImages(const FilterSummary& summary) const {
                << names.str();
 }
 
+std::set<image_t> GlobalMapper::CurrentImages() const {
+  std::set<image_t> images;
+  if (state_ == State::kNew && reconstruction_.images.empty()) {
+    for (const auto& [image_id, rotation] : rotations_) images.insert(image_id);
+  } else {
+    for (const auto& [image_id, image] : reconstruction_.images) {
+      images.insert(image_id);
+    }
+  }
+  return images;
+}
+
+void GlobalMapper::LogImagesLeft(const std::string& stage,
+                                 const std::set<image_t>& before) const {
+  if (!VLOG_IS_ON(1)) return;
+  const std::set<image_t> after = CurrentImages();
+  std::ostringstream names;
+  int num_left = 0;
+  for (const image_t image_id : before) {
+    if (after.count(image_id)) continue;
+    ++num_left;
+    const auto it = database_.images.find(image_id);
+    names << " "
+          << (it != database_.images.end() ? it->second.name
+                                           : std::to_string(image_id));
+  }
+  if (num_left > 0) {
+    VLOG(1) << log_prefix_ << stage << ": " << num_left
+            << " image(s) left the model:" << names.str();
+  }
+}
+
 bool GlobalMapper::Solve(bool stop_if_folded) {
   ResumeKeypoints();
   if (state_ == State::kNew) {
     // Rotations a caller averaged already (RotationAveraging() before
     // Solve(): the part merge's probe) are not averaged again.
-    if (!((rotations_averaged_ || RotationAveraging()) && RotationFilter() &&
-          BuildTracks() && Positioning())) {
+    if (!(rotations_averaged_ || RotationAveraging())) {
       state_ = State::kFailed;
       return false;
     }
+    const std::set<image_t> averaged = CurrentImages();
+    if (!RotationFilter()) {
+      state_ = State::kFailed;
+      return false;
+    }
+    LogImagesLeft("rotation filter", averaged);
+    const std::set<image_t> filtered = CurrentImages();
+    if (!(BuildTracks() && Positioning())) {
+      state_ = State::kFailed;
+      return false;
+    }
+    LogImagesLeft("tracks and positioning", filtered);
     state_ = State::kPositioned;
     if (CheckFold("after positioning") && stop_if_folded) return true;
   }
   if (state_ == State::kPositioned) {
+    const std::set<image_t> positioned = CurrentImages();
     if (!(IterativeBundleAdjustment() && Finalize())) {
       state_ = State::kFailed;
       return false;
     }
+    LogImagesLeft("refinement (bundle adjustment, filtering)", positioned);
     state_ = State::kRefined;
     // Retriangulation made the points of every track it could: the tracks
     // are not read again (a model kept for writing holds no copy of them).

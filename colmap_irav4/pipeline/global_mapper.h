@@ -299,6 +299,12 @@ class GlobalMapper {
                             StageTimer* stage);
   // Logs the images a filtering removed from the model (a warning).
   void WarnFilteredImages(const FilterSummary& summary) const;
+  // The images of the model (or, before positioning, with a rotation).
+  std::set<image_t> CurrentImages() const;
+  // At verbosity 1: the images of `before` no longer in the model after
+  // `stage` (which stage loses which image).
+  void LogImagesLeft(const std::string& stage,
+                     const std::set<image_t>& before) const;
 
   enum class State { kNew, kPositioned, kRefined, kFailed };
 

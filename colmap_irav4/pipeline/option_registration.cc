@@ -58,6 +58,10 @@ void AddFocalCalibrationOptions(OptionManager* manager,
   manager->Add("ViewGraph.calibration_max_agreeing_cost",
                &options->max_agreeing_cost,
                "a pair agrees with a focal if its cost there is below this");
+  manager->Add("ViewGraph.calibration_prior_max_ratio",
+               &options->prior_max_ratio,
+               "above 1, cameras with a prior focal are calibrated too, within "
+               "this factor of the prior (1: priors fixed)");
   manager->Add("ViewGraph.calibration_num_sweeps", &options->num_sweeps,
                "coordinate-descent sweeps over several cameras");
   manager->Add("ViewGraph.calibration_min_cost_increase",

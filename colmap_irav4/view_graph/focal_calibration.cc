@@ -200,6 +200,10 @@ void FocalCalibrationOptions::Check() const {
     throw OptionError(&num_sweeps, "ViewGraph.calibration_num_sweeps",
                       "must be >= 1");
   }
+  if (!(prior_max_ratio >= 1 && prior_max_ratio < max_focal_ratio)) {
+    throw OptionError(&prior_max_ratio, "ViewGraph.calibration_prior_max_ratio",
+                      "must be in [1, calibration_max_focal_ratio)");
+  }
   if (!(min_cost_increase >= 1)) {
     throw OptionError(&min_cost_increase,
                       "ViewGraph.calibration_min_cost_increase",
@@ -249,9 +253,10 @@ std::vector<FocalCalibrationResult> CalibrateFocalLengths(
   std::vector<FocalCalibrationResult> results;
   if (!options.calibrate_focal) return results;
 
-  // Free cameras (no prior focal, a model with a focal and principal point)
-  // and the usable pairs touching each.
+  // Free cameras (no prior focal, or any with prior_max_ratio > 1; a model
+  // with a focal and principal point) and the usable pairs touching each.
   std::map<camera_t, std::vector<size_t>> camera_pairs;
+  const bool calibrate_priors = options.prior_max_ratio > 1;
   std::set<camera_t> unusable;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const FocalCalibrationPair& pair = pairs[i];
@@ -261,7 +266,7 @@ std::vector<FocalCalibrationResult> CalibrateFocalLengths(
     }
     for (const camera_t id : {pair.camera_id1, pair.camera_id2}) {
       const Camera& camera = cameras->at(id);
-      if (camera.has_prior_focal_length) continue;
+      if (camera.has_prior_focal_length && !calibrate_priors) continue;
       if (!CameraHasValidParams(camera) ||
           CameraModelFocalLengthIdxs(camera.model_id).empty() ||
           CameraModelPrincipalPointIdxs(camera.model_id).size() != 2) {
@@ -274,7 +279,8 @@ std::vector<FocalCalibrationResult> CalibrateFocalLengths(
     }
   }
   for (const camera_t id : unusable) camera_pairs.erase(id);
-  // The other cameras (priors, too few pairs) stay fixed at scale 1.
+  // The other cameras (priors unless prior_max_ratio > 1, too few pairs)
+  // stay fixed at scale 1.
   std::vector<camera_t> free;
   for (const auto& [id, indices] : camera_pairs) {
     FocalCalibrationResult result;
@@ -332,6 +338,25 @@ std::vector<FocalCalibrationResult> CalibrateFocalLengths(
         calibrator.scale[id] = common.at(id);
         reasons[id] = reason;
       }
+    }
+  }
+
+  // Cameras with a prior focal (option) were calibrated as the others, from
+  // their prior; one whose own fit failed, or that moved beyond
+  // prior_max_ratio, keeps its prior (the pairs disagree with it, or the
+  // estimate is poorly conditioned).
+  for (const camera_t id : free) {
+    if (!cameras->at(id).has_prior_focal_length) continue;
+    const double x = calibrator.Scale(id);
+    if (!accepted[id]) {
+      reasons[id] = "prior kept: " + reasons[id];
+      calibrator.scale.erase(id);
+    } else if (x * options.prior_max_ratio < 1 || x > options.prior_max_ratio) {
+      std::ostringstream why;
+      why << "prior kept: the calibration gives x" << x << ", beyond the "
+          << "prior's ratio " << options.prior_max_ratio;
+      reasons[id] = why.str();
+      calibrator.scale.erase(id);
     }
   }
 

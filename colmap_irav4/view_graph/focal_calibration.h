@@ -24,6 +24,13 @@ struct FocalCalibrationOptions {
   // Search range of the focal, as factors of the camera's current focal.
   double min_focal_ratio = 0.25;
   double max_focal_ratio = 4.0;
+  // Cameras with a prior focal: 1 keeps the prior fixed; above 1 each such
+  // camera is calibrated too, within [1 / prior_max_ratio, prior_max_ratio]
+  // x its prior, after the cameras without one (an EXIF focal is a few
+  // percent off, enough to turn the relative rotations derived from F by
+  // degrees), and keeps its prior where the minimum is at the range's end
+  // or ill-conditioned.
+  double prior_max_ratio = 1.0;
   // Log-spaced grid points of the search before golden-section refinement.
   int num_grid_points = 61;
   // A camera needs at least this many pairs with a fundamental matrix.
@@ -77,8 +84,9 @@ double EssentialSingularValueCost(const Eigen::Matrix3d& F,
 // Calibrates the focal length(s) of the cameras without a prior focal length
 // that appear in the pairs (all focal parameters scaled by one factor, the
 // principal point and distortion untouched); cameras with a prior stay fixed
-// and constrain the others. Updates *cameras and returns one result per free
-// camera seen in the pairs.
+// and constrain the others (then, with options.prior_max_ratio > 1, are
+// calibrated within that ratio of their prior). Updates *cameras and returns
+// one result per calibrated or considered camera seen in the pairs.
 std::vector<FocalCalibrationResult> CalibrateFocalLengths(
     const std::vector<FocalCalibrationPair>& pairs,
     const FocalCalibrationOptions& options,

@@ -274,6 +274,55 @@ TEST(FocalCalibration, PriorCameraUntouchedAndConstrainsTheOther) {
   EXPECT_EQ(all_prior.at(2).params[0], 1700);
 }
 
+// With prior_max_ratio > 1, cameras with a prior focal a few percent off are
+// calibrated within that ratio of it; a prior too far off for the range keeps
+// its value.
+TEST(FocalCalibration, PriorCamerasCalibratedWithinTheirRatio) {
+  std::mt19937 rng(5);
+  const std::map<camera_t, Camera> truth{{1, MakePinhole(1, 1500, false)},
+                                         {2, MakePinhole(2, 2200, false)},
+                                         {3, MakePinhole(3, 1800, false)}};
+  const std::vector<FocalCalibrationPair> pairs =
+      SyntheticPairs(truth, {1, 2, 3, 1, 2, 3, 1, 2, 3}, &rng);
+  FocalCalibrationOptions options;
+  options.prior_max_ratio = 1.1;
+  // Priors 4% over, 3.6% under and 30% over.
+  std::map<camera_t, Camera> cameras{{1, MakePinhole(1, 1560, true)},
+                                     {2, MakePinhole(2, 2120, true)},
+                                     {3, MakePinhole(3, 2340, true)}};
+  const std::vector<FocalCalibrationResult> results =
+      CalibrateFocalLengths(pairs, options, &cameras);
+  ASSERT_EQ(results.size(), 3u);
+  std::map<camera_t, FocalCalibrationResult> by_camera;
+  for (const FocalCalibrationResult& result : results) {
+    by_camera[result.camera_id] = result;
+  }
+  ::colmap_irav4::test::RecordFiguresF(
+      "camera 1: 1560 -> %.2f (true 1500); camera 2: 2120 -> %.2f (true "
+      "2200); camera 3: 2340 -> %.2f (true 1800, out of range)\n",
+      cameras.at(1).params[0], cameras.at(2).params[0],
+      cameras.at(3).params[0]);
+  EXPECT_TRUE(by_camera[1].calibrated) << by_camera[1].reason;
+  EXPECT_TRUE(by_camera[2].calibrated) << by_camera[2].reason;
+  EXPECT_NEAR(cameras.at(1).params[0] / 1500, 1.0, 0.01);
+  EXPECT_NEAR(cameras.at(2).params[0] / 2200, 1.0, 0.01);
+  EXPECT_FALSE(by_camera[3].calibrated);
+  EXPECT_NE(by_camera[3].reason.find("prior kept"), std::string::npos)
+      << by_camera[3].reason;
+  EXPECT_EQ(cameras.at(3).params[0], 2340);
+  // Principal points untouched.
+  EXPECT_EQ(cameras.at(1).params[2], 790);
+  EXPECT_EQ(cameras.at(2).params[3], 610);
+
+  // The default (1) keeps every prior.
+  std::map<camera_t, Camera> fixed{{1, MakePinhole(1, 1560, true)},
+                                   {2, MakePinhole(2, 2120, true)},
+                                   {3, MakePinhole(3, 2340, true)}};
+  EXPECT_TRUE(
+      CalibrateFocalLengths(pairs, FocalCalibrationOptions(), &fixed).empty());
+  EXPECT_EQ(fixed.at(1).params[0], 1560);
+}
+
 TEST(FocalCalibration, GuardsKeepTheGuess) {
   std::mt19937 rng(3);
   const std::map<camera_t, Camera> truth{{1, MakePinhole(1, 1500, false)}};
@@ -319,6 +368,11 @@ TEST(FocalCalibration, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
   options = FocalCalibrationOptions();
   options.min_num_pairs = 0;
+  EXPECT_THROW(options.Check(), InputError);
+  options = FocalCalibrationOptions();
+  options.prior_max_ratio = 0.9;
+  EXPECT_THROW(options.Check(), InputError);
+  options.prior_max_ratio = options.max_focal_ratio;
   EXPECT_THROW(options.Check(), InputError);
 }
 

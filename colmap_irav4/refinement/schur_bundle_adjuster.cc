@@ -383,8 +383,11 @@ bool SchurBundleAdjuster::Evaluate(const Observation& observation,
     for (const int i : pose.free) lin->A.col(col++) = weight * tangent.col(i);
   }
   if (camera_block >= 0) {
-    lin->blocks[lin->num_blocks] = camera_block;
-    lin->cols[lin->num_blocks++] = col;
+    // (A camera joined to the pose's block: its columns follow the pose's.)
+    if (camera_block != pose_block) {
+      lin->blocks[lin->num_blocks] = camera_block;
+      lin->cols[lin->num_blocks++] = col;
+    }
     for (const int i : camera.free) lin->A.col(col++) = weight * dcam.col(i);
   }
   return std::isfinite(residual[0]) && std::isfinite(residual[1]) &&
@@ -427,14 +430,33 @@ void SchurBundleAdjuster::NumberBlocks() {
     num_scalars_ += size;
     return static_cast<int>(block_size_.size()) - 1;
   };
+  // A refined camera of one pose only (a photo collection's camera per
+  // image, COLMAP's default) joins its pose's block (the pose's columns,
+  // then the camera's): an observation pair then updates one contiguous
+  // cell instead of four in four places (SchurSolverOptions).
+  std::vector<int> num_users(cameras_.size(), 0);
+  for (const PoseBlock& pose : poses_) ++num_users[pose.camera];
   pose_block_.clear();
+  camera_block_.assign(cameras_.size(), -1);
+  camera_column_.assign(cameras_.size(), 0);
+  std::vector<bool> joined(cameras_.size(), false);
   for (const PoseBlock& pose : poses_) {
-    pose_block_.push_back(add(static_cast<int>(pose.free.size())));
+    const int pose_size = static_cast<int>(pose.free.size());
+    const int camera_size = static_cast<int>(cameras_[pose.camera].free.size());
+    const bool join = solver_options_.join_own_camera_blocks && pose_size > 0 &&
+                      camera_size > 0 && num_users[pose.camera] == 1;
+    pose_block_.push_back(add(pose_size + (join ? camera_size : 0)));
+    if (join) {
+      joined[pose.camera] = true;
+      camera_block_[pose.camera] = pose_block_.back();
+      camera_column_[pose.camera] = pose_size;
+    }
   }
-  // The cameras last: shared by many images, they are the dense rows.
-  camera_block_.clear();
-  for (const CameraBlock& camera : cameras_) {
-    camera_block_.push_back(add(static_cast<int>(camera.free.size())));
+  // The other cameras last: shared by many images, they are the dense rows.
+  for (size_t c = 0; c < cameras_.size(); ++c) {
+    if (!joined[c]) {
+      camera_block_[c] = add(static_cast<int>(cameras_[c].free.size()));
+    }
   }
 }
 
@@ -845,7 +867,8 @@ void SchurBundleAdjuster::BuildPreconditionerGroups() {
   for (size_t i = 0; i < poses_.size(); ++i) {
     const int a = pose_block_[i];
     const int c = camera_block_[poses_[i].camera];
-    if (a < 0 || c < 0) continue;
+    // (A camera joined to its pose's block is in that block's group.)
+    if (a < 0 || c < 0 || a == c) continue;
     user[c] = user[c] == -1 ? a : -2;
   }
   std::vector<int> partner(block_size_.size(), -1);
@@ -1315,9 +1338,13 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       }
       const int b = pose_block_[pose_residuals_[i].pose];
       if (b < 0) continue;
-      const Eigen::MatrixXd ata = lin.A.transpose() * lin.A;
+      // The pose's columns lead its block (a joined camera's follow).
+      const int size = static_cast<int>(lin.A.cols());
+      Eigen::MatrixXd ata =
+          Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
+      ata.topLeftCorner(size, size) = lin.A.transpose() * lin.A;
       add_cell(b, b, ata);
-      camera_gradient.segment(block_offset_[b], block_size_[b]) +=
+      camera_gradient.segment(block_offset_[b], size) +=
           lin.A.transpose() * lin.r;
       diagonal.segment(block_offset_[b], block_size_[b]) += ata.diagonal();
     }
@@ -1442,7 +1469,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       const int b = pose_block_[pose_residuals_[i].pose];
       if (b < 0) continue;
       const Eigen::VectorXd change =
-          lin.A * step.segment(block_offset_[b], block_size_[b]);
+          lin.A * step.segment(block_offset_[b], lin.A.cols());
       model_cost -=
           0.5 * lin.r.squaredNorm() - 0.5 * (lin.r + change).squaredNorm();
     }
@@ -1475,7 +1502,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       const int b = camera_block_[i];
       if (b < 0) continue;
       for (size_t j = 0; j < cameras_[i].free.size(); ++j) {
-        const double d = step[block_offset_[b] + j];
+        const double d = step[block_offset_[b] + camera_column_[i] + j];
         candidate_cameras[kMaxNumParams * i + cameras_[i].free[j]] += d;
         const int param = cameras_[i].free[j];
         const double value = cameras[kMaxNumParams * i + param];

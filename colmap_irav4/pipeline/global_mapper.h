@@ -102,6 +102,13 @@ struct GlobalMapperOptions {
   // implausible distortion) are an error; with this flag they start from a
   // default focal and are refined (see DatabaseReadOptions).
   bool reset_invalid_cameras = false;
+  // A second pass: the relative poses derived again with the cameras (focal,
+  // principal point, distortion) the first mapping's bundle adjustment
+  // refined, held as priors; the images no model registered keep the
+  // database's (or self-calibrated) cameras. Rotation averaging, the
+  // rotation filter and the whole mapping run again on that view graph; the
+  // second pass's models are written.
+  bool recalibrated_second_pass = false;
 
   // Pose priors (GPS, gravity; io/pose_priors.h): from pose_prior_path when
   // given (`IMAGE_NAME X Y Z [GX GY GZ]` lines, X Y Z latitude, longitude,

@@ -259,19 +259,68 @@ std::vector<Reconstruction> GlobalPipeline::Reconstruct(
   }
   std::vector<std::vector<image_t>> components;
   const ViewGraph view_graph = BuildViewGraph(database, &components);
+  std::vector<ComponentModel> first =
+      MapComponents(database, view_graph, components);
+  if (!options_.recalibrated_second_pass) {
+    std::vector<Reconstruction> models = FinishModels(std::move(first));
+    summary_.total_seconds += total_timer.ElapsedSeconds();
+    return models;
+  }
+  // Second pass: the relative poses derived again with the cameras the
+  // first mapping refined, then the whole mapping again on that graph.
+  int num_replaced = 0;
+  const std::map<camera_t, Camera> cameras =
+      RefinedCameras(database, first, &num_replaced);
+  first.clear();
+  LOG(INFO) << "Second pass: the relative poses derived again with the "
+            << num_replaced << " camera(s) the first mapping refined";
+  summary_.notes.push_back("second pass with " + std::to_string(num_replaced) +
+                           " camera(s) refined by the first mapping");
+  std::vector<std::vector<image_t>> second_components;
+  const ViewGraph second_graph = BuildViewGraph(
+      database, &second_components, &cameras, "view graph (second pass)");
   std::vector<Reconstruction> models =
-      FinishModels(MapComponents(database, view_graph, components));
+      FinishModels(MapComponents(database, second_graph, second_components));
   summary_.total_seconds += total_timer.ElapsedSeconds();
   return models;
 }
 
+std::map<camera_t, Camera> RefinedCameras(
+    const DatabaseContents& database, const std::vector<ComponentModel>& models,
+    int* num_replaced) {
+  std::map<camera_t, Camera> cameras = database.cameras;
+  // Per camera: (images in the model holding most of them, that model).
+  std::map<camera_t, std::pair<int, const Reconstruction*>> source;
+  for (const ComponentModel& model : models) {
+    const Reconstruction& reconstruction = model.mapper->reconstruction();
+    std::map<camera_t, int> counts;
+    for (const auto& [image_id, image] : reconstruction.images) {
+      ++counts[image.camera_id];
+    }
+    for (const auto& [camera_id, count] : counts) {
+      auto it = source.find(camera_id);
+      if (it == source.end() || count > it->second.first) {
+        source[camera_id] = {count, &reconstruction};
+      }
+    }
+  }
+  for (const auto& [camera_id, count_and_model] : source) {
+    Camera camera = count_and_model.second->cameras.at(camera_id);
+    camera.has_prior_focal_length = true;
+    cameras.at(camera_id) = camera;
+  }
+  if (num_replaced != nullptr) *num_replaced = static_cast<int>(source.size());
+  return cameras;
+}
+
 ViewGraph GlobalPipeline::BuildViewGraph(
     const DatabaseContents& database,
-    std::vector<std::vector<image_t>>* components) {
-  StageTimer stage("view graph");
+    std::vector<std::vector<image_t>>* components,
+    const std::map<camera_t, Camera>* cameras, const std::string& stage_name) {
+  StageTimer stage(stage_name);
   ViewGraphSummary view_graph_summary;
   ViewGraph view_graph = colmap_irav4::BuildViewGraph(
-      database, stage_options_.view_graph, &view_graph_summary);
+      database, stage_options_.view_graph, &view_graph_summary, cameras);
   *components = PairComponents(view_graph.pairs);
   int num_dropped = 0;
   for (const auto& [reason, count] : view_graph_summary.num_dropped) {

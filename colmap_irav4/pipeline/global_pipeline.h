@@ -7,6 +7,7 @@
 // points, and writes one COLMAP sparse model per model with the options of
 // the run (project.ini), and summary.json.
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -126,8 +127,12 @@ class GlobalPipeline {
  private:
   DatabaseContents ReadDatabase();
   // The view graph and its connected components, largest first.
+  // `cameras`: see colmap_irav4::BuildViewGraph (nullptr: the database's);
+  // `stage_name` names the stage in the summary.
   ViewGraph BuildViewGraph(const DatabaseContents& database,
-                           std::vector<std::vector<image_t>>* components);
+                           std::vector<std::vector<image_t>>* components,
+                           const std::map<camera_t, Camera>* cameras = nullptr,
+                           const std::string& stage_name = "view graph");
   // The models of every large enough component.
   std::vector<ComponentModel> MapComponents(
       const DatabaseContents& database, const ViewGraph& view_graph,
@@ -145,6 +150,14 @@ class GlobalPipeline {
   const std::string output_type_;
   GlobalMapperSummary summary_;
 };
+
+// The cameras of `database` with those of the images the `models` registered
+// replaced by the models' refined cameras (a camera in several models: from
+// the model holding most of its images; ties: the first), each marked as
+// having a prior focal length. *num_replaced (optional): how many were.
+std::map<camera_t, Camera> RefinedCameras(
+    const DatabaseContents& database, const std::vector<ComponentModel>& models,
+    int* num_replaced = nullptr);
 
 // The whole command in one call (for bindings):
 // GlobalPipeline(...).Run(), returning its summary.

@@ -573,6 +573,10 @@ void AddGlobalMapperOptions(OptionManager* manager,
   manager->Add("Mapper.reset_invalid_cameras", &o.reset_invalid_cameras,
                "start cameras with invalid intrinsics from a default focal "
                "(refined) instead of failing");
+  manager->Add("Mapper.recalibrated_second_pass", &o.recalibrated_second_pass,
+               "map twice: the second time with the relative poses derived "
+               "again with the cameras (focal, distortion) the first "
+               "mapping refined");
   manager->Add("Mapper.num_threads", &o.num_threads,
                "threads of every stage (-1: all cores)");
   manager->Add("Mapper.seed", &o.seed,

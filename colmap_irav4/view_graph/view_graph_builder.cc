@@ -247,7 +247,8 @@ void ViewGraphSummary::Print(std::ostream& stream) const {
 
 ViewGraph BuildViewGraph(const DatabaseContents& database,
                          const ViewGraphBuilderOptions& options,
-                         ViewGraphSummary* summary) {
+                         ViewGraphSummary* summary,
+                         const std::map<camera_t, Camera>* given_cameras) {
   options.Check();
   *summary = ViewGraphSummary();
   summary->num_cameras = static_cast<int>(database.cameras.size());
@@ -263,7 +264,9 @@ ViewGraph BuildViewGraph(const DatabaseContents& database,
   // survivors in parallel (independent per pair).
   std::vector<const TwoViewGeometry*> candidates =
       FilterPairs(database, options, summary);
-  std::map<camera_t, Camera> cameras = database.cameras;
+  std::map<camera_t, Camera> cameras =
+      given_cameras != nullptr ? *given_cameras : database.cameras;
+  CHECK_EQ(cameras.size(), database.cameras.size());
   if (options.focal_calibration.calibrate_focal) {
     CalibrateFocals(database, candidates, options.focal_calibration, summary,
                     &cameras);

@@ -61,8 +61,12 @@ struct ViewGraphSummary {
 // component's images; pairs keep the database orientation (image_id1 <
 // image_id2). view_graph.cameras are the database's cameras with the focal
 // lengths of those without a prior self-calibrated (options.focal_calibration).
+// `cameras` (optional, every camera of the database): the intrinsics to
+// derive the relative poses with instead of the database's (e.g. a first
+// mapping's refined cameras).
 ViewGraph BuildViewGraph(const DatabaseContents& database,
                          const ViewGraphBuilderOptions& options,
-                         ViewGraphSummary* summary);
+                         ViewGraphSummary* summary,
+                         const std::map<camera_t, Camera>* cameras = nullptr);
 
 }  // namespace colmap_irav4

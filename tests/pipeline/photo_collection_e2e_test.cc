@@ -8,8 +8,10 @@
 // lengths recovered.
 
 #include <algorithm>
+#include <cstdio>
 #include <map>
 #include <set>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -37,16 +39,20 @@ SceneGeneratorOptions PhotoOptions(uint64_t seed) {
   return options;
 }
 
-TEST(PhotoCollectionE2E, PartsAreSeparateModelsWithTheirFocalLengths) {
-  for (const uint64_t seed : {1, 2, 3}) {
+// Maps the scene of `seed` with `options` and checks the models (above);
+// *summary gets the run's summary.
+void MapAndCheckPhotoCollection(uint64_t seed,
+                                const GlobalMapperOptions& options,
+                                GlobalMapperSummary* summary_out) {
+  {
     SCOPED_TRACE("seed " + std::to_string(seed));
     const GeneratedScene scene = GenerateScene(PhotoOptions(seed));
     test::TempDir temp;
     WriteSceneDatabase(scene, temp.File("database.db"));
     const DatabaseContents contents = ReadDatabase(temp.File("database.db"));
-    GlobalMapperSummary summary;
+    GlobalMapperSummary& summary = *summary_out;
     const std::vector<Reconstruction> models =
-        RunGlobalMapper(GlobalMapperOptions(), contents, "", &summary);
+        RunGlobalMapper(options, contents, "", &summary);
     ASSERT_FALSE(models.empty());
 
     // The images a true pair connects, by part.
@@ -110,6 +116,44 @@ TEST(PhotoCollectionE2E, PartsAreSeparateModelsWithTheirFocalLengths) {
     // so a median 10 times that bounds a correct model.
     for (const double median : rotation_medians) EXPECT_LT(median, 0.4);
   }
+}
+
+TEST(PhotoCollectionE2E, PartsAreSeparateModelsWithTheirFocalLengths) {
+  for (const uint64_t seed : {1, 2, 3}) {
+    GlobalMapperSummary summary;
+    MapAndCheckPhotoCollection(seed, GlobalMapperOptions(), &summary);
+  }
+}
+
+// The second pass (relative poses derived again with the first mapping's
+// refined cameras) runs on every registered image's camera and keeps the
+// models' properties.
+TEST(PhotoCollectionE2E, RecalibratedSecondPassKeepsTheModels) {
+  GlobalMapperOptions options;
+  options.recalibrated_second_pass = true;
+  GlobalMapperSummary summary;
+  MapAndCheckPhotoCollection(1, options, &summary);
+  int num_view_graphs = 0;
+  for (const StageReport& stage : summary.stages) {
+    num_view_graphs += stage.name.rfind("view graph", 0) == 0;
+  }
+  EXPECT_EQ(num_view_graphs, 2);
+  int num_registered = 0;
+  for (const ComponentReport& component : summary.components) {
+    num_registered += component.num_registered_images;
+  }
+  bool noted = false;
+  for (const std::string& note : summary.notes) {
+    // One camera per image: at least as many cameras as the second pass
+    // registers, less the few only the second pass registers.
+    int num_cameras = 0;
+    if (std::sscanf(note.c_str(), "second pass with %d camera", &num_cameras) ==
+        1) {
+      noted = true;
+      EXPECT_GE(num_cameras, num_registered * 9 / 10);
+    }
+  }
+  EXPECT_TRUE(noted);
 }
 
 }  // namespace

@@ -439,7 +439,6 @@ void SchurBundleAdjuster::NumberBlocks() {
   pose_block_.clear();
   camera_block_.assign(cameras_.size(), -1);
   camera_column_.assign(cameras_.size(), 0);
-  std::vector<bool> joined(cameras_.size(), false);
   for (const PoseBlock& pose : poses_) {
     const int pose_size = static_cast<int>(pose.free.size());
     const int camera_size = static_cast<int>(cameras_[pose.camera].free.size());
@@ -447,14 +446,13 @@ void SchurBundleAdjuster::NumberBlocks() {
                       camera_size > 0 && num_users[pose.camera] == 1;
     pose_block_.push_back(add(pose_size + (join ? camera_size : 0)));
     if (join) {
-      joined[pose.camera] = true;
       camera_block_[pose.camera] = pose_block_.back();
       camera_column_[pose.camera] = pose_size;
     }
   }
   // The other cameras last: shared by many images, they are the dense rows.
   for (size_t c = 0; c < cameras_.size(); ++c) {
-    if (!joined[c]) {
+    if (camera_block_[c] < 0) {  // not joined
       camera_block_[c] = add(static_cast<int>(cameras_[c].free.size()));
     }
   }

@@ -362,6 +362,16 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "solve + filter rounds per bundle adjustment");
   manager->Add("BundleAdjustment.max_reproj_error", &ba.max_reproj_error,
                "observations over this error are removed between rounds (px)");
+  manager->Add("BundleAdjustment.focal_prior_std", &ba.focal_prior_std,
+               "prior on the focal length of cameras with a focal prior at "
+               "its value when an adjustment starts, relative std (0: none)");
+  manager->Add("BundleAdjustment.guessed_focal_prior_std",
+               &ba.guessed_focal_prior_std,
+               "the same for cameras without a focal prior (0: none)");
+  manager->Add("BundleAdjustment.min_num_intrinsics_observations",
+               &ba.min_num_intrinsics_observations,
+               "a camera whose images have fewer observations in a bundle "
+               "adjustment has its intrinsics held (0: none)");
   manager->Add("BundleAdjustment.min_num_image_observations",
                &ba.min_num_image_observations,
                "an image with fewer observations is left out of a bundle "

@@ -36,6 +36,31 @@ namespace {
 // undamped start failed (Ceres' default: Levenberg-Marquardt's damping).
 constexpr double kDampedTrustRegionRadius = 1e4;
 
+// A quadratic prior on one parameter of a camera's block of `num_params`:
+// (params[index] - value) / std (SchurBundleAdjuster::SetCameraPrior's).
+class CameraParamPriorCost final : public ceres::CostFunction {
+ public:
+  CameraParamPriorCost(int num_params, int index, double value, double std)
+      : index_(index), value_(value), std_(std) {
+    set_num_residuals(1);
+    mutable_parameter_block_sizes()->push_back(num_params);
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    residuals[0] = (parameters[0][index_] - value_) / std_;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      std::fill(jacobians[0], jacobians[0] + parameter_block_sizes()[0], 0.0);
+      jacobians[0][index_] = 1 / std_;
+    }
+    return true;
+  }
+
+ private:
+  const int index_;
+  const double value_;
+  const double std_;
+};
+
 // ceres::AutoDiffCostFunction with the functor held in place: one
 // allocation per observation instead of two (48 bytes less each; a model's
 // every observation is a residual block). Same derivatives: Ceres' own
@@ -223,6 +248,11 @@ class BundleAdjustmentProblem {
   int NumJoints() const { return num_joints_; }
   // Images left out for few observations (min_num_image_observations).
   int NumImagesLeftOut() const { return num_images_left_out_; }
+  // Cameras with a focal length prior (focal_prior_std and
+  // guessed_focal_prior_std).
+  int NumFocalPriors() const { return num_focal_priors_; }
+  // Cameras held for few observations (min_num_intrinsics_observations).
+  int NumIntrinsicsHeld() const { return num_intrinsics_held_; }
 
   // The scale bins' inner edges and their noise at the last reweighting
   // (BundleAdjustmentSummary).
@@ -499,8 +529,9 @@ class BundleAdjustmentProblem {
     std::set<camera_t> used_cameras;
     // Images of fewer observations (in front of them) are left out.
     std::unordered_set<image_t> left_out;
-    if (options_.min_num_image_observations > 0) {
-      std::unordered_map<image_t, int> num_observations;
+    std::unordered_map<image_t, int> num_observations;
+    if (options_.min_num_image_observations > 0 ||
+        options_.min_num_intrinsics_observations > 0) {
       for (const auto& [point3D_id, point] : reconstruction_->points3D) {
         for (const TrackElement& element : point.track) {
           const Image& image = reconstruction_->images.at(element.image_id);
@@ -509,6 +540,8 @@ class BundleAdjustmentProblem {
           }
         }
       }
+    }
+    if (options_.min_num_image_observations > 0) {
       for (const auto& [image_id, image] : reconstruction_->images) {
         const int n = num_observations[image_id];
         if (n > 0 && n < options_.min_num_image_observations) {
@@ -624,7 +657,14 @@ class BundleAdjustmentProblem {
       }
     }
 
-    // Intrinsics.
+    // Intrinsics; a camera of few observations (all its images') is held.
+    std::unordered_map<camera_t, int> camera_observations;
+    if (options_.min_num_intrinsics_observations > 0) {
+      for (const image_t image_id : used_images) {
+        camera_observations[reconstruction_->images.at(image_id).camera_id] +=
+            num_observations[image_id];
+      }
+    }
     for (camera_t camera_id : used_cameras) {
       const Camera& camera = reconstruction_->cameras.at(camera_id);
       double* params = cameras_.at(camera_id);
@@ -638,9 +678,36 @@ class BundleAdjustmentProblem {
         add(CameraModelPrincipalPointIdxs(camera.model_id));
       if (!options_.refine_extra_params)
         add(CameraModelExtraParamsIdxs(camera.model_id));
+      const bool intrinsics_held =
+          options_.min_num_intrinsics_observations > 0 &&
+          camera_observations[camera_id] <
+              options_.min_num_intrinsics_observations;
+      if (intrinsics_held) {
+        constant.resize(camera.params.size());
+        std::iota(constant.begin(), constant.end(), 0);
+        ++num_intrinsics_held_;
+        VLOG(2) << "Bundle adjustment: camera " << camera_id
+                << " held: " << camera_observations[camera_id]
+                << " observations";
+      }
+      // The focal length prior at its value now (one focal length models).
+      const std::vector<int> focal =
+          CameraModelFocalLengthIdxs(camera.model_id);
+      const double prior_std = camera.has_prior_focal_length
+                                   ? options_.focal_prior_std
+                                   : options_.guessed_focal_prior_std;
+      const bool focal_prior = options_.refine_focal_length &&
+                               !intrinsics_held && prior_std > 0 &&
+                               focal.size() == 1 && camera.params[focal[0]] > 0;
+      const double focal_value = focal_prior ? camera.params[focal[0]] : 0;
+      if (focal_prior) ++num_focal_priors_;
       if (schur_) {
-        schur_adjuster_->SetCameraConstant(schur_cameras_.at(camera_id),
-                                           constant);
+        const int index = schur_cameras_.at(camera_id);
+        schur_adjuster_->SetCameraConstant(index, constant);
+        if (focal_prior) {
+          schur_adjuster_->SetCameraPrior(index, focal[0], focal_value,
+                                          prior_std * focal_value);
+        }
         continue;
       }
       ordering_->AddElementToGroup(params, 1);
@@ -650,6 +717,12 @@ class BundleAdjustmentProblem {
       } else if (!constant.empty()) {
         problem_->SetManifold(params,
                               new ceres::SubsetManifold(num_params, constant));
+      }
+      if (focal_prior) {
+        problem_->AddResidualBlock(
+            new CameraParamPriorCost(num_params, focal[0], focal_value,
+                                     prior_std * focal_value),
+            nullptr, params);
       }
     }
   }
@@ -787,6 +860,8 @@ class BundleAdjustmentProblem {
   int num_pieces_ = 0;
   int num_joints_ = 0;
   int num_images_left_out_ = 0;
+  int num_focal_priors_ = 0;
+  int num_intrinsics_held_ = 0;
   double schur_density_ = -1;  // computed for linear_solver auto only
 
  public:
@@ -1135,6 +1210,20 @@ void BundleAdjustmentOptions::Check() const {
                       "BundleAdjustment.schur_min_num_observations",
                       "must be >= 0");
   }
+  if (!(focal_prior_std >= 0)) {
+    throw OptionError(&focal_prior_std, "BundleAdjustment.focal_prior_std",
+                      "must be >= 0 (0: no prior)");
+  }
+  if (!(guessed_focal_prior_std >= 0)) {
+    throw OptionError(&guessed_focal_prior_std,
+                      "BundleAdjustment.guessed_focal_prior_std",
+                      "must be >= 0 (0: no prior)");
+  }
+  if (min_num_intrinsics_observations < 0) {
+    throw OptionError(&min_num_intrinsics_observations,
+                      "BundleAdjustment.min_num_intrinsics_observations",
+                      "must be >= 0");
+  }
   if (min_num_image_observations < 0) {
     throw OptionError(&min_num_image_observations,
                       "BundleAdjustment.min_num_image_observations",
@@ -1218,6 +1307,18 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
     local_summary.num_pieces = problem.NumPieces();
     local_summary.num_joints = problem.NumJoints();
     local_summary.num_images_left_out = problem.NumImagesLeftOut();
+    local_summary.num_focal_priors = problem.NumFocalPriors();
+    local_summary.num_intrinsics_held = problem.NumIntrinsicsHeld();
+    if (local_summary.num_intrinsics_held > 0) {
+      VLOG(1) << "Bundle adjustment: " << local_summary.num_intrinsics_held
+              << " camera(s) of fewer than "
+              << options.min_num_intrinsics_observations
+              << " observations held";
+    }
+    if (local_summary.num_focal_priors > 0) {
+      VLOG(1) << "Bundle adjustment: " << local_summary.num_focal_priors
+              << " camera(s) with a focal length prior";
+    }
     if (local_summary.num_images_left_out > 0) {
       VLOG(1) << "Bundle adjustment: " << local_summary.num_images_left_out
               << " image(s) of fewer than "

@@ -63,6 +63,16 @@ struct BundleAdjustmentOptions {
   bool refine_extra_params = true;
   bool refine_poses = true;
   bool refine_points = true;
+  // A prior on each refined focal length (one focal length models) at its
+  // value when the adjustment starts, f0: the residual (f - f0) / (std f0),
+  // std relative; for cameras with a focal length prior
+  // (has_prior_focal_length) and for the others (guessed); 0: none.
+  double focal_prior_std = 0;
+  double guessed_focal_prior_std = 0;
+  // A camera whose images have fewer observations than this in the
+  // adjustment (of points in front of them) has its intrinsics held; its
+  // images' poses are refined (0: none held).
+  int min_num_intrinsics_observations = 0;
   // An image with fewer observations than this (of points in front of it)
   // is left out of the adjustment: its observations weigh nothing, its pose
   // (and a camera no other image of the adjustment uses) is held; the
@@ -206,6 +216,10 @@ struct BundleAdjustmentSummary {
   int num_damped_restarts = 0;
   // Images left out for too few observations (min_num_image_observations).
   int num_images_left_out = 0;
+  // Cameras with a focal length prior (focal_prior_std, above).
+  int num_focal_priors = 0;
+  // Cameras held for few observations (min_num_intrinsics_observations).
+  int num_intrinsics_held = 0;
   int num_points = 0;                 // after the last round
   int num_observations = 0;           // after the last round
   int num_observations_filtered = 0;  // over all rounds

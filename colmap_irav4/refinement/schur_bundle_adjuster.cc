@@ -216,6 +216,33 @@ void SchurBundleAdjuster::SetCameraConstant(int camera,
   }
 }
 
+void SchurBundleAdjuster::SetCameraPrior(int camera, int param, double value,
+                                         double std) {
+  CameraBlock& block = cameras_.at(camera);
+  CHECK(param >= 0 && param < block.num_params);
+  CHECK(std > 0 && std::isfinite(std) && std::isfinite(value));
+  block.prior_param = param;
+  block.prior_value = value;
+  block.prior_std = std;
+}
+
+double SchurBundleAdjuster::CameraPriorResidual(
+    int camera, const std::vector<double>& cameras) const {
+  const CameraBlock& block = cameras_[camera];
+  return (cameras[kMaxNumParams * camera + block.prior_param] -
+          block.prior_value) /
+         block.prior_std;
+}
+
+int SchurBundleAdjuster::CameraPriorColumn(int camera) const {
+  const CameraBlock& block = cameras_[camera];
+  if (block.prior_param < 0 || camera_block_[camera] < 0) return -1;
+  const auto it =
+      std::find(block.free.begin(), block.free.end(), block.prior_param);
+  if (it == block.free.end()) return -1;
+  return camera_column_[camera] + static_cast<int>(it - block.free.begin());
+}
+
 int SchurBundleAdjuster::AddPose(double* rotation, double* position, int camera,
                                  const std::vector<Point2D>* points2D,
                                  const std::vector<double>* weights) {
@@ -415,6 +442,11 @@ double SchurBundleAdjuster::Cost(const std::vector<double>& poses,
       return std::numeric_limits<double>::infinity();
     }
     cost += term;
+  }
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    if (cameras_[i].prior_param < 0) continue;
+    const double r = CameraPriorResidual(static_cast<int>(i), cameras);
+    cost += 0.5 * r * r;
   }
   return cost;
 }
@@ -1371,6 +1403,20 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             lin.A.transpose() * lin.r;
         diagonal.segment(block_offset_[b], block_size_[b]) += ata.diagonal();
       }
+      // The camera priors: into their camera's diagonal block.
+      for (size_t i = 0; i < cameras_.size() && finite; ++i) {
+        const int column = CameraPriorColumn(static_cast<int>(i));
+        if (column < 0) continue;
+        const int b = camera_block_[i];
+        const double a = 1 / cameras_[i].prior_std;
+        const double r = CameraPriorResidual(static_cast<int>(i), cameras);
+        Eigen::MatrixXd ata =
+            Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
+        ata(column, column) = a * a;
+        add_cell(b, b, ata);
+        camera_gradient[block_offset_[b] + column] += a * r;
+        diagonal[block_offset_[b] + column] += a * a;
+      }
       if (!finite) {
         summary.termination = ceres::FAILURE;
         summary.message = "residual or Jacobian not finite";
@@ -1505,6 +1551,17 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           lin.A * step.segment(block_offset_[b], lin.A.cols());
       model_cost -=
           0.5 * lin.r.squaredNorm() - 0.5 * (lin.r + change).squaredNorm();
+    }
+    // The camera priors' model (linear: exact).
+    for (size_t i = 0; i < cameras_.size(); ++i) {
+      if (cameras_[i].prior_param < 0) continue;
+      double r = CameraPriorResidual(static_cast<int>(i), cameras);
+      const int column = CameraPriorColumn(static_cast<int>(i));
+      if (column >= 0) {
+        r += step[block_offset_[camera_block_[i]] + column] /
+             cameras_[i].prior_std;
+      }
+      model_cost += 0.5 * r * r;
     }
     for (size_t i = 0; i < poses_.size(); ++i) {
       const int b = pose_block_[i];

@@ -117,6 +117,11 @@ class SchurBundleAdjuster {
   int AddCamera(double* params, int model_id);
   // Holds the parameters of camera `camera` at indexes `constant`.
   void SetCameraConstant(int camera, const std::vector<int>& constant);
+  // A quadratic prior on parameter `param` of camera `camera` (e.g. its
+  // focal length): the residual (params[param] - value) / std, least
+  // squares as a Ceres residual block on the camera with no loss. A held
+  // parameter's prior adds its cost only.
+  void SetCameraPrior(int camera, int param, double value, double std);
   // An image's pose (quaternion x, y, z, w and centre or translation) seen
   // through camera `camera` (AddCamera's index), its keypoints and their
   // weights (by keypoint index; both must outlive the solves), refined unless
@@ -200,6 +205,10 @@ class SchurBundleAdjuster {
     int model_id;
     int num_params;
     std::vector<int> free;  // indexes of the refined parameters
+    // SetCameraPrior's (prior_param -1: none).
+    int prior_param = -1;
+    double prior_value = 0;
+    double prior_std = 1;
   };
   struct PoseBlock {
     double* rotation;
@@ -245,6 +254,12 @@ class SchurBundleAdjuster {
   bool EvaluatePoseResidual(const PoseResidual& residual,
                             const std::vector<double>& poses, double* cost,
                             PoseLinearization* lin) const;
+  // A camera prior's residual at `cameras` (SetCameraPrior).
+  double CameraPriorResidual(int camera,
+                             const std::vector<double>& cameras) const;
+  // The column of a camera prior's parameter in its camera's block of the
+  // reduced system, -1 when the camera or the parameter is held.
+  int CameraPriorColumn(int camera) const;
   // 1/2 the sum of squared residuals (pose residuals through their loss) at
   // the given parameters.
   double Cost(const std::vector<double>& poses,

@@ -1,5 +1,6 @@
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -640,6 +641,151 @@ TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
   }
 }
 
+TEST(BundleAdjustment, IntrinsicsOfPoorlyObservedCamerasAreHeld) {
+  SyntheticSceneOptions scene_options = SceneOptions();
+  scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
+  scene_options.extra_param = -0.05;
+  scene_options.shared_camera = false;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  Reconstruction start = scene.truth;
+  PerturbModel(0.3, 0.05, 0.02, 1.0, 8, &start);
+  const image_t weak = 5;
+  int num_kept = 0;
+  const Image& weak_image = start.images.at(weak);
+  for (point2D_t idx = 0; idx < weak_image.points2D.size(); ++idx) {
+    if (weak_image.points2D[idx].point3D_id == kInvalidPoint3DId ||
+        ++num_kept <= 6) {
+      continue;
+    }
+    DeleteObservation(weak, idx, &start);
+  }
+  const camera_t weak_camera = weak_image.camera_id;
+  for (auto& [camera_id, camera] : start.cameras) {
+    camera.params[0] *= 1.05;
+    camera.params[3] = 0.0;
+  }
+  for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
+                             BundleAdjustmentSolverBackend::kSchur}) {
+    for (const int min_num_observations : {0, 20}) {
+      SCOPED_TRACE(min_num_observations);
+      BundleAdjustmentOptions options = LeastSquaresOptions();
+      options.refine_extra_params = true;
+      options.solver_backend = backend;
+      options.min_num_intrinsics_observations = min_num_observations;
+      Reconstruction reconstruction = start;
+      BundleAdjustmentSummary summary;
+      ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+      EXPECT_EQ(summary.num_intrinsics_held, min_num_observations > 0 ? 1 : 0);
+      // The pose is refined either way.
+      EXPECT_NE(reconstruction.images.at(weak).cam_from_world.translation,
+                start.images.at(weak).cam_from_world.translation);
+      for (const auto& [camera_id, camera] : reconstruction.cameras) {
+        const Camera& before = start.cameras.at(camera_id);
+        if (camera_id == weak_camera && min_num_observations > 0) {
+          EXPECT_EQ(camera.params, before.params);
+        } else {
+          EXPECT_NE(camera.params[0], before.params[0]) << camera_id;
+          EXPECT_NE(camera.params[3], before.params[3]) << camera_id;
+        }
+        if (camera_id != weak_camera) {
+          EXPECT_NEAR(camera.params[0], 1200.0, 6.0) << camera_id;
+          EXPECT_NEAR(camera.params[3], -0.05, 0.01) << camera_id;
+        }
+      }
+    }
+  }
+}
+
+// Per-image SIMPLE_RADIAL cameras 5% over the truth (k 0), image 5 left
+// with 6 observations; every camera has a focal prior but image 7's.
+TEST(BundleAdjustment, FocalPriorsHoldTheirCamerasNearTheStart) {
+  SyntheticSceneOptions scene_options = SceneOptions();
+  scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
+  scene_options.extra_param = -0.05;
+  scene_options.shared_camera = false;
+  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
+  Reconstruction start = scene.truth;
+  PerturbModel(0.3, 0.05, 0.02, 1.0, 8, &start);
+  const image_t weak = 5;
+  int num_kept = 0;
+  const Image& weak_image = start.images.at(weak);
+  for (point2D_t idx = 0; idx < weak_image.points2D.size(); ++idx) {
+    if (weak_image.points2D[idx].point3D_id == kInvalidPoint3DId ||
+        ++num_kept <= 6) {
+      continue;
+    }
+    DeleteObservation(weak, idx, &start);
+  }
+  const camera_t weak_camera = weak_image.camera_id;
+  const camera_t guessed_camera = start.images.at(7).camera_id;
+  for (auto& [camera_id, camera] : start.cameras) {
+    camera.params[0] *= 1.05;
+    camera.params[3] = 0.0;
+    camera.has_prior_focal_length = camera_id != guessed_camera;
+  }
+  const double start_focal = 1.05 * 1200.0;
+  // By backend: std 1e-9 (the prior cameras held), 0.05 (the well observed
+  // ones reach the truth), 0.01 (compared across the backends).
+  std::map<double, std::vector<Reconstruction>> results;
+  for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
+                             BundleAdjustmentSolverBackend::kSchur}) {
+    for (const double std : {0.0, 1e-9, 0.05, 0.01}) {
+      SCOPED_TRACE(std);
+      BundleAdjustmentOptions options = LeastSquaresOptions();
+      options.refine_extra_params = true;
+      options.solver_backend = backend;
+      options.focal_prior_std = std;
+      Reconstruction reconstruction = start;
+      BundleAdjustmentSummary summary;
+      ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+      EXPECT_TRUE(summary.converged);
+      EXPECT_EQ(summary.num_focal_priors,
+                std > 0 ? static_cast<int>(start.cameras.size()) - 1 : 0);
+      for (const auto& [camera_id, camera] : reconstruction.cameras) {
+        SCOPED_TRACE(camera_id);
+        EXPECT_NE(camera.params[3], 0.0);  // k refined
+        if (camera_id == guessed_camera) {
+          // No prior: refined (towards the truth but for the others held
+          // 5% over it).
+          EXPECT_GT(std::abs(camera.params[0] - start_focal), 1.0);
+          if (std != 1e-9) {
+            EXPECT_NEAR(camera.params[0], 1200.0, 6.0);
+          }
+        } else if (std == 1e-9) {
+          EXPECT_NEAR(camera.params[0], start_focal, 1e-3);
+        } else if (std == 0.05 && camera_id != weak_camera) {
+          EXPECT_NEAR(camera.params[0], 1200.0, 6.0);
+        } else if (std > 0 && camera_id == weak_camera) {
+          // Within 2 std of its start.
+          EXPECT_NEAR(camera.params[0], start_focal, 2 * std * start_focal);
+        }
+      }
+      results[std].push_back(std::move(reconstruction));
+    }
+  }
+  // The same optimum from both backends.
+  for (const auto& [std, reconstructions] : results) {
+    SCOPED_TRACE(std);
+    ASSERT_EQ(reconstructions.size(), 2u);
+    if (std == 0) continue;  // image 5's focal: a null space without prior
+    for (const auto& [camera_id, camera] : reconstructions[0].cameras) {
+      EXPECT_NEAR(camera.params[0],
+                  reconstructions[1].cameras.at(camera_id).params[0], 1e-3)
+          << camera_id;
+    }
+  }
+  // Guessed cameras' own std.
+  BundleAdjustmentOptions options = LeastSquaresOptions();
+  options.refine_extra_params = true;
+  options.guessed_focal_prior_std = 1e-9;
+  Reconstruction reconstruction = start;
+  BundleAdjustmentSummary summary;
+  ASSERT_TRUE(RunBundleAdjustment(options, &reconstruction, &summary));
+  EXPECT_EQ(summary.num_focal_priors, 1);
+  EXPECT_NEAR(reconstruction.cameras.at(guessed_camera).params[0], start_focal,
+              1e-3);
+}
+
 TEST(BundleAdjustment, OptionsCheck) {
   BundleAdjustmentOptions options;
   EXPECT_NO_THROW(options.Check());
@@ -652,6 +798,15 @@ TEST(BundleAdjustment, OptionsCheck) {
   EXPECT_THROW(options.Check(), InputError);
   options = BundleAdjustmentOptions();
   options.min_num_image_observations = -1;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.min_num_intrinsics_observations = -1;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.focal_prior_std = -0.1;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.guessed_focal_prior_std = -0.1;
   EXPECT_THROW(options.Check(), InputError);
 }
 

@@ -727,9 +727,9 @@ TEST(SchurBundleAdjuster, ReusedEliminationAfterRejectionSameOptimum) {
     for (const SchurLinearSolver solver :
          {SchurLinearSolver::kSimplicial, SchurLinearSolver::kSupernodal,
           SchurLinearSolver::kIterative}) {
-      SCOPED_TRACE(std::string(shared_camera ? "shared camera"
-                                             : "camera per image") +
-                   ", solver " + std::to_string(static_cast<int>(solver)));
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          ", solver " + std::to_string(static_cast<int>(solver)));
       Reconstruction start = Scene(2, shared_camera).truth;
       PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
       Reconstruction fresh_model = start, reused_model = start;

@@ -401,6 +401,12 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "Schur solver: from this many MiB of reduced system, the "
                "points are eliminated in an order that keeps their cells "
                "in the caches (the same solution up to rounding)");
+  manager->Add("BundleAdjustment.schur_reuse_min_radius",
+               &ba.schur_reuse_min_radius,
+               "Schur solver: after a rejected step, while the trust region "
+               "radius is at least this, the next try re-damps the cameras "
+               "of the same reduced system instead of eliminating the "
+               "points again (0: off)");
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");

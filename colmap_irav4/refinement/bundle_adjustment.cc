@@ -216,6 +216,7 @@ class BundleAdjustmentProblem {
           options.schur_locality_order_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
+      schur_options.reuse_min_radius = options.schur_reuse_min_radius;
       schur_adjuster_ =
           std::make_unique<SchurBundleAdjuster>(use_centers_, schur_options);
     }
@@ -1241,6 +1242,11 @@ void BundleAdjustmentOptions::Check() const {
   if (!(schur_locality_order_min_mib >= 0)) {
     throw OptionError(&schur_locality_order_min_mib,
                       "BundleAdjustment.schur_locality_order_min_mib",
+                      "must be >= 0");
+  }
+  if (!(schur_reuse_min_radius >= 0)) {
+    throw OptionError(&schur_reuse_min_radius,
+                      "BundleAdjustment.schur_reuse_min_radius",
                       "must be >= 0");
   }
   if (!(schur_iterative_eta > 0 && schur_iterative_eta < 1)) {

@@ -153,6 +153,11 @@ struct BundleAdjustmentOptions {
   // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
   double schur_iterative_eta = 1e-3;
   int schur_max_cg_iterations = 500;
+  // Our Schur solver: after a rejected step or failed factorisation, while
+  // the radius is at least this, the next try re-damps the cameras of the
+  // same reduced system instead of eliminating the points again
+  // (SchurSolverOptions::reuse_min_radius); 0: off.
+  double schur_reuse_min_radius = 0;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter

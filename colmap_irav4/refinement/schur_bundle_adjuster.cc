@@ -1086,6 +1086,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             << " reduced parameters; " << linear_solver_reason_;
   }
   const int n = num_scalars_;
+  const double reuse_min_radius = solver_options_.reuse_min_radius;
   summary.num_reduced_parameters = n;
   summary.num_reduced_nonzeros = values_.size();
   summary.supernodal = cholmod_ != nullptr;
@@ -1213,6 +1214,22 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     return summary;
   }
   bool check_gradient = true;
+  // The reduced system kept from the last elimination for a rejected try
+  // (SchurSolverOptions::reuse_min_radius): the radius its points were
+  // damped with, whether values_ is in the factorisations' scalar layout,
+  // and the camera damping on its diagonal.
+  bool reuse = false;
+  double point_radius = radius;
+  bool scalar_layout = false;
+  Eigen::VectorXd applied_damping = Eigen::VectorXd::Zero(n);
+  // The diagonal entry of scalar i of block b (a diagonal cell's offset in
+  // its column of cells times the block size is its first value's).
+  auto diagonal_entry = [&](int b, int i) {
+    const size_t cell = ValueIndex(b, b);
+    if (!scalar_layout) return &values_[cell + i * block_size_[b] + i];
+    const size_t offset = (cell - column_begin_[b]) / block_size_[b];
+    return &values_[column_begin_[b] + i * column_height_[b] + offset + i];
+  };
   summary.termination = ceres::NO_CONVERGENCE;
   summary.message = "maximum number of iterations reached";
   while (summary.num_iterations <= options.max_num_iterations) {
@@ -1220,203 +1237,217 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     // CPU time of the iteration and of its linear solve (VLOG 2; the
     // process's: the solver runs on one thread).
     const std::clock_t iteration_clock = std::clock();
-    // Linearise at x and eliminate the points (damped by the radius).
-    std::fill(values_.begin(), values_.end(), 0.0);
-    rhs.setZero();
-    diagonal.setZero();
-    double gradient_max_norm = 0;
-    Eigen::VectorXd camera_gradient = Eigen::VectorXd::Zero(n);
-    bool finite = true;
-    for (size_t pi = 0; pi < num_points && finite; ++pi) {
-      const size_t p = point_order_.empty() ? pi : point_order_[pi];
-      lins.clear();
-      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-        if (!(Weight(observations_[k]) > 0)) continue;
-        lins.emplace_back();
-        double residual[2];
-        if (!Evaluate(observations_[k], &points[3 * p], poses, cameras,
-                      residual, &lins.back())) {
-          finite = false;
-          break;
-        }
-      }
-      // The point's cell table (none: a point held, not eliminated when the
-      // structure was built or beyond the budget, or SetUseCellTables(false))
-      // and each observation's blocks' indexes in it.
-      const size_t ids_begin = point_block_ids_begin_[p];
-      const int num_ids =
-          static_cast<int>(point_block_ids_begin_[p + 1] - ids_begin);
-      const bool table = use_cell_tables_ && num_ids > 0;
-      if (table) {
-        const int* ids = &point_block_ids_[ids_begin];
-        local.resize(2 * lins.size());
-        for (size_t k = 0; k < lins.size(); ++k) {
-          for (int i = 0; i < lins[k].num_blocks; ++i) {
-            const int id = static_cast<int>(
-                std::lower_bound(ids, ids + num_ids, lins[k].blocks[i]) - ids);
-            CHECK(id < num_ids && ids[id] == lins[k].blocks[i]);
-            local[2 * k + i] = id;
+    const bool reused = reuse;
+    summary.num_reused_eliminations += reused;
+    if (!reuse) {
+      // Linearise at x and eliminate the points (damped by the radius).
+      point_radius = radius;
+      scalar_layout = false;
+      std::fill(values_.begin(), values_.end(), 0.0);
+      rhs.setZero();
+      diagonal.setZero();
+      double gradient_max_norm = 0;
+      Eigen::VectorXd camera_gradient = Eigen::VectorXd::Zero(n);
+      bool finite = true;
+      for (size_t pi = 0; pi < num_points && finite; ++pi) {
+        const size_t p = point_order_.empty() ? pi : point_order_[pi];
+        lins.clear();
+        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+          if (!(Weight(observations_[k]) > 0)) continue;
+          lins.emplace_back();
+          double residual[2];
+          if (!Evaluate(observations_[k], &points[3 * p], poses, cameras,
+                        residual, &lins.back())) {
+            finite = false;
+            break;
           }
         }
-        cells = &point_cells_[point_cells_begin_[p]];
-      } else {
-        cells = nullptr;
-      }
-      Matrix3 v = Matrix3::Zero();
-      Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      for (size_t k = 0; k < lins.size(); ++k) {
-        const Linearization& lin = lins[k];
-        const auto ata = (lin.A.transpose() * lin.A).eval();
+        // The point's cell table (none: a point held, not eliminated when the
+        // structure was built or beyond the budget, or SetUseCellTables(false))
+        // and each observation's blocks' indexes in it.
+        const size_t ids_begin = point_block_ids_begin_[p];
+        const int num_ids =
+            static_cast<int>(point_block_ids_begin_[p + 1] - ids_begin);
+        const bool table = use_cell_tables_ && num_ids > 0;
         if (table) {
-          for (int i = 0; i < lin.num_blocks; ++i) {
-            for (int j = 0; j < lin.num_blocks; ++j) {
-              const int rb = lin.blocks[i];
-              const int cb = lin.blocks[j];
-              if (rb > cb) continue;
-              add_at(cell(local[2 * k + i], local[2 * k + j]),
-                     ata.block(lin.cols[i], lin.cols[j], block_size_[rb],
-                               block_size_[cb]));
+          const int* ids = &point_block_ids_[ids_begin];
+          local.resize(2 * lins.size());
+          for (size_t k = 0; k < lins.size(); ++k) {
+            for (int i = 0; i < lins[k].num_blocks; ++i) {
+              const int id = static_cast<int>(
+                  std::lower_bound(ids, ids + num_ids, lins[k].blocks[i]) -
+                  ids);
+              CHECK(id < num_ids && ids[id] == lins[k].blocks[i]);
+              local[2 * k + i] = id;
             }
           }
+          cells = &point_cells_[point_cells_begin_[p]];
         } else {
-          add_pair(lin, lin, ata, /*same=*/true);
+          cells = nullptr;
         }
-        const auto atr = (lin.A.transpose() * lin.r).eval();
-        block_vector(lin, &camera_gradient, atr, 1.0);
-        block_vector(lin, &diagonal, ata.diagonal(), 1.0);
-        v += lin.B.transpose() * lin.B;
-        g += lin.B.transpose() * lin.r;
-      }
-      if (!active[p]) continue;
-      gradient_max_norm = std::max(gradient_max_norm, g.cwiseAbs().maxCoeff());
-      for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), radius);
-      const Matrix3 v_inv = invert(v);
-      // W_k = A_k^T B_k; Q_k = W_k V^-1; S -= Q_k W_l^T; rhs += Q_k g.
-      w.resize(lins.size());
-      q.resize(lins.size());
-      for (size_t k = 0; k < lins.size(); ++k) {
-        w[k] = lins[k].A.transpose() * lins[k].B;
-        q[k] = w[k] * v_inv;
-        block_vector(lins[k], &rhs, (q[k] * g).eval(), 1.0);
-      }
-      // S -= Q_k W_l^T cell by cell (through the table or the search), as
-      // add_pair adds a matrix's blocks.
-      for (size_t k = 0; k < lins.size(); ++k) {
-        const Linearization& lin_k = lins[k];
-        const int ldq = static_cast<int>(q[k].rows());
-        for (size_t l = k; l < lins.size(); ++l) {
-          const Linearization& lin_l = lins[l];
-          const int ldw = static_cast<int>(w[l].rows());
-          // Eigen's lazy product (below its GEMM threshold, 20) sums the
-          // rows it peels off an odd-sized product as t0 + (t1 + t2): that
-          // product as main formed it, for the same result to the bit.
-          const int rows_k = static_cast<int>(q[k].rows());
-          if (rows_k % 2 == 1 && rows_k + w[l].rows() + 3 < 20) {
-            const auto m = (-(q[k] * w[l].transpose())).eval();
+        Matrix3 v = Matrix3::Zero();
+        Eigen::Vector3d g = Eigen::Vector3d::Zero();
+        for (size_t k = 0; k < lins.size(); ++k) {
+          const Linearization& lin = lins[k];
+          const auto ata = (lin.A.transpose() * lin.A).eval();
+          if (table) {
+            for (int i = 0; i < lin.num_blocks; ++i) {
+              for (int j = 0; j < lin.num_blocks; ++j) {
+                const int rb = lin.blocks[i];
+                const int cb = lin.blocks[j];
+                if (rb > cb) continue;
+                add_at(cell(local[2 * k + i], local[2 * k + j]),
+                       ata.block(lin.cols[i], lin.cols[j], block_size_[rb],
+                                 block_size_[cb]));
+              }
+            }
+          } else {
+            add_pair(lin, lin, ata, /*same=*/true);
+          }
+          const auto atr = (lin.A.transpose() * lin.r).eval();
+          block_vector(lin, &camera_gradient, atr, 1.0);
+          block_vector(lin, &diagonal, ata.diagonal(), 1.0);
+          v += lin.B.transpose() * lin.B;
+          g += lin.B.transpose() * lin.r;
+        }
+        if (!active[p]) continue;
+        gradient_max_norm =
+            std::max(gradient_max_norm, g.cwiseAbs().maxCoeff());
+        for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), radius);
+        const Matrix3 v_inv = invert(v);
+        // W_k = A_k^T B_k; Q_k = W_k V^-1; S -= Q_k W_l^T; rhs += Q_k g.
+        w.resize(lins.size());
+        q.resize(lins.size());
+        for (size_t k = 0; k < lins.size(); ++k) {
+          w[k] = lins[k].A.transpose() * lins[k].B;
+          q[k] = w[k] * v_inv;
+          block_vector(lins[k], &rhs, (q[k] * g).eval(), 1.0);
+        }
+        // S -= Q_k W_l^T cell by cell (through the table or the search), as
+        // add_pair adds a matrix's blocks.
+        for (size_t k = 0; k < lins.size(); ++k) {
+          const Linearization& lin_k = lins[k];
+          const int ldq = static_cast<int>(q[k].rows());
+          for (size_t l = k; l < lins.size(); ++l) {
+            const Linearization& lin_l = lins[l];
+            const int ldw = static_cast<int>(w[l].rows());
+            // Eigen's lazy product (below its GEMM threshold, 20) sums the
+            // rows it peels off an odd-sized product as t0 + (t1 + t2): that
+            // product as main formed it, for the same result to the bit.
+            const int rows_k = static_cast<int>(q[k].rows());
+            if (rows_k % 2 == 1 && rows_k + w[l].rows() + 3 < 20) {
+              const auto m = (-(q[k] * w[l].transpose())).eval();
+              for (int i = 0; i < lin_k.num_blocks; ++i) {
+                const int rb = lin_k.blocks[i];
+                const int li = table ? local[2 * k + i] : -1;
+                for (int j = 0; j < lin_l.num_blocks; ++j) {
+                  const int cb = lin_l.blocks[j];
+                  const int lj = table ? local[2 * l + j] : -1;
+                  const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
+                                           block_size_[rb], block_size_[cb]);
+                  if (rb < cb || (rb == cb && k == l)) {
+                    add_at(find(rb, li, cb, lj), sub);
+                  } else if (rb > cb) {
+                    if (k != l) add_at(find(cb, lj, rb, li), sub.transpose());
+                  } else {
+                    add_at(find(rb, li, rb, li), sub + sub.transpose());
+                  }
+                }
+              }
+              continue;
+            }
             for (int i = 0; i < lin_k.num_blocks; ++i) {
               const int rb = lin_k.blocks[i];
               const int li = table ? local[2 * k + i] : -1;
+              const double* qk = q[k].data() + lin_k.cols[i];
               for (int j = 0; j < lin_l.num_blocks; ++j) {
                 const int cb = lin_l.blocks[j];
                 const int lj = table ? local[2 * l + j] : -1;
-                const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
-                                         block_size_[rb], block_size_[cb]);
+                const double* wl = w[l].data() + lin_l.cols[j];
                 if (rb < cb || (rb == cb && k == l)) {
-                  add_at(find(rb, li, cb, lj), sub);
+                  SubtractProduct(qk, ldq, wl, ldw, block_size_[rb],
+                                  block_size_[cb], find(rb, li, cb, lj),
+                                  block_size_[rb]);
                 } else if (rb > cb) {
-                  if (k != l) add_at(find(cb, lj, rb, li), sub.transpose());
+                  if (k == l) continue;
+                  SubtractProduct(wl, ldw, qk, ldq, block_size_[cb],
+                                  block_size_[rb], find(cb, lj, rb, li),
+                                  block_size_[cb]);
                 } else {
-                  add_at(find(rb, li, rb, li), sub + sub.transpose());
+                  SubtractSymmetricProduct(qk, ldq, wl, ldw, block_size_[rb],
+                                           find(rb, li, rb, li),
+                                           block_size_[rb]);
                 }
-              }
-            }
-            continue;
-          }
-          for (int i = 0; i < lin_k.num_blocks; ++i) {
-            const int rb = lin_k.blocks[i];
-            const int li = table ? local[2 * k + i] : -1;
-            const double* qk = q[k].data() + lin_k.cols[i];
-            for (int j = 0; j < lin_l.num_blocks; ++j) {
-              const int cb = lin_l.blocks[j];
-              const int lj = table ? local[2 * l + j] : -1;
-              const double* wl = w[l].data() + lin_l.cols[j];
-              if (rb < cb || (rb == cb && k == l)) {
-                SubtractProduct(qk, ldq, wl, ldw, block_size_[rb],
-                                block_size_[cb], find(rb, li, cb, lj),
-                                block_size_[rb]);
-              } else if (rb > cb) {
-                if (k == l) continue;
-                SubtractProduct(wl, ldw, qk, ldq, block_size_[cb],
-                                block_size_[rb], find(cb, lj, rb, li),
-                                block_size_[cb]);
-              } else {
-                SubtractSymmetricProduct(qk, ldq, wl, ldw, block_size_[rb],
-                                         find(rb, li, rb, li), block_size_[rb]);
               }
             }
           }
         }
       }
-    }
-    // The pose residuals: into their pose's diagonal block.
-    for (size_t i = 0; i < pose_residuals_.size() && finite; ++i) {
-      PoseLinearization& lin = pose_lins[i];
-      double term = 0;
-      if (!EvaluatePoseResidual(pose_residuals_[i], poses, &term, &lin)) {
-        finite = false;
+      // The pose residuals: into their pose's diagonal block.
+      for (size_t i = 0; i < pose_residuals_.size() && finite; ++i) {
+        PoseLinearization& lin = pose_lins[i];
+        double term = 0;
+        if (!EvaluatePoseResidual(pose_residuals_[i], poses, &term, &lin)) {
+          finite = false;
+          break;
+        }
+        const int b = pose_block_[pose_residuals_[i].pose];
+        if (b < 0) continue;
+        // The pose's columns lead its block (a joined camera's follow).
+        const int size = static_cast<int>(lin.A.cols());
+        Eigen::MatrixXd ata =
+            Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
+        ata.topLeftCorner(size, size) = lin.A.transpose() * lin.A;
+        add_cell(b, b, ata);
+        camera_gradient.segment(block_offset_[b], size) +=
+            lin.A.transpose() * lin.r;
+        diagonal.segment(block_offset_[b], block_size_[b]) += ata.diagonal();
+      }
+      // The camera priors: into their camera's diagonal block.
+      for (size_t i = 0; i < cameras_.size() && finite; ++i) {
+        const int column = CameraPriorColumn(static_cast<int>(i));
+        if (column < 0) continue;
+        const int b = camera_block_[i];
+        const double a = 1 / cameras_[i].prior_std;
+        const double r = CameraPriorResidual(static_cast<int>(i), cameras);
+        Eigen::MatrixXd ata =
+            Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
+        ata(column, column) = a * a;
+        add_cell(b, b, ata);
+        camera_gradient[block_offset_[b] + column] += a * r;
+        diagonal[block_offset_[b] + column] += a * a;
+      }
+      if (!finite) {
+        summary.termination = ceres::FAILURE;
+        summary.message = "residual or Jacobian not finite";
         break;
       }
-      const int b = pose_block_[pose_residuals_[i].pose];
-      if (b < 0) continue;
-      // The pose's columns lead its block (a joined camera's follow).
-      const int size = static_cast<int>(lin.A.cols());
-      Eigen::MatrixXd ata =
-          Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
-      ata.topLeftCorner(size, size) = lin.A.transpose() * lin.A;
-      add_cell(b, b, ata);
-      camera_gradient.segment(block_offset_[b], size) +=
-          lin.A.transpose() * lin.r;
-      diagonal.segment(block_offset_[b], block_size_[b]) += ata.diagonal();
-    }
-    // The camera priors: into their camera's diagonal block.
-    for (size_t i = 0; i < cameras_.size() && finite; ++i) {
-      const int column = CameraPriorColumn(static_cast<int>(i));
-      if (column < 0) continue;
-      const int b = camera_block_[i];
-      const double a = 1 / cameras_[i].prior_std;
-      const double r = CameraPriorResidual(static_cast<int>(i), cameras);
-      Eigen::MatrixXd ata =
-          Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
-      ata(column, column) = a * a;
-      add_cell(b, b, ata);
-      camera_gradient[block_offset_[b] + column] += a * r;
-      diagonal[block_offset_[b] + column] += a * a;
-    }
-    if (!finite) {
-      summary.termination = ceres::FAILURE;
-      summary.message = "residual or Jacobian not finite";
-      break;
-    }
-    rhs -= camera_gradient;
-    if (n > 0) {
-      gradient_max_norm =
-          std::max(gradient_max_norm, camera_gradient.cwiseAbs().maxCoeff());
-    }
-    if (check_gradient && gradient_max_norm <= options.gradient_tolerance) {
-      summary.termination = ceres::CONVERGENCE;
-      summary.message = "gradient tolerance reached";
-      break;
-    }
-    // Damping; a variable no weighed observation sees is held (its row and
-    // column are empty).
-    for (int b = 0; b < static_cast<int>(block_size_.size()); ++b) {
-      double* cell = &values_[ValueIndex(b, b)];
-      for (int i = 0; i < block_size_[b]; ++i) {
-        const int s = block_offset_[b] + i;
-        double& d = cell[i * block_size_[b] + i];
-        d += diagonal[s] > 0 ? damped(diagonal[s], radius) : 1.0;
+      rhs -= camera_gradient;
+      if (n > 0) {
+        gradient_max_norm =
+            std::max(gradient_max_norm, camera_gradient.cwiseAbs().maxCoeff());
+      }
+      if (check_gradient && gradient_max_norm <= options.gradient_tolerance) {
+        summary.termination = ceres::CONVERGENCE;
+        summary.message = "gradient tolerance reached";
+        break;
       }
     }
+    // Damping; a variable no weighed observation sees is held (its row and
+    // column are empty). A reused system trades its last damping for this.
+    for (int b = 0; b < static_cast<int>(block_size_.size()); ++b) {
+      for (int i = 0; i < block_size_[b]; ++i) {
+        const int s = block_offset_[b] + i;
+        const double add = diagonal[s] > 0 ? damped(diagonal[s], radius) : 1.0;
+        if (reused) {
+          *diagonal_entry(b, i) += add - applied_damping[s];
+        } else {
+          *diagonal_entry(b, i) += add;
+        }
+        applied_damping[s] = add;
+      }
+    }
+    reuse = false;
     ++summary.num_iterations;
     linear_timer.Restart();
     const std::clock_t linear_clock = std::clock();
@@ -1433,10 +1464,12 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           SolveIterative(rhs, eta, &step, &cg_iterations) && step.allFinite();
       summary.num_linear_iterations += cg_iterations;
     } else if (n > 0 && cholmod_ != nullptr) {
-      ToScalarLayout();
+      if (!scalar_layout) ToScalarLayout();
+      scalar_layout = true;
       solved = SolveSupernodal(rhs, &step) && step.allFinite();
     } else if (simplicial) {
-      ToScalarLayout();
+      if (!scalar_layout) ToScalarLayout();
+      scalar_layout = true;
       llt.factorize(reduced());
       solved = llt.info() == Eigen::Success;
       if (solved) step = llt.solve(rhs);
@@ -1453,8 +1486,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         break;
       }
       VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
-              << ": factorisation failed, radius " << radius;
+              << ": factorisation failed, radius " << radius
+              << (reused ? " (reduced system reused)" : "");
       reject(/*skip=*/false);
+      reuse = reuse_min_radius > 0 && radius >= reuse_min_radius;
       continue;
     }
     num_invalid = 0;
@@ -1487,7 +1522,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           v += lin.B.transpose() * lin.B;
           g += lin.B.transpose() * (lin.r + lin.A * gather(lin, step));
         }
-        for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), radius);
+        for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), point_radius);
         dx = -invert(v) * g;
         for (int i = 0; i < 3; ++i) {
           candidate_points[3 * p + i] += dx[i];
@@ -1608,7 +1643,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
             << ": cost " << cost << " -> " << candidate_cost << " (model "
             << model_cost << "), step " << std::sqrt(step_norm2) << ", radius "
-            << radius << "; linear solve " << linear_cpu_seconds << " CPU s"
+            << radius << (reused ? " (reduced system reused)" : "")
+            << "; linear solve " << linear_cpu_seconds << " CPU s"
             << (iterative_ ? " (" + std::to_string(cg_iterations) +
                                  " conjugate gradient iterations)"
                            : std::string())
@@ -1634,6 +1670,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         summary.message = "minimum trust region radius reached";
         break;
       }
+      reuse = reuse_min_radius > 0 && radius >= reuse_min_radius;
     }
   }
   summary.final_cost = cost;

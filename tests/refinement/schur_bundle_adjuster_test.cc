@@ -417,10 +417,10 @@ TEST(SchurBundleAdjuster, RejectedStartSkipsTheUndampedRadii) {
 // rotation and translation): one camera block per camera, the first pose
 // held (and with `gauge` one coordinate of the second), the principal
 // points held, every seventh observation unweighted and every fiftieth
-// point held.
+// point held (every `hold_every`-th).
 void AddModel(bool gauge, Reconstruction* model,
               std::map<image_t, std::vector<double>>* weights,
-              SchurBundleAdjuster* adjuster) {
+              SchurBundleAdjuster* adjuster, size_t hold_every = 50) {
   std::map<camera_t, int> cameras;
   for (auto& [camera_id, camera] : model->cameras) {
     cameras[camera_id] =
@@ -447,7 +447,8 @@ void AddModel(bool gauge, Reconstruction* model,
       observations.emplace_back(poses.at(element.image_id),
                                 element.point2D_idx);
     }
-    adjuster->AddPoint(point.xyz.data(), index++ % 50 == 0, observations);
+    adjuster->AddPoint(point.xyz.data(), index++ % hold_every == 0,
+                       observations);
   }
 }
 
@@ -713,6 +714,99 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
   // The inexact steps cost fewer conjugate gradient iterations in all.
   EXPECT_LT(summaries[0.1].num_linear_iterations,
             summaries[1e-8].num_linear_iterations);
+}
+
+// After a rejected step the next try re-damps the cameras of the reduced
+// system it has (reuse_min_radius) instead of eliminating the points again:
+// another damping of the same Gauss-Newton model, so the solves reach the
+// same optimum as Ceres' tries (a new elimination each), with a camera per
+// image and a shared camera, through both factorisations and the iterative
+// solver (eta 1e-10: as exact). Many tries are rejected: each step must
+// realise 90% of its model's decrease. Off (0): nothing reused.
+TEST(SchurBundleAdjuster, ReusedEliminationAfterRejectionSameOptimum) {
+  for (const bool shared_camera : {false, true}) {
+    for (const SchurLinearSolver solver :
+         {SchurLinearSolver::kSimplicial, SchurLinearSolver::kSupernodal,
+          SchurLinearSolver::kIterative}) {
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          ", solver " + std::to_string(static_cast<int>(solver)));
+      Reconstruction start = Scene(2, shared_camera).truth;
+      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      Reconstruction fresh_model = start, reused_model = start;
+      std::map<image_t, std::vector<double>> fresh_weights, reused_weights;
+      SchurSolverOptions fresh_options;
+      fresh_options.linear_solver = solver;
+      fresh_options.eta = 1e-10;
+      SchurSolverOptions reuse_options = fresh_options;
+      reuse_options.reuse_min_radius = 1e-3;
+      SchurBundleAdjuster fresh(/*center=*/false, fresh_options),
+          reused(/*center=*/false, reuse_options);
+      AddModel(/*gauge=*/true, &fresh_model, &fresh_weights, &fresh);
+      AddModel(/*gauge=*/true, &reused_model, &reused_weights, &reused);
+      ceres::Solver::Options options;
+      options.max_num_iterations = 200;
+      options.min_relative_decrease = 0.9;
+      options.function_tolerance = 1e-15;
+      options.gradient_tolerance = 1e-12;
+      options.parameter_tolerance = 1e-15;
+      const SchurBundleAdjuster::Summary a = fresh.Solve(options);
+      const SchurBundleAdjuster::Summary b = reused.Solve(options);
+      EXPECT_EQ(a.num_reused_eliminations, 0);
+      EXPECT_GT(b.num_reused_eliminations, 0);
+      EXPECT_NE(a.termination, ceres::FAILURE);
+      EXPECT_NE(b.termination, ceres::FAILURE);
+      EXPECT_EQ(a.initial_cost, b.initial_cost);
+      EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
+      EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
+      const Difference d = Compare(fresh_model, reused_model);
+      EXPECT_LT(d.center, 1e-6);  // scene radius 10
+      EXPECT_LT(d.rotation_deg, 1e-6);
+      EXPECT_LT(d.point, 1e-5);
+      EXPECT_LT(d.param, 1e-8);
+    }
+  }
+  BundleAdjustmentOptions options;
+  options.schur_reuse_min_radius = -1;
+  EXPECT_THROW(options.Check(), OptionError);
+}
+
+// With every point held nothing is eliminated: a reused system re-damped is
+// the system a new linearisation would give, so the tries are Ceres' own,
+// the same radii and iterations and the same model up to the rounding of
+// the damping taken off and put on (cameras and poses only).
+TEST(SchurBundleAdjuster, ReusedEliminationWithoutPointsIsCeresTry) {
+  for (const SchurLinearSolver solver :
+       {SchurLinearSolver::kSimplicial, SchurLinearSolver::kSupernodal}) {
+    SCOPED_TRACE(static_cast<int>(solver));
+    Reconstruction start = Scene(2, /*shared_camera=*/false).truth;
+    PerturbModel(5, 0.5, 0.05, 1.1, 8, &start);
+    Reconstruction fresh_model = start, reused_model = start;
+    std::map<image_t, std::vector<double>> fresh_weights, reused_weights;
+    SchurSolverOptions fresh_options;
+    fresh_options.linear_solver = solver;
+    SchurSolverOptions reuse_options = fresh_options;
+    reuse_options.reuse_min_radius = 1e-9;
+    SchurBundleAdjuster fresh(/*center=*/false, fresh_options),
+        reused(/*center=*/false, reuse_options);
+    AddModel(/*gauge=*/true, &fresh_model, &fresh_weights, &fresh,
+             /*hold_every=*/1);
+    AddModel(/*gauge=*/true, &reused_model, &reused_weights, &reused,
+             /*hold_every=*/1);
+    ceres::Solver::Options options;
+    options.max_num_iterations = 40;
+    options.min_relative_decrease = 0.999;
+    const SchurBundleAdjuster::Summary a = fresh.Solve(options);
+    const SchurBundleAdjuster::Summary b = reused.Solve(options);
+    EXPECT_GT(b.num_reused_eliminations, 2);
+    EXPECT_EQ(a.num_iterations, b.num_iterations);
+    EXPECT_LT(a.final_cost, a.initial_cost);
+    EXPECT_NEAR(b.final_cost, a.final_cost, 1e-12 * a.final_cost);
+    const Difference d = Compare(fresh_model, reused_model);
+    EXPECT_LT(d.center, 1e-9);
+    EXPECT_LT(d.rotation_deg, 1e-9);
+    EXPECT_LT(d.param, 1e-11);
+  }
 }
 
 // auto: iterative when the factor's estimated size is above

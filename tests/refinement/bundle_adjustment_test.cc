@@ -573,10 +573,9 @@ TEST(BundleAdjustment, FailedUndampedSolveStartsAgainDamped) {
   }
 }
 
-// An image of a handful of observations is left out (its pose and camera
-// held: min_num_image_observations); the well observed ones are refined as
-// before, with either backend.
-TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
+// One SIMPLE_RADIAL camera per image (k -0.05), perturbed, every focal
+// length 5% long and k 0; image `weak` keeps 6 of its observations.
+Reconstruction StartWithAPoorlyObservedImage(image_t weak) {
   SyntheticSceneOptions scene_options = SceneOptions();
   scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
   scene_options.extra_param = -0.05;
@@ -584,8 +583,6 @@ TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
   const SyntheticScene scene = GenerateSyntheticScene(scene_options);
   Reconstruction start = scene.truth;
   PerturbModel(0.3, 0.05, 0.02, 1.0, 8, &start);
-  // Image 5 keeps 6 of its observations.
-  const image_t weak = 5;
   int num_kept = 0;
   const Image& weak_image = start.images.at(weak);
   for (point2D_t idx = 0; idx < weak_image.points2D.size(); ++idx) {
@@ -595,11 +592,40 @@ TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
     }
     DeleteObservation(weak, idx, &start);
   }
-  const camera_t weak_camera = weak_image.camera_id;
   for (auto& [camera_id, camera] : start.cameras) {
     camera.params[0] *= 1.05;
     camera.params[3] = 0.0;
   }
+  return start;
+}
+
+// The weak camera's parameters as they started when `weak_held`, refined
+// otherwise; the others refined to the truth (focal 1200, k -0.05).
+void ExpectCamerasRefined(const Reconstruction& start,
+                          const Reconstruction& reconstruction,
+                          camera_t weak_camera, bool weak_held) {
+  for (const auto& [camera_id, camera] : reconstruction.cameras) {
+    const Camera& before = start.cameras.at(camera_id);
+    if (camera_id == weak_camera && weak_held) {
+      EXPECT_EQ(camera.params, before.params);
+    } else {
+      EXPECT_NE(camera.params[0], before.params[0]) << camera_id;
+      EXPECT_NE(camera.params[3], before.params[3]) << camera_id;
+    }
+    if (camera_id != weak_camera) {
+      EXPECT_NEAR(camera.params[0], 1200.0, 6.0) << camera_id;
+      EXPECT_NEAR(camera.params[3], -0.05, 0.01) << camera_id;
+    }
+  }
+}
+
+// An image of a handful of observations is left out (its pose and camera
+// held: min_num_image_observations); the well observed ones are refined as
+// before, with either backend.
+TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
+  const image_t weak = 5;
+  const Reconstruction start = StartWithAPoorlyObservedImage(weak);
+  const camera_t weak_camera = start.images.at(weak).camera_id;
   for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
                              BundleAdjustmentSolverBackend::kSchur}) {
     for (const int min_num_observations : {0, 20}) {
@@ -624,46 +650,16 @@ TEST(BundleAdjustment, PoorlyObservedImagesAreLeftOut) {
       } else {
         EXPECT_NE(pose.translation, pose_before.translation);
       }
-      for (const auto& [camera_id, camera] : reconstruction.cameras) {
-        const Camera& before = start.cameras.at(camera_id);
-        if (camera_id == weak_camera && min_num_observations > 0) {
-          EXPECT_EQ(camera.params, before.params);
-        } else {
-          EXPECT_NE(camera.params[0], before.params[0]) << camera_id;
-          EXPECT_NE(camera.params[3], before.params[3]) << camera_id;
-        }
-        if (camera_id != weak_camera) {
-          EXPECT_NEAR(camera.params[0], 1200.0, 6.0) << camera_id;
-          EXPECT_NEAR(camera.params[3], -0.05, 0.01) << camera_id;
-        }
-      }
+      ExpectCamerasRefined(start, reconstruction, weak_camera,
+                           /*weak_held=*/min_num_observations > 0);
     }
   }
 }
 
 TEST(BundleAdjustment, IntrinsicsOfPoorlyObservedCamerasAreHeld) {
-  SyntheticSceneOptions scene_options = SceneOptions();
-  scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
-  scene_options.extra_param = -0.05;
-  scene_options.shared_camera = false;
-  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
-  Reconstruction start = scene.truth;
-  PerturbModel(0.3, 0.05, 0.02, 1.0, 8, &start);
   const image_t weak = 5;
-  int num_kept = 0;
-  const Image& weak_image = start.images.at(weak);
-  for (point2D_t idx = 0; idx < weak_image.points2D.size(); ++idx) {
-    if (weak_image.points2D[idx].point3D_id == kInvalidPoint3DId ||
-        ++num_kept <= 6) {
-      continue;
-    }
-    DeleteObservation(weak, idx, &start);
-  }
-  const camera_t weak_camera = weak_image.camera_id;
-  for (auto& [camera_id, camera] : start.cameras) {
-    camera.params[0] *= 1.05;
-    camera.params[3] = 0.0;
-  }
+  const Reconstruction start = StartWithAPoorlyObservedImage(weak);
+  const camera_t weak_camera = start.images.at(weak).camera_id;
   for (const auto backend : {BundleAdjustmentSolverBackend::kCeres,
                              BundleAdjustmentSolverBackend::kSchur}) {
     for (const int min_num_observations : {0, 20}) {
@@ -679,19 +675,8 @@ TEST(BundleAdjustment, IntrinsicsOfPoorlyObservedCamerasAreHeld) {
       // The pose is refined either way.
       EXPECT_NE(reconstruction.images.at(weak).cam_from_world.translation,
                 start.images.at(weak).cam_from_world.translation);
-      for (const auto& [camera_id, camera] : reconstruction.cameras) {
-        const Camera& before = start.cameras.at(camera_id);
-        if (camera_id == weak_camera && min_num_observations > 0) {
-          EXPECT_EQ(camera.params, before.params);
-        } else {
-          EXPECT_NE(camera.params[0], before.params[0]) << camera_id;
-          EXPECT_NE(camera.params[3], before.params[3]) << camera_id;
-        }
-        if (camera_id != weak_camera) {
-          EXPECT_NEAR(camera.params[0], 1200.0, 6.0) << camera_id;
-          EXPECT_NEAR(camera.params[3], -0.05, 0.01) << camera_id;
-        }
-      }
+      ExpectCamerasRefined(start, reconstruction, weak_camera,
+                           /*weak_held=*/min_num_observations > 0);
     }
   }
 }
@@ -699,28 +684,11 @@ TEST(BundleAdjustment, IntrinsicsOfPoorlyObservedCamerasAreHeld) {
 // Per-image SIMPLE_RADIAL cameras 5% over the truth (k 0), image 5 left
 // with 6 observations; every camera has a focal prior but image 7's.
 TEST(BundleAdjustment, FocalPriorsHoldTheirCamerasNearTheStart) {
-  SyntheticSceneOptions scene_options = SceneOptions();
-  scene_options.camera_model_id = CameraModelNameToId("SIMPLE_RADIAL");
-  scene_options.extra_param = -0.05;
-  scene_options.shared_camera = false;
-  const SyntheticScene scene = GenerateSyntheticScene(scene_options);
-  Reconstruction start = scene.truth;
-  PerturbModel(0.3, 0.05, 0.02, 1.0, 8, &start);
   const image_t weak = 5;
-  int num_kept = 0;
-  const Image& weak_image = start.images.at(weak);
-  for (point2D_t idx = 0; idx < weak_image.points2D.size(); ++idx) {
-    if (weak_image.points2D[idx].point3D_id == kInvalidPoint3DId ||
-        ++num_kept <= 6) {
-      continue;
-    }
-    DeleteObservation(weak, idx, &start);
-  }
-  const camera_t weak_camera = weak_image.camera_id;
+  Reconstruction start = StartWithAPoorlyObservedImage(weak);
+  const camera_t weak_camera = start.images.at(weak).camera_id;
   const camera_t guessed_camera = start.images.at(7).camera_id;
   for (auto& [camera_id, camera] : start.cameras) {
-    camera.params[0] *= 1.05;
-    camera.params[3] = 0.0;
     camera.has_prior_focal_length = camera_id != guessed_camera;
   }
   const double start_focal = 1.05 * 1200.0;

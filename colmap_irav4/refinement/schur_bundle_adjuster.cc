@@ -1222,10 +1222,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   double point_radius = radius;
   bool scalar_layout = false;
   Eigen::VectorXd applied_damping = Eigen::VectorXd::Zero(n);
-  // The diagonal entry of scalar i of block b (a diagonal cell's offset in
-  // its column of cells times the block size is its first value's).
-  auto diagonal_entry = [&](int b, int i) {
-    const size_t cell = ValueIndex(b, b);
+  // The diagonal entry of scalar i of block b, whose diagonal cell starts at
+  // `cell` (ValueIndex(b, b)) in the cell layout (that cell's offset in its
+  // column of cells times the block size is its first value's).
+  auto diagonal_entry = [&](int b, size_t cell, int i) {
     if (!scalar_layout) return &values_[cell + i * block_size_[b] + i];
     const size_t offset = (cell - column_begin_[b]) / block_size_[b];
     return &values_[column_begin_[b] + i * column_height_[b] + offset + i];
@@ -1410,10 +1410,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         const int b = camera_block_[i];
         const double a = 1 / cameras_[i].prior_std;
         const double r = CameraPriorResidual(static_cast<int>(i), cameras);
-        Eigen::MatrixXd ata =
-            Eigen::MatrixXd::Zero(block_size_[b], block_size_[b]);
-        ata(column, column) = a * a;
-        add_cell(b, b, ata);
+        *diagonal_entry(b, ValueIndex(b, b), column) += a * a;
         camera_gradient[block_offset_[b] + column] += a * r;
         diagonal[block_offset_[b] + column] += a * a;
       }
@@ -1436,14 +1433,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     // Damping; a variable no weighed observation sees is held (its row and
     // column are empty). A reused system trades its last damping for this.
     for (int b = 0; b < static_cast<int>(block_size_.size()); ++b) {
+      const size_t cell = ValueIndex(b, b);
       for (int i = 0; i < block_size_[b]; ++i) {
         const int s = block_offset_[b] + i;
         const double add = diagonal[s] > 0 ? damped(diagonal[s], radius) : 1.0;
-        if (reused) {
-          *diagonal_entry(b, i) += add - applied_damping[s];
-        } else {
-          *diagonal_entry(b, i) += add;
-        }
+        *diagonal_entry(b, cell, i) += reused ? add - applied_damping[s] : add;
         applied_damping[s] = add;
       }
     }

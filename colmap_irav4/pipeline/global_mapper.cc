@@ -676,6 +676,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       if (retriangulated_ && iteration + 1 == num_ba) {
         round_options.num_rounds = 1;
       }
+      // Only the last adjustment must reach its tolerances: the ones before
+      // it hand their poses to retriangulation and the next adjustment.
+      if (iteration + 1 == num_ba) round_options.stall_num_iterations = 0;
       if (!FailIfNoPoints(iteration == 0 ? "after positioning"
                                          : "after retriangulation")) {
         return false;
@@ -705,6 +708,10 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         if (ba_summary.num_images_left_out > 0) {
           stage.Add("images left out (few observations)",
                     static_cast<double>(ba_summary.num_images_left_out));
+        }
+        if (ba_summary.num_stalled_solves > 0) {
+          stage.Add("solves stopped as the cost stalled",
+                    static_cast<double>(ba_summary.num_stalled_solves));
         }
         if (ba_summary.num_damped_restarts > 0) {
           stage.Add("solves started again damped",
@@ -807,13 +814,16 @@ bool GlobalMapper::TwoViewCheck() {
   StageTimer stage("two-view check");
   TwoViewCheckSummary summary;
   bool kept = false;
+  // Its adjustment is the last one when no bundle adjustment follows.
+  BundleAdjustmentOptions check_options = options_.bundle_adjustment;
+  if (options_.num_ba_iterations <= 1) check_options.stall_num_iterations = 0;
   if (!AdjustOrKeepModel(
           &stage, "bundle adjustment of the two-view check failed",
           [&] {
             return CheckTwoViewPoints(
-                options_.two_view_check, options_.bundle_adjustment,
-                options_.triangulation, options_.pose_constraint,
-                &reconstruction_, &keypoint_noise_, &summary);
+                options_.two_view_check, check_options, options_.triangulation,
+                options_.pose_constraint, &reconstruction_, &keypoint_noise_,
+                &summary);
           },
           &kept)) {
     return false;

@@ -407,6 +407,15 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "radius is at least this, the next try re-damps the cameras "
                "of the same reduced system instead of eliminating the "
                "points again (0: off)");
+  manager->Add("BundleAdjustment.stall_num_iterations",
+               &ba.stall_num_iterations,
+               "the mapper's adjustments before the last stop once their "
+               "last this many accepted steps together lowered the cost by "
+               "less than stall_relative_decrease of it (0: off; the last "
+               "adjustment always runs to its tolerances)");
+  manager->Add("BundleAdjustment.stall_relative_decrease",
+               &ba.stall_relative_decrease,
+               "see stall_num_iterations (a fraction of the cost)");
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");

@@ -185,6 +185,28 @@ GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
   return holds;
 }
 
+// CostStall for Ceres' minimizer: ends the solve (USER_SUCCESS) once the
+// cost of its accepted steps has stalled.
+class StallCallback : public ceres::IterationCallback {
+ public:
+  StallCallback(int num_steps, double relative_decrease)
+      : stall_(num_steps, relative_decrease) {}
+  ceres::CallbackReturnType operator()(
+      const ceres::IterationSummary& iteration) override {
+    if ((iteration.iteration == 0 || iteration.step_is_successful) &&
+        stall_.Add(iteration.cost)) {
+      stalled_ = true;
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+  bool stalled() const { return stalled_; }
+
+ private:
+  CostStall stall_;
+  bool stalled_ = false;
+};
+
 // The Ceres problem of one bundle adjustment, built once and kept for all
 // its solves. Each observation's residual is scaled by a weight its cost
 // reads when evaluated: the Huber reweighting sets the weights, and the
@@ -321,6 +343,7 @@ class BundleAdjustmentProblem {
     std::string message;
     int num_iterations = 0;         // Ceres' count (iteration 0 included)
     int num_linear_iterations = 0;  // the Schur solver's conjugate gradients
+    bool stalled = false;           // stopped by CostStall
     double preprocessor_seconds = 0;
     double linear_solver_seconds = 0;
     std::string linear_solver;
@@ -335,8 +358,10 @@ class BundleAdjustmentProblem {
     }
     if (schur_) {
       const SchurBundleAdjuster::Summary schur = schur_adjuster_->Solve(
-          solver.ceres, options_.rejected_start_trust_region_radius);
+          solver.ceres, options_.rejected_start_trust_region_radius,
+          options_.stall_num_iterations, options_.stall_relative_decrease);
       summary.termination = schur.termination;
+      summary.stalled = schur.stalled;
       summary.message = schur.message;
       summary.num_iterations = schur.num_iterations;
       summary.num_linear_iterations = schur.num_linear_iterations;
@@ -354,9 +379,18 @@ class BundleAdjustmentProblem {
       if (options_.refine_points) {
         solver.ceres.linear_solver_ordering = ordering_;
       }
+      StallCallback stall(options_.stall_num_iterations,
+                          options_.stall_relative_decrease);
+      if (options_.stall_num_iterations > 0) {
+        solver.ceres.callbacks.push_back(&stall);
+      }
       const ceres::Solver::Summary ceres_summary =
           SolveProblem("bundle adjustment", solver, problem_.get());
       summary.termination = ceres_summary.termination_type;
+      if (stall.stalled()) {
+        summary.termination = ceres::CONVERGENCE;
+        summary.stalled = true;
+      }
       summary.message = ceres_summary.message;
       summary.num_iterations = ceres_summary.iterations.size();
       summary.preprocessor_seconds = ceres_summary.preprocessor_time_in_seconds;
@@ -1229,6 +1263,15 @@ void BundleAdjustmentOptions::Check() const {
                       "BundleAdjustment.min_num_image_observations",
                       "must be >= 0");
   }
+  if (stall_num_iterations < 0) {
+    throw OptionError(&stall_num_iterations,
+                      "BundleAdjustment.stall_num_iterations", "must be >= 0");
+  }
+  if (!(stall_relative_decrease >= 0)) {
+    throw OptionError(&stall_relative_decrease,
+                      "BundleAdjustment.stall_relative_decrease",
+                      "must be >= 0");
+  }
   if (!(schur_max_factor_mib > 0)) {
     throw OptionError(&schur_max_factor_mib,
                       "BundleAdjustment.schur_max_factor_mib",
@@ -1346,6 +1389,7 @@ bool RunBundleAdjustment(const BundleAdjustmentOptions& options,
         const auto solve_from = [&](double initial_trust_region_radius) {
           solver_summary = problem.Solve(initial_trust_region_radius);
           local_summary.num_iterations += solver_summary.num_iterations;
+          local_summary.num_stalled_solves += solver_summary.stalled;
           local_summary.num_linear_iterations +=
               solver_summary.num_linear_iterations;
           ++local_summary.num_solves;

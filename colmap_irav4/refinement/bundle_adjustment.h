@@ -158,6 +158,17 @@ struct BundleAdjustmentOptions {
   // same reduced system instead of eliminating the points again
   // (SchurSolverOptions::reuse_min_radius); 0: off.
   double schur_reuse_min_radius = 0;
+  // Each solve stops once its last stall_num_iterations accepted steps
+  // together lowered the cost by less than stall_relative_decrease of it
+  // (CostStall: a few ill-determined cameras crawling while the rest has
+  // settled); a stopped solve counts as converged. 0: off. The mapper
+  // applies it to its adjustments before the last only (bundle adjustment 1
+  // and the two-view check's). Off by default: at 100-300 photo images it
+  // saved time on some scenes, cost it on others, and mostly lost accuracy,
+  // the crawl moving to the last adjustment
+  // (docs/notes/2026-12-05-ba-stall.md).
+  int stall_num_iterations = 0;
+  double stall_relative_decrease = 0.005;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter
@@ -214,6 +225,8 @@ struct BundleAdjustmentSummary {
   // Solves that failed from the options' trust region radius and were
   // started again damped (RunBundleAdjustment).
   int num_damped_restarts = 0;
+  // Solves stopped as the cost stalled (stall_num_iterations).
+  int num_stalled_solves = 0;
   // Images left out for too few observations (min_num_image_observations).
   int num_images_left_out = 0;
   // Cameras with a focal length prior (focal_prior_std, above).

@@ -1049,9 +1049,22 @@ size_t SchurBundleAdjuster::ValueIndex(int row_block, int col_block) const {
          static_cast<size_t>(offset) * block_size_[col_block];
 }
 
+CostStall::CostStall(int num_steps, double relative_decrease)
+    : num_steps_(num_steps), relative_decrease_(relative_decrease) {}
+
+bool CostStall::Add(double cost) {
+  if (num_steps_ <= 0) return false;
+  costs_.push_back(cost);
+  if (static_cast<int>(costs_.size()) > num_steps_ + 1) costs_.pop_front();
+  return static_cast<int>(costs_.size()) == num_steps_ + 1 &&
+         costs_.front() - costs_.back() < relative_decrease_ * costs_.back();
+}
+
 SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
-    const ceres::Solver::Options& options, double rejected_start_radius) {
+    const ceres::Solver::Options& options, double rejected_start_radius,
+    int stall_num_steps, double stall_relative_decrease) {
   Summary summary;
+  CostStall stall(stall_num_steps, stall_relative_decrease);
   Timer linear_timer;
   // The parameters: poses (7 each), cameras (kMaxNumParams each), points.
   const size_t num_points = point_blocks_.size();
@@ -1213,6 +1226,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     summary.message = "residual not finite at the initial point";
     return summary;
   }
+  stall.Add(cost);
   bool check_gradient = true;
   // The reduced system kept from the last elimination for a rejected try
   // (SchurSolverOptions::reuse_min_radius): the radius its points were
@@ -1657,6 +1671,12 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       decrease_factor = 2;
       check_gradient = true;
       step_accepted = true;
+      if (stall.Add(cost)) {
+        summary.termination = ceres::CONVERGENCE;
+        summary.message = "the cost stalled";
+        summary.stalled = true;
+        break;
+      }
     } else {
       reject(/*skip=*/true);
       if (radius < options.min_trust_region_radius) {

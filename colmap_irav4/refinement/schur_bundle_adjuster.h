@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -72,6 +73,24 @@ struct SchurSolverOptions {
   // percent at most: a rejected try costs a factorisation and one pass over
   // the observations instead of a whole iteration. 0: off (Ceres' steps).
   double reuse_min_radius = 0;
+};
+
+// Stops a solve whose cost has settled while a few ill-determined
+// parameters still crawl (a camera's focal length collapsing over dozens of
+// steps, each lowering the cost by 0.05%: Ceres' function tolerance, 1e-5 a
+// step, never sees it; docs/notes/2026-12-05-ba-stall.md): stalled once the
+// last `num_steps` accepted steps together lowered the cost by less than
+// `relative_decrease` of it. num_steps 0: never.
+class CostStall {
+ public:
+  CostStall(int num_steps, double relative_decrease);
+  // The cost at the start, then after each accepted step; true once stalled.
+  bool Add(double cost);
+
+ private:
+  const int num_steps_;
+  const double relative_decrease_;
+  std::deque<double> costs_;  // the last num_steps_ + 1
 };
 
 // One weighted least-squares bundle adjustment solve without Ceres' problem:
@@ -180,6 +199,8 @@ class SchurBundleAdjuster {
     // Tries solved from the last elimination's reduced system, re-damped
     // (SchurSolverOptions::reuse_min_radius).
     int num_reused_eliminations = 0;
+    // Stopped as the cost stalled (CostStall).
+    bool stalled = false;
     // The Cholesky factor's size estimated from the block pattern (auto and
     // iterative; 0: not estimated), bytes.
     double factor_bytes_estimate = 0;
@@ -196,8 +217,11 @@ class SchurBundleAdjuster {
   // solve was accepted, Ceres' cuts (radius / 2, / 4, / 8, ...) are made at
   // once, without trying a step, until the radius is at most this (a failed
   // factorisation is cut once, as Ceres does); 0: each cut tried (Ceres).
+  // `stall`: the solve stops (CONVERGENCE, `stalled`) once the cost has
+  // stalled (CostStall; 0 steps: never).
   Summary Solve(const ceres::Solver::Options& options,
-                double rejected_start_radius = 0);
+                double rejected_start_radius = 0, int stall_num_steps = 0,
+                double stall_relative_decrease = 0);
 
  private:
   struct CameraBlock {

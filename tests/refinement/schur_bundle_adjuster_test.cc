@@ -6,7 +6,8 @@
 // accumulations of that system (cell tables, cell search); after a rejected
 // undamped first step the radii its damping cannot change are skipped; its
 // iterative solver (conjugate gradients) reaches the factorisations'
-// solution, and auto chooses it above the factor's memory budget.
+// solution, and auto chooses it above the factor's memory budget; both
+// backends stop a solve whose cost has stalled.
 
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 
@@ -690,12 +691,8 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
     EXPECT_GT(summary.num_linear_iterations, summary.num_iterations);
     EXPECT_EQ(summary.num_observations_filtered,
               direct_summary.num_observations_filtered);
-    if (eta < 1e-6) {
-      // Nearly exact steps: the direct solves' path and optimum (the Ceres
-      // comparison's bounds; measured 1e-12).
-      ExpectSameOptimum(direct_summary, summary, direct_ba, iterative_ba);
-      continue;
-    }
+    // Nearly exact steps: checked below, at tolerances above rounding.
+    if (eta < 1e-6) continue;
     // Inexact steps (forcing term 0.1) take another path (52
     // iterations instead of 31) to the same optimum and stop where the
     // tolerances stop them, a little off the direct solves' stopping point:
@@ -714,6 +711,29 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
   // The inexact steps cost fewer conjugate gradient iterations in all.
   EXPECT_LT(summaries[0.1].num_linear_iterations,
             summaries[1e-8].num_linear_iterations);
+
+  // Nearly exact steps (eta 1e-8) take the direct solves' path to their
+  // optimum (the Ceres comparison's bounds; measured 1e-13). Compared where
+  // both stop at tolerances of 1e-10: at 1e-14, the cost's own rounding,
+  // the iteration they stop at depends on the last bits of the two solves
+  // (31 vs 33 iterations on one CPU, and then 1e-8 apart in the focal
+  // length along the flat valley of focal and distortion).
+  ba.solver.ceres.function_tolerance = 1e-10;
+  ba.solver.ceres.gradient_tolerance = 1e-10;
+  ba.solver.ceres.parameter_tolerance = 1e-10;
+  ba.schur_iterative_eta = 1e-8;
+  Reconstruction exact_iterative_ba = with_outliers;
+  BundleAdjustmentSummary exact_iterative_summary;
+  ASSERT_TRUE(
+      RunBundleAdjustment(ba, &exact_iterative_ba, &exact_iterative_summary));
+  ba.schur_linear_solver = SchurLinearSolver::kSupernodal;
+  Reconstruction loose_direct_ba = with_outliers;
+  BundleAdjustmentSummary loose_direct_summary;
+  ASSERT_TRUE(RunBundleAdjustment(ba, &loose_direct_ba, &loose_direct_summary));
+  EXPECT_EQ(exact_iterative_summary.num_iterations,
+            loose_direct_summary.num_iterations);
+  ExpectSameOptimum(loose_direct_summary, exact_iterative_summary,
+                    loose_direct_ba, exact_iterative_ba);
 }
 
 // After a rejected step the next try re-damps the cameras of the reduced
@@ -731,39 +751,47 @@ TEST(SchurBundleAdjuster, ReusedEliminationAfterRejectionSameOptimum) {
       SCOPED_TRACE(
           std::string(shared_camera ? "shared camera" : "camera per image") +
           ", solver " + std::to_string(static_cast<int>(solver)));
-      Reconstruction start = Scene(2, shared_camera).truth;
-      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
-      Reconstruction fresh_model = start, reused_model = start;
-      std::map<image_t, std::vector<double>> fresh_weights, reused_weights;
-      SchurSolverOptions fresh_options;
-      fresh_options.linear_solver = solver;
-      fresh_options.eta = 1e-10;
-      SchurSolverOptions reuse_options = fresh_options;
-      reuse_options.reuse_min_radius = 1e-3;
-      SchurBundleAdjuster fresh(/*center=*/false, fresh_options),
-          reused(/*center=*/false, reuse_options);
-      AddModel(/*gauge=*/true, &fresh_model, &fresh_weights, &fresh);
-      AddModel(/*gauge=*/true, &reused_model, &reused_weights, &reused);
-      ceres::Solver::Options options;
-      options.max_num_iterations = 200;
-      options.min_relative_decrease = 0.9;
-      options.function_tolerance = 1e-15;
-      options.gradient_tolerance = 1e-12;
-      options.parameter_tolerance = 1e-15;
-      const SchurBundleAdjuster::Summary a = fresh.Solve(options);
-      const SchurBundleAdjuster::Summary b = reused.Solve(options);
-      EXPECT_EQ(a.num_reused_eliminations, 0);
-      EXPECT_GT(b.num_reused_eliminations, 0);
-      EXPECT_NE(a.termination, ceres::FAILURE);
-      EXPECT_NE(b.termination, ceres::FAILURE);
-      EXPECT_EQ(a.initial_cost, b.initial_cost);
-      EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
-      EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
-      const Difference d = Compare(fresh_model, reused_model);
-      EXPECT_LT(d.center, 1e-6);  // scene radius 10
-      EXPECT_LT(d.rotation_deg, 1e-6);
-      EXPECT_LT(d.point, 1e-5);
-      EXPECT_LT(d.param, 1e-8);
+      // Whether a try is rejected depends on the path, which rounding
+      // (the CPU's libm and BLAS kernels) can change: three starts, each
+      // checked, at least one of which must reuse.
+      int num_reused = 0;
+      for (const int seed : {8, 9, 10}) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        Reconstruction start = Scene(2, shared_camera).truth;
+        PerturbModel(0.5, 0.05, 0.05, 1.02, seed, &start);
+        Reconstruction fresh_model = start, reused_model = start;
+        std::map<image_t, std::vector<double>> fresh_weights, reused_weights;
+        SchurSolverOptions fresh_options;
+        fresh_options.linear_solver = solver;
+        fresh_options.eta = 1e-10;
+        SchurSolverOptions reuse_options = fresh_options;
+        reuse_options.reuse_min_radius = 1e-3;
+        SchurBundleAdjuster fresh(/*center=*/false, fresh_options),
+            reused(/*center=*/false, reuse_options);
+        AddModel(/*gauge=*/true, &fresh_model, &fresh_weights, &fresh);
+        AddModel(/*gauge=*/true, &reused_model, &reused_weights, &reused);
+        ceres::Solver::Options options;
+        options.max_num_iterations = 200;
+        options.min_relative_decrease = 0.9;
+        options.function_tolerance = 1e-15;
+        options.gradient_tolerance = 1e-12;
+        options.parameter_tolerance = 1e-15;
+        const SchurBundleAdjuster::Summary a = fresh.Solve(options);
+        const SchurBundleAdjuster::Summary b = reused.Solve(options);
+        EXPECT_EQ(a.num_reused_eliminations, 0);
+        num_reused += b.num_reused_eliminations;
+        EXPECT_NE(a.termination, ceres::FAILURE);
+        EXPECT_NE(b.termination, ceres::FAILURE);
+        EXPECT_EQ(a.initial_cost, b.initial_cost);
+        EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
+        EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
+        const Difference d = Compare(fresh_model, reused_model);
+        EXPECT_LT(d.center, 1e-6);  // scene radius 10
+        EXPECT_LT(d.rotation_deg, 1e-6);
+        EXPECT_LT(d.point, 1e-5);
+        EXPECT_LT(d.param, 1e-8);
+      }
+      EXPECT_GT(num_reused, 0);
     }
   }
   BundleAdjustmentOptions options;
@@ -886,6 +914,65 @@ TEST(SchurBundleAdjuster, CheckRejectsBadIterativeSettings) {
               o->schur_max_factor_mib = 0.001;
             }),
             "");
+}
+
+TEST(CostStall, StallsOnceTheWindowDecreasesLessThanTheThreshold) {
+  CostStall stall(3, 0.01);
+  EXPECT_FALSE(stall.Add(100));
+  EXPECT_FALSE(stall.Add(90));
+  EXPECT_FALSE(stall.Add(89.9));
+  // 100 -> 89.8 over the last 3 steps: 11% of 89.8.
+  EXPECT_FALSE(stall.Add(89.8));
+  // 90 -> 89.7: 0.33% < 1%.
+  EXPECT_TRUE(stall.Add(89.7));
+  // Off: never, however flat.
+  CostStall off(0, 0.01);
+  for (int i = 0; i < 10; ++i) EXPECT_FALSE(off.Add(1.0));
+}
+
+// A perturbed model with distortion, one camera per image, least squares,
+// the trust region held small (a crawl: each step a damped gradient step,
+// the cost falling by a little each time): with the stall rule both
+// backends stop long before the tight tolerances would (the solve counted
+// as converged and as stalled), near the optimum they reach without it.
+TEST(SchurBundleAdjuster, BothBackendsStopWhenTheCostStalls) {
+  Reconstruction start = Scene(2, /*shared_camera=*/false).truth;
+  PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+  BundleAdjustmentOptions options = TightOptions();
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
+  options.num_rounds = 1;
+  options.weight_by_keypoint_scale = false;
+  options.solver.ceres.initial_trust_region_radius = 100;
+  options.solver.ceres.max_trust_region_radius = 100;
+  options.solver.ceres.max_num_iterations = 200;
+  Reconstruction ceres_tight = start, schur_tight = start;
+  const auto [ceres_full, schur_full] =
+      RunBoth(options, &ceres_tight, &schur_tight);
+  EXPECT_EQ(ceres_full.num_stalled_solves, 0);
+  EXPECT_EQ(schur_full.num_stalled_solves, 0);
+  options.stall_num_iterations = 3;
+  options.stall_relative_decrease = 0.005;
+  Reconstruction ceres_model = start, schur_model = start;
+  const auto [ceres_stalled, schur_stalled] =
+      RunBoth(options, &ceres_model, &schur_model);
+  for (const auto& [stalled, full] :
+       {std::make_pair(ceres_stalled, ceres_full),
+        std::make_pair(schur_stalled, schur_full)}) {
+    SCOPED_TRACE(stalled.backend);
+    EXPECT_EQ(stalled.num_stalled_solves, 1);
+    EXPECT_TRUE(stalled.converged);
+    EXPECT_LT(stalled.num_iterations, full.num_iterations);
+    EXPECT_GE(stalled.final_mean_reproj_error, full.final_mean_reproj_error);
+    EXPECT_LT(stalled.final_mean_reproj_error,
+              1.01 * full.final_mean_reproj_error);
+  }
+  // The same rule on the same steps.
+  EXPECT_EQ(schur_stalled.num_iterations, ceres_stalled.num_iterations);
+  options.stall_num_iterations = -1;
+  EXPECT_THROW(options.Check(), OptionError);
+  options.stall_num_iterations = 5;
+  options.stall_relative_decrease = -0.1;
+  EXPECT_THROW(options.Check(), OptionError);
 }
 
 TEST(SchurBundleAdjuster, FallsBackToCeresForLosses) {

@@ -4,9 +4,9 @@
 // Solve() runs the stages in their order (the one place it is written):
 //   rotation averaging -> rotation-consistency filter
 //   -> tracks from the inlier matches -> global positioning -> fold check
-//   -> bundle adjustment rounds with filtering, retriangulation (with track
-//      completion), the two-view check and point merging after the first
-//      -> final filtering and normalisation -> fold check.
+//   -> bundle adjustment rounds with filtering, retriangulation, the
+//      two-view check and (optional, off by default) point merging after
+//      the first -> final filtering and normalisation -> fold check.
 // One public method per stage, callable (and testable) one by one; every
 // stage's algorithm lives in its own folder, this class holds the state
 // between them. Resolving a fold is the component mapper's
@@ -218,8 +218,9 @@ class GlobalMapper {
   // After retriangulation: the two-view points checked against poses
   // adjusted without them (refinement/two_view_check.h).
   bool TwoViewCheck();
-  // After the two-view check: points of different tracks that are one 3D
-  // point merged (refinement/point_merging.h).
+  // After the two-view check, with point_merging.enabled: points of
+  // different tracks that are one 3D point merged
+  // (refinement/point_merging.h).
   bool PointMerging();
   // Final filtering, cameras no image uses removed, normalisation.
   virtual bool Finalize();

@@ -339,7 +339,7 @@ TEST(GlobalMapperStages, SolveIsTheStagesInOrder) {
   }
 }
 
-// A matcher that keeps half of each pair's matches splits points over
+// A matcher that keeps a quarter of each pair's matches splits points over
 // several tracks; with point merging on, the mapper joins them again after
 // retriangulation (its stage reports the merges): fewer, longer points on
 // about the same observations, and the poses as good.
@@ -349,7 +349,7 @@ TEST(GlobalMapperStages, PointMergingJoinsPointsOfSplitTracks) {
   for (TwoViewGeometry& geometry : s.database.two_view_geometries) {
     std::vector<FeatureMatch> kept;
     for (const FeatureMatch& match : geometry.inlier_matches) {
-      if (std::bernoulli_distribution(0.5)(rng)) kept.push_back(match);
+      if (std::bernoulli_distribution(0.25)(rng)) kept.push_back(match);
     }
     geometry.inlier_matches = kept;
   }

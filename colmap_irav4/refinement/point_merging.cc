@@ -72,8 +72,8 @@ void RefinePosition(const Reconstruction& reconstruction,
   for (const TrackElement& element : track) {
     const Image& image = reconstruction.images.at(element.image_id);
     const Camera& camera = reconstruction.cameras.at(image.camera_id);
-    const Eigen::Vector2d normalized = CameraImageToCamera(
-        camera, image.points2D.at(element.point2D_idx).xy);
+    const Eigen::Vector2d normalized =
+        CameraImageToCamera(camera, image.points2D.at(element.point2D_idx).xy);
     if (!normalized.allFinite()) return;
     rays.push_back({image.cam_from_world.rotation.toRotationMatrix(),
                     image.cam_from_world.translation, normalized,
@@ -244,8 +244,8 @@ PointMergingSummary MergePoints(const PointMergingOptions& options,
       Eigen::Vector3d own = point.xyz, other_own = other.xyz;
       RefinePosition(*reconstruction, point.track, &own);
       RefinePosition(*reconstruction, other.track, &other_own);
-      const double increase = joint_cost - cost(point.track, own) -
-                              cost(other.track, other_own);
+      const double increase =
+          joint_cost - cost(point.track, own) - cost(other.track, other_own);
       if (!(increase <= options.max_cost_increase * variance)) return false;
     }
     for (const TrackElement& element : other.track) {
@@ -304,10 +304,10 @@ PointMergingSummary MergePoints(const PointMergingOptions& options,
               CameraCameraToImage(camera, in_cam.hnormalized());
           if (!xy.allFinite() || xy.x() < -options.search_radius ||
               xy.y() < -options.search_radius ||
-              xy.x() > static_cast<double>(camera.width) +
-                           options.search_radius ||
-              xy.y() > static_cast<double>(camera.height) +
-                           options.search_radius) {
+              xy.x() >
+                  static_cast<double>(camera.width) + options.search_radius ||
+              xy.y() >
+                  static_cast<double>(camera.height) + options.search_radius) {
             continue;
           }
           grids[j].ForNear(xy, [&](point2D_t idx) {

@@ -35,9 +35,9 @@ struct PointMergingOptions {
   // And the merged point's sum of squared reprojection errors may exceed
   // the two points' own sums by at most this many times the model's
   // per-coordinate noise variance (estimated from the median of its
-  // squared residuals, in noise units): a chi-square test of one point against two, 3 degrees of
-  // freedom (7.8: 95%). Two nearby points seen from similar directions pass
-  // the per-observation threshold, not this. 0: no such test.
+  // squared residuals, in noise units): a chi-square test of one point against
+  // two, 3 degrees of freedom (7.8: 95%). Two nearby points seen from similar
+  // directions pass the per-observation threshold, not this. 0: no such test.
   double max_cost_increase = 7.8;
   // Passes over all points (a merged point may reach further ones).
   int max_passes = 2;
@@ -58,8 +58,8 @@ struct PointMergingSummary {
 // search_radius of an observation of the other, when the least-squares
 // position over all their observations reprojects within max_reproj_error
 // onto each and fits them nearly as well as the two points apart
-// (max_cost_increase); the merged point keeps the smaller id. Candidate images of a
-// point: those sharing a point with one of its images. Deterministic
+// (max_cost_increase); the merged point keeps the smaller id. Candidate images
+// of a point: those sharing a point with one of its images. Deterministic
 // (points in id order).
 PointMergingSummary MergePoints(const PointMergingOptions& options,
                                 Reconstruction* reconstruction,

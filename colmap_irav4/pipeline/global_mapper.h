@@ -4,8 +4,9 @@
 // Solve() runs the stages in their order (the one place it is written):
 //   rotation averaging -> rotation-consistency filter
 //   -> tracks from the inlier matches -> global positioning -> fold check
-//   -> bundle adjustment rounds with filtering, retriangulation after the
-//      first -> final filtering and normalisation -> fold check.
+//   -> bundle adjustment rounds with filtering, retriangulation, the
+//      two-view check and (optional, off by default) point merging after
+//      the first -> final filtering and normalisation -> fold check.
 // One public method per stage, callable (and testable) one by one; every
 // stage's algorithm lives in its own folder, this class holds the state
 // between them. Resolving a fold is the component mapper's
@@ -31,6 +32,7 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/refinement/keypoint_noise.h"
 #include "colmap_irav4/refinement/model_rigidity.h"
+#include "colmap_irav4/refinement/point_merging.h"
 #include "colmap_irav4/refinement/pose_constraint.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/refinement/two_view_check.h"
@@ -129,6 +131,7 @@ struct GlobalMapperOptions {
   TranslationAveragingOptions translation_averaging;
   TriangulationOptions triangulation;
   TwoViewCheckOptions two_view_check;
+  PointMergingOptions point_merging;
   BundleAdjustmentOptions bundle_adjustment;
   FilterOptions filtering;
   NormalizationOptions normalization;
@@ -215,6 +218,10 @@ class GlobalMapper {
   // After retriangulation: the two-view points checked against poses
   // adjusted without them (refinement/two_view_check.h).
   bool TwoViewCheck();
+  // After the two-view check, with point_merging.enabled: points of
+  // different tracks that are one 3D point merged
+  // (refinement/point_merging.h).
+  bool PointMerging();
   // Final filtering, cameras no image uses removed, normalisation.
   virtual bool Finalize();
   // The fold check (refinement/fold_detection.h) of the model as it is;

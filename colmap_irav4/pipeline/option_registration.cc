@@ -320,6 +320,10 @@ void AddTriangulationOptions(OptionManager* manager, TriangulationOptions* o) {
                &o->ignore_two_view_tracks,
                "do not (re)triangulate tracks of two observations (COLMAP's "
                "ignore_two_view_tracks)");
+  manager->Add("Triangulation.complete_tracks", &o->complete_tracks,
+               "retriangulation first adds a track's free observations to "
+               "the point the track already has when they reproject onto it "
+               "(track completion), then triangulates the rest");
 }
 
 void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
@@ -338,6 +342,26 @@ void AddTwoViewCheckOptions(OptionManager* manager, TwoViewCheckOptions* o) {
                "a checked two-view point is kept when both its observations "
                "are within this reprojection error (px, in noise units with "
                "BundleAdjustment.filter_by_keypoint_noise)");
+}
+
+void AddPointMergingOptions(OptionManager* manager, PointMergingOptions* o) {
+  manager->Add("PointMerging.enabled", &o->enabled,
+               "after retriangulation and the two-view check, merge the "
+               "points of different tracks that are one 3D point (one "
+               "position reprojects onto all their observations)");
+  manager->Add("PointMerging.search_radius", &o->search_radius,
+               "a candidate: an observation of another point this close "
+               "(px) to the point's projection");
+  manager->Add("PointMerging.max_reproj_error", &o->max_reproj_error,
+               "the merged point must reproject within this onto every "
+               "observation (px, in noise units with "
+               "BundleAdjustment.filter_by_keypoint_noise)");
+  manager->Add("PointMerging.max_cost_increase", &o->max_cost_increase,
+               "and its summed squared reprojection error may exceed the two "
+               "points' own by at most this many noise variances "
+               "(chi-square, 3 degrees of freedom; 0: no such test)");
+  manager->Add("PointMerging.max_passes", &o->max_passes,
+               "passes over the points (merged points searched again)");
 }
 
 void AddPoseConstraintOptions(OptionManager* manager,
@@ -671,6 +695,7 @@ void AddGlobalMapperOptions(OptionManager* manager,
   AddTranslationAveragingOptions(manager, &o.translation_averaging);
   AddTriangulationOptions(manager, &o.triangulation);
   AddTwoViewCheckOptions(manager, &o.two_view_check);
+  AddPointMergingOptions(manager, &o.point_merging);
   AddBundleAdjustmentOptions(manager, &o.bundle_adjustment);
   AddFilterOptions(manager, &o.filtering);
   AddNormalizationOptions(manager, &o.normalization);

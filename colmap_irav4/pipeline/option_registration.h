@@ -57,6 +57,8 @@ void AddTriangulationOptions(OptionManager* manager,
                              TriangulationOptions* options);
 void AddTwoViewCheckOptions(OptionManager* manager,
                             TwoViewCheckOptions* options);
+void AddPointMergingOptions(OptionManager* manager,
+                            PointMergingOptions* options);
 void AddPoseConstraintOptions(OptionManager* manager,
                               PoseConstraintOptions* options);
 void AddBundleAdjustmentOptions(OptionManager* manager,

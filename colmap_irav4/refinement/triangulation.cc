@@ -91,6 +91,37 @@ double MaxAngleCos(const std::vector<Ray>& rays, const std::vector<int>& subset,
   return min_cos;
 }
 
+// Adds the free observation `element` to the one of `candidates` (points of
+// its track) onto which it reprojects best, within `max_reproj_error` px,
+// if that point has no observation in its image yet.
+bool CompleteTrack(const std::vector<point3D_t>& candidates,
+                   const TrackElement& element, double max_reproj_error,
+                   Reconstruction* reconstruction) {
+  Image& image = reconstruction->images.at(element.image_id);
+  Point2D& point2D = image.points2D.at(element.point2D_idx);
+  const Camera& camera = reconstruction->cameras.at(image.camera_id);
+  point3D_t best_id = kInvalidPoint3DId;
+  double best_error = max_reproj_error;
+  for (const point3D_t point3D_id : candidates) {
+    const Point3D& point = reconstruction->points3D.at(point3D_id);
+    const bool seen_in_image = std::any_of(
+        point.track.begin(), point.track.end(), [&](const TrackElement& other) {
+          return other.image_id == element.image_id;
+        });
+    if (seen_in_image) continue;
+    const double error =
+        ReprojectionError(camera, image, point.xyz, point2D.xy);
+    if (error <= best_error) {
+      best_error = error;
+      best_id = point3D_id;
+    }
+  }
+  if (best_id == kInvalidPoint3DId) return false;
+  point2D.point3D_id = best_id;
+  reconstruction->points3D.at(best_id).track.push_back(element);
+  return true;
+}
+
 }  // namespace
 
 bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
@@ -169,24 +200,46 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
   }
 
   std::vector<Ray> rays;
+  std::vector<point3D_t> track_points;
   for (const Track& track : tracks) {
     rays.clear();
     if (options.ignore_two_view_tracks && track.size() == 2) continue;
+    track_points.clear();
+    if (options.complete_tracks) {
+      for (const TrackElement& element : track) {
+        auto image_it = reconstruction->images.find(element.image_id);
+        if (image_it == reconstruction->images.end()) continue;
+        const point3D_t point3D_id =
+            image_it->second.points2D.at(element.point2D_idx).point3D_id;
+        if (point3D_id != kInvalidPoint3DId &&
+            std::find(track_points.begin(), track_points.end(), point3D_id) ==
+                track_points.end()) {
+          track_points.push_back(point3D_id);
+        }
+      }
+    }
     for (const TrackElement& element : track) {
       auto image_it = reconstruction->images.find(element.image_id);
       if (image_it == reconstruction->images.end()) continue;
-      const Image& image = image_it->second;
-      const Point2D& point2D = image.points2D.at(element.point2D_idx);
+      Image& image = image_it->second;
+      Point2D& point2D = image.points2D.at(element.point2D_idx);
       if (point2D.point3D_id != kInvalidPoint3DId) continue;
+      const double max_reproj_error =
+          noise == nullptr
+              ? options.max_reproj_error
+              : options.max_reproj_error * noise->Factor(point2D.scale);
+      if (!track_points.empty() &&
+          CompleteTrack(track_points, element, max_reproj_error,
+                        reconstruction)) {
+        ++summary.num_observations_completed;
+        continue;
+      }
       Ray ray;
       ray.element = element;
       ray.image = &image;
       ray.camera = &reconstruction->cameras.at(image.camera_id);
       ray.xy = point2D.xy;
-      ray.max_reproj_error =
-          noise == nullptr
-              ? options.max_reproj_error
-              : options.max_reproj_error * noise->Factor(point2D.scale);
+      ray.max_reproj_error = max_reproj_error;
       const Eigen::Vector2d normalized =
           CameraImageToCamera(*ray.camera, point2D.xy);
       if (!normalized.allFinite()) continue;
@@ -273,7 +326,9 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
   }
   VLOG(1) << "Triangulation: " << summary.num_points_added << " points, "
           << summary.num_observations_added << " observations from "
-          << summary.num_tracks_tried << " tracks";
+          << summary.num_tracks_tried << " tracks; "
+          << summary.num_observations_completed
+          << " observations added to their track's point";
   return summary;
 }
 

@@ -49,6 +49,12 @@ struct TriangulationOptions {
   // Herz-Jesus-P8 and the synthetic courtyards
   // (docs/notes/2026-12-01-results-2b39f55.md).
   bool ignore_two_view_tracks = false;
+  // Track completion: an observation no point uses yet joins the point its
+  // track already has (the one with the smallest reprojection error, one
+  // observation per image) when it reprojects within max_reproj_error;
+  // only the others are triangulated as new points. Off: every free
+  // observation of a track goes to new points, and a single one is lost.
+  bool complete_tracks = true;
 
   // Throws InputError naming the offending option.
   void Check() const;
@@ -58,16 +64,19 @@ struct TriangulationSummary {
   size_t num_tracks_tried = 0;  // tracks with >= 2 unlinked observations
   size_t num_points_added = 0;
   size_t num_observations_added = 0;
+  // Observations added to a point their track already had (complete_tracks).
+  size_t num_observations_completed = 0;
 };
 
-// For every track, triangulates its observations in registered images that
-// no point uses yet (robustly: RANSAC over pairs, cheirality, reprojection
-// error, triangulation angle; then the midpoint of the inliers) and adds the
-// points with their inlier observations. Tracks that failed positioning and
-// observations removed by filtering are recovered this way; on a model
-// without points it triangulates everything (translation averaging path).
-// With `noise`, an observation's inlier threshold is max_reproj_error times
-// the noise factor of its keypoint's scale.
+// For every track, adds its observations in registered images that no point
+// uses yet to the track's existing point where they reproject onto it
+// (complete_tracks), then triangulates the rest (robustly: RANSAC over pairs,
+// cheirality, reprojection error, triangulation angle; then the midpoint of the
+// inliers) and adds the points with their inlier observations. Tracks that
+// failed positioning and observations removed by filtering are recovered this
+// way; on a model without points it triangulates everything (translation
+// averaging path). With `noise`, an observation's inlier threshold is
+// max_reproj_error times the noise factor of its keypoint's scale.
 TriangulationSummary TriangulateTracks(
     const TriangulationOptions& options, const std::vector<Track>& tracks,
     Reconstruction* reconstruction, const KeypointScaleNoise* noise = nullptr);

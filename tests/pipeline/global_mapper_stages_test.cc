@@ -339,6 +339,60 @@ TEST(GlobalMapperStages, SolveIsTheStagesInOrder) {
   }
 }
 
+// A matcher that keeps a quarter of each pair's matches splits points over
+// several tracks; with point merging on, the mapper joins them again after
+// retriangulation (its stage reports the merges): fewer, longer points on
+// about the same observations, and the poses as good.
+TEST(GlobalMapperStages, PointMergingJoinsPointsOfSplitTracks) {
+  StageScene s = MakeStageScene();
+  std::mt19937_64 rng(11);
+  for (TwoViewGeometry& geometry : s.database.two_view_geometries) {
+    std::vector<FeatureMatch> kept;
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      if (std::bernoulli_distribution(0.25)(rng)) kept.push_back(match);
+    }
+    geometry.inlier_matches = kept;
+  }
+  GlobalMapperOptions options = TestOptions();
+  GlobalMapper apart(options.ForStages(s.images.size()), s.database,
+                     s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(apart.Solve());
+  options.point_merging.enabled = true;
+  GlobalMapper merged(options.ForStages(s.images.size()), s.database,
+                      s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(merged.Solve());
+  double num_merges = -1;
+  for (const StageReport& stage : merged.stages()) {
+    if (stage.name != "point merging") continue;
+    for (const auto& [name, value] : stage.figures) {
+      if (name == "points merged") num_merges = value;
+    }
+  }
+  for (const StageReport& stage : apart.stages()) {
+    EXPECT_NE(stage.name, "point merging");
+  }
+  const Reconstruction& a = apart.reconstruction();
+  const Reconstruction& m = merged.reconstruction();
+  EXPECT_GT(num_merges, 0.1 * static_cast<double>(a.points3D.size()));
+  EXPECT_LT(m.points3D.size(), a.points3D.size());
+  EXPECT_GT(MeanTrackLength(m), 1.1 * MeanTrackLength(a));
+  EXPECT_GT(static_cast<double>(NumObservations(m)),
+            0.98 * static_cast<double>(NumObservations(a)));
+  // Every merged point holds one true point's keypoints.
+  size_t num_impure = 0;
+  for (const auto& [point3D_id, point] : m.points3D) {
+    std::set<point3D_t> truths;
+    for (const TrackElement& element : point.track) {
+      truths.insert(s.scene.truth.images.at(element.image_id)
+                        .points2D[element.point2D_idx]
+                        .point3D_id);
+    }
+    num_impure += truths.size() > 1;
+  }
+  EXPECT_LE(num_impure, m.points3D.size() / 100);
+  EXPECT_EQ(m.images.size(), a.images.size());
+}
+
 TEST(GlobalMapperStages, SolveGoesOnFromRotationsAveragedBefore) {
   // The part merge looks at a mapper's rotations before solving it
   // (pipeline/component_mapper.h): Solve() must not average them again.

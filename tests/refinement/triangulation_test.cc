@@ -232,5 +232,84 @@ TEST(Triangulation, IgnoresTwoViewTracksWhenAsked) {
   }
 }
 
+// Observations filtered off a point come back to it: one alone (which no
+// new point could use) and two (which would otherwise form a second point
+// of the same track).
+TEST(Triangulation, CompletesTracksOntoTheirExistingPoint) {
+  const SyntheticScene scene = Scene(0.5);
+  const auto tracks =
+      BuildTracks(TrackBuilderOptions(), scene.matches, scene.truth.images);
+  Reconstruction unlinked = scene.truth;
+  size_t num_unlinked = 0;
+  size_t num_points_with_two = 0;
+  for (auto& [point3D_id, point] : unlinked.points3D) {
+    if (point.track.size() < 5) continue;
+    const size_t num = point3D_id % 2 == 0 ? 1 : 2;
+    num_points_with_two += num == 2;
+    for (size_t k = 0; k < num; ++k) {
+      const TrackElement element = point.track.back();
+      UnlinkObservation(element.image_id, element.point2D_idx, &unlinked);
+      ++num_unlinked;
+    }
+  }
+  ASSERT_GT(num_points_with_two, 20u);
+  const size_t num_points = unlinked.points3D.size();
+  const size_t num_observations = NumObservations(scene.truth);
+
+  Reconstruction completed = unlinked;
+  const TriangulationSummary summary =
+      TriangulateTracks(TriangulationOptions(), tracks, &completed);
+  EXPECT_EQ(summary.num_observations_completed, num_unlinked);
+  EXPECT_EQ(summary.num_points_added, 0u);
+  EXPECT_EQ(completed.points3D.size(), num_points);
+  EXPECT_EQ(NumObservations(completed), num_observations);
+  for (const auto& [point3D_id, point] : completed.points3D) {
+    for (const TrackElement& element : point.track) {
+      EXPECT_EQ(scene.truth.images.at(element.image_id)
+                    .points2D[element.point2D_idx]
+                    .point3D_id,
+                point3D_id);
+    }
+  }
+
+  // Without completion: the pairs become second points, the singles lost.
+  TriangulationOptions no_completion;
+  no_completion.complete_tracks = false;
+  Reconstruction split = unlinked;
+  const TriangulationSummary split_summary =
+      TriangulateTracks(no_completion, tracks, &split);
+  EXPECT_EQ(split_summary.num_observations_completed, 0u);
+  EXPECT_EQ(split_summary.num_points_added, num_points_with_two);
+  EXPECT_EQ(split.points3D.size(), num_points + num_points_with_two);
+  EXPECT_EQ(NumObservations(split),
+            num_observations - (num_unlinked - 2 * num_points_with_two));
+}
+
+// An observation that does not reproject onto the track's point (a wrong
+// match) is not added to it.
+TEST(Triangulation, CompletionRejectsObservationsOffThePoint) {
+  const SyntheticScene scene = Scene(0.0);
+  Reconstruction moved = scene.truth;
+  std::vector<Track> tracks;
+  size_t num_moved = 0;
+  for (auto& [point3D_id, point] : moved.points3D) {
+    if (point.track.size() < 4) continue;
+    const TrackElement element = point.track.back();
+    tracks.push_back(point.track);
+    UnlinkObservation(element.image_id, element.point2D_idx, &moved);
+    // 10 px off: beyond the 4 px threshold.
+    moved.images.at(element.image_id).points2D[element.point2D_idx].xy +=
+        Eigen::Vector2d(6, 8);
+    ++num_moved;
+  }
+  ASSERT_GT(num_moved, 50u);
+  const size_t num_observations = NumObservations(moved);
+  const TriangulationSummary summary =
+      TriangulateTracks(TriangulationOptions(), tracks, &moved);
+  EXPECT_EQ(summary.num_observations_completed, 0u);
+  EXPECT_EQ(summary.num_points_added, 0u);
+  EXPECT_EQ(NumObservations(moved), num_observations);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 #include <Eigen/Dense>
 
+#include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -56,52 +57,24 @@ class KeypointGrid {
   std::unordered_map<uint64_t, std::vector<point2D_t>> cells_;
 };
 
-// Gauss-Newton on the reprojection error (undistorted normalised plane,
-// scaled by the mean focal length) of one point over `track`.
+// RefinePointPosition over `track` (residuals scaled by each camera's mean
+// focal length).
 void RefinePosition(const Reconstruction& reconstruction,
                     const std::vector<TrackElement>& track,
                     Eigen::Vector3d* xyz) {
-  struct Ray {
-    Eigen::Matrix3d R;
-    Eigen::Vector3d t;
-    Eigen::Vector2d normalized;
-    double focal;
-  };
-  std::vector<Ray> rays;
-  rays.reserve(track.size());
+  std::vector<NormalizedObservation> observations;
+  observations.reserve(track.size());
   for (const TrackElement& element : track) {
     const Image& image = reconstruction.images.at(element.image_id);
     const Camera& camera = reconstruction.cameras.at(image.camera_id);
     const Eigen::Vector2d normalized =
         CameraImageToCamera(camera, image.points2D.at(element.point2D_idx).xy);
     if (!normalized.allFinite()) return;
-    rays.push_back({image.cam_from_world.rotation.toRotationMatrix(),
-                    image.cam_from_world.translation, normalized,
-                    CameraMeanFocalLength(camera)});
+    observations.push_back({image.cam_from_world.rotation.toRotationMatrix(),
+                            image.cam_from_world.translation, normalized,
+                            CameraMeanFocalLength(camera)});
   }
-  Eigen::Vector3d X = *xyz;
-  for (int iteration = 0; iteration < 10; ++iteration) {
-    Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();
-    for (const Ray& ray : rays) {
-      const Eigen::Vector3d p = ray.R * X + ray.t;
-      if (p.z() <= 0) return;
-      const double inv_z = 1.0 / p.z();
-      const Eigen::Vector2d residual =
-          ray.focal *
-          (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - ray.normalized);
-      Eigen::Matrix<double, 2, 3> J;
-      J << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z, -p.y() * inv_z * inv_z;
-      const Eigen::Matrix<double, 2, 3> JR = ray.focal * J * ray.R;
-      JtJ += JR.transpose() * JR;
-      Jtr += JR.transpose() * residual;
-    }
-    const Eigen::Vector3d step = JtJ.ldlt().solve(-Jtr);
-    if (!step.allFinite()) return;
-    X += step;
-    if (step.norm() < 1e-10 * X.norm()) break;
-  }
-  if (X.allFinite()) *xyz = X;
+  RefinePointPosition(observations, xyz);
 }
 
 bool SharesImage(const Point3D& a, const Point3D& b) {

@@ -27,38 +27,18 @@ struct Ray {
   double max_reproj_error;     // inlier threshold, px
 };
 
-// Gauss-Newton on the reprojection error (in the undistorted normalised
-// plane, scaled by the focal length) of one point over the given rays: the
-// midpoint is not the maximum-likelihood point and bundle adjustment
-// converges much faster from refined points.
+// RefinePointPosition over the rays of `subset`.
 void RefinePoint(const std::vector<Ray>& rays, const std::vector<int>& subset,
                  Eigen::Vector3d* xyz) {
-  Eigen::Vector3d X = *xyz;
-  for (int iteration = 0; iteration < 10; ++iteration) {
-    Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();
-    for (int r : subset) {
-      const Eigen::Matrix3d R =
-          rays[r].image->cam_from_world.rotation.toRotationMatrix();
-      const Eigen::Vector3d p =
-          R * X + rays[r].image->cam_from_world.translation;
-      if (p.z() <= 0) return;
-      const double inv_z = 1.0 / p.z();
-      const Eigen::Vector2d residual =
-          rays[r].focal *
-          (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) - rays[r].normalized);
-      Eigen::Matrix<double, 2, 3> J;
-      J << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z, -p.y() * inv_z * inv_z;
-      const Eigen::Matrix<double, 2, 3> JR = rays[r].focal * J * R;
-      JtJ += JR.transpose() * JR;
-      Jtr += JR.transpose() * residual;
-    }
-    const Eigen::Vector3d step = JtJ.ldlt().solve(-Jtr);
-    if (!step.allFinite()) return;
-    X += step;
-    if (step.norm() < 1e-10 * X.norm()) break;
+  std::vector<NormalizedObservation> observations;
+  observations.reserve(subset.size());
+  for (const int r : subset) {
+    const Rigid3d& cam_from_world = rays[r].image->cam_from_world;
+    observations.push_back({cam_from_world.rotation.toRotationMatrix(),
+                            cam_from_world.translation, rays[r].normalized,
+                            rays[r].focal});
   }
-  if (X.allFinite()) *xyz = X;
+  RefinePointPosition(observations, xyz);
 }
 
 // Inliers of `xyz` among `rays` (in front, within each ray's threshold).
@@ -123,6 +103,34 @@ bool CompleteTrack(const std::vector<point3D_t>& candidates,
 }
 
 }  // namespace
+
+void RefinePointPosition(const std::vector<NormalizedObservation>& observations,
+                         Eigen::Vector3d* xyz) {
+  Eigen::Vector3d X = *xyz;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix3d JtJ = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d Jtr = Eigen::Vector3d::Zero();
+    for (const NormalizedObservation& observation : observations) {
+      const Eigen::Vector3d p = observation.R * X + observation.t;
+      if (p.z() <= 0) return;
+      const double inv_z = 1.0 / p.z();
+      const Eigen::Vector2d residual =
+          observation.focal * (Eigen::Vector2d(p.x() * inv_z, p.y() * inv_z) -
+                               observation.normalized);
+      Eigen::Matrix<double, 2, 3> J;
+      J << inv_z, 0, -p.x() * inv_z * inv_z, 0, inv_z, -p.y() * inv_z * inv_z;
+      const Eigen::Matrix<double, 2, 3> JR =
+          observation.focal * J * observation.R;
+      JtJ += JR.transpose() * JR;
+      Jtr += JR.transpose() * residual;
+    }
+    const Eigen::Vector3d step = JtJ.ldlt().solve(-Jtr);
+    if (!step.allFinite()) return;
+    X += step;
+    if (step.norm() < 1e-10 * X.norm()) break;
+  }
+  if (X.allFinite()) *xyz = X;
+}
 
 bool TriangulateMidpoint(const std::vector<Eigen::Vector3d>& centers,
                          const std::vector<Eigen::Vector3d>& directions,

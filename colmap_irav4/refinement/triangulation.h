@@ -28,6 +28,24 @@ bool TriangulateDLT(
     const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
     const std::vector<Eigen::Vector2d>& points, Eigen::Vector3d* xyz);
 
+// One observation of a point as RefinePointPosition weighs it: its
+// image's cam_from_world (R, t), the keypoint in the undistorted normalised
+// plane, and the focal length (px per normalised unit) scaling its residual.
+struct NormalizedObservation {
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  Eigen::Vector2d normalized;
+  double focal;
+};
+
+// Gauss-Newton (at most 10 steps) on the reprojection error of one point
+// over `observations`: the midpoint is not the maximum-likelihood point,
+// and bundle adjustment converges much faster from refined points. `xyz`
+// is left as it is when the point falls behind a camera or a step is not
+// finite.
+void RefinePointPosition(const std::vector<NormalizedObservation>& observations,
+                         Eigen::Vector3d* xyz);
+
 struct TriangulationOptions {
   // Inlier threshold on the reprojection error, px (COLMAP's
   // complete_max_reproj_error / create_max_angle_error analogue).

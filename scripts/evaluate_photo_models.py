@@ -72,24 +72,36 @@ def compare(binary, model, gt):
     return errors
 
 
-def model_images(model):
-    """Image names of a COLMAP binary model (images.bin)."""
+def read_images_bin(path, with_point_ids=False):
+    """image_id -> (name, [point3D_id per keypoint] or None) of a COLMAP
+    images.bin, in the file's order."""
     import struct
-    names = []
-    with open(os.path.join(model, "images.bin"), "rb") as f:
+    images = {}
+    with open(path, "rb") as f:
         (num_images,) = struct.unpack("<Q", f.read(8))
         for _ in range(num_images):
-            f.read(4 + 8 * 7 + 4)
+            (image_id,) = struct.unpack("<I", f.read(4))
+            f.read(8 * 7 + 4)  # qvec, tvec, camera_id
             name = b""
             while True:
                 c = f.read(1)
                 if c == b"\0":
                     break
                 name += c
-            names.append(name.decode())
             (num_points,) = struct.unpack("<Q", f.read(8))
-            f.read(num_points * 24)
-    return names
+            data = f.read(num_points * 24)
+            ids = None
+            if with_point_ids:
+                ids = [struct.unpack_from("<q", data, 24 * k + 16)[0]
+                       for k in range(num_points)]
+            images[image_id] = (name.decode(), ids)
+    return images
+
+
+def model_images(model):
+    """Image names of a COLMAP binary model (images.bin)."""
+    return [name for name, _ in
+            read_images_bin(os.path.join(model, "images.bin")).values()]
 
 
 def median(values):

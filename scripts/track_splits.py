@@ -23,27 +23,13 @@ import sqlite3
 import struct
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from evaluate_photo_models import read_images_bin  # noqa: E402
+
 
 def read_images(path):
     """image_id -> (name, [point3D_id per keypoint]) of images.bin."""
-    images = {}
-    with open(path, "rb") as f:
-        (num,) = struct.unpack("<Q", f.read(8))
-        for _ in range(num):
-            image_id, = struct.unpack("<I", f.read(4))
-            f.read(8 * 7 + 4)  # qvec, tvec, camera_id
-            name = b""
-            while True:
-                c = f.read(1)
-                if c == b"\0":
-                    break
-                name += c
-            (n2d,) = struct.unpack("<Q", f.read(8))
-            data = f.read(24 * n2d)
-            ids = [struct.unpack_from("<q", data, 24 * k + 16)[0]
-                   for k in range(n2d)]
-            images[image_id] = (name.decode(), ids)
-    return images
+    return read_images_bin(path, with_point_ids=True)
 
 
 def read_points(path):

@@ -229,8 +229,8 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
     for (const TrackElement& element : track) {
       auto image_it = reconstruction->images.find(element.image_id);
       if (image_it == reconstruction->images.end()) continue;
-      Image& image = image_it->second;
-      Point2D& point2D = image.points2D.at(element.point2D_idx);
+      const Image& image = image_it->second;
+      const Point2D& point2D = image.points2D.at(element.point2D_idx);
       if (point2D.point3D_id != kInvalidPoint3DId) continue;
       const double max_reproj_error =
           noise == nullptr

@@ -420,6 +420,12 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "Schur solver: its per-point cell tables take at most this "
                "many MiB (the points beyond search their cells at each "
                "iteration)");
+  manager->Add("BundleAdjustment.schur_max_jacobian_store_mib",
+               &ba.schur_max_jacobian_store_mib,
+               "Schur solver: the observations' Jacobians of an elimination "
+               "are kept in at most this many MiB for its back-substitution "
+               "and the tries after a rejected step (the same result to the "
+               "bit; 0: none kept)");
   manager->Add("BundleAdjustment.schur_locality_order_min_mib",
                &ba.schur_locality_order_min_mib,
                "Schur solver: from this many MiB of reduced system, the "

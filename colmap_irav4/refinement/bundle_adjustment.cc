@@ -234,6 +234,8 @@ class BundleAdjustmentProblem {
       schur_options.linear_solver = options.schur_linear_solver;
       schur_options.max_factor_mib = options.schur_max_factor_mib;
       schur_options.max_cell_table_mib = options.schur_max_cell_table_mib;
+      schur_options.max_jacobian_store_mib =
+          options.schur_max_jacobian_store_mib;
       schur_options.locality_order_min_mib =
           options.schur_locality_order_min_mib;
       schur_options.eta = options.schur_iterative_eta;
@@ -1280,6 +1282,11 @@ void BundleAdjustmentOptions::Check() const {
   if (!(schur_max_cell_table_mib >= 0)) {
     throw OptionError(&schur_max_cell_table_mib,
                       "BundleAdjustment.schur_max_cell_table_mib",
+                      "must be >= 0");
+  }
+  if (!(schur_max_jacobian_store_mib >= 0)) {
+    throw OptionError(&schur_max_jacobian_store_mib,
+                      "BundleAdjustment.schur_max_jacobian_store_mib",
                       "must be >= 0");
   }
   if (!(schur_locality_order_min_mib >= 0)) {

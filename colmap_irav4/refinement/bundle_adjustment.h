@@ -145,6 +145,11 @@ struct BundleAdjustmentOptions {
   // The Schur solver's per-point cell tables (SchurSolverOptions): at most
   // this many MiB; the points beyond search their cells at each iteration.
   double schur_max_cell_table_mib = 256;
+  // The Schur solver keeps the observations' Jacobians from each elimination
+  // in at most this many MiB (SchurSolverOptions::max_jacobian_store_mib):
+  // the back-substitution and tries after a rejected step do not evaluate
+  // them again (the same result to the bit); 0: none kept.
+  double schur_max_jacobian_store_mib = 256;
   // The Schur solver eliminates the points in an order that keeps
   // consecutive points' cells together from this size of its reduced
   // system (MiB; SchurSolverOptions::locality_order_min_mib).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <iomanip>
@@ -133,6 +134,48 @@ void SubtractSymmetricProduct(const double* a, int lda, const double* b,
   }
 }
 
+// One update of the reduced system by a pair of a point's observations
+// (SchurBundleAdjuster::Solve): kProduct: values -= a b^T (rows x cols, a
+// and b column-major with leading dimensions lda and ldb: SubtractProduct);
+// kSymmetric: SubtractSymmetricProduct's; kOddPair: the pair (k, l) formed
+// as one Eigen product (values null).
+struct PairUpdate {
+  enum Kind : int { kProduct, kSymmetric, kOddPair };
+  const double* a;
+  const double* b;
+  double* values;
+  int lda, ldb, rows, cols;
+  Kind kind;
+  uint32_t k, l;
+};
+
+// The updates prefetched ahead of the one running: measured on random cells
+// of 8 x 8 out of the caches, 2 ahead halves an update's time, 4-16 about
+// 2.3x less (docs/notes/2026-12-06-ba-iteration-cost.md).
+constexpr size_t kPrefetchUpdates = 8;
+
+// Asks for the cache lines of `count` values from `values` (for writing).
+inline void PrefetchCell(const double* values, int count) {
+#if defined(__GNUC__)
+  const uintptr_t line = 64;
+  const uintptr_t begin = reinterpret_cast<uintptr_t>(values) & ~(line - 1);
+  const uintptr_t end = reinterpret_cast<uintptr_t>(values + count);
+  for (uintptr_t p = begin; p < end; p += line) {
+    __builtin_prefetch(reinterpret_cast<const void*>(p), 1, 3);
+  }
+#else
+  (void)values;
+  (void)count;
+#endif
+}
+
+// The cell of an update (an odd pair's: none).
+inline void Prefetch(const PairUpdate& update) {
+  if (update.values != nullptr) {
+    PrefetchCell(update.values, update.rows * update.cols);
+  }
+}
+
 }  // namespace
 
 // CHOLMOD's workspace and the supernodal factor of the reduced system, its
@@ -188,6 +231,7 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
     : center_(center), solver_options_(options) {
   CHECK_GT(options.max_factor_mib, 0);
   CHECK_GE(options.max_cell_table_mib, 0);
+  CHECK_GE(options.max_jacobian_store_mib, 0);
   CHECK(options.eta > 0 && options.eta < 1);
   CHECK_GT(options.max_cg_iterations, 0);
 }
@@ -355,23 +399,19 @@ bool SchurBundleAdjuster::EvaluatePoseResidual(const PoseResidual& residual,
   return lin->A.allFinite() && lin->r.allFinite();
 }
 
-double SchurBundleAdjuster::Weight(const Observation& observation) const {
-  return (*poses_[observation.pose].weights)[observation.point2D_idx];
-}
-
-bool SchurBundleAdjuster::Evaluate(const Observation& observation,
-                                   const double* point,
+bool SchurBundleAdjuster::Evaluate(size_t k, const double* point,
                                    const std::vector<double>& poses,
                                    const std::vector<double>& cameras,
                                    double residual[2],
                                    Linearization* lin) const {
+  const Observation& observation = observations_[k];
   const PoseBlock& pose = poses_[observation.pose];
   const CameraBlock& camera = cameras_[pose.camera];
   const double* parameters[4] = {&poses[7 * observation.pose],
                                  &poses[7 * observation.pose + 4], point,
                                  &cameras[kMaxNumParams * pose.camera]};
   const Eigen::Vector2d& xy = (*pose.points2D)[observation.point2D_idx].xy;
-  const double weight = Weight(observation);
+  const double weight = Weight(k);
   if (lin == nullptr) {
     if (!EvaluateReprojection(camera.num_params, camera.model_id, xy, center_,
                               parameters, residual)) {
@@ -393,32 +433,51 @@ bool SchurBundleAdjuster::Evaluate(const Observation& observation,
   residual[0] = lin->r[0];
   residual[1] = lin->r[1];
   lin->B = weight * dx;
-  lin->num_blocks = 0;
-  const int pose_block = pose_block_[observation.pose];
-  const int camera_block = camera_block_[pose.camera];
-  int num_cols = 0;
-  if (pose_block >= 0) num_cols += static_cast<int>(pose.free.size());
-  if (camera_block >= 0) num_cols += static_cast<int>(camera.free.size());
-  lin->A.resize(2, num_cols);
+  Describe(observation, lin);
   int col = 0;
-  if (pose_block >= 0) {
+  if (pose_block_[observation.pose] >= 0) {
     Eigen::Matrix<double, 2, 6> tangent;
     tangent.leftCols<3>() = drotation;
     tangent.rightCols<3>() = dp;
-    lin->blocks[lin->num_blocks] = pose_block;
-    lin->cols[lin->num_blocks++] = col;
     for (const int i : pose.free) lin->A.col(col++) = weight * tangent.col(i);
   }
-  if (camera_block >= 0) {
-    // (A camera joined to the pose's block: its columns follow the pose's.)
-    if (camera_block != pose_block) {
-      lin->blocks[lin->num_blocks] = camera_block;
-      lin->cols[lin->num_blocks++] = col;
-    }
+  if (camera_block_[pose.camera] >= 0) {
     for (const int i : camera.free) lin->A.col(col++) = weight * dcam.col(i);
   }
   return std::isfinite(residual[0]) && std::isfinite(residual[1]) &&
          lin->A.allFinite() && lin->B.allFinite();
+}
+
+int SchurBundleAdjuster::NumColumns(const Observation& observation) const {
+  const PoseBlock& pose = poses_[observation.pose];
+  int num_cols = 0;
+  if (pose_block_[observation.pose] >= 0) {
+    num_cols += static_cast<int>(pose.free.size());
+  }
+  if (camera_block_[pose.camera] >= 0) {
+    num_cols += static_cast<int>(cameras_[pose.camera].free.size());
+  }
+  return num_cols;
+}
+
+void SchurBundleAdjuster::Describe(const Observation& observation,
+                                   Linearization* lin) const {
+  const PoseBlock& pose = poses_[observation.pose];
+  lin->num_blocks = 0;
+  const int pose_block = pose_block_[observation.pose];
+  const int camera_block = camera_block_[pose.camera];
+  lin->A.resize(2, NumColumns(observation));
+  int col = 0;
+  if (pose_block >= 0) {
+    lin->blocks[lin->num_blocks] = pose_block;
+    lin->cols[lin->num_blocks++] = col;
+    col += static_cast<int>(pose.free.size());
+  }
+  // (A camera joined to the pose's block: its columns follow the pose's.)
+  if (camera_block >= 0 && camera_block != pose_block) {
+    lin->blocks[lin->num_blocks] = camera_block;
+    lin->cols[lin->num_blocks++] = col;
+  }
 }
 
 double SchurBundleAdjuster::Cost(const std::vector<double>& poses,
@@ -427,10 +486,9 @@ double SchurBundleAdjuster::Cost(const std::vector<double>& poses,
   double cost = 0;
   for (size_t p = 0; p + 1 < point_begin_.size(); ++p) {
     for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-      if (!(Weight(observations_[k]) > 0)) continue;
+      if (!(Weight(k) > 0)) continue;
       double residual[2];
-      if (!Evaluate(observations_[k], &points[3 * p], poses, cameras, residual,
-                    nullptr)) {
+      if (!Evaluate(k, &points[3 * p], poses, cameras, residual, nullptr)) {
         return std::numeric_limits<double>::infinity();
       }
       cost += 0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
@@ -503,7 +561,7 @@ void SchurBundleAdjuster::BuildStructure() {
     blocks.clear();
     int num_live = 0;
     for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-      if (!(Weight(observations_[k]) > 0)) continue;
+      if (!(Weight(k) > 0)) continue;
       ++num_live;
       const PoseBlock& pose = poses_[observations_[k].pose];
       const int a = pose_block_[observations_[k].pose];
@@ -568,7 +626,7 @@ void SchurBundleAdjuster::BuildStructure() {
     if (point_constant_[p]) return false;
     int num_live = 0;
     for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-      if (!(Weight(observations_[k]) > 0)) continue;
+      if (!(Weight(k) > 0)) continue;
       ++num_live;
       const int a = pose_block_[observations_[k].pose];
       const int c = camera_block_[poses_[observations_[k].pose].camera];
@@ -598,10 +656,17 @@ void SchurBundleAdjuster::BuildStructure() {
       solver_options_.locality_order_min_mib * 1048576.0;
   std::vector<std::array<int, 3>> keys(locality_order ? num_points : 0,
                                        {-1, -1, -1});
+  // The block pairs an elimination updates (VLOG 1: an iteration's work
+  // grows with it, the sum over points of m (m + 1) / 2).
+  size_t num_points_eliminated = 0;
+  double num_pairs = 0;
   for (size_t p = 0; p < num_points; ++p) {
     point_block_ids_begin_[p] = num_block_ids;
     point_cells_begin_[p] = num_cells;
     if (!live_blocks(p)) continue;
+    ++num_points_eliminated;
+    num_pairs += 0.5 * static_cast<double>(blocks.size()) *
+                 static_cast<double>(blocks.size() + 1);
     if (locality_order) {
       for (size_t i = 0; i < 3 && i < blocks.size(); ++i) {
         keys[p][i] = blocks[blocks.size() - 1 - i];
@@ -648,7 +713,9 @@ void SchurBundleAdjuster::BuildStructure() {
   }
   VLOG(1) << "Schur bundle adjustment: " << values_.size()
           << " reduced system entries, cell tables " << point_cells_.size()
-          << " entries (" << CellTableBytes() / 1048576.0 << " MiB)";
+          << " entries (" << CellTableBytes() / 1048576.0 << " MiB); "
+          << num_points_eliminated << " points eliminated, " << num_pairs
+          << " block pairs (sum of m (m + 1) / 2 over their m blocks)";
 }
 
 void SchurBundleAdjuster::BuildScalarPattern() {
@@ -1081,13 +1148,20 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   for (size_t i = 0; i < num_points; ++i) {
     std::copy(point_blocks_[i], point_blocks_[i] + 3, &points[3 * i]);
   }
+  // The observations' weights, read once (the weights may change between
+  // solves, not within one).
+  weights_.resize(observations_.size());
+  for (size_t k = 0; k < observations_.size(); ++k) {
+    const Observation& observation = observations_[k];
+    weights_[k] = (*poses_[observation.pose].weights)[observation.point2D_idx];
+  }
   // Which points are eliminated (the others are held in this solve).
   std::vector<bool> active(num_points, false);
   for (size_t p = 0; p < num_points; ++p) {
     if (point_constant_[p]) continue;
     int num_live = 0;
     for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-      num_live += Weight(observations_[k]) > 0;
+      num_live += Weight(k) > 0;
     }
     active[p] = num_live >= 2;
   }
@@ -1185,6 +1259,67 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   };
 
   std::vector<Linearization> lins;
+  // The observations' linearisations kept from the last elimination, point
+  // by point while within SchurSolverOptions::max_jacobian_store_mib: the
+  // back-substitution, and the elimination of a try after a rejected step
+  // (the same parameters), read them instead of evaluating the Jacobians
+  // again; the same values, so the same result to the bit. Per weighed
+  // observation: r (2), B (2 x 3, column-major), A (2 x its columns,
+  // row-major).
+  std::vector<size_t> store_begin(num_points + 1, 0);
+  std::vector<bool> stored(num_points, false);
+  size_t num_stored = 0;
+  {
+    const double max_values =
+        solver_options_.max_jacobian_store_mib * 1048576.0 / sizeof(double);
+    size_t size = 0;
+    for (size_t p = 0; p < num_points; ++p) {
+      store_begin[p] = size;
+      size_t need = 0;
+      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+        if (Weight(k) > 0) {
+          need += 8 + 2 * static_cast<size_t>(NumColumns(observations_[k]));
+        }
+      }
+      if (need > 0 && static_cast<double>(size + need) <= max_values) {
+        stored[p] = true;
+        size += need;
+        ++num_stored;
+      }
+    }
+    store_begin[num_points] = size;
+  }
+  std::vector<double> store(store_begin[num_points]);
+  summary.jacobian_store_bytes = store.size() * sizeof(double);
+  VLOG(1) << "Schur bundle adjustment: Jacobians kept for " << num_stored
+          << " of " << num_points << " points ("
+          << store.size() * sizeof(double) / 1048576.0 << " MiB)";
+  // Whether `store` holds the linearisations at the current parameters.
+  bool store_valid = false;
+  // lins into the store (point p's) and back.
+  auto keep = [&](size_t p) {
+    double* out = &store[store_begin[p]];
+    for (const Linearization& lin : lins) {
+      out[0] = lin.r[0];
+      out[1] = lin.r[1];
+      std::copy(lin.B.data(), lin.B.data() + 6, out + 2);
+      std::copy(lin.A.data(), lin.A.data() + lin.A.size(), out + 8);
+      out += 8 + lin.A.size();
+    }
+  };
+  auto restore = [&](size_t p) {
+    const double* in = &store[store_begin[p]];
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      if (!(Weight(k) > 0)) continue;
+      lins.emplace_back();
+      Linearization& lin = lins.back();
+      Describe(observations_[k], &lin);
+      lin.r = Eigen::Vector2d(in[0], in[1]);
+      std::copy(in + 2, in + 8, lin.B.data());
+      std::copy(in + 8, in + 8 + lin.A.size(), lin.A.data());
+      in += 8 + lin.A.size();
+    }
+  };
   // The current point's cell table and its observations' blocks in it.
   const uint32_t* cells = nullptr;
   std::vector<int> local;
@@ -1201,6 +1336,12 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   using Wmat =
       Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
   std::vector<Wmat> w, q;
+  std::vector<PairUpdate> updates;
+  // Each block's diagonal cell (its first value in values_).
+  std::vector<size_t> diagonal_cells(block_size_.size());
+  for (size_t b = 0; b < block_size_.size(); ++b) {
+    diagonal_cells[b] = ValueIndex(static_cast<int>(b), static_cast<int>(b));
+  }
   Eigen::VectorXd rhs(n), diagonal(n), step(n);
   double cost = Cost(poses, cameras, points);
   summary.initial_cost = cost;
@@ -1246,6 +1387,21 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   };
   summary.termination = ceres::NO_CONVERGENCE;
   summary.message = "maximum number of iterations reached";
+  using Clock = std::chrono::steady_clock;
+  const auto Seconds = [](Clock::duration d) {
+    return std::chrono::duration<double>(d).count();
+  };
+  const bool time_parts = VLOG_IS_ON(2);
+  // The parts of an iteration (VLOG 2), e.g. "elimination 2.1 CPU s
+  // (Jacobians 0.5, pair updates 1.2 wall s of 2.0)".
+  auto elimination_parts = [&](double cpu, double wall, double jacobians,
+                               double updates) {
+    std::ostringstream text;
+    text << std::setprecision(3) << "elimination " << cpu
+         << " CPU s (Jacobians " << jacobians << ", pair updates " << updates
+         << " wall s of " << wall << ")";
+    return text.str();
+  };
   while (summary.num_iterations <= options.max_num_iterations) {
     ThrowIfInterrupted();
     // CPU time of the iteration and of its linear solve (VLOG 2; the
@@ -1253,7 +1409,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     const std::clock_t iteration_clock = std::clock();
     const bool reused = reuse;
     summary.num_reused_eliminations += reused;
+    // The iteration's parts (VLOG 2): CPU s of the elimination pass;
+    // within it, wall-clock seconds (a steady clock, cheap enough to read
+    // per point; CPU clocks are system calls) of the observations'
+    // linearisation and of the pair updates S -= Q_k W_l^T, the rest being
+    // each point's own work (V, W_k, Q_k, the diagonal cells, rhs).
+    double elimination_cpu = 0, elimination_wall = 0, jacobian_wall = 0,
+           update_wall = 0;
     if (!reuse) {
+      summary.num_eliminations_from_kept_jacobians +=
+          store_valid && num_stored > 0;
+      const std::clock_t elimination_clock = std::clock();
+      const Clock::time_point elimination_start = Clock::now();
       // Linearise at x and eliminate the points (damped by the radius).
       point_radius = radius;
       scalar_layout = false;
@@ -1266,16 +1433,31 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       for (size_t pi = 0; pi < num_points && finite; ++pi) {
         const size_t p = point_order_.empty() ? pi : point_order_[pi];
         lins.clear();
-        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-          if (!(Weight(observations_[k]) > 0)) continue;
-          lins.emplace_back();
-          double residual[2];
-          if (!Evaluate(observations_[k], &points[3 * p], poses, cameras,
-                        residual, &lins.back())) {
-            finite = false;
-            break;
+        const Clock::time_point jacobian_start =
+            time_parts ? Clock::now() : Clock::time_point();
+        if (store_valid && stored[p]) {
+          restore(p);
+        } else {
+          for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+            if (!(Weight(k) > 0)) continue;
+            lins.emplace_back();
+            double residual[2];
+            if (!Evaluate(k, &points[3 * p], poses, cameras, residual,
+                          &lins.back())) {
+              finite = false;
+              break;
+            }
+            // The observation's diagonal cells, updated next (A_k^T A_k):
+            // fetched while the next observations are linearised.
+            for (int i = 0; i < lins.back().num_blocks; ++i) {
+              const int b = lins.back().blocks[i];
+              PrefetchCell(&values_[diagonal_cells[b]],
+                           block_size_[b] * block_size_[b]);
+            }
           }
+          if (finite && stored[p]) keep(p);
         }
+        if (time_parts) jacobian_wall += Seconds(Clock::now() - jacobian_start);
         // The point's cell table (none: a point held, not eliminated when the
         // structure was built or beyond the budget, or SetUseCellTables(false))
         // and each observation's blocks' indexes in it.
@@ -1299,6 +1481,87 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         } else {
           cells = nullptr;
         }
+        // W_k = A_k^T B_k; Q_k = W_k V^-1; S -= Q_k W_l^T; rhs += Q_k g.
+        // The updates S -= Q_k W_l^T of the point's pairs, cell by cell
+        // (through the table or the search), in the order add_pair adds a
+        // matrix's blocks. Listed first (Q and W are formed in place below,
+        // their storage fixed), so that the cells of the updates a few ahead
+        // are prefetched while the one before runs (the first ones while the
+        // point's own work runs): the cells scatter over the reduced system,
+        // and one at a time each waits for its cache misses. The same
+        // updates in the same order: the same sums.
+        w.resize(lins.size());
+        q.resize(lins.size());
+        updates.clear();
+        for (size_t k = 0; k < lins.size() && active[p]; ++k) {
+          const Linearization& lin_k = lins[k];
+          const int ldq = static_cast<int>(lin_k.A.cols());
+          for (size_t l = k; l < lins.size(); ++l) {
+            const Linearization& lin_l = lins[l];
+            const int ldw = static_cast<int>(lin_l.A.cols());
+            // Eigen's lazy product (below its GEMM threshold, 20) sums the
+            // rows it peels off an odd-sized product as t0 + (t1 + t2): that
+            // product as main formed it, for the same result to the bit.
+            if (ldq % 2 == 1 && ldq + ldw + 3 < 20) {
+              PairUpdate update{};
+              update.kind = PairUpdate::kOddPair;
+              update.k = static_cast<uint32_t>(k);
+              update.l = static_cast<uint32_t>(l);
+              updates.push_back(update);
+              continue;
+            }
+            for (int i = 0; i < lin_k.num_blocks; ++i) {
+              const int rb = lin_k.blocks[i];
+              const int li = table ? local[2 * k + i] : -1;
+              const double* qk = q[k].data() + lin_k.cols[i];
+              for (int j = 0; j < lin_l.num_blocks; ++j) {
+                const int cb = lin_l.blocks[j];
+                const int lj = table ? local[2 * l + j] : -1;
+                const double* wl = w[l].data() + lin_l.cols[j];
+                PairUpdate update;
+                if (rb < cb || (rb == cb && k == l)) {
+                  update = {qk,
+                            wl,
+                            find(rb, li, cb, lj),
+                            ldq,
+                            ldw,
+                            block_size_[rb],
+                            block_size_[cb],
+                            PairUpdate::kProduct,
+                            0,
+                            0};
+                } else if (rb > cb) {
+                  if (k == l) continue;
+                  update = {wl,
+                            qk,
+                            find(cb, lj, rb, li),
+                            ldw,
+                            ldq,
+                            block_size_[cb],
+                            block_size_[rb],
+                            PairUpdate::kProduct,
+                            0,
+                            0};
+                } else {
+                  update = {qk,
+                            wl,
+                            find(rb, li, rb, li),
+                            ldq,
+                            ldw,
+                            block_size_[rb],
+                            block_size_[rb],
+                            PairUpdate::kSymmetric,
+                            0,
+                            0};
+                }
+                updates.push_back(update);
+              }
+            }
+          }
+        }
+        const size_t num_updates = updates.size();
+        const size_t ahead = std::min(kPrefetchUpdates, num_updates);
+        for (size_t u = 0; u < ahead; ++u) Prefetch(updates[u]);
         Matrix3 v = Matrix3::Zero();
         Eigen::Vector3d g = Eigen::Vector3d::Zero();
         for (size_t k = 0; k < lins.size(); ++k) {
@@ -1329,73 +1592,52 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             std::max(gradient_max_norm, g.cwiseAbs().maxCoeff());
         for (int i = 0; i < 3; ++i) v(i, i) += damped(v(i, i), radius);
         const Matrix3 v_inv = invert(v);
-        // W_k = A_k^T B_k; Q_k = W_k V^-1; S -= Q_k W_l^T; rhs += Q_k g.
-        w.resize(lins.size());
-        q.resize(lins.size());
         for (size_t k = 0; k < lins.size(); ++k) {
           w[k] = lins[k].A.transpose() * lins[k].B;
           q[k] = w[k] * v_inv;
           block_vector(lins[k], &rhs, (q[k] * g).eval(), 1.0);
         }
-        // S -= Q_k W_l^T cell by cell (through the table or the search), as
-        // add_pair adds a matrix's blocks.
-        for (size_t k = 0; k < lins.size(); ++k) {
+        const Clock::time_point update_start =
+            time_parts ? Clock::now() : Clock::time_point();
+        for (size_t u = 0; u < num_updates; ++u) {
+          if (u + kPrefetchUpdates < num_updates) {
+            Prefetch(updates[u + kPrefetchUpdates]);
+          }
+          const PairUpdate& update = updates[u];
+          if (update.kind == PairUpdate::kProduct) {
+            SubtractProduct(update.a, update.lda, update.b, update.ldb,
+                            update.rows, update.cols, update.values,
+                            update.rows);
+            continue;
+          }
+          if (update.kind == PairUpdate::kSymmetric) {
+            SubtractSymmetricProduct(update.a, update.lda, update.b, update.ldb,
+                                     update.rows, update.values, update.rows);
+            continue;
+          }
+          const size_t k = update.k, l = update.l;
           const Linearization& lin_k = lins[k];
-          const int ldq = static_cast<int>(q[k].rows());
-          for (size_t l = k; l < lins.size(); ++l) {
-            const Linearization& lin_l = lins[l];
-            const int ldw = static_cast<int>(w[l].rows());
-            // Eigen's lazy product (below its GEMM threshold, 20) sums the
-            // rows it peels off an odd-sized product as t0 + (t1 + t2): that
-            // product as main formed it, for the same result to the bit.
-            const int rows_k = static_cast<int>(q[k].rows());
-            if (rows_k % 2 == 1 && rows_k + w[l].rows() + 3 < 20) {
-              const auto m = (-(q[k] * w[l].transpose())).eval();
-              for (int i = 0; i < lin_k.num_blocks; ++i) {
-                const int rb = lin_k.blocks[i];
-                const int li = table ? local[2 * k + i] : -1;
-                for (int j = 0; j < lin_l.num_blocks; ++j) {
-                  const int cb = lin_l.blocks[j];
-                  const int lj = table ? local[2 * l + j] : -1;
-                  const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
-                                           block_size_[rb], block_size_[cb]);
-                  if (rb < cb || (rb == cb && k == l)) {
-                    add_at(find(rb, li, cb, lj), sub);
-                  } else if (rb > cb) {
-                    if (k != l) add_at(find(cb, lj, rb, li), sub.transpose());
-                  } else {
-                    add_at(find(rb, li, rb, li), sub + sub.transpose());
-                  }
-                }
-              }
-              continue;
-            }
-            for (int i = 0; i < lin_k.num_blocks; ++i) {
-              const int rb = lin_k.blocks[i];
-              const int li = table ? local[2 * k + i] : -1;
-              const double* qk = q[k].data() + lin_k.cols[i];
-              for (int j = 0; j < lin_l.num_blocks; ++j) {
-                const int cb = lin_l.blocks[j];
-                const int lj = table ? local[2 * l + j] : -1;
-                const double* wl = w[l].data() + lin_l.cols[j];
-                if (rb < cb || (rb == cb && k == l)) {
-                  SubtractProduct(qk, ldq, wl, ldw, block_size_[rb],
-                                  block_size_[cb], find(rb, li, cb, lj),
-                                  block_size_[rb]);
-                } else if (rb > cb) {
-                  if (k == l) continue;
-                  SubtractProduct(wl, ldw, qk, ldq, block_size_[cb],
-                                  block_size_[rb], find(cb, lj, rb, li),
-                                  block_size_[cb]);
-                } else {
-                  SubtractSymmetricProduct(qk, ldq, wl, ldw, block_size_[rb],
-                                           find(rb, li, rb, li),
-                                           block_size_[rb]);
-                }
+          const Linearization& lin_l = lins[l];
+          const auto m = (-(q[k] * w[l].transpose())).eval();
+          for (int i = 0; i < lin_k.num_blocks; ++i) {
+            const int rb = lin_k.blocks[i];
+            const int li = table ? local[2 * k + i] : -1;
+            for (int j = 0; j < lin_l.num_blocks; ++j) {
+              const int cb = lin_l.blocks[j];
+              const int lj = table ? local[2 * l + j] : -1;
+              const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
+                                       block_size_[rb], block_size_[cb]);
+              if (rb < cb || (rb == cb && k == l)) {
+                add_at(find(rb, li, cb, lj), sub);
+              } else if (rb > cb) {
+                if (k != l) add_at(find(cb, lj, rb, li), sub.transpose());
+              } else {
+                add_at(find(rb, li, rb, li), sub + sub.transpose());
               }
             }
           }
         }
+        if (time_parts) update_wall += Seconds(Clock::now() - update_start);
       }
       // The pose residuals: into their pose's diagonal block.
       for (size_t i = 0; i < pose_residuals_.size() && finite; ++i) {
@@ -1443,6 +1685,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         summary.message = "gradient tolerance reached";
         break;
       }
+      store_valid = true;
+      elimination_cpu = static_cast<double>(std::clock() - elimination_clock) /
+                        CLOCKS_PER_SEC;
+      elimination_wall = Seconds(Clock::now() - elimination_start);
     }
     // Damping; a variable no weighed observation sees is held (its row and
     // column are empty). A reused system trades its last damping for this.
@@ -1495,7 +1741,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       }
       VLOG(2) << "Schur bundle adjustment iteration " << summary.num_iterations
               << ": factorisation failed, radius " << radius
-              << (reused ? " (reduced system reused)" : "");
+              << (reused ? " (reduced system reused)"
+                         : "; " + elimination_parts(elimination_cpu,
+                                                    elimination_wall,
+                                                    jacobian_wall, update_wall))
+              << "; linear solve " << linear_cpu_seconds << " CPU s";
       reject(/*skip=*/false);
       reuse = reuse_min_radius > 0 && radius >= reuse_min_radius;
       continue;
@@ -1503,6 +1753,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     num_invalid = 0;
     // Back-substitution: each point's step from its Jacobians (evaluated
     // again) and the cameras' step; the linear model's cost on the way.
+    const std::clock_t back_clock = std::clock();
     candidate_poses = poses;
     candidate_cameras = cameras;
     candidate_points = points;
@@ -1515,12 +1766,15 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
            max_extra = 0;
     for (size_t p = 0; p < num_points; ++p) {
       lins.clear();
-      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-        if (!(Weight(observations_[k]) > 0)) continue;
-        lins.emplace_back();
-        double residual[2];
-        Evaluate(observations_[k], &points[3 * p], poses, cameras, residual,
-                 &lins.back());
+      if (store_valid && stored[p]) {
+        restore(p);
+      } else {
+        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+          if (!(Weight(k) > 0)) continue;
+          lins.emplace_back();
+          double residual[2];
+          Evaluate(k, &points[3 * p], poses, cameras, residual, &lins.back());
+        }
       }
       Eigen::Vector3d dx = Eigen::Vector3d::Zero();
       if (active[p]) {
@@ -1638,8 +1892,13 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       summary.message = "parameter tolerance reached";
       break;
     }
+    const std::clock_t cost_clock = std::clock();
+    const double back_cpu =
+        static_cast<double>(cost_clock - back_clock) / CLOCKS_PER_SEC;
     const double candidate_cost =
         Cost(candidate_poses, candidate_cameras, candidate_points);
+    const double cost_cpu =
+        static_cast<double>(std::clock() - cost_clock) / CLOCKS_PER_SEC;
     if (std::isfinite(candidate_cost) &&
         std::abs(cost - candidate_cost) <= options.function_tolerance * cost) {
       summary.termination = ceres::CONVERGENCE;
@@ -1658,10 +1917,17 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
                            : std::string())
             << " of "
             << static_cast<double>(std::clock() - iteration_clock) /
-                   CLOCKS_PER_SEC;
+                   CLOCKS_PER_SEC
+            << (reused ? std::string()
+                       : "; " + elimination_parts(elimination_cpu,
+                                                  elimination_wall,
+                                                  jacobian_wall, update_wall))
+            << "; back-substitution " << back_cpu << ", cost " << cost_cpu
+            << " CPU s";
     if (std::isfinite(candidate_cost) && model_cost_change > 0 &&
         rho > options.min_relative_decrease) {
       poses.swap(candidate_poses);
+      store_valid = false;  // linearised at the old parameters
       cameras.swap(candidate_cameras);
       points.swap(candidate_points);
       cost = candidate_cost;

@@ -73,6 +73,13 @@ struct SchurSolverOptions {
   // percent at most: a rejected try costs a factorisation and one pass over
   // the observations instead of a whole iteration. 0: off (Ceres' steps).
   double reuse_min_radius = 0;
+  // The observations' linearisations (residual and Jacobians, 8 + 2 x the
+  // reduced columns doubles each: 192 bytes with a camera per image) are
+  // kept from each elimination in at most this many MiB, point by point:
+  // the back-substitution and a try after a rejected step read them instead
+  // of evaluating the Jacobians again (the same values: the same result to
+  // the bit). 0: none kept.
+  double max_jacobian_store_mib = 256;
 };
 
 // Stops a solve whose cost has settled while a few ill-determined
@@ -104,12 +111,16 @@ class CostStall {
 // in a block-sparse matrix, factors that with a sparse Cholesky
 // (SchurLinearSolver: Eigen's simplicial LLT or CHOLMOD's supernodal one, the
 // pattern analysed once per adjuster), and back-substitutes the points (their
-// Jacobians evaluated again). Nothing is stored per observation but its image
-// and keypoint (8 bytes): no Jacobian, no residual block objects, no per-point
+// Jacobians kept from the elimination within
+// SchurSolverOptions::max_jacobian_store_mib, the others evaluated again).
+// Stored per observation: its image and keypoint (8 bytes) and its weight
+// (8, read when a solve starts); no residual block objects, no per-point
 // chunks; per point, the cells of the reduced system its pairs of blocks
 // fill (found once per adjuster: 4 bytes per pair of the point's m pose and
 // camera blocks, m (m + 1) / 2 pairs), so that the accumulation, half an
-// iteration's time on dense photo collections, searches no cell.
+// iteration's time on dense photo collections, searches no cell; the
+// updates of a point's pairs run with the cells of those a few ahead
+// prefetched (they scatter over the reduced system).
 //
 // The parameter blocks are the caller's (e.g. ParameterBlockCopies); the
 // solve reads them when it starts and writes the result back when it ends.
@@ -199,6 +210,11 @@ class SchurBundleAdjuster {
     // Tries solved from the last elimination's reduced system, re-damped
     // (SchurSolverOptions::reuse_min_radius).
     int num_reused_eliminations = 0;
+    // The Jacobians kept from the eliminations
+    // (SchurSolverOptions::max_jacobian_store_mib), bytes, and the
+    // eliminations that read them (tries after a rejected step).
+    size_t jacobian_store_bytes = 0;
+    int num_eliminations_from_kept_jacobians = 0;
     // Stopped as the cost stalled (CostStall).
     bool stalled = false;
     // The Cholesky factor's size estimated from the block pattern (auto and
@@ -268,10 +284,15 @@ class SchurBundleAdjuster {
   // The block structure of the reduced camera system (upper block triangle)
   // for the observations weighed now, and its scalar column layout.
   void BuildStructure();
-  double Weight(const Observation& observation) const;
-  // Residual (and, with `lin`, Jacobians) of one observation at `x`.
-  bool Evaluate(const Observation& observation, const double* point,
-                const std::vector<double>& poses,
+  // Observation k's weight (weights_).
+  double Weight(size_t k) const { return weights_[k]; }
+  // The columns of an observation's Jacobian by the reduced system's
+  // variables (its pose's free ones, then its camera's; held blocks none).
+  int NumColumns(const Observation& observation) const;
+  // An observation's blocks and their columns in `lin` (A sized, not set).
+  void Describe(const Observation& observation, Linearization* lin) const;
+  // Residual (and, with `lin`, Jacobians) of observation k at `x`.
+  bool Evaluate(size_t k, const double* point, const std::vector<double>& poses,
                 const std::vector<double>& cameras, double residual[2],
                 Linearization* lin) const;
   // A pose residual at `poses`: its cost and, with `lin`, its linearisation.
@@ -336,6 +357,10 @@ class SchurBundleAdjuster {
   std::vector<bool> point_constant_;
   std::vector<uint32_t> point_begin_ = {0};  // observations by point (CSR)
   std::vector<Observation> observations_;
+  // By observation: its weight, read from its image's weights when a solve
+  // starts (a pointer chase into each image's array, three times per
+  // observation and iteration, was a tenth of a 1,000-image photo run).
+  std::vector<double> weights_;
   std::vector<PoseResidual> pose_residuals_;
 
   // Reduced camera system: block b's size, scalar offset, and the column

@@ -3,7 +3,8 @@
 // the held parameters kept, pose priors under their loss, and the losses it
 // cannot hold sent to Ceres; its two factorisations of the reduced camera
 // system (simplicial, supernodal) give the same solution, and so do its two
-// accumulations of that system (cell tables, cell search); after a rejected
+// accumulations of that system (cell tables, cell search), and so do its
+// Jacobians kept or evaluated again; after a rejected
 // undamped first step the radii its damping cannot change are skipped; its
 // iterative solver (conjugate gradients) reaches the factorisations'
 // solution, and auto chooses it above the factor's memory budget; both
@@ -523,6 +524,93 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
       EXPECT_GT(Compare(start, tables_model).point, 1e-3);
     }
   }
+}
+
+// The Jacobians kept from an elimination (for its back-substitution and
+// the tries after a rejected step) give the solution of evaluating them
+// again to the bit, whether every point's are kept, some or none; over two
+// solves (the second with fewer weighed observations), shared and per-image
+// cameras, with and without a gauge coordinate. 90% of the model decrease
+// is required so that steps are rejected and the kept Jacobians are read
+// by the next elimination (a kept Jacobian not dropped after an accepted
+// step, or restored out of place, changes the path).
+TEST(SchurBundleAdjuster, KeptJacobiansSameSolutionToTheBit) {
+  for (const bool shared_camera : {false, true}) {
+    for (const bool gauge : {false, true}) {
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          (gauge ? ", gauge" : ""));
+      Reconstruction start = Scene(2, shared_camera).truth;
+      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      Reconstruction kept_model = start, evaluated_model = start,
+                     partial_model = start;
+      std::map<image_t, std::vector<double>> kept_weights, evaluated_weights,
+          partial_weights;
+      SchurSolverOptions none_options;
+      none_options.max_jacobian_store_mib = 0;
+      SchurBundleAdjuster kept(/*center=*/false),
+          evaluated(/*center=*/false, none_options);
+      AddModel(gauge, &kept_model, &kept_weights, &kept);
+      AddModel(gauge, &evaluated_model, &evaluated_weights, &evaluated);
+      std::unique_ptr<SchurBundleAdjuster> partial;
+      ceres::Solver::Options options;
+      options.max_num_iterations = 60;
+      options.min_relative_decrease = 0.9;
+      options.function_tolerance = 1e-15;
+      options.gradient_tolerance = 1e-12;
+      options.parameter_tolerance = 1e-15;
+      int num_from_kept = 0;
+      for (int solve = 0; solve < 2; ++solve) {
+        if (solve == 1) {
+          for (auto* weights :
+               {&kept_weights, &evaluated_weights, &partial_weights}) {
+            for (auto& [image_id, image_weights] : *weights) {
+              for (size_t i = 3; i < image_weights.size(); i += 5) {
+                image_weights[i] = 0;
+              }
+            }
+          }
+        }
+        const SchurBundleAdjuster::Summary a = kept.Solve(options);
+        const SchurBundleAdjuster::Summary b = evaluated.Solve(options);
+        if (solve == 0) {
+          // Half of what every point's Jacobians take.
+          SchurSolverOptions half;
+          half.max_jacobian_store_mib = a.jacobian_store_bytes / 2 / 1048576.0;
+          partial = std::make_unique<SchurBundleAdjuster>(false, half);
+          AddModel(gauge, &partial_model, &partial_weights, partial.get());
+        }
+        const SchurBundleAdjuster::Summary c = partial->Solve(options);
+        EXPECT_NE(a.termination, ceres::FAILURE);
+        EXPECT_GT(a.num_iterations, 2);
+        EXPECT_LT(a.final_cost, a.initial_cost);
+        EXPECT_EQ(b.jacobian_store_bytes, 0u);
+        EXPECT_EQ(b.num_eliminations_from_kept_jacobians, 0);
+        EXPECT_GT(c.jacobian_store_bytes, 0u);
+        EXPECT_LT(c.jacobian_store_bytes, a.jacobian_store_bytes);
+        EXPECT_EQ(a.num_eliminations_from_kept_jacobians,
+                  c.num_eliminations_from_kept_jacobians);
+        num_from_kept += a.num_eliminations_from_kept_jacobians;
+        for (const SchurBundleAdjuster::Summary* other : {&b, &c}) {
+          EXPECT_EQ(a.num_iterations, other->num_iterations);
+          EXPECT_EQ(a.initial_cost, other->initial_cost);
+          EXPECT_EQ(a.final_cost, other->final_cost);
+        }
+      }
+      EXPECT_GT(num_from_kept, 0);
+      for (const Reconstruction* model : {&kept_model, &partial_model}) {
+        const Difference d = Compare(*model, evaluated_model);
+        EXPECT_EQ(d.center, 0.0);
+        EXPECT_EQ(d.rotation_deg, 0.0);
+        EXPECT_EQ(d.point, 0.0);
+        EXPECT_EQ(d.param, 0.0);
+      }
+      EXPECT_GT(Compare(start, kept_model).point, 1e-3);
+    }
+  }
+  BundleAdjustmentOptions options;
+  options.schur_max_jacobian_store_mib = -1;
+  EXPECT_THROW(options.Check(), OptionError);
 }
 
 // The points eliminated in the locality order (by their largest blocks,

@@ -73,6 +73,12 @@ struct SchurSolverOptions {
   // percent at most: a rejected try costs a factorisation and one pass over
   // the observations instead of a whole iteration. 0: off (Ceres' steps).
   double reuse_min_radius = 0;
+  // Embedded point iterations: after each step, every point takes up to
+  // this many Gauss-Newton steps of its own with the candidate cameras held
+  // (each kept when it lowers the point's cost) before the step's cost is
+  // evaluated: the points' nonlinearity (depth along the rays of narrow
+  // baselines) no longer limits the step. 0: off.
+  int point_iterations = 0;
 };
 
 // Stops a solve whose cost has settled while a few ill-determined

@@ -975,6 +975,31 @@ TEST(SchurBundleAdjuster, BothBackendsStopWhenTheCostStalls) {
   EXPECT_THROW(options.Check(), OptionError);
 }
 
+// Embedded point iterations: the same optimum as Ceres' (tight
+// tolerances), in no more iterations; on a start whose points are far off
+// (1 unit in a scene of radius 10, cameras near), in fewer.
+TEST(SchurBundleAdjuster, PointIterationsSameOptimumFewerIterations) {
+  Reconstruction start = Scene(2, /*shared_camera=*/false).truth;
+  PerturbModel(0.5, 0.05, 1.0, 1.02, 8, &start);
+  BundleAdjustmentOptions options = TightOptions();
+  options.loss_function = BundleAdjustmentLoss::kTrivial;
+  options.num_rounds = 1;
+  options.weight_by_keypoint_scale = false;
+  options.solver.ceres.max_num_iterations = 200;
+  Reconstruction ceres_model = start, schur_model = start;
+  const auto [ceres_summary, schur_summary] =
+      RunBoth(options, &ceres_model, &schur_model);
+  ExpectSameOptimum(ceres_summary, schur_summary, ceres_model, schur_model);
+  options.schur_point_iterations = 2;
+  Reconstruction ceres_again = start, embedded_model = start;
+  const auto [unused, embedded_summary] =
+      RunBoth(options, &ceres_again, &embedded_model);
+  EXPECT_TRUE(embedded_summary.converged);
+  ExpectSameOptimum(ceres_summary, embedded_summary, ceres_model,
+                    embedded_model);
+  EXPECT_LT(embedded_summary.num_iterations, schur_summary.num_iterations);
+}
+
 TEST(SchurBundleAdjuster, FallsBackToCeresForLosses) {
   const SyntheticScene scene = Scene();
   BundleAdjustmentOptions options = TightOptions();

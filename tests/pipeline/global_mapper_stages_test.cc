@@ -6,7 +6,6 @@
 #include <functional>
 #include <limits>
 #include <map>
-#include <memory>
 #include <random>
 #include <set>
 #include <string>
@@ -266,57 +265,6 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
     ASSERT_EQ(point.color.cast<int>(), Eigen::Vector3i(128, 128, 128));
   }
   EXPECT_EQ(mapper.stages().back().name, "colours (grey: no --image_path)");
-}
-
-// A stage's figure by name (-1: the stage does not report it).
-double StageFigure(const GlobalMapper& mapper, const std::string& stage,
-                   const std::string& figure) {
-  for (const StageReport& report : mapper.stages()) {
-    if (report.name != stage) continue;
-    for (const auto& [name, value] : report.figures) {
-      if (name == figure) return value;
-    }
-  }
-  return -1;
-}
-
-// The stall rules: stall_num_iterations stops the adjustments before the
-// last, last_stall_num_iterations the last one, each with its own
-// threshold. A threshold of the whole cost stops a solve at its first
-// accepted step (counted as stalled); with the defaults no solve stalls.
-// (Bundle adjustment 1 stopped so leaves the last adjustment work to do.)
-TEST(GlobalMapperStages, LastStallRuleStopsTheLastAdjustmentOnly) {
-  const StageScene s = MakeStageScene();
-  const std::string kStalled = "solves stopped as the cost stalled";
-  auto run = [&](int before, int last) {
-    GlobalMapperOptions options = TestOptions();
-    options.bundle_adjustment.stall_num_iterations = before;
-    options.bundle_adjustment.stall_relative_decrease = 1;
-    options.bundle_adjustment.last_stall_num_iterations = last;
-    options.bundle_adjustment.last_stall_relative_decrease = 1;
-    auto mapper = std::make_unique<GlobalMapper>(
-        options.ForStages(s.images.size()), s.database, s.database.cameras,
-        s.images, s.pairs);
-    EXPECT_TRUE(mapper->Solve());
-    return mapper;
-  };
-  const auto neither = run(0, 0);
-  EXPECT_EQ(StageFigure(*neither, "bundle adjustment 1", kStalled), -1);
-  EXPECT_EQ(StageFigure(*neither, "bundle adjustment 2", kStalled), -1);
-
-  const auto before = run(1, 0);
-  EXPECT_GE(StageFigure(*before, "bundle adjustment 1", kStalled), 1);
-  EXPECT_EQ(StageFigure(*before, "bundle adjustment 2", kStalled), -1);
-  const double iterations =
-      StageFigure(*before, "bundle adjustment 2", "iterations");
-  EXPECT_GT(iterations, 2);
-
-  const auto both = run(1, 1);
-  EXPECT_GE(StageFigure(*both, "bundle adjustment 1", kStalled), 1);
-  EXPECT_EQ(StageFigure(*both, "bundle adjustment 2", kStalled), 1);
-  EXPECT_LT(StageFigure(*both, "bundle adjustment 2", "iterations"),
-            iterations);
-  EXPECT_EQ(both->reconstruction().images.size(), s.images.size());
 }
 
 TEST(GlobalMapperStages, MaxNumTracksCapsTheTracksAndSaysSo) {

@@ -83,6 +83,17 @@ Reconstruction MakeReconstruction(
   return reconstruction;
 }
 
+// The stall rule of the mapper's last adjustment: its own
+// (last_stall_num_iterations, off by default), not the one of the
+// adjustments before it.
+void UseLastStallRule(BundleAdjustmentOptions* options) {
+  options->stall_num_iterations = options->last_stall_num_iterations;
+  options->stall_relative_decrease = options->last_stall_relative_decrease;
+  if (options->last_gauge_min_shared_points > 0) {
+    options->gauge_min_shared_points = options->last_gauge_min_shared_points;
+  }
+}
+
 // Removes cameras no image uses any more.
 void RemoveUnusedCameras(Reconstruction* reconstruction) {
   std::set<camera_t> used;
@@ -677,8 +688,9 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         round_options.num_rounds = 1;
       }
       // Only the last adjustment must reach its tolerances: the ones before
-      // it hand their poses to retriangulation and the next adjustment.
-      if (iteration + 1 == num_ba) round_options.stall_num_iterations = 0;
+      // it hand their poses to retriangulation and the next adjustment
+      // (its own stall rule, last_stall_num_iterations, off by default).
+      if (iteration + 1 == num_ba) UseLastStallRule(&round_options);
       if (!FailIfNoPoints(iteration == 0 ? "after positioning"
                                          : "after retriangulation")) {
         return false;
@@ -819,7 +831,7 @@ bool GlobalMapper::TwoViewCheck() {
   bool kept = false;
   // Its adjustment is the last one when no bundle adjustment follows.
   BundleAdjustmentOptions check_options = options_.bundle_adjustment;
-  if (options_.num_ba_iterations <= 1) check_options.stall_num_iterations = 0;
+  if (options_.num_ba_iterations <= 1) UseLastStallRule(&check_options);
   if (!AdjustOrKeepModel(
           &stage, "bundle adjustment of the two-view check failed",
           [&] {

@@ -437,6 +437,21 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "radius is at least this, the next try re-damps the cameras "
                "of the same reduced system instead of eliminating the "
                "points again (0: off)");
+  manager->Add("BundleAdjustment.gauge_min_shared_points",
+               &ba.gauge_min_shared_points,
+               "parts of the model tied to the rest by fewer points than "
+               "this hold a gauge of their own (their placement relative to "
+               "the rest held; 1: only exact gauge freedoms; the rigidity "
+               "check writes parts tied by fewer than 15 as separate models)");
+  manager->Add("BundleAdjustment.last_gauge_min_shared_points",
+               &ba.last_gauge_min_shared_points,
+               "gauge_min_shared_points for the mapper's last adjustment "
+               "only (0: gauge_min_shared_points)");
+  manager->Add("BundleAdjustment.schur_point_iterations",
+               &ba.schur_point_iterations,
+               "Schur solver: after each step every point takes up to this "
+               "many Gauss-Newton steps of its own with the cameras held "
+               "(embedded point iterations; 0: off)");
   manager->Add("BundleAdjustment.stall_num_iterations",
                &ba.stall_num_iterations,
                "the mapper's adjustments before the last stop once their "
@@ -446,6 +461,14 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
   manager->Add("BundleAdjustment.stall_relative_decrease",
                &ba.stall_relative_decrease,
                "see stall_num_iterations (a fraction of the cost)");
+  manager->Add("BundleAdjustment.last_stall_num_iterations",
+               &ba.last_stall_num_iterations,
+               "the mapper's last adjustment stops once its last this many "
+               "accepted steps together lowered the cost by less than "
+               "last_stall_relative_decrease of it (0: off)");
+  manager->Add("BundleAdjustment.last_stall_relative_decrease",
+               &ba.last_stall_relative_decrease,
+               "see last_stall_num_iterations (a fraction of the cost)");
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");

@@ -126,9 +126,10 @@ struct GaugeHolds {
 };
 
 GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
-                          const std::set<image_t>& images) {
+                          const std::set<image_t>& images,
+                          int min_shared_points) {
   ModelRigidityOptions options;
-  options.min_shared_points = 1;
+  options.min_shared_points = min_shared_points;
   const std::vector<std::vector<image_t>> blocks =
       AnalyzeModelRigidity(options, reconstruction, 1).joined_blocks;
   std::map<image_t, std::vector<size_t>> blocks_of;
@@ -177,8 +178,20 @@ GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
       }
     }
   }
+  // An image in no block shares no point with another (with a threshold
+  // over one point: fewer than it with each other image; such an image is
+  // refined unless it shares no point at all).
+  std::set<image_t> tied;
+  if (min_shared_points > 1) {
+    options.min_shared_points = 1;
+    for (const std::vector<image_t>& block :
+         AnalyzeModelRigidity(options, reconstruction, 1).joined_blocks) {
+      tied.insert(block.begin(), block.end());
+    }
+  }
   for (const image_t image_id : images) {
-    if (blocks_of.count(image_id) == 0 && holds.held.insert(image_id).second) {
+    if (blocks_of.count(image_id) == 0 && tied.count(image_id) == 0 &&
+        holds.held.insert(image_id).second) {
       ++holds.num_pieces;
     }
   }
@@ -241,6 +254,7 @@ class BundleAdjustmentProblem {
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
       schur_options.reuse_min_radius = options.schur_reuse_min_radius;
+      schur_options.point_iterations = options.schur_point_iterations;
       schur_adjuster_ =
           std::make_unique<SchurBundleAdjuster>(use_centers_, schur_options);
     }
@@ -659,9 +673,10 @@ class BundleAdjustmentProblem {
     const bool prior_gauge = AddPosePriors(images);
     const bool fix_gauge =
         options_.fix_gauge && !prior_gauge && options_.refine_poses;
-    const GaugeHolds holds = fix_gauge
-                                 ? FindGaugeHolds(*reconstruction_, used_images)
-                                 : GaugeHolds();
+    const GaugeHolds holds =
+        fix_gauge ? FindGaugeHolds(*reconstruction_, used_images,
+                                   options_.gauge_min_shared_points)
+                  : GaugeHolds();
     num_pieces_ = holds.num_pieces;
     num_joints_ = holds.num_joints;
     for (size_t k = 0; k < images.size(); ++k) {
@@ -788,6 +803,8 @@ class BundleAdjustmentProblem {
       std::iota(all.begin(), all.end(), 0);
       schur_adjuster_->SetCameraConstant(index, all);
       schur_cameras_[camera_id] = index;
+      VLOG(3) << "Bundle adjustment: solver camera " << index << " is camera "
+              << camera_id;
     }
     for (auto& [image_id, image] : reconstruction_->images) {
       std::vector<double>& weights = weights_[image_id];
@@ -797,6 +814,9 @@ class BundleAdjustmentProblem {
           pose.rotation, pose.position, schur_cameras_.at(image.camera_id),
           &image.points2D, &weights);
       schur_adjuster_->SetPoseConstant(pose.schur_index, true, -1);
+      VLOG(3) << "Bundle adjustment: solver pose " << pose.schur_index
+              << " is image " << image_id << " (" << image.name << "), camera "
+              << image.camera_id;
     }
   }
 
@@ -1269,6 +1289,16 @@ void BundleAdjustmentOptions::Check() const {
     throw OptionError(&stall_num_iterations,
                       "BundleAdjustment.stall_num_iterations", "must be >= 0");
   }
+  if (last_stall_num_iterations < 0) {
+    throw OptionError(&last_stall_num_iterations,
+                      "BundleAdjustment.last_stall_num_iterations",
+                      "must be >= 0");
+  }
+  if (!(last_stall_relative_decrease >= 0)) {
+    throw OptionError(&last_stall_relative_decrease,
+                      "BundleAdjustment.last_stall_relative_decrease",
+                      "must be >= 0");
+  }
   if (!(stall_relative_decrease >= 0)) {
     throw OptionError(&stall_relative_decrease,
                       "BundleAdjustment.stall_relative_decrease",
@@ -1292,6 +1322,21 @@ void BundleAdjustmentOptions::Check() const {
   if (!(schur_locality_order_min_mib >= 0)) {
     throw OptionError(&schur_locality_order_min_mib,
                       "BundleAdjustment.schur_locality_order_min_mib",
+                      "must be >= 0");
+  }
+  if (last_gauge_min_shared_points < 0) {
+    throw OptionError(&last_gauge_min_shared_points,
+                      "BundleAdjustment.last_gauge_min_shared_points",
+                      "must be >= 0");
+  }
+  if (gauge_min_shared_points < 1) {
+    throw OptionError(&gauge_min_shared_points,
+                      "BundleAdjustment.gauge_min_shared_points",
+                      "must be >= 1");
+  }
+  if (schur_point_iterations < 0) {
+    throw OptionError(&schur_point_iterations,
+                      "BundleAdjustment.schur_point_iterations",
                       "must be >= 0");
   }
   if (!(schur_reuse_min_radius >= 0)) {

@@ -163,6 +163,9 @@ struct BundleAdjustmentOptions {
   // same reduced system instead of eliminating the points again
   // (SchurSolverOptions::reuse_min_radius); 0: off.
   double schur_reuse_min_radius = 0;
+  // Our Schur solver: embedded point iterations after each step
+  // (SchurSolverOptions::point_iterations); 0: off.
+  int schur_point_iterations = 0;
   // Each solve stops once its last stall_num_iterations accepted steps
   // together lowered the cost by less than stall_relative_decrease of it
   // (CostStall: a few ill-determined cameras crawling while the rest has
@@ -174,6 +177,29 @@ struct BundleAdjustmentOptions {
   // (docs/notes/2026-12-05-ba-stall.md).
   int stall_num_iterations = 0;
   double stall_relative_decrease = 0.005;
+  // The same rule for the mapper's last adjustment, with its own window and
+  // threshold (0: off, the last adjustment runs to its tolerances). Its
+  // crawl (photo scenes, stall_num_iterations on: a few narrow-field
+  // cameras of groups tied to the rest by few points, and falsely
+  // registered images of 3-4 observations, creeping for 50-90 iterations at
+  // 0.001-0.01% a step; docs/notes/2026-12-06-ba-crawl-cameras.md).
+  // Parts of the model tied to the rest by fewer points than this (shared
+  // by one pair of images, or through one image only: ModelRigidity's rule)
+  // hold a gauge of their own, as parts sharing no point do: their pose and
+  // scale relative to the rest are held where the adjustment found them.
+  // The mapper writes such parts as separate models (its rigidity check,
+  // 15 points), so their relative placement is never used; refining it
+  // lets a part hanging on a few (often false) points pivot about them for
+  // dozens of steps (photo 100 s2: a 6-image part tied by 7 false points
+  // turned 12 deg in bundle adjustment 2's last 60 steps;
+  // docs/notes/2026-12-06-ba-crawl-cameras.md). 1: parts sharing no point
+  // and parts joined through one image only (the exact gauge freedoms).
+  int gauge_min_shared_points = 1;
+  // The same for the mapper's last adjustment only (0:
+  // gauge_min_shared_points).
+  int last_gauge_min_shared_points = 0;
+  int last_stall_num_iterations = 0;
+  double last_stall_relative_decrease = 1e-4;
   int iterative_schur_min_num_images = 10000;
   double iterative_schur_min_density = 0.5;
   // Ceres: 100 iterations per solve, function tolerance 1e-5, parameter

@@ -14,6 +14,7 @@
 #include <cholmod.h>
 #include <glog/logging.h>
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
@@ -1174,6 +1175,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   }
   const int n = num_scalars_;
   const double reuse_min_radius = solver_options_.reuse_min_radius;
+  const int point_iterations = solver_options_.point_iterations;
   summary.num_reduced_parameters = n;
   summary.num_reduced_nonzeros = values_.size();
   summary.supernodal = cholmod_ != nullptr;
@@ -1368,6 +1370,18 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     return summary;
   }
   stall.Add(cost);
+  // What moves in the crawl (VLOG 3): the parameters' total change over the
+  // accepted steps that lowered the cost by less than kCrawlDecrease of it.
+  constexpr double kCrawlDecrease = 1e-4;
+  const bool crawl_report = VLOG_IS_ON(3);
+  int num_crawl_steps = 0;
+  std::vector<double> crawl_rotation, crawl_position, crawl_focal, crawl_extra;
+  if (crawl_report) {
+    crawl_rotation.assign(poses_.size(), 0.0);
+    crawl_position.assign(poses_.size(), 0.0);
+    crawl_focal.assign(cameras_.size(), 0.0);
+    crawl_extra.assign(cameras_.size(), 0.0);
+  }
   bool check_gradient = true;
   // The reduced system kept from the last elimination for a rejected try
   // (SchurSolverOptions::reuse_min_radius): the radius its points were
@@ -1872,6 +1886,51 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             cameras[kMaxNumParams * i + j] * cameras[kMaxNumParams * i + j];
       }
     }
+    // Embedded point iterations (SchurSolverOptions::point_iterations):
+    // each point's own Gauss-Newton steps with the candidate cameras held,
+    // each kept only when it lowers the point's cost.
+    for (size_t p = 0; p < num_points && point_iterations > 0; ++p) {
+      if (!active[p]) continue;
+      double* x = &candidate_points[3 * p];
+      for (int it = 0; it < point_iterations; ++it) {
+        Matrix3 v = Matrix3::Zero();
+        Eigen::Vector3d g = Eigen::Vector3d::Zero();
+        double point_cost = 0;
+        bool finite = true;
+        lins.clear();
+        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+          if (!(Weight(observations_[k]) > 0)) continue;
+          lins.emplace_back();
+          double residual[2];
+          if (!Evaluate(observations_[k], x, candidate_poses, candidate_cameras,
+                        residual, &lins.back())) {
+            finite = false;
+            break;
+          }
+          v += lins.back().B.transpose() * lins.back().B;
+          g += lins.back().B.transpose() * lins.back().r;
+          point_cost += 0.5 * lins.back().r.squaredNorm();
+        }
+        if (!finite) break;
+        const Eigen::Vector3d dx = -invert(v) * g;
+        if (!dx.allFinite()) break;
+        const Eigen::Vector3d trial = Eigen::Map<Eigen::Vector3d>(x) + dx;
+        double trial_cost = 0;
+        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+          if (!(Weight(observations_[k]) > 0)) continue;
+          double residual[2];
+          if (!Evaluate(observations_[k], trial.data(), candidate_poses,
+                        candidate_cameras, residual, nullptr)) {
+            trial_cost = std::numeric_limits<double>::infinity();
+            break;
+          }
+          trial_cost +=
+              0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
+        }
+        if (!(trial_cost < point_cost)) break;
+        std::copy(trial.data(), trial.data() + 3, x);
+      }
+    }
     // (Guarded: a solve may have no camera or no point block.)
     VLOG(3) << "Schur bundle adjustment step parts: rotation "
             << max_rotation_step << " (pose " << max_rotation << "), position "
@@ -1926,6 +1985,27 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             << " CPU s";
     if (std::isfinite(candidate_cost) && model_cost_change > 0 &&
         rho > options.min_relative_decrease) {
+      if (crawl_report && cost - candidate_cost < kCrawlDecrease * cost) {
+        ++num_crawl_steps;
+        for (size_t i = 0; i < poses_.size(); ++i) {
+          const Eigen::Map<const Eigen::Quaterniond> q0(&poses[7 * i]);
+          const Eigen::Map<const Eigen::Quaterniond> q1(
+              &candidate_poses[7 * i]);
+          crawl_rotation[i] += q0.angularDistance(q1);
+          crawl_position[i] +=
+              (Eigen::Map<const Eigen::Vector3d>(&candidate_poses[7 * i + 4]) -
+               Eigen::Map<const Eigen::Vector3d>(&poses[7 * i + 4]))
+                  .norm();
+        }
+        for (size_t i = 0; i < cameras_.size(); ++i) {
+          const double* c0 = &cameras[kMaxNumParams * i];
+          const double* c1 = &candidate_cameras[kMaxNumParams * i];
+          if (c0[0] != 0) crawl_focal[i] += std::abs(c1[0] / c0[0] - 1);
+          for (int j = 3; j < cameras_[i].num_params; ++j) {
+            crawl_extra[i] += std::abs(c1[j] - c0[j]);
+          }
+        }
+      }
       poses.swap(candidate_poses);
       store_valid = false;  // linearised at the old parameters
       cameras.swap(candidate_cameras);
@@ -1954,6 +2034,28 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     }
   }
   summary.final_cost = cost;
+  if (crawl_report && num_crawl_steps > 0) {
+    // The largest totals of each kind, largest first.
+    auto largest = [](const std::vector<double>& totals) {
+      std::vector<size_t> order(totals.size());
+      std::iota(order.begin(), order.end(), 0);
+      const size_t k = std::min<size_t>(6, order.size());
+      std::partial_sort(
+          order.begin(), order.begin() + k, order.end(),
+          [&](size_t a, size_t b) { return totals[a] > totals[b]; });
+      std::ostringstream out;
+      for (size_t i = 0; i < k; ++i) {
+        out << " " << order[i] << ":" << totals[order[i]];
+      }
+      return out.str();
+    };
+    VLOG(3) << "Schur bundle adjustment crawl: " << num_crawl_steps
+            << " accepted steps lowered the cost by less than "
+            << kCrawlDecrease << " of it; total change there: rotation (rad, "
+            << "pose:total)" << largest(crawl_rotation) << "; position"
+            << largest(crawl_position) << "; relative focal (camera:total)"
+            << largest(crawl_focal) << "; extra" << largest(crawl_extra);
+  }
   if (summary.termination != ceres::FAILURE) {
     for (size_t i = 0; i < poses_.size(); ++i) {
       std::copy(&poses[7 * i], &poses[7 * i + 4], poses_[i].rotation);

@@ -80,6 +80,12 @@ struct SchurSolverOptions {
   // of evaluating the Jacobians again (the same values: the same result to
   // the bit). 0: none kept.
   double max_jacobian_store_mib = 256;
+  // Embedded point iterations: after each step, every point takes up to
+  // this many Gauss-Newton steps of its own with the candidate cameras held
+  // (each kept when it lowers the point's cost) before the step's cost is
+  // evaluated: the points' nonlinearity (depth along the rays of narrow
+  // baselines) no longer limits the step. 0: off.
+  int point_iterations = 0;
 };
 
 // Stops a solve whose cost has settled while a few ill-determined

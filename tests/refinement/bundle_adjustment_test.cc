@@ -783,6 +783,18 @@ TEST(BundleAdjustment, OptionsCheck) {
   options = BundleAdjustmentOptions();
   options.guessed_focal_prior_std = -0.1;
   EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.last_stall_num_iterations = -1;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.last_stall_relative_decrease = -1e-4;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.schur_point_iterations = -1;
+  EXPECT_THROW(options.Check(), InputError);
+  options = BundleAdjustmentOptions();
+  options.gauge_min_shared_points = 0;
+  EXPECT_THROW(options.Check(), InputError);
 }
 
 }  // namespace

@@ -1899,11 +1899,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         bool finite = true;
         lins.clear();
         for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-          if (!(Weight(observations_[k]) > 0)) continue;
+          if (!(Weight(k) > 0)) continue;
           lins.emplace_back();
           double residual[2];
-          if (!Evaluate(observations_[k], x, candidate_poses, candidate_cameras,
-                        residual, &lins.back())) {
+          if (!Evaluate(k, x, candidate_poses, candidate_cameras, residual,
+                        &lins.back())) {
             finite = false;
             break;
           }
@@ -1917,10 +1917,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         const Eigen::Vector3d trial = Eigen::Map<Eigen::Vector3d>(x) + dx;
         double trial_cost = 0;
         for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-          if (!(Weight(observations_[k]) > 0)) continue;
+          if (!(Weight(k) > 0)) continue;
           double residual[2];
-          if (!Evaluate(observations_[k], trial.data(), candidate_poses,
-                        candidate_cameras, residual, nullptr)) {
+          if (!Evaluate(k, trial.data(), candidate_poses, candidate_cameras,
+                        residual, nullptr)) {
             trial_cost = std::numeric_limits<double>::infinity();
             break;
           }

@@ -431,6 +431,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "Schur solver: from this many MiB of reduced system, the "
                "points are eliminated in an order that keeps their cells "
                "in the caches (the same solution up to rounding)");
+  manager->Add("BundleAdjustment.schur_prefetch_updates_min_mib",
+               &ba.schur_prefetch_updates_min_mib,
+               "Schur solver: from this many MiB of reduced system, each "
+               "point's updates of it are listed and their cells prefetched "
+               "(the same result to the bit)");
   manager->Add("BundleAdjustment.schur_reuse_min_radius",
                &ba.schur_reuse_min_radius,
                "Schur solver: after a rejected step, while the trust region "

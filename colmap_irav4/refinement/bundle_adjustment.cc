@@ -251,6 +251,8 @@ class BundleAdjustmentProblem {
           options.schur_max_jacobian_store_mib;
       schur_options.locality_order_min_mib =
           options.schur_locality_order_min_mib;
+      schur_options.prefetch_updates_min_mib =
+          options.schur_prefetch_updates_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
       schur_options.reuse_min_radius = options.schur_reuse_min_radius;
@@ -1322,6 +1324,11 @@ void BundleAdjustmentOptions::Check() const {
   if (!(schur_locality_order_min_mib >= 0)) {
     throw OptionError(&schur_locality_order_min_mib,
                       "BundleAdjustment.schur_locality_order_min_mib",
+                      "must be >= 0");
+  }
+  if (!(schur_prefetch_updates_min_mib >= 0)) {
+    throw OptionError(&schur_prefetch_updates_min_mib,
+                      "BundleAdjustment.schur_prefetch_updates_min_mib",
                       "must be >= 0");
   }
   if (last_gauge_min_shared_points < 0) {

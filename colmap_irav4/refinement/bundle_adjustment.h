@@ -154,6 +154,10 @@ struct BundleAdjustmentOptions {
   // consecutive points' cells together from this size of its reduced
   // system (MiB; SchurSolverOptions::locality_order_min_mib).
   double schur_locality_order_min_mib = 16;
+  // The Schur solver lists each point's pair updates and prefetches their
+  // cells from this size of its reduced system (MiB;
+  // SchurSolverOptions::prefetch_updates_min_mib; the same result).
+  double schur_prefetch_updates_min_mib = 16;
   // Iterative: conjugate gradients stop at a residual of min(eta, sqrt(|b| /
   // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
   double schur_iterative_eta = 1e-3;

@@ -233,6 +233,7 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
   CHECK_GT(options.max_factor_mib, 0);
   CHECK_GE(options.max_cell_table_mib, 0);
   CHECK_GE(options.max_jacobian_store_mib, 0);
+  CHECK_GE(options.prefetch_updates_min_mib, 0);
   CHECK(options.eta > 0 && options.eta < 1);
   CHECK_GT(options.max_cg_iterations, 0);
 }
@@ -481,18 +482,26 @@ void SchurBundleAdjuster::Describe(const Observation& observation,
   }
 }
 
+bool SchurBundleAdjuster::AddPointCost(size_t p, const double* point,
+                                       const std::vector<double>& poses,
+                                       const std::vector<double>& cameras,
+                                       double* cost) const {
+  for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+    if (!(Weight(k) > 0)) continue;
+    double residual[2];
+    if (!Evaluate(k, point, poses, cameras, residual, nullptr)) return false;
+    *cost += 0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
+  }
+  return true;
+}
+
 double SchurBundleAdjuster::Cost(const std::vector<double>& poses,
                                  const std::vector<double>& cameras,
                                  const std::vector<double>& points) const {
   double cost = 0;
   for (size_t p = 0; p + 1 < point_begin_.size(); ++p) {
-    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-      if (!(Weight(k) > 0)) continue;
-      double residual[2];
-      if (!Evaluate(k, &points[3 * p], poses, cameras, residual, nullptr)) {
-        return std::numeric_limits<double>::infinity();
-      }
-      cost += 0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
+    if (!AddPointCost(p, &points[3 * p], poses, cameras, &cost)) {
+      return std::numeric_limits<double>::infinity();
     }
   }
   for (const PoseResidual& residual : pose_residuals_) {
@@ -652,9 +661,12 @@ void SchurBundleAdjuster::BuildStructure() {
       use_cell_tables_ ? solver_options_.max_cell_table_mib * 1048576.0 : 0;
   // The locality order's keys (below) from the same pass: each point's
   // three largest blocks, descending.
+  const double values_bytes =
+      static_cast<double>(values_.size()) * sizeof(double);
   const bool locality_order =
-      values_.size() * sizeof(double) >=
-      solver_options_.locality_order_min_mib * 1048576.0;
+      values_bytes >= solver_options_.locality_order_min_mib * 1048576.0;
+  prefetch_updates_ =
+      values_bytes >= solver_options_.prefetch_updates_min_mib * 1048576.0;
   std::vector<std::array<int, 3>> keys(locality_order ? num_points : 0,
                                        {-1, -1, -1});
   // The block pairs an elimination updates (VLOG 1: an iteration's work
@@ -1267,16 +1279,16 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   // (the same parameters), read them instead of evaluating the Jacobians
   // again; the same values, so the same result to the bit. Per weighed
   // observation: r (2), B (2 x 3, column-major), A (2 x its columns,
-  // row-major).
-  std::vector<size_t> store_begin(num_points + 1, 0);
-  std::vector<bool> stored(num_points, false);
+  // row-major). The members' buffers, laid out for this solve's weights.
+  jacobian_store_begin_.assign(num_points + 1, 0);
+  jacobian_stored_.assign(num_points, 0);
   size_t num_stored = 0;
-  {
+  if (solver_options_.max_jacobian_store_mib > 0) {
     const double max_values =
         solver_options_.max_jacobian_store_mib * 1048576.0 / sizeof(double);
     size_t size = 0;
     for (size_t p = 0; p < num_points; ++p) {
-      store_begin[p] = size;
+      jacobian_store_begin_[p] = size;
       size_t need = 0;
       for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
         if (Weight(k) > 0) {
@@ -1284,19 +1296,30 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         }
       }
       if (need > 0 && static_cast<double>(size + need) <= max_values) {
-        stored[p] = true;
+        jacobian_stored_[p] = 1;
         size += need;
         ++num_stored;
       }
     }
-    store_begin[num_points] = size;
+    jacobian_store_begin_[num_points] = size;
+    if (size > jacobian_store_capacity_) {
+      // Not zeroed (a point's values are written before they are read), in
+      // huge pages (a 4 KiB page's fault at each first write: 75,000 of them
+      // for a 300-image courtyard's three adjustments).
+      jacobian_store_.reset();
+      jacobian_store_.reset(new double[size]);
+      AdviseHugePages(jacobian_store_.get(), size * sizeof(double));
+      jacobian_store_capacity_ = size;
+    }
   }
-  std::vector<double> store(store_begin[num_points]);
-  summary.jacobian_store_bytes = store.size() * sizeof(double);
+  const std::vector<size_t>& store_begin = jacobian_store_begin_;
+  const std::vector<char>& stored = jacobian_stored_;
+  double* const store = jacobian_store_.get();
+  summary.jacobian_store_bytes = store_begin[num_points] * sizeof(double);
   VLOG(1) << "Schur bundle adjustment: Jacobians kept for " << num_stored
           << " of " << num_points << " points ("
-          << store.size() * sizeof(double) / 1048576.0 << " MiB)";
-  // Whether `store` holds the linearisations at the current parameters.
+          << summary.jacobian_store_bytes / 1048576.0 << " MiB)";
+  // Whether the store holds the linearisations at the current parameters.
   bool store_valid = false;
   // lins into the store (point p's) and back.
   auto keep = [&](size_t p) {
@@ -1322,6 +1345,40 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       in += 8 + lin.A.size();
     }
   };
+  // Each block's diagonal cell (its first value in values_).
+  std::vector<size_t> diagonal_cells(block_size_.size());
+  for (size_t b = 0; b < block_size_.size(); ++b) {
+    diagonal_cells[b] = ValueIndex(static_cast<int>(b), static_cast<int>(b));
+  }
+  // Point p's weighed observations linearised at the current parameters
+  // into lins: restored from the store when it holds them, else evaluated
+  // (and kept when the store has room for them). `prefetch`: each
+  // observation's diagonal cells, updated next by the elimination (A_k^T
+  // A_k), prefetched while the next observations are linearised. False
+  // when a residual or Jacobian is not finite (lins partly filled).
+  auto linearize = [&](size_t p, bool prefetch) {
+    lins.clear();
+    if (store_valid && stored[p]) {
+      restore(p);
+      return true;
+    }
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      if (!(Weight(k) > 0)) continue;
+      lins.emplace_back();
+      double residual[2];
+      if (!Evaluate(k, &points[3 * p], poses, cameras, residual,
+                    &lins.back())) {
+        return false;
+      }
+      for (int i = 0; i < lins.back().num_blocks && prefetch; ++i) {
+        const int b = lins.back().blocks[i];
+        PrefetchCell(&values_[diagonal_cells[b]],
+                     block_size_[b] * block_size_[b]);
+      }
+    }
+    if (stored[p]) keep(p);
+    return true;
+  };
   // The current point's cell table and its observations' blocks in it.
   const uint32_t* cells = nullptr;
   std::vector<int> local;
@@ -1339,11 +1396,6 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
   std::vector<Wmat> w, q;
   std::vector<PairUpdate> updates;
-  // Each block's diagonal cell (its first value in values_).
-  std::vector<size_t> diagonal_cells(block_size_.size());
-  for (size_t b = 0; b < block_size_.size(); ++b) {
-    diagonal_cells[b] = ValueIndex(static_cast<int>(b), static_cast<int>(b));
-  }
   Eigen::VectorXd rhs(n), diagonal(n), step(n);
   double cost = Cost(poses, cameras, points);
   summary.initial_cost = cost;
@@ -1446,32 +1498,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       bool finite = true;
       for (size_t pi = 0; pi < num_points && finite; ++pi) {
         const size_t p = point_order_.empty() ? pi : point_order_[pi];
-        lins.clear();
         const Clock::time_point jacobian_start =
             time_parts ? Clock::now() : Clock::time_point();
-        if (store_valid && stored[p]) {
-          restore(p);
-        } else {
-          for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-            if (!(Weight(k) > 0)) continue;
-            lins.emplace_back();
-            double residual[2];
-            if (!Evaluate(k, &points[3 * p], poses, cameras, residual,
-                          &lins.back())) {
-              finite = false;
-              break;
-            }
-            // The observation's diagonal cells, updated next (A_k^T A_k):
-            // fetched while the next observations are linearised.
-            for (int i = 0; i < lins.back().num_blocks; ++i) {
-              const int b = lins.back().blocks[i];
-              PrefetchCell(&values_[diagonal_cells[b]],
-                           block_size_[b] * block_size_[b]);
-            }
-          }
-          if (finite && stored[p]) keep(p);
-        }
+        finite = linearize(p, prefetch_updates_);
         if (time_parts) jacobian_wall += Seconds(Clock::now() - jacobian_start);
+        if (!finite) break;
         // The point's cell table (none: a point held, not eliminated when the
         // structure was built or beyond the budget, or SetUseCellTables(false))
         // and each observation's blocks' indexes in it.
@@ -1498,80 +1529,101 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         // W_k = A_k^T B_k; Q_k = W_k V^-1; S -= Q_k W_l^T; rhs += Q_k g.
         // The updates S -= Q_k W_l^T of the point's pairs, cell by cell
         // (through the table or the search), in the order add_pair adds a
-        // matrix's blocks. Listed first (Q and W are formed in place below,
-        // their storage fixed), so that the cells of the updates a few ahead
-        // are prefetched while the one before runs (the first ones while the
+        // matrix's blocks: for_each_update(emit) calls emit with each (Q and
+        // W are formed in place below, their storage fixed), run_update runs
+        // one. On a system out of the caches (prefetch_updates_) they are
+        // listed first, so that the cells of the updates a few ahead are
+        // prefetched while the one before runs (the first ones while the
         // point's own work runs): the cells scatter over the reduced system,
-        // and one at a time each waits for its cache misses. The same
-        // updates in the same order: the same sums.
+        // and one at a time each waits for its cache misses. Otherwise each
+        // runs as it is found. The same updates in the same order: the same
+        // sums.
         w.resize(lins.size());
         q.resize(lins.size());
-        updates.clear();
-        for (size_t k = 0; k < lins.size() && active[p]; ++k) {
-          const Linearization& lin_k = lins[k];
-          const int ldq = static_cast<int>(lin_k.A.cols());
-          for (size_t l = k; l < lins.size(); ++l) {
-            const Linearization& lin_l = lins[l];
-            const int ldw = static_cast<int>(lin_l.A.cols());
-            // Eigen's lazy product (below its GEMM threshold, 20) sums the
-            // rows it peels off an odd-sized product as t0 + (t1 + t2): that
-            // product as main formed it, for the same result to the bit.
-            if (ldq % 2 == 1 && ldq + ldw + 3 < 20) {
-              PairUpdate update{};
-              update.kind = PairUpdate::kOddPair;
-              update.k = static_cast<uint32_t>(k);
-              update.l = static_cast<uint32_t>(l);
-              updates.push_back(update);
-              continue;
-            }
-            for (int i = 0; i < lin_k.num_blocks; ++i) {
-              const int rb = lin_k.blocks[i];
-              const int li = table ? local[2 * k + i] : -1;
-              const double* qk = q[k].data() + lin_k.cols[i];
-              for (int j = 0; j < lin_l.num_blocks; ++j) {
-                const int cb = lin_l.blocks[j];
-                const int lj = table ? local[2 * l + j] : -1;
-                const double* wl = w[l].data() + lin_l.cols[j];
-                PairUpdate update;
-                if (rb < cb || (rb == cb && k == l)) {
-                  update = {qk,
-                            wl,
-                            find(rb, li, cb, lj),
-                            ldq,
-                            ldw,
-                            block_size_[rb],
-                            block_size_[cb],
-                            PairUpdate::kProduct,
-                            0,
-                            0};
-                } else if (rb > cb) {
-                  if (k == l) continue;
-                  update = {wl,
-                            qk,
-                            find(cb, lj, rb, li),
-                            ldw,
-                            ldq,
-                            block_size_[cb],
-                            block_size_[rb],
-                            PairUpdate::kProduct,
-                            0,
-                            0};
-                } else {
-                  update = {qk,
-                            wl,
-                            find(rb, li, rb, li),
-                            ldq,
-                            ldw,
-                            block_size_[rb],
-                            block_size_[rb],
-                            PairUpdate::kSymmetric,
-                            0,
-                            0};
+        auto for_each_update = [&](const auto& emit) {
+          for (size_t k = 0; k < lins.size(); ++k) {
+            const Linearization& lin_k = lins[k];
+            const int ldq = static_cast<int>(lin_k.A.cols());
+            for (size_t l = k; l < lins.size(); ++l) {
+              const Linearization& lin_l = lins[l];
+              const int ldw = static_cast<int>(lin_l.A.cols());
+              // Eigen's lazy product (below its GEMM threshold, 20) sums the
+              // rows it peels off an odd-sized product as t0 + (t1 + t2):
+              // that product as main formed it, for the same result to the
+              // bit.
+              if (ldq % 2 == 1 && ldq + ldw + 3 < 20) {
+                PairUpdate update{};
+                update.kind = PairUpdate::kOddPair;
+                update.k = static_cast<uint32_t>(k);
+                update.l = static_cast<uint32_t>(l);
+                emit(update);
+                continue;
+              }
+              for (int i = 0; i < lin_k.num_blocks; ++i) {
+                const int rb = lin_k.blocks[i];
+                const int li = table ? local[2 * k + i] : -1;
+                const double* qk = q[k].data() + lin_k.cols[i];
+                for (int j = 0; j < lin_l.num_blocks; ++j) {
+                  const int cb = lin_l.blocks[j];
+                  const int lj = table ? local[2 * l + j] : -1;
+                  const double* wl = w[l].data() + lin_l.cols[j];
+                  if (rb < cb || (rb == cb && k == l)) {
+                    emit(PairUpdate{qk, wl, find(rb, li, cb, lj), ldq, ldw,
+                                    block_size_[rb], block_size_[cb],
+                                    PairUpdate::kProduct, 0, 0});
+                  } else if (rb > cb) {
+                    if (k == l) continue;
+                    emit(PairUpdate{wl, qk, find(cb, lj, rb, li), ldw, ldq,
+                                    block_size_[cb], block_size_[rb],
+                                    PairUpdate::kProduct, 0, 0});
+                  } else {
+                    emit(PairUpdate{qk, wl, find(rb, li, rb, li), ldq, ldw,
+                                    block_size_[rb], block_size_[rb],
+                                    PairUpdate::kSymmetric, 0, 0});
+                  }
                 }
-                updates.push_back(update);
               }
             }
           }
+        };
+        auto run_update = [&](const PairUpdate& update) {
+          if (update.kind == PairUpdate::kProduct) {
+            SubtractProduct(update.a, update.lda, update.b, update.ldb,
+                            update.rows, update.cols, update.values,
+                            update.rows);
+            return;
+          }
+          if (update.kind == PairUpdate::kSymmetric) {
+            SubtractSymmetricProduct(update.a, update.lda, update.b, update.ldb,
+                                     update.rows, update.values, update.rows);
+            return;
+          }
+          const size_t k = update.k, l = update.l;
+          const Linearization& lin_k = lins[k];
+          const Linearization& lin_l = lins[l];
+          const auto m = (-(q[k] * w[l].transpose())).eval();
+          for (int i = 0; i < lin_k.num_blocks; ++i) {
+            const int rb = lin_k.blocks[i];
+            const int li = table ? local[2 * k + i] : -1;
+            for (int j = 0; j < lin_l.num_blocks; ++j) {
+              const int cb = lin_l.blocks[j];
+              const int lj = table ? local[2 * l + j] : -1;
+              const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
+                                       block_size_[rb], block_size_[cb]);
+              if (rb < cb || (rb == cb && k == l)) {
+                add_at(find(rb, li, cb, lj), sub);
+              } else if (rb > cb) {
+                if (k != l) add_at(find(cb, lj, rb, li), sub.transpose());
+              } else {
+                add_at(find(rb, li, rb, li), sub + sub.transpose());
+              }
+            }
+          }
+        };
+        updates.clear();
+        if (prefetch_updates_ && active[p]) {
+          for_each_update(
+              [&](const PairUpdate& update) { updates.push_back(update); });
         }
         const size_t num_updates = updates.size();
         const size_t ahead = std::min(kPrefetchUpdates, num_updates);
@@ -1613,43 +1665,15 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         }
         const Clock::time_point update_start =
             time_parts ? Clock::now() : Clock::time_point();
-        for (size_t u = 0; u < num_updates; ++u) {
-          if (u + kPrefetchUpdates < num_updates) {
-            Prefetch(updates[u + kPrefetchUpdates]);
-          }
-          const PairUpdate& update = updates[u];
-          if (update.kind == PairUpdate::kProduct) {
-            SubtractProduct(update.a, update.lda, update.b, update.ldb,
-                            update.rows, update.cols, update.values,
-                            update.rows);
-            continue;
-          }
-          if (update.kind == PairUpdate::kSymmetric) {
-            SubtractSymmetricProduct(update.a, update.lda, update.b, update.ldb,
-                                     update.rows, update.values, update.rows);
-            continue;
-          }
-          const size_t k = update.k, l = update.l;
-          const Linearization& lin_k = lins[k];
-          const Linearization& lin_l = lins[l];
-          const auto m = (-(q[k] * w[l].transpose())).eval();
-          for (int i = 0; i < lin_k.num_blocks; ++i) {
-            const int rb = lin_k.blocks[i];
-            const int li = table ? local[2 * k + i] : -1;
-            for (int j = 0; j < lin_l.num_blocks; ++j) {
-              const int cb = lin_l.blocks[j];
-              const int lj = table ? local[2 * l + j] : -1;
-              const auto sub = m.block(lin_k.cols[i], lin_l.cols[j],
-                                       block_size_[rb], block_size_[cb]);
-              if (rb < cb || (rb == cb && k == l)) {
-                add_at(find(rb, li, cb, lj), sub);
-              } else if (rb > cb) {
-                if (k != l) add_at(find(cb, lj, rb, li), sub.transpose());
-              } else {
-                add_at(find(rb, li, rb, li), sub + sub.transpose());
-              }
+        if (prefetch_updates_) {
+          for (size_t u = 0; u < num_updates; ++u) {
+            if (u + kPrefetchUpdates < num_updates) {
+              Prefetch(updates[u + kPrefetchUpdates]);
             }
+            run_update(updates[u]);
           }
+        } else {
+          for_each_update(run_update);
         }
         if (time_parts) update_wall += Seconds(Clock::now() - update_start);
       }
@@ -1765,8 +1789,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       continue;
     }
     num_invalid = 0;
-    // Back-substitution: each point's step from its Jacobians (evaluated
-    // again) and the cameras' step; the linear model's cost on the way.
+    // Back-substitution: each point's step from its Jacobians (kept or
+    // evaluated again) and the cameras' step; the linear model's cost on the
+    // way.
     const std::clock_t back_clock = std::clock();
     candidate_poses = poses;
     candidate_cameras = cameras;
@@ -1779,17 +1804,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     size_t max_point = 0, max_rotation = 0, max_position = 0, max_focal = 0,
            max_extra = 0;
     for (size_t p = 0; p < num_points; ++p) {
-      lins.clear();
-      if (store_valid && stored[p]) {
-        restore(p);
-      } else {
-        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-          if (!(Weight(k) > 0)) continue;
-          lins.emplace_back();
-          double residual[2];
-          Evaluate(k, &points[3 * p], poses, cameras, residual, &lins.back());
-        }
-      }
+      // (Finite: the elimination linearised every point at these
+      // parameters.)
+      linearize(p, /*prefetch=*/false);
       Eigen::Vector3d dx = Eigen::Vector3d::Zero();
       if (active[p]) {
         Matrix3 v = Matrix3::Zero();
@@ -1916,18 +1933,11 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         if (!dx.allFinite()) break;
         const Eigen::Vector3d trial = Eigen::Map<Eigen::Vector3d>(x) + dx;
         double trial_cost = 0;
-        for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-          if (!(Weight(k) > 0)) continue;
-          double residual[2];
-          if (!Evaluate(k, trial.data(), candidate_poses, candidate_cameras,
-                        residual, nullptr)) {
-            trial_cost = std::numeric_limits<double>::infinity();
-            break;
-          }
-          trial_cost +=
-              0.5 * (residual[0] * residual[0] + residual[1] * residual[1]);
+        if (!AddPointCost(p, trial.data(), candidate_poses, candidate_cameras,
+                          &trial_cost) ||
+            !(trial_cost < point_cost)) {
+          break;
         }
-        if (!(trial_cost < point_cost)) break;
         std::copy(trial.data(), trial.data() + 3, x);
       }
     }

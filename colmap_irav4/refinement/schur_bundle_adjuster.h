@@ -48,6 +48,14 @@ struct SchurSolverOptions {
   // 1,000-image one's (24 MiB); below, the points' own order (not measured
   // under 24 MiB).
   double locality_order_min_mib = 16;
+  // From this size of the reduced system's values (MiB), each point's pair
+  // updates S -= Q_k W_l^T are listed first and run with the cells of the
+  // update a few ahead prefetched (and each observation's diagonal cells
+  // prefetched as it is linearised): the cells scatter over a system out of
+  // the caches. Below, each update runs as it is found (a system in the
+  // caches: the list and the prefetches are overhead). The same updates in
+  // the same order either way: the same result to the bit.
+  double prefetch_updates_min_mib = 16;
   // A refined camera of a single refined pose (one camera per image, as
   // COLMAP's feature extractor makes by default) is one block with its
   // pose: one contiguous cell and one cell search per pair of its
@@ -124,9 +132,9 @@ class CostStall {
 // chunks; per point, the cells of the reduced system its pairs of blocks
 // fill (found once per adjuster: 4 bytes per pair of the point's m pose and
 // camera blocks, m (m + 1) / 2 pairs), so that the accumulation, half an
-// iteration's time on dense photo collections, searches no cell; the
-// updates of a point's pairs run with the cells of those a few ahead
-// prefetched (they scatter over the reduced system).
+// iteration's time on dense photo collections, searches no cell; on a
+// reduced system out of the caches, the updates of a point's pairs run
+// with the cells of those a few ahead prefetched (they scatter over it).
 //
 // The parameter blocks are the caller's (e.g. ParameterBlockCopies); the
 // solve reads them when it starts and writes the result back when it ends.
@@ -196,6 +204,10 @@ class SchurBundleAdjuster {
   void SetUseCellTables(bool use) { use_cell_tables_ = use; }
   // The cell tables' size in bytes (0 before the first solve).
   size_t CellTableBytes() const;
+  // Whether the points' pair updates are listed and prefetched
+  // (SchurSolverOptions::prefetch_updates_min_mib; false before the first
+  // solve).
+  bool PrefetchesUpdates() const { return prefetch_updates_; }
   // Whether the points are eliminated in the locality order
   // (SchurSolverOptions::locality_order_min_mib; false before the first
   // solve).
@@ -311,6 +323,13 @@ class SchurBundleAdjuster {
   // The column of a camera prior's parameter in its camera's block of the
   // reduced system, -1 when the camera or the parameter is held.
   int CameraPriorColumn(int camera) const;
+  // Adds 1/2 the squared residuals of point p's weighed observations at
+  // `point` (its 3 coordinates) and the given poses and cameras to *cost,
+  // one observation at a time; false (*cost partly summed) when one is not
+  // finite.
+  bool AddPointCost(size_t p, const double* point,
+                    const std::vector<double>& poses,
+                    const std::vector<double>& cameras, double* cost) const;
   // 1/2 the sum of squared residuals (pose residuals through their loss) at
   // the given parameters.
   double Cost(const std::vector<double>& poses,
@@ -405,6 +424,20 @@ class SchurBundleAdjuster {
   std::vector<uint32_t> point_order_;
   std::vector<uint32_t> point_cells_;
   bool use_cell_tables_ = true;
+  // SchurSolverOptions::prefetch_updates_min_mib reached (BuildStructure).
+  bool prefetch_updates_ = false;
+  // The observations' linearisations kept from the last elimination
+  // (SchurSolverOptions::max_jacobian_store_mib), point by point: point p's
+  // from jacobian_store_[jacobian_store_begin_[p]] when jacobian_stored_[p].
+  // Laid out at each solve (the weights may change between solves), the
+  // values allocated at the largest size any solve took and not zeroed
+  // (each point's are written by the elimination before they are read):
+  // allocated and zeroed at every solve, their page faults and zeroing
+  // were a cost of every solve.
+  std::unique_ptr<double[]> jacobian_store_;
+  size_t jacobian_store_capacity_ = 0;
+  std::vector<size_t> jacobian_store_begin_;
+  std::vector<char> jacobian_stored_;
   // The reduced system, in the cell layout while accumulated (above).
   std::vector<double> values_;
   // CHOLMOD's workspace and supernodal factor (null: simplicial).

@@ -7,13 +7,16 @@
 // Jacobians kept or evaluated again; after a rejected
 // undamped first step the radii its damping cannot change are skipped; its
 // iterative solver (conjugate gradients) reaches the factorisations'
-// solution, and auto chooses it above the factor's memory budget; both
+// solution, and auto chooses it above the factor's memory budget; its
+// pair updates listed and prefetched or run as found give the same
+// solution to the bit; both
 // backends stop a solve whose cost has stalled.
 
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
 
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <iterator>
 #include <map>
 #include <random>
@@ -88,6 +91,15 @@ Difference Compare(const Reconstruction& a, const Reconstruction& b) {
     }
   }
   return d;
+}
+
+// The same model to the bit.
+void ExpectSameBits(const Reconstruction& a, const Reconstruction& b) {
+  const Difference d = Compare(a, b);
+  EXPECT_EQ(d.center, 0.0);
+  EXPECT_EQ(d.rotation_deg, 0.0);
+  EXPECT_EQ(d.point, 0.0);
+  EXPECT_EQ(d.param, 0.0);
 }
 
 // Both backends from the same start; returns their summaries.
@@ -398,11 +410,7 @@ TEST(SchurBundleAdjuster, RejectedStartSkipsTheUndampedRadii) {
         AdjustWithRejectedStartRadius(1e10, min_relative_decrease, &skipped);
     EXPECT_EQ(skipping.final_mean_reproj_error,
               every_cut.final_mean_reproj_error);
-    const Difference d = Compare(tried, skipped);
-    EXPECT_EQ(d.center, 0.0);
-    EXPECT_EQ(d.rotation_deg, 0.0);
-    EXPECT_EQ(d.point, 0.0);
-    EXPECT_EQ(d.param, 0.0);
+    ExpectSameBits(tried, skipped);
     EXPECT_LT(every_cut.final_mean_reproj_error, 1.5);  // noise 1 px
     EXPECT_EQ(skipping.num_iterations,
               every_cut.num_iterations - (min_relative_decrease > 0.5 ? 5 : 0));
@@ -454,6 +462,28 @@ void AddModel(bool gauge, Reconstruction* model,
   }
 }
 
+// Two solves of the same path: the same iterations and costs to the bit.
+void ExpectSameSolve(const SchurBundleAdjuster::Summary& a,
+                     const SchurBundleAdjuster::Summary& b) {
+  EXPECT_EQ(a.num_iterations, b.num_iterations);
+  EXPECT_EQ(a.initial_cost, b.initial_cost);
+  EXPECT_EQ(a.final_cost, b.final_cost);
+}
+
+// Every fifth observation of each image (from keypoint 3) unweighted in
+// each of `weights` (AddModel's): a second solve with fewer weighed
+// observations than the first.
+void UnweighEveryFifth(
+    std::initializer_list<std::map<image_t, std::vector<double>>*> weights) {
+  for (auto* adjuster_weights : weights) {
+    for (auto& [image_id, image_weights] : *adjuster_weights) {
+      for (size_t i = 3; i < image_weights.size(); i += 5) {
+        image_weights[i] = 0;
+      }
+    }
+  }
+}
+
 // The cell tables add the same products in the same order as the search of
 // every block pair's cell: the same iterations and the same solution to the
 // bit, with one camera per image (the photo collections' pattern: all four
@@ -483,14 +513,8 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
       options.max_num_iterations = 30;
       for (int solve = 0; solve < 2; ++solve) {
         if (solve == 1) {
-          for (auto* weights :
-               {&tables_weights, &search_weights, &partial_weights}) {
-            for (auto& [image_id, image_weights] : *weights) {
-              for (size_t i = 3; i < image_weights.size(); i += 5) {
-                image_weights[i] = 0;
-              }
-            }
-          }
+          UnweighEveryFifth(
+              {&tables_weights, &search_weights, &partial_weights});
         }
         const SchurBundleAdjuster::Summary a = tables.Solve(options);
         const SchurBundleAdjuster::Summary b = search.Solve(options);
@@ -504,22 +528,15 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
         EXPECT_NE(a.termination, ceres::FAILURE);
         EXPECT_GT(a.num_iterations, 2);
         EXPECT_LT(a.final_cost, a.initial_cost);
-        EXPECT_EQ(a.num_iterations, b.num_iterations);
-        EXPECT_EQ(a.initial_cost, b.initial_cost);
-        EXPECT_EQ(a.final_cost, b.final_cost);
+        ExpectSameSolve(a, b);
         EXPECT_EQ(c.final_cost, b.final_cost);
       }
       EXPECT_GT(tables.CellTableBytes(), 0u);
       // Some points tabled, not all.
       EXPECT_LT(partial->CellTableBytes(), tables.CellTableBytes());
       EXPECT_GT(partial->CellTableBytes(), search.CellTableBytes());
-      for (const Reconstruction* model : {&tables_model, &partial_model}) {
-        const Difference d = Compare(*model, search_model);
-        EXPECT_EQ(d.center, 0.0);
-        EXPECT_EQ(d.rotation_deg, 0.0);
-        EXPECT_EQ(d.point, 0.0);
-        EXPECT_EQ(d.param, 0.0);
-      }
+      ExpectSameBits(tables_model, search_model);
+      ExpectSameBits(partial_model, search_model);
       // The solves moved the model (the comparison is not of two starts).
       EXPECT_GT(Compare(start, tables_model).point, 1e-3);
     }
@@ -562,14 +579,8 @@ TEST(SchurBundleAdjuster, KeptJacobiansSameSolutionToTheBit) {
       int num_from_kept = 0;
       for (int solve = 0; solve < 2; ++solve) {
         if (solve == 1) {
-          for (auto* weights :
-               {&kept_weights, &evaluated_weights, &partial_weights}) {
-            for (auto& [image_id, image_weights] : *weights) {
-              for (size_t i = 3; i < image_weights.size(); i += 5) {
-                image_weights[i] = 0;
-              }
-            }
-          }
+          UnweighEveryFifth(
+              {&kept_weights, &evaluated_weights, &partial_weights});
         }
         const SchurBundleAdjuster::Summary a = kept.Solve(options);
         const SchurBundleAdjuster::Summary b = evaluated.Solve(options);
@@ -591,25 +602,65 @@ TEST(SchurBundleAdjuster, KeptJacobiansSameSolutionToTheBit) {
         EXPECT_EQ(a.num_eliminations_from_kept_jacobians,
                   c.num_eliminations_from_kept_jacobians);
         num_from_kept += a.num_eliminations_from_kept_jacobians;
-        for (const SchurBundleAdjuster::Summary* other : {&b, &c}) {
-          EXPECT_EQ(a.num_iterations, other->num_iterations);
-          EXPECT_EQ(a.initial_cost, other->initial_cost);
-          EXPECT_EQ(a.final_cost, other->final_cost);
-        }
+        ExpectSameSolve(a, b);
+        ExpectSameSolve(a, c);
       }
       EXPECT_GT(num_from_kept, 0);
-      for (const Reconstruction* model : {&kept_model, &partial_model}) {
-        const Difference d = Compare(*model, evaluated_model);
-        EXPECT_EQ(d.center, 0.0);
-        EXPECT_EQ(d.rotation_deg, 0.0);
-        EXPECT_EQ(d.point, 0.0);
-        EXPECT_EQ(d.param, 0.0);
-      }
+      ExpectSameBits(kept_model, evaluated_model);
+      ExpectSameBits(partial_model, evaluated_model);
       EXPECT_GT(Compare(start, kept_model).point, 1e-3);
     }
   }
   BundleAdjustmentOptions options;
   options.schur_max_jacobian_store_mib = -1;
+  EXPECT_THROW(options.Check(), OptionError);
+}
+
+// The pair updates listed and run with their cells prefetched (forced on
+// this small system: prefetch_updates_min_mib 0) give the solution of
+// running each as it is found (the default below 16 MiB) to the bit: the
+// same updates in the same order; with cell tables and with the cell
+// search, shared and per-image cameras, over two solves (the second with
+// fewer weighed observations).
+TEST(SchurBundleAdjuster, PrefetchedUpdatesSameSolutionToTheBit) {
+  for (const bool shared_camera : {false, true}) {
+    for (const bool tables : {false, true}) {
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          (tables ? ", cell tables" : ", cell search"));
+      Reconstruction start = Scene(2, shared_camera).truth;
+      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      Reconstruction direct_model = start, prefetched_model = start;
+      std::map<image_t, std::vector<double>> direct_weights, prefetched_weights;
+      SchurSolverOptions prefetch_options;
+      prefetch_options.prefetch_updates_min_mib = 0;
+      SchurBundleAdjuster direct(/*center=*/false),
+          prefetched(/*center=*/false, prefetch_options);
+      direct.SetUseCellTables(tables);
+      prefetched.SetUseCellTables(tables);
+      AddModel(/*gauge=*/true, &direct_model, &direct_weights, &direct);
+      AddModel(/*gauge=*/true, &prefetched_model, &prefetched_weights,
+               &prefetched);
+      ceres::Solver::Options options;
+      options.max_num_iterations = 30;
+      for (int solve = 0; solve < 2; ++solve) {
+        if (solve == 1)
+          UnweighEveryFifth({&direct_weights, &prefetched_weights});
+        const SchurBundleAdjuster::Summary a = direct.Solve(options);
+        const SchurBundleAdjuster::Summary b = prefetched.Solve(options);
+        EXPECT_NE(a.termination, ceres::FAILURE);
+        EXPECT_GT(a.num_iterations, 2);
+        EXPECT_LT(a.final_cost, a.initial_cost);
+        ExpectSameSolve(a, b);
+      }
+      EXPECT_FALSE(direct.PrefetchesUpdates());
+      EXPECT_TRUE(prefetched.PrefetchesUpdates());
+      ExpectSameBits(prefetched_model, direct_model);
+      EXPECT_GT(Compare(start, direct_model).point, 1e-3);
+    }
+  }
+  BundleAdjustmentOptions options;
+  options.schur_prefetch_updates_min_mib = -1;
   EXPECT_THROW(options.Check(), OptionError);
 }
 

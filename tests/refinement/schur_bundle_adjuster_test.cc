@@ -470,6 +470,14 @@ void ExpectSameSolve(const SchurBundleAdjuster::Summary& a,
   EXPECT_EQ(a.final_cost, b.final_cost);
 }
 
+// The scene's true model (SIMPLE_RADIAL; a shared camera or one per
+// image) perturbed: the start of the Schur paths' comparisons.
+Reconstruction PerturbedStart(bool shared_camera) {
+  Reconstruction start = Scene(2, shared_camera).truth;
+  PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+  return start;
+}
+
 // Every fifth observation of each image (from keypoint 3) unweighted in
 // each of `weights` (AddModel's): a second solve with fewer weighed
 // observations than the first.
@@ -497,8 +505,7 @@ TEST(SchurBundleAdjuster, CellTablesSameSolutionAsTheCellSearch) {
       SCOPED_TRACE(
           std::string(shared_camera ? "shared camera" : "camera per image") +
           (gauge ? ", gauge" : ""));
-      Reconstruction start = Scene(2, shared_camera).truth;
-      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      const Reconstruction start = PerturbedStart(shared_camera);
       Reconstruction tables_model = start, search_model = start,
                      partial_model = start;
       std::map<image_t, std::vector<double>> tables_weights, search_weights,
@@ -557,8 +564,7 @@ TEST(SchurBundleAdjuster, KeptJacobiansSameSolutionToTheBit) {
       SCOPED_TRACE(
           std::string(shared_camera ? "shared camera" : "camera per image") +
           (gauge ? ", gauge" : ""));
-      Reconstruction start = Scene(2, shared_camera).truth;
-      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      const Reconstruction start = PerturbedStart(shared_camera);
       Reconstruction kept_model = start, evaluated_model = start,
                      partial_model = start;
       std::map<image_t, std::vector<double>> kept_weights, evaluated_weights,
@@ -628,8 +634,7 @@ TEST(SchurBundleAdjuster, PrefetchedUpdatesSameSolutionToTheBit) {
       SCOPED_TRACE(
           std::string(shared_camera ? "shared camera" : "camera per image") +
           (tables ? ", cell tables" : ", cell search"));
-      Reconstruction start = Scene(2, shared_camera).truth;
-      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      const Reconstruction start = PerturbedStart(shared_camera);
       Reconstruction direct_model = start, prefetched_model = start;
       std::map<image_t, std::vector<double>> direct_weights, prefetched_weights;
       SchurSolverOptions prefetch_options;
@@ -670,8 +675,7 @@ TEST(SchurBundleAdjuster, PrefetchedUpdatesSameSolutionToTheBit) {
 TEST(SchurBundleAdjuster, LocalityOrderSameSolutionUpToRounding) {
   for (const bool shared_camera : {false, true}) {
     SCOPED_TRACE(shared_camera ? "shared camera" : "camera per image");
-    Reconstruction start = Scene(2, shared_camera).truth;
-    PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+    const Reconstruction start = PerturbedStart(shared_camera);
     Reconstruction own_model = start, ordered_model = start;
     std::map<image_t, std::vector<double>> own_weights, ordered_weights;
     SchurSolverOptions ordered_options;
@@ -711,8 +715,7 @@ TEST(SchurBundleAdjuster, OwnCameraJoinedToItsPoseSameSolution) {
       SCOPED_TRACE(
           std::string(shared_camera ? "shared camera" : "camera per image") +
           (iterative ? ", iterative" : ""));
-      Reconstruction start = Scene(2, shared_camera).truth;
-      PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
+      const Reconstruction start = PerturbedStart(shared_camera);
       Reconstruction joined_model = start, separate_model = start;
       std::map<image_t, std::vector<double>> joined_weights, separate_weights;
       SchurSolverOptions joined_options, separate_options;

@@ -138,7 +138,14 @@ GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
       log_prefix_(std::move(log_prefix)),
       pairs_(std::move(pairs)),
       retriangulated_(options.skip_retriangulation),
-      evidence_(evidence) {}
+      evidence_(evidence) {
+  if (options_.weak_image_min_pair_triangles > 0) {
+    given_pairs_.reserve(pairs_.size());
+    for (const ImagePairGeometry& pair : pairs_) {
+      given_pairs_.emplace_back(pair.image_id1, pair.image_id2);
+    }
+  }
+}
 
 bool GlobalMapper::Fail(const std::string& reason) {
   failure_ = reason;
@@ -332,9 +339,54 @@ ModelRigidity GlobalMapper::CheckRigidity() {
 }
 
 void GlobalMapper::LeaveOutWeakParts(const std::string& when) {
-  if (options_.weak_part_min_shared_points <= 0) return;
+  const int min_triangles = options_.weak_image_min_pair_triangles;
+  if (options_.weak_part_min_shared_points <= 0 && min_triangles <= 0) {
+    return;
+  }
   ResumeKeypoints();
   StageTimer stage("weak parts (" + when + ")");
+  int num_unchecked_left_out = 0;
+  if (min_triangles > 0) {
+    const std::set<image_t> before = CurrentImages();
+    std::set<image_t> kept = before;
+    while (true) {
+      std::map<image_t, std::set<image_t>> partners;
+      for (const auto& [image_id1, image_id2] : given_pairs_) {
+        if (kept.count(image_id1) && kept.count(image_id2)) {
+          partners[image_id1].insert(image_id2);
+          partners[image_id2].insert(image_id1);
+        }
+      }
+      std::vector<image_t> unchecked;
+      for (const image_t image_id : kept) {
+        int num_triangles = 0;
+        const std::set<image_t>& mine = partners[image_id];
+        for (auto a = mine.begin(); a != mine.end(); ++a) {
+          const std::set<image_t>& theirs = partners[*a];
+          for (auto b = std::next(a);
+               b != mine.end() && num_triangles < min_triangles; ++b) {
+            num_triangles += theirs.count(*b) > 0 ? 1 : 0;
+          }
+          if (num_triangles >= min_triangles) break;
+        }
+        if (num_triangles < min_triangles) unchecked.push_back(image_id);
+      }
+      if (unchecked.empty()) break;
+      for (const image_t image_id : unchecked) kept.erase(image_id);
+    }
+    if (kept.size() < before.size() &&
+        static_cast<int>(kept.size()) >= options_.min_model_size) {
+      num_unchecked_left_out = static_cast<int>(before.size() - kept.size());
+      RestrictToImages(kept);
+      LogImagesLeft(stage.report().name + " (in no pair triangle)", before);
+    }
+  }
+  if (options_.weak_part_min_shared_points <= 0) {
+    stage.Add("images left out (few pair triangles)", num_unchecked_left_out);
+    AddModelFigures(&stage);
+    stage.Finish(log_prefix_, &stages_);
+    return;
+  }
   ModelRigidityOptions rigidity_options;
   rigidity_options.min_shared_points = options_.weak_part_min_shared_points;
   ModelRigidity rigidity;
@@ -398,6 +450,7 @@ void GlobalMapper::LeaveOutWeakParts(const std::string& when) {
       num_observations_cut = static_cast<int>(cut.size());
     }
   }
+  stage.Add("images left out (few pair triangles)", num_unchecked_left_out);
   stage.Add("parts", num_parts);
   stage.Add("images left out", num_images_left_out);
   stage.Add("observations cut between parts", num_observations_cut);
@@ -1145,6 +1198,10 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
   if (o.weak_part_min_shared_points < 0) {
     throw OptionError(&o.weak_part_min_shared_points,
                       "Mapper.weak_part_min_shared_points", "must be >= 0");
+  }
+  if (o.weak_image_min_pair_triangles < 0) {
+    throw OptionError(&o.weak_image_min_pair_triangles,
+                      "Mapper.weak_image_min_pair_triangles", "must be >= 0");
   }
   if (o.num_ba_iterations < 0) {
     throw OptionError(&o.num_ba_iterations, "Mapper.num_ba_iterations",

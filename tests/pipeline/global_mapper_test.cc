@@ -231,6 +231,16 @@ TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {
         std::string(error.what()).find("--Mapper.weak_part_min_shared_points"),
         std::string::npos);
   }
+  options = GlobalMapperOptions();
+  options.weak_image_min_pair_triangles = -1;
+  try {
+    options.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what())
+                  .find("--Mapper.weak_image_min_pair_triangles"),
+              std::string::npos);
+  }
 }
 
 TEST(GlobalMapperSummary, JsonHasTheFiguresAndEscapesStrings) {

@@ -138,7 +138,14 @@ GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
       log_prefix_(std::move(log_prefix)),
       pairs_(std::move(pairs)),
       retriangulated_(options.skip_retriangulation),
-      evidence_(evidence) {}
+      evidence_(evidence) {
+  if (options_.weak_image_min_pair_triangles > 0) {
+    given_pairs_.reserve(pairs_.size());
+    for (const ImagePairGeometry& pair : pairs_) {
+      given_pairs_.emplace_back(pair.image_id1, pair.image_id2);
+    }
+  }
+}
 
 bool GlobalMapper::Fail(const std::string& reason) {
   failure_ = reason;
@@ -329,6 +336,126 @@ ModelRigidity GlobalMapper::CheckRigidity() {
   stage.Add("large blocks", static_cast<double>(rigidity.num_large_blocks));
   stage.Finish(log_prefix_, &stages_);
   return rigidity;
+}
+
+void GlobalMapper::LeaveOutWeakParts(const std::string& when) {
+  const int min_triangles = options_.weak_image_min_pair_triangles;
+  if (options_.weak_part_min_shared_points <= 0 && min_triangles <= 0) {
+    return;
+  }
+  ResumeKeypoints();
+  StageTimer stage("weak parts (" + when + ")");
+  int num_unchecked_left_out = 0;
+  if (min_triangles > 0) {
+    const std::set<image_t> before = CurrentImages();
+    std::set<image_t> kept = before;
+    while (true) {
+      std::map<image_t, std::set<image_t>> partners;
+      for (const auto& [image_id1, image_id2] : given_pairs_) {
+        if (kept.count(image_id1) && kept.count(image_id2)) {
+          partners[image_id1].insert(image_id2);
+          partners[image_id2].insert(image_id1);
+        }
+      }
+      std::vector<image_t> unchecked;
+      for (const image_t image_id : kept) {
+        int num_triangles = 0;
+        const std::set<image_t>& mine = partners[image_id];
+        for (auto a = mine.begin(); a != mine.end(); ++a) {
+          const std::set<image_t>& theirs = partners[*a];
+          for (auto b = std::next(a);
+               b != mine.end() && num_triangles < min_triangles; ++b) {
+            num_triangles += theirs.count(*b) > 0 ? 1 : 0;
+          }
+          if (num_triangles >= min_triangles) break;
+        }
+        if (num_triangles < min_triangles) unchecked.push_back(image_id);
+      }
+      if (unchecked.empty()) break;
+      for (const image_t image_id : unchecked) kept.erase(image_id);
+    }
+    if (kept.size() < before.size() &&
+        static_cast<int>(kept.size()) >= options_.min_model_size) {
+      num_unchecked_left_out = static_cast<int>(before.size() - kept.size());
+      RestrictToImages(kept);
+      LogImagesLeft(stage.report().name + " (in no pair triangle)", before);
+    }
+  }
+  if (options_.weak_part_min_shared_points <= 0) {
+    stage.Add("images left out (few pair triangles)", num_unchecked_left_out);
+    AddModelFigures(&stage);
+    stage.Finish(log_prefix_, &stages_);
+    return;
+  }
+  ModelRigidityOptions rigidity_options;
+  rigidity_options.min_shared_points = options_.weak_part_min_shared_points;
+  ModelRigidity rigidity;
+  if (retriangulated_) {
+    rigidity = AnalyzeModelRigidity(rigidity_options, reconstruction_,
+                                    options_.min_model_size);
+  } else {
+    // Before retriangulation the model holds positioning's tracks only: the
+    // ties are those every track will give.
+    std::vector<image_t> images;
+    for (const auto& [image_id, image] : reconstruction_.images) {
+      images.push_back(image_id);
+    }
+    std::vector<std::vector<image_t>> point_images;
+    point_images.reserve(tracks_.size());
+    for (const Track& track : tracks_) {
+      std::vector<image_t>& ids = point_images.emplace_back();
+      for (const TrackElement& element : track) ids.push_back(element.image_id);
+    }
+    rigidity = AnalyzeTieRigidity(rigidity_options, images, point_images,
+                                  options_.min_model_size);
+  }
+  std::map<image_t, int> part_of;
+  int num_parts = 0;
+  for (const std::vector<image_t>& block : rigidity.blocks) {
+    if (static_cast<int>(block.size()) < options_.min_model_size) continue;
+    for (const image_t image_id : block) part_of[image_id] = num_parts;
+    ++num_parts;
+  }
+  int num_images_left_out = 0;
+  int num_observations_cut = 0;
+  // Without a part large enough the model stays as it is (its own
+  // failure, if any, is the later stages' to report).
+  if (num_parts > 0) {
+    std::set<image_t> kept;
+    for (const auto& [image_id, part] : part_of) kept.insert(image_id);
+    const std::set<image_t> before = CurrentImages();
+    num_images_left_out = static_cast<int>(before.size() - kept.size());
+    if (num_images_left_out > 0) {
+      RestrictToImages(kept);
+      LogImagesLeft(stage.report().name, before);
+    }
+    if (num_parts > 1) {
+      std::vector<TrackElement> cut;
+      std::vector<int> count(num_parts, 0);
+      for (const auto& [point3D_id, point3D] : reconstruction_.points3D) {
+        std::fill(count.begin(), count.end(), 0);
+        for (const TrackElement& element : point3D.track) {
+          ++count[part_of.at(element.image_id)];
+        }
+        const int home = static_cast<int>(
+            std::max_element(count.begin(), count.end()) - count.begin());
+        for (const TrackElement& element : point3D.track) {
+          if (part_of.at(element.image_id) != home) cut.push_back(element);
+        }
+      }
+      for (const TrackElement& element : cut) {
+        DeleteObservation(element.image_id, element.point2D_idx,
+                          &reconstruction_);
+      }
+      num_observations_cut = static_cast<int>(cut.size());
+    }
+  }
+  stage.Add("images left out (few pair triangles)", num_unchecked_left_out);
+  stage.Add("parts", num_parts);
+  stage.Add("images left out", num_images_left_out);
+  stage.Add("observations cut between parts", num_observations_cut);
+  AddModelFigures(&stage);
+  stage.Finish(log_prefix_, &stages_);
 }
 
 bool GlobalMapper::RotationAveraging() {
@@ -679,6 +806,8 @@ bool GlobalMapper::IterativeBundleAdjustment() {
       options_.skip_bundle_adjustment ? 0 : options_.num_ba_iterations;
   for (int iteration = 0; iteration < std::max(num_ba, 1); ++iteration) {
     if (iteration < num_ba) {
+      LeaveOutWeakParts("before bundle adjustment " +
+                        std::to_string(iteration + 1));
       StageTimer stage("bundle adjustment " + std::to_string(iteration + 1));
       // After retriangulation the model is nearly clean: the last bundle
       // adjustment is one solve (a second one for the few observations its
@@ -826,6 +955,7 @@ bool GlobalMapper::TwoViewCheck() {
   if (!options_.two_view_check.enabled || options_.skip_bundle_adjustment) {
     return true;
   }
+  LeaveOutWeakParts("before the two-view check");
   StageTimer stage("two-view check");
   TwoViewCheckSummary summary;
   bool kept = false;
@@ -1064,6 +1194,14 @@ void CheckEverySetting(const GlobalMapperOptions& options) {
       o.color_image_downscale != 4 && o.color_image_downscale != 8) {
     throw OptionError(&o.color_image_downscale, "Mapper.color_image_downscale",
                       "must be 1, 2, 4 or 8");
+  }
+  if (o.weak_part_min_shared_points < 0) {
+    throw OptionError(&o.weak_part_min_shared_points,
+                      "Mapper.weak_part_min_shared_points", "must be >= 0");
+  }
+  if (o.weak_image_min_pair_triangles < 0) {
+    throw OptionError(&o.weak_image_min_pair_triangles,
+                      "Mapper.weak_image_min_pair_triangles", "must be >= 0");
   }
   if (o.num_ba_iterations < 0) {
     throw OptionError(&o.num_ba_iterations, "Mapper.num_ba_iterations",

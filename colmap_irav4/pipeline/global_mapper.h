@@ -86,6 +86,23 @@ struct GlobalMapperOptions {
   // positioning uses first, then the longest; a warning says how many were
   // dropped (0: no cap).
   int max_num_tracks = 0;
+  // Weakly tied parts left out of the adjustments (0: off). Before each
+  // bundle adjustment (and the two-view check's), the model's rigidity with
+  // ties of this many shared points (refinement/model_rigidity.h; before the
+  // first adjustment counted over every track, the model then holding
+  // positioning's only): images in no rigid part of min_model_size images
+  // or more leave the model (the rigidity split would not write them), and
+  // each point keeps only the observations of its part with the most, so
+  // that the parts are adjusted apart (each its own gauge) instead of one
+  // crawling about the few points that tie it to the rest.
+  int weak_part_min_shared_points = 0;
+  // Before each bundle adjustment too (0: off): images in fewer than this
+  // many triangles of the component's pairs as given, before the rotation
+  // filter (two of its partners paired with each other), among the model's
+  // images leave the model, repeated until every image has them: no cycle
+  // of relative poses checks such an image's place (an image joined only by
+  // a random pair or two is one).
+  int weak_image_min_pair_triangles = 0;
 
   // Skip flags of the optional stages. The view graph, rotation averaging,
   // tracks and positioning cannot be skipped: nothing downstream exists
@@ -230,6 +247,10 @@ class GlobalMapper {
   bool CheckFold(const std::string& when);
   // Whether the model is one rigid piece (refinement/model_rigidity.h).
   ModelRigidity CheckRigidity();
+  // With weak_part_min_shared_points or weak_image_min_pair_triangles: the
+  // weak parts and images left out of the adjustment that follows (`when`
+  // names it in the stage).
+  void LeaveOutWeakParts(const std::string& when);
   // Keeps only `images` (those of the model among them), their observations
   // and the points still seen twice: a model that is not one rigid piece is
   // written as its parts.
@@ -330,6 +351,9 @@ class GlobalMapper {
   std::string log_prefix_;
 
   std::vector<ImagePairGeometry> pairs_;
+  // With weak_image_min_pair_triangles: the pairs as given (before the
+  // rotation filter), whose triangles it counts.
+  std::vector<std::pair<image_t, image_t>> given_pairs_;
   std::map<image_t, Eigen::Matrix3d> rotations_;
   std::vector<Track> tracks_;
   Reconstruction reconstruction_;

@@ -684,6 +684,15 @@ void AddGlobalMapperOptions(OptionManager* manager,
                "at most this many tracks (points): positioning's first, then "
                "the longest; a warning says how many were dropped (0: no "
                "cap)");
+  manager->Add("Mapper.weak_part_min_shared_points",
+               &o.weak_part_min_shared_points,
+               "before each bundle adjustment, images in no rigid part of "
+               "min_model_size images at ties of this many points leave the "
+               "model and the parts' ties are cut (0: off)");
+  manager->Add("Mapper.weak_image_min_pair_triangles",
+               &o.weak_image_min_pair_triangles,
+               "before each bundle adjustment, images in fewer triangles of "
+               "the model's pairs leave the model (0: off)");
   manager->Add("Mapper.positioning_tracks_per_pair", &selection.tracks_per_pair,
                "... and every view-graph pair keeps this many of its tracks "
                "(0: no pair quota)");

@@ -139,45 +139,16 @@ std::vector<JointTie> CountJointTies(
   return result;
 }
 
-}  // namespace
-
-ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
-                                   const Reconstruction& reconstruction,
-                                   int min_model_size) {
-  const DenseImageIndex dense(reconstruction);
-  const std::vector<image_t>& ids = dense.ids;
-  const std::map<image_t, int>& index = dense.index;
+// AnalyzeModelRigidity's rule on the tie graph (`adjacency`, `weight`: the
+// image pairs sharing at least min_shared_points points and how many) and
+// the points' images (dense numbers, sorted, two or more a point).
+ModelRigidity RigidityOfTies(const ModelRigidityOptions& options,
+                             const std::vector<image_t>& ids,
+                             const std::vector<std::vector<int>>& point_images,
+                             std::vector<std::vector<int>> adjacency,
+                             const std::map<std::pair<int, int>, int>& weight,
+                             int min_model_size) {
   const int n = static_cast<int>(ids.size());
-
-  // Tie graph: common points per image pair, counted per first image with
-  // dense counters.
-  std::vector<std::vector<int>> adjacency(n);
-  std::map<std::pair<int, int>, int> weight;  // (i < j) -> common points
-  std::vector<int> count(n, 0);
-  std::vector<int> touched;
-  for (int i = 0; i < n; ++i) {
-    const Image& image = reconstruction.images.at(ids[i]);
-    for (const Point2D& point2D : image.points2D) {
-      if (point2D.point3D_id == kInvalidPoint3DId) continue;
-      const auto point = reconstruction.points3D.find(point2D.point3D_id);
-      if (point == reconstruction.points3D.end()) continue;
-      for (const TrackElement& element : point->second.track) {
-        const auto other = index.find(element.image_id);
-        if (other == index.end() || other->second <= i) continue;
-        if (count[other->second]++ == 0) touched.push_back(other->second);
-      }
-    }
-    for (const int j : touched) {
-      if (count[j] >= options.min_shared_points) {
-        adjacency[i].push_back(j);
-        adjacency[j].push_back(i);
-        weight[{i, j}] = count[j];
-      }
-      count[j] = 0;
-    }
-    touched.clear();
-  }
-
   // Blocks joined at an image and tied by enough points seen from both
   // (CountJointTies) are one rigid piece: an edge between an image of
   // each, other than the shared one, closes a cycle through the shared
@@ -187,18 +158,6 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
   // a joint is itself an edge that makes the two blocks one: nothing to do.
   std::vector<std::vector<int>> index_blocks = FindBlocks(adjacency);
   if (options.min_shared_points > 1) {
-    std::vector<std::vector<int>> point_images;
-    point_images.reserve(reconstruction.points3D.size());
-    for (const auto& [point3D_id, point3D] : reconstruction.points3D) {
-      std::vector<int>& images = point_images.emplace_back();
-      for (const TrackElement& element : point3D.track) {
-        const auto it = index.find(element.image_id);
-        if (it != index.end()) images.push_back(it->second);
-      }
-      std::sort(images.begin(), images.end());
-      images.erase(std::unique(images.begin(), images.end()), images.end());
-      if (images.size() < 2) point_images.pop_back();
-    }
     while (true) {
       bool merged = false;
       for (const JointTie& tie :
@@ -269,6 +228,119 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
         static_cast<int>(block.size()) >= min_model_size ? 1 : 0;
   }
   return result;
+}
+
+}  // namespace
+
+ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
+                                   const Reconstruction& reconstruction,
+                                   int min_model_size) {
+  const DenseImageIndex dense(reconstruction);
+  const std::vector<image_t>& ids = dense.ids;
+  const std::map<image_t, int>& index = dense.index;
+  const int n = static_cast<int>(ids.size());
+
+  // Tie graph: common points per image pair, counted per first image with
+  // dense counters.
+  std::vector<std::vector<int>> adjacency(n);
+  std::map<std::pair<int, int>, int> weight;  // (i < j) -> common points
+  std::vector<int> count(n, 0);
+  std::vector<int> touched;
+  for (int i = 0; i < n; ++i) {
+    const Image& image = reconstruction.images.at(ids[i]);
+    for (const Point2D& point2D : image.points2D) {
+      if (point2D.point3D_id == kInvalidPoint3DId) continue;
+      const auto point = reconstruction.points3D.find(point2D.point3D_id);
+      if (point == reconstruction.points3D.end()) continue;
+      for (const TrackElement& element : point->second.track) {
+        const auto other = index.find(element.image_id);
+        if (other == index.end() || other->second <= i) continue;
+        if (count[other->second]++ == 0) touched.push_back(other->second);
+      }
+    }
+    for (const int j : touched) {
+      if (count[j] >= options.min_shared_points) {
+        adjacency[i].push_back(j);
+        adjacency[j].push_back(i);
+        weight[{i, j}] = count[j];
+      }
+      count[j] = 0;
+    }
+    touched.clear();
+  }
+
+  std::vector<std::vector<int>> point_images;
+  if (options.min_shared_points > 1) {
+    point_images.reserve(reconstruction.points3D.size());
+    for (const auto& [point3D_id, point3D] : reconstruction.points3D) {
+      std::vector<int>& images = point_images.emplace_back();
+      for (const TrackElement& element : point3D.track) {
+        const auto it = index.find(element.image_id);
+        if (it != index.end()) images.push_back(it->second);
+      }
+      std::sort(images.begin(), images.end());
+      images.erase(std::unique(images.begin(), images.end()), images.end());
+      if (images.size() < 2) point_images.pop_back();
+    }
+  }
+  return RigidityOfTies(options, ids, point_images, std::move(adjacency),
+                        weight, min_model_size);
+}
+
+ModelRigidity AnalyzeTieRigidity(
+    const ModelRigidityOptions& options, const std::vector<image_t>& images,
+    const std::vector<std::vector<image_t>>& point_images, int min_model_size) {
+  std::vector<image_t> ids = images;
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  std::map<image_t, int> index;
+  for (size_t k = 0; k < ids.size(); ++k) {
+    index[ids[k]] = static_cast<int>(k);
+  }
+  const int n = static_cast<int>(ids.size());
+  std::vector<std::vector<int>> dense_points;
+  dense_points.reserve(point_images.size());
+  for (const std::vector<image_t>& point : point_images) {
+    std::vector<int>& dense = dense_points.emplace_back();
+    for (const image_t image_id : point) {
+      const auto it = index.find(image_id);
+      if (it != index.end()) dense.push_back(it->second);
+    }
+    std::sort(dense.begin(), dense.end());
+    dense.erase(std::unique(dense.begin(), dense.end()), dense.end());
+    if (dense.size() < 2) dense_points.pop_back();
+  }
+  // Tie graph as AnalyzeModelRigidity's, from each image's points.
+  std::vector<std::vector<int>> points_of(n);
+  for (size_t p = 0; p < dense_points.size(); ++p) {
+    for (const int k : dense_points[p]) {
+      points_of[k].push_back(static_cast<int>(p));
+    }
+  }
+  std::vector<std::vector<int>> adjacency(n);
+  std::map<std::pair<int, int>, int> weight;
+  std::vector<int> count(n, 0);
+  std::vector<int> touched;
+  for (int i = 0; i < n; ++i) {
+    for (const int p : points_of[i]) {
+      for (const int j : dense_points[p]) {
+        if (j <= i) continue;
+        if (count[j]++ == 0) touched.push_back(j);
+      }
+    }
+    for (const int j : touched) {
+      if (count[j] >= options.min_shared_points) {
+        adjacency[i].push_back(j);
+        adjacency[j].push_back(i);
+        weight[{i, j}] = count[j];
+      }
+      count[j] = 0;
+    }
+    touched.clear();
+  }
+  if (options.min_shared_points <= 1) dense_points.clear();
+  return RigidityOfTies(options, ids, dense_points, std::move(adjacency),
+                        weight, min_model_size);
 }
 
 }  // namespace colmap_irav4

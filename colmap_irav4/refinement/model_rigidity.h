@@ -41,4 +41,11 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
                                    const Reconstruction& reconstruction,
                                    int min_model_size);
 
+// The same rule over points given by their images only (e.g. feature tracks
+// not yet triangulated): `point_images[p]` lists the images observing point
+// p; images not in `images` are ignored.
+ModelRigidity AnalyzeTieRigidity(
+    const ModelRigidityOptions& options, const std::vector<image_t>& images,
+    const std::vector<std::vector<image_t>>& point_images, int min_model_size);
+
 }  // namespace colmap_irav4

@@ -668,5 +668,103 @@ TEST(GlobalMapperStages, AnImageOnlyAFalsePairHoldsLeavesTheModel) {
   EXPECT_EQ(num_filtered, 1.0);
 }
 
+// The scene with its last three images a part tied to the rest by the few
+// points whose id is a multiple of 100 (their matches across kept, every
+// other match across dropped): with Mapper.weak_part_min_shared_points the
+// part is adjusted apart from the rest (no point seen from both), or, when
+// smaller than min_model_size, leaves the model; without it the few points
+// tie the two.
+TEST(GlobalMapperStages, WeaklyTiedPartIsLeftOutOfTheAdjustment) {
+  StageScene s = MakeStageScene();
+  const std::set<image_t> part(s.images.end() - 3, s.images.end());
+  const Reconstruction& truth = s.scene.truth;
+  auto across = [&](image_t a, image_t b) {
+    return part.count(a) != part.count(b);
+  };
+  std::map<image_pair_t, int> num_kept;
+  for (TwoViewGeometry& geometry : s.database.two_view_geometries) {
+    if (!across(geometry.image_id1, geometry.image_id2)) continue;
+    std::vector<FeatureMatch> kept;
+    for (const FeatureMatch& match : geometry.inlier_matches) {
+      const point3D_t point3D_id = truth.images.at(geometry.image_id1)
+                                       .points2D[match.point2D_idx1]
+                                       .point3D_id;
+      if (point3D_id % 100 == 0) kept.push_back(match);
+    }
+    geometry.inlier_matches = kept;
+    num_kept[ImagePairToPairId(geometry.image_id1, geometry.image_id2)] =
+        static_cast<int>(kept.size());
+  }
+  std::vector<ImagePairGeometry> pairs;
+  for (ImagePairGeometry pair : s.pairs) {
+    if (across(pair.image_id1, pair.image_id2)) {
+      const int num =
+          num_kept[ImagePairToPairId(pair.image_id1, pair.image_id2)];
+      if (num < 2) continue;
+      pair.num_inliers = num;
+    }
+    pairs.push_back(pair);
+  }
+  s.pairs = pairs;
+
+  // Whether some point is seen both from the part and from the rest.
+  auto tied = [&](const Reconstruction& model) {
+    for (const auto& [point3D_id, point3D] : model.points3D) {
+      bool in_part = false, in_rest = false;
+      for (const TrackElement& element : point3D.track) {
+        (part.count(element.image_id) ? in_part : in_rest) = true;
+      }
+      if (in_part && in_rest) return true;
+    }
+    return false;
+  };
+  auto figure = [](const GlobalMapper& mapper, const std::string& name) {
+    double total = 0;
+    for (const StageReport& stage : mapper.stages()) {
+      for (const auto& [figure_name, value] : stage.figures) {
+        if (figure_name == name) total += value;
+      }
+    }
+    return total;
+  };
+
+  GlobalMapper held(TestOptions().ForStages(s.images.size()), s.database,
+                    s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(held.Solve());
+  EXPECT_EQ(held.reconstruction().images.size(), s.images.size());
+  EXPECT_TRUE(tied(held.reconstruction()));
+
+  GlobalMapperOptions options = TestOptions();
+  options.weak_part_min_shared_points = 15;
+  GlobalMapper apart(options.ForStages(s.images.size()), s.database,
+                     s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(apart.Solve());
+  EXPECT_EQ(apart.reconstruction().images.size(), s.images.size());
+  EXPECT_FALSE(tied(apart.reconstruction()));
+  EXPECT_GT(figure(apart, "observations cut between parts"), 0.0);
+  EXPECT_EQ(figure(apart, "images left out"), 0.0);
+  // Each part is still a good model of its own: the relative rotations
+  // within it are the truth's.
+  for (const bool in_part : {false, true}) {
+    std::map<image_t, Eigen::Matrix3d> rotations;
+    for (const auto& [image_id, image] : apart.reconstruction().images) {
+      if ((part.count(image_id) > 0) == in_part) {
+        rotations[image_id] = image.cam_from_world.rotation.toRotationMatrix();
+      }
+    }
+    EXPECT_LT(MaxRelativeRotationErrorDeg(rotations, truth), 0.5);
+  }
+
+  options.min_model_size = 4;
+  GlobalMapper left_out(options.ForStages(s.images.size()), s.database,
+                        s.database.cameras, s.images, s.pairs);
+  ASSERT_TRUE(left_out.Solve());
+  EXPECT_EQ(left_out.reconstruction().images.size(), s.images.size() - 3);
+  for (const image_t image_id : part) {
+    EXPECT_EQ(left_out.reconstruction().images.count(image_id), 0u);
+  }
+  EXPECT_EQ(figure(left_out, "images left out"), 3.0);
+}
+
 }  // namespace
 }  // namespace colmap_irav4

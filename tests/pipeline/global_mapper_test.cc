@@ -221,6 +221,26 @@ TEST(GlobalMapperOptions, DefaultsAreValidAndCheckNamesTheOption) {
   options = GlobalMapperOptions();
   options.rotation_filter.max_rotation_error_deg = 0;
   EXPECT_THROW(options.Check(), InputError);
+  options = GlobalMapperOptions();
+  options.weak_part_min_shared_points = -1;
+  try {
+    options.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& error) {
+    EXPECT_NE(
+        std::string(error.what()).find("--Mapper.weak_part_min_shared_points"),
+        std::string::npos);
+  }
+  options = GlobalMapperOptions();
+  options.weak_image_min_pair_triangles = -1;
+  try {
+    options.Check();
+    FAIL() << "expected InputError";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what())
+                  .find("--Mapper.weak_image_min_pair_triangles"),
+              std::string::npos);
+  }
 }
 
 TEST(GlobalMapperSummary, JsonHasTheFiguresAndEscapesStrings) {

@@ -1082,6 +1082,57 @@ std::vector<int> SignedGraphCut(
   return side;
 }
 
+namespace {
+
+// The signed cut of the images `nodes` (dense indices, ascending): the
+// trusted pairs among them (a, b, inliers) pull together, scaled by
+// `trusted_scale`, and the negative pairs among them push apart, each
+// weighing `negative_weight`. Returns the side to re-orient (the smaller;
+// dense indices), empty when the cut does not explain the negatives.
+std::vector<int> SignedFoldCut(
+    const std::vector<int>& nodes,
+    const std::vector<std::tuple<int, int, double>>& trusted,
+    const std::vector<std::pair<int, int>>& negatives, double trusted_scale,
+    double negative_weight) {
+  const int n = static_cast<int>(nodes.size());
+  if (n < 2 || negatives.empty() || trusted.empty()) return {};
+  std::vector<int> local(nodes.back() + 1, -1);
+  for (int k = 0; k < n; ++k) local[nodes[k]] = k;
+  std::vector<std::tuple<int, int, double>> edges;
+  edges.reserve(trusted.size() + negatives.size());
+  for (const auto& [a, b, w] : trusted) {
+    edges.emplace_back(local[a], local[b], w * trusted_scale);
+  }
+  for (const auto& [a, b] : negatives) {
+    edges.emplace_back(local[a], local[b], -negative_weight);
+  }
+  const std::vector<int> side = SignedGraphCut(n, edges);
+  int cut_trusted = 0;
+  int cut_missing = 0;
+  for (const auto& [a, b, w] : edges) {
+    if (side[a] == side[b]) continue;
+    (w > 0 ? cut_trusted : cut_missing) += 1;
+  }
+  std::vector<int> positive;
+  std::vector<int> negative_side;
+  for (int k = 0; k < n; ++k) {
+    (side[k] > 0 ? positive : negative_side).push_back(nodes[k]);
+  }
+  VLOG(1) << "fold cut: " << positive.size() << " | " << negative_side.size()
+          << " images, " << cut_missing << " missing and " << cut_trusted
+          << " trusted pairs cut";
+  // The cut explains the fold when most missing pairs cross it (the pairs
+  // it cuts that the model trusts are then the ones that folded it), or when
+  // it separates more missing pairs than it cuts trusted ones.
+  const int num_missing_edges = static_cast<int>(negatives.size());
+  const bool explains =
+      cut_missing * 5 >= num_missing_edges * 4 || cut_missing > cut_trusted;
+  if (positive.empty() || negative_side.empty() || !explains) return {};
+  return positive.size() < negative_side.size() ? positive : negative_side;
+}
+
+}  // namespace
+
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const FoldDetectionOptions& options, const Reconstruction& reconstruction,
     const FoldEvidence& evidence, const FoldReport& report) {
@@ -1089,22 +1140,21 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   const std::vector<image_t>& ids = dense.ids;
   const std::map<image_t, int>& index = dense.index;
   const int n = static_cast<int>(ids.size());
-  // Signed graph: trusted pairs pull together (by their inliers, below),
-  // missing and weak pairs push apart (-1 each, scaled so that both kinds
-  // weigh the same in total).
+  // Signed graph: trusted pairs pull together, missing and weak pairs push
+  // apart.
   std::set<std::pair<image_t, image_t>> suspects(report.suspect_pairs.begin(),
                                                  report.suspect_pairs.end());
   // Weak pairs are not trusted; the weak predicted ones push apart as the
   // missing pairs do (a fold's false pairs are the weak ones across it).
-  std::vector<std::pair<image_t, image_t>> negatives = report.missing_pairs;
+  std::vector<std::pair<image_t, image_t>> negative_pairs =
+      report.missing_pairs;
   for (const PairSupport& support : report.pair_support) {
     if (!support.weak) continue;
     suspects.insert({support.image_id1, support.image_id2});
     if (support.predicted)
-      negatives.emplace_back(support.image_id1, support.image_id2);
+      negative_pairs.emplace_back(support.image_id1, support.image_id2);
   }
-  std::vector<std::tuple<int, int, double>> edges;
-  int num_trusted = 0;
+  std::vector<std::tuple<int, int, double>> trusted;
   for (const PairEvidence& pair : evidence.pairs) {
     if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
       continue;
@@ -1123,60 +1173,98 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
         options.max_rotation_error_deg) {
       continue;
     }
-    edges.emplace_back(i1->second, i2->second, pair.num_inliers);
-    ++num_trusted;
+    trusted.emplace_back(i1->second, i2->second, pair.num_inliers);
   }
-  // Trusted pairs pull in proportion to their verified inliers (normalised
-  // to a mean of one): a false pair keeps only part of what a true pair
-  // matches, so an image with true pairs on one side and false pairs the
-  // fold agrees with on the other is drawn to its true side.
-  if (num_trusted > 0) {
-    double total = 0;
-    for (const auto& edge : edges) total += std::get<2>(edge);
-    for (auto& edge : edges) std::get<2>(edge) *= num_trusted / total;
-  }
-  const int num_missing = static_cast<int>(negatives.size());
-  std::pair<std::vector<image_t>, std::vector<image_t>> sides;
-  if (n < 2 || num_missing == 0 || num_trusted == 0) {
-    sides.first = ids;
-    return sides;
-  }
-  const double negative = static_cast<double>(num_trusted) / num_missing;
-  for (const auto& [a, b] : negatives) {
+  std::vector<std::pair<int, int>> negatives;
+  for (const auto& [a, b] : negative_pairs) {
     const auto i1 = index.find(a);
     const auto i2 = index.find(b);
     if (i1 == index.end() || i2 == index.end()) continue;
-    edges.emplace_back(i1->second, i2->second, -negative);
+    negatives.emplace_back(i1->second, i2->second);
   }
-  const std::vector<int> side = SignedGraphCut(n, edges);
-  int cut_trusted = 0;
-  int cut_missing = 0;
-  for (const auto& [a, b, w] : edges) {
-    if (side[a] == side[b]) continue;
-    (w > 0 ? cut_trusted : cut_missing) += 1;
+  std::pair<std::vector<image_t>, std::vector<image_t>> sides;
+  sides.first = ids;
+  if (n < 2 || negative_pairs.empty() || trusted.empty()) return sides;
+  // Trusted pairs pull in proportion to their verified inliers (normalised
+  // to a mean of one): a false pair keeps only part of what a true pair
+  // matches, so an image with true pairs on one side and false pairs the
+  // fold agrees with on the other is drawn to its true side. Missing and
+  // weak pairs weigh as much in total (one scale for the whole model).
+  const int num_trusted = static_cast<int>(trusted.size());
+  double total = 0;
+  for (const auto& edge : trusted) total += std::get<2>(edge);
+  const double trusted_scale = num_trusted / total;
+  const double negative_weight =
+      static_cast<double>(num_trusted) / negative_pairs.size();
+  std::vector<int> reoriented;
+  if (!options.cut_per_rigid_part) {
+    std::vector<int> all(n);
+    for (int k = 0; k < n; ++k) all[k] = k;
+    reoriented =
+        SignedFoldCut(all, trusted, negatives, trusted_scale, negative_weight);
+  } else {
+    // Each rigid part of the model (where the fold check predicts overlap)
+    // is cut on its own; pairs between parts are left out: the model does
+    // not say where a part sits relative to another, and no re-orientation
+    // mends that. Images in no part are not cut.
+    const ModelRigidity rigidity = AnalyzeModelRigidity(
+        ModelRigidityOptions(), reconstruction, /*min_model_size=*/1);
+    const int num_parts = static_cast<int>(rigidity.blocks.size());
+    std::vector<int> part_of(n, -1);
+    std::vector<std::vector<int>> part_nodes(num_parts);
+    for (int p = 0; p < num_parts; ++p) {
+      for (const image_t image_id : rigidity.blocks[p]) {
+        part_of[index.at(image_id)] = p;
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      if (part_of[k] >= 0) part_nodes[part_of[k]].push_back(k);
+    }
+    std::vector<std::vector<std::tuple<int, int, double>>> part_trusted(
+        num_parts);
+    std::vector<std::vector<std::pair<int, int>>> part_negatives(num_parts);
+    for (const auto& edge : trusted) {
+      const int p = part_of[std::get<0>(edge)];
+      if (p >= 0 && p == part_of[std::get<1>(edge)]) {
+        part_trusted[p].push_back(edge);
+      }
+    }
+    for (const auto& [a, b] : negatives) {
+      if (part_of[a] >= 0 && part_of[a] == part_of[b]) {
+        part_negatives[part_of[a]].emplace_back(a, b);
+      }
+    }
+    for (int p = 0; p < num_parts; ++p) {
+      const std::vector<int> side =
+          SignedFoldCut(part_nodes[p], part_trusted[p], part_negatives[p],
+                        trusted_scale, negative_weight);
+      if (!part_negatives[p].empty()) {
+        VLOG(1) << "fold cut of rigid part " << p << " ("
+                << part_nodes[p].size() << " images, "
+                << part_negatives[p].size()
+                << " missing or weak pairs): " << side.size()
+                << " to re-orient";
+      }
+      reoriented.insert(reoriented.end(), side.begin(), side.end());
+    }
   }
-  std::vector<image_t> positive;
-  std::vector<image_t> negative_side;
+  if (reoriented.empty()) return sides;
+  std::vector<bool> is_reoriented(n, false);
+  for (const int k : reoriented) is_reoriented[k] = true;
+  sides.first.clear();
   for (int k = 0; k < n; ++k) {
-    (side[k] > 0 ? positive : negative_side).push_back(ids[k]);
+    (is_reoriented[k] ? sides.second : sides.first).push_back(ids[k]);
   }
-  VLOG(1) << "fold cut: " << positive.size() << " | " << negative_side.size()
-          << " images, " << cut_missing << " missing and " << cut_trusted
-          << " trusted pairs cut";
-  // The cut explains the fold when most missing pairs cross it (the pairs
-  // it cuts that the model trusts are then the ones that folded it), or when
-  // it separates more missing pairs than it cuts trusted ones.
-  const int num_missing_edges = static_cast<int>(edges.size()) - num_trusted;
-  const bool explains =
-      cut_missing * 5 >= num_missing_edges * 4 || cut_missing > cut_trusted;
-  if (positive.empty() || negative_side.empty() || !explains) {
-    sides.first = ids;
-    return sides;
+  if (VLOG_IS_ON(3)) {
+    // The images of each side, to compare a cut with the truth on synthetic
+    // scenes.
+    for (const std::vector<image_t>* side : {&sides.first, &sides.second}) {
+      std::ostringstream line;
+      line << "fold cut side " << (side == &sides.first ? 1 : 2) << ":";
+      for (const image_t image_id : *side) line << ' ' << image_id;
+      VLOG(3) << line.str();
+    }
   }
-  if (positive.size() < negative_side.size())
-    std::swap(positive, negative_side);
-  sides.first = std::move(positive);
-  sides.second = std::move(negative_side);
   return sides;
 }
 

@@ -142,6 +142,24 @@ std::vector<JointTie> CountJointTies(
 // AnalyzeModelRigidity's rule on the tie graph (`adjacency`, `weight`: the
 // image pairs sharing at least min_shared_points points and how many) and
 // the points' images (dense numbers, sorted, two or more a point).
+// Ties of image i to the images `touched` (count[j] points shared with
+// each): those of at least min_shared_points enter the tie graph; the
+// counters are reset for the next image.
+void AddTies(int i, int min_shared_points, std::vector<int>* count,
+             std::vector<int>* touched,
+             std::vector<std::vector<int>>* adjacency,
+             std::map<std::pair<int, int>, int>* weight) {
+  for (const int j : *touched) {
+    if ((*count)[j] >= min_shared_points) {
+      (*adjacency)[i].push_back(j);
+      (*adjacency)[j].push_back(i);
+      (*weight)[{i, j}] = (*count)[j];
+    }
+    (*count)[j] = 0;
+  }
+  touched->clear();
+}
+
 ModelRigidity RigidityOfTies(const ModelRigidityOptions& options,
                              const std::vector<image_t>& ids,
                              const std::vector<std::vector<int>>& point_images,
@@ -258,15 +276,8 @@ ModelRigidity AnalyzeModelRigidity(const ModelRigidityOptions& options,
         if (count[other->second]++ == 0) touched.push_back(other->second);
       }
     }
-    for (const int j : touched) {
-      if (count[j] >= options.min_shared_points) {
-        adjacency[i].push_back(j);
-        adjacency[j].push_back(i);
-        weight[{i, j}] = count[j];
-      }
-      count[j] = 0;
-    }
-    touched.clear();
+    AddTies(i, options.min_shared_points, &count, &touched, &adjacency,
+            &weight);
   }
 
   std::vector<std::vector<int>> point_images;
@@ -328,15 +339,8 @@ ModelRigidity AnalyzeTieRigidity(
         if (count[j]++ == 0) touched.push_back(j);
       }
     }
-    for (const int j : touched) {
-      if (count[j] >= options.min_shared_points) {
-        adjacency[i].push_back(j);
-        adjacency[j].push_back(i);
-        weight[{i, j}] = count[j];
-      }
-      count[j] = 0;
-    }
-    touched.clear();
+    AddTies(i, options.min_shared_points, &count, &touched, &adjacency,
+            &weight);
   }
   if (options.min_shared_points <= 1) dense_points.clear();
   return RigidityOfTies(options, ids, dense_points, std::move(adjacency),

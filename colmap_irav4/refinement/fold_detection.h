@@ -124,11 +124,11 @@ struct FoldDetectionOptions {
   int min_weak_alone_pairs = 2;
   // Cut each rigid part of the model (within_rigid_parts' parts) on its
   // own, keeping whole every part whose cut does not explain its missing and
-  // weak pairs. A photo collection's landmarks, joined only by false pairs,
-  // are separate parts: one cut through the whole model also crossed the
-  // landmarks without a fold, and the resolution removed their true pairs
-  // across it (10,000 photo images:
-  // docs/notes/2026-12-06-fold-cut-at-10000.md).
+  // weak pairs: one cut through the whole model also crossed a photo
+  // collection's landmarks that cannot fold, and the resolution removed
+  // their true pairs across it. At 10,000 photo images this keeps one of the
+  // two whole; the other is tied rigidly to the folded one by its false
+  // pairs' points (docs/notes/2026-12-06-fold-cut-at-10000.md).
   bool cut_per_rigid_part = false;
   // Skip the camera pairs too far apart to share a point under the view
   // angle and scale ratio before projecting any point (exact: the report is

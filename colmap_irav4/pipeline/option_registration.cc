@@ -572,10 +572,14 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.within_rigid_parts", &d.within_rigid_parts,
                "predict overlap only between images of one rigid part of the "
                "model (parts joined through single images have a free scale)");
-  manager->Add("Fold.cut_per_rigid_part", &d.cut_per_rigid_part,
-               "cut each rigid part of the model on its own, keeping whole "
-               "the parts whose cut does not explain their missing pairs "
-               "(landmarks joined only by false pairs)");
+  manager->Add("Fold.cut_parts", &d.cut_parts,
+               "the parts a folded model's cut divides, each on its own (the "
+               "whole model, its rigid parts, or the components of the pairs "
+               "it agrees with): " +
+                   EnumNameList<FoldCutParts>());
+  manager->Add("Fold.cut_min_pair_triangles", &d.cut_min_pair_triangles,
+               "with --Fold.cut_parts agreeing: a pair joins its images' part "
+               "only in this many triangles of agreeing pairs");
   manager->Add("Fold.missing_pair_inlier_factor", &d.missing_pair_inlier_factor,
                "a predicted pair without matches is missing only where the "
                "rate model expects this many times min_num_matches inliers");

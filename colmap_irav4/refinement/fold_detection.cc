@@ -16,6 +16,7 @@
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/statistics.h"
+#include "colmap_irav4/util/union_find.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -917,6 +918,15 @@ int CountStrongInconsistentPairs(const JudgedPairs& judged) {
 
 }  // namespace
 
+template <>
+const EnumNames<FoldCutParts>& NamesOf<FoldCutParts>() {
+  static const EnumNames<FoldCutParts> names = {
+      {FoldCutParts::kModel, "model"},
+      {FoldCutParts::kRigidParts, "rigid"},
+      {FoldCutParts::kAgreeingParts, "agreeing"}};
+  return names;
+}
+
 void FoldDetectionOptions::Check() const {
   if (!(max_view_angle_deg > 0 && max_view_angle_deg < 180)) {
     throw OptionError(&max_view_angle_deg, "Fold.max_view_angle_deg",
@@ -978,6 +988,10 @@ void FoldDetectionOptions::Check() const {
   if (!(min_weak_cut_fraction > 0.5 && min_weak_cut_fraction <= 1)) {
     throw OptionError(&min_weak_cut_fraction, "Fold.min_weak_cut_fraction",
                       "must be in (0.5, 1]");
+  }
+  if (cut_min_pair_triangles < 0) {
+    throw OptionError(&cut_min_pair_triangles, "Fold.cut_min_pair_triangles",
+                      "must be >= 0");
   }
   if (min_weak_alone_pairs < 1) {
     throw OptionError(&min_weak_alone_pairs, "Fold.min_weak_alone_pairs",
@@ -1131,6 +1145,73 @@ std::vector<int> SignedFoldCut(
   return positive.size() < negative_side.size() ? positive : negative_side;
 }
 
+// The components of the pairs `reconstruction` agrees with (rotation within
+// max_rotation_error_deg, at least min_num_matches inliers), each pair
+// joining its images only when it lies in at least cut_min_pair_triangles
+// triangles of such pairs. Sets (*part_of)[dense index] (-1: in no pair;
+// `index`: image id -> dense index) and returns the number of parts.
+int AgreeingParts(const FoldDetectionOptions& options,
+                  const Reconstruction& reconstruction,
+                  const FoldEvidence& evidence,
+                  const std::map<image_t, int>& index,
+                  std::vector<int>* part_of) {
+  const int n = static_cast<int>(part_of->size());
+  std::vector<std::vector<int>> neighbors(n);
+  std::vector<std::pair<int, int>> agreed;
+  for (const PairEvidence& pair : evidence.pairs) {
+    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
+      continue;
+    }
+    const auto i1 = index.find(pair.image_id1);
+    const auto i2 = index.find(pair.image_id2);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    const Eigen::Matrix3d R1 = reconstruction.images.at(pair.image_id1)
+                                   .cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R2 = reconstruction.images.at(pair.image_id2)
+                                   .cam_from_world.rotation.toRotationMatrix();
+    if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+        options.max_rotation_error_deg) {
+      continue;
+    }
+    agreed.emplace_back(i1->second, i2->second);
+    neighbors[i1->second].push_back(i2->second);
+    neighbors[i2->second].push_back(i1->second);
+  }
+  for (std::vector<int>& list : neighbors) std::sort(list.begin(), list.end());
+  UnionFind parts(n);
+  for (const auto& [a, b] : agreed) {
+    // Common neighbours, stopping at the number needed.
+    int triangles = 0;
+    auto i = neighbors[a].begin();
+    auto j = neighbors[b].begin();
+    while (i != neighbors[a].end() && j != neighbors[b].end() &&
+           triangles < options.cut_min_pair_triangles) {
+      if (*i < *j) {
+        ++i;
+      } else if (*j < *i) {
+        ++j;
+      } else {
+        ++triangles;
+        ++i;
+        ++j;
+      }
+    }
+    if (triangles >= options.cut_min_pair_triangles) parts.Union(a, b);
+  }
+  // Parts numbered in image order; an image no pair joins is in none.
+  std::map<size_t, int> number;
+  for (int k = 0; k < n; ++k) {
+    if (parts.SetSize(k) < 2) {
+      (*part_of)[k] = -1;
+      continue;
+    }
+    const auto [it, inserted] =
+        number.emplace(parts.Find(k), static_cast<int>(number.size()));
+    (*part_of)[k] = it->second;
+  }
+  return static_cast<int>(number.size());
+}
+
 }  // namespace
 
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
@@ -1197,26 +1278,32 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   const double negative_weight =
       static_cast<double>(num_trusted) / negative_pairs.size();
   std::vector<int> reoriented;
-  if (!options.cut_per_rigid_part) {
+  if (options.cut_parts == FoldCutParts::kModel) {
     std::vector<int> all(n);
     for (int k = 0; k < n; ++k) all[k] = k;
     reoriented =
         SignedFoldCut(all, trusted, negatives, trusted_scale, negative_weight);
   } else {
-    // Each rigid part of the model (where the fold check predicts overlap)
-    // is cut on its own; pairs between parts are left out: the model does
-    // not say where a part sits relative to another, and no re-orientation
-    // mends that. Images in no part are not cut.
-    const ModelRigidity rigidity = AnalyzeModelRigidity(
-        ModelRigidityOptions(), reconstruction, /*min_model_size=*/1);
-    const int num_parts = static_cast<int>(rigidity.blocks.size());
+    // Each part is cut on its own; pairs between parts are left out: the
+    // model does not say where a part sits relative to another (rigid
+    // parts), or the model's pairs do not join them (agreeing parts), and no
+    // re-orientation mends that. Images in no part are not cut.
     std::vector<int> part_of(n, -1);
-    std::vector<std::vector<int>> part_nodes(num_parts);
-    for (int p = 0; p < num_parts; ++p) {
-      for (const image_t image_id : rigidity.blocks[p]) {
-        part_of[index.at(image_id)] = p;
+    int num_parts = 0;
+    if (options.cut_parts == FoldCutParts::kRigidParts) {
+      const ModelRigidity rigidity = AnalyzeModelRigidity(
+          ModelRigidityOptions(), reconstruction, /*min_model_size=*/1);
+      num_parts = static_cast<int>(rigidity.blocks.size());
+      for (int p = 0; p < num_parts; ++p) {
+        for (const image_t image_id : rigidity.blocks[p]) {
+          part_of[index.at(image_id)] = p;
+        }
       }
+    } else {
+      num_parts = AgreeingParts(options, reconstruction, evidence, index,
+                                &part_of);
     }
+    std::vector<std::vector<int>> part_nodes(num_parts);
     for (int k = 0; k < n; ++k) {
       if (part_of[k] >= 0) part_nodes[part_of[k]].push_back(k);
     }
@@ -1235,16 +1322,13 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
       }
     }
     for (int p = 0; p < num_parts; ++p) {
+      if (part_negatives[p].empty()) continue;
       const std::vector<int> side =
           SignedFoldCut(part_nodes[p], part_trusted[p], part_negatives[p],
                         trusted_scale, negative_weight);
-      if (!part_negatives[p].empty()) {
-        VLOG(1) << "fold cut of rigid part " << p << " ("
-                << part_nodes[p].size() << " images, "
-                << part_negatives[p].size()
-                << " missing or weak pairs): " << side.size()
-                << " to re-orient";
-      }
+      VLOG(1) << "fold cut of part " << p << " (" << part_nodes[p].size()
+              << " images, " << part_negatives[p].size()
+              << " missing or weak pairs): " << side.size() << " to re-orient";
       reoriented.insert(reoriented.end(), side.begin(), side.end());
     }
   }

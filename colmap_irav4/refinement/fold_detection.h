@@ -38,8 +38,14 @@
 #include "colmap_irav4/scene/reconstruction.h"
 #include "colmap_irav4/scene/track.h"
 #include "colmap_irav4/scene/types.h"
+#include "colmap_irav4/util/enum_names.h"
 
 namespace colmap_irav4 {
+
+// The parts a fold cut divides (FoldDetectionOptions::cut_parts).
+enum class FoldCutParts { kModel, kRigidParts, kAgreeingParts };
+template <>
+const EnumNames<FoldCutParts>& NamesOf<FoldCutParts>();
 
 struct FoldDetectionOptions {
   // Rays of two cameras to a point more than this apart (deg): the cameras
@@ -122,14 +128,22 @@ struct FoldDetectionOptions {
   // Reported only; the resolution re-orients such images of a model it
   // would accept.
   int min_weak_alone_pairs = 2;
-  // Cut each rigid part of the model (within_rigid_parts' parts) on its
-  // own, keeping whole every part whose cut does not explain its missing and
-  // weak pairs: one cut through the whole model also crossed a photo
-  // collection's landmarks that cannot fold, and the resolution removed
-  // their true pairs across it. At 10,000 photo images this keeps one of the
-  // two whole; the other is tied rigidly to the folded one by its false
-  // pairs' points (docs/notes/2026-12-06-fold-cut-at-10000.md).
-  bool cut_per_rigid_part = false;
+  // Which parts of a folded model its cut divides, each on its own (pairs
+  // between parts are left out; a part whose cut does not explain its
+  // missing and weak pairs stays whole). kModel: one cut through the whole
+  // model; at 10,000 photo images it also crossed the landmarks that cannot
+  // fold, and the resolution removed their true pairs across it.
+  // kRigidParts: the rigid parts (within_rigid_parts' parts); there one
+  // landmark was tied rigidly to the folded one by its false pairs' points.
+  // kAgreeingParts: the components of the pairs the model agrees with (its
+  // rotations within max_rotation_error_deg, trusted, suspect or weak: a
+  // fold's halves stay together by the false pairs that folded them), each
+  // pair counted only in at least cut_min_pair_triangles triangles of such
+  // pairs (the odd false pair the model agrees with by chance joins two
+  // landmarks, but not in triangles). docs/notes/2026-12-06-fold-cut-at-10000.md
+  FoldCutParts cut_parts = FoldCutParts::kModel;
+  // kAgreeingParts: the triangles a pair needs to join its images' part.
+  int cut_min_pair_triangles = 2;
   // Skip the camera pairs too far apart to share a point under the view
   // angle and scale ratio before projecting any point (exact: the report is
   // the same; false only to measure what it saves).

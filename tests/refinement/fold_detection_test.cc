@@ -240,82 +240,144 @@ TEST(FoldDetection, CutSeparatesTheFoldedHalf) {
   }
 }
 
-TEST(FoldDetection, CutPerRigidPartKeepsAPartWithoutAFoldWhole) {
-  // A folded courtyard (A) and a correct one (B) placed over it, sharing no
-  // point (a photo collection's landmarks, placed by false pairs), with a
-  // few missing pairs within B (no fold: a poor overlap prediction) and
-  // many between B and A: B's east half with A's folded images, its west half
-  // with A's others. The cut of the whole model divides B by them.
-  const Courtyard a = MakeCourtyard(40, 0.3, 3);
-  const Courtyard b = MakeCourtyard(40, 0.0, 6);
-  const FoldDetectionOptions options;
-  FoldReport report = DetectFold(options, a.folded, a.evidence);
-  ASSERT_TRUE(report.folded);
-  Reconstruction model = a.folded;
-  FoldEvidence evidence = a.evidence;
-  const image_t offset = 1000;
-  std::vector<image_t> a_folded;
-  std::vector<image_t> a_unfolded;
-  for (const auto& [image_id, image] : a.folded.images) {
-    (a.folded_images.count(image_id) ? a_folded : a_unfolded)
-        .push_back(image_id);
-  }
-  const point3D_t point_offset = 100000;
-  for (const auto& [point_id, point] : b.truth.points3D) {
-    Point3D copy = point;
-    for (TrackElement& element : copy.track) element.image_id += offset;
-    model.points3D[point_id + point_offset] = copy;
-  }
-  for (const auto& [image_id, image] : b.truth.images) {
-    Image copy = image;
-    copy.image_id = image_id + offset;
-    for (Point2D& point2D : copy.points2D) {
-      point2D.point3D_id += point_offset;
+// A folded courtyard (A, images 1-40) and a correct one (B, images
+// 1001-1040) placed over it, sharing no point (a photo collection's
+// landmarks, placed by false pairs), with a few missing pairs within B (no
+// fold: a poor overlap prediction) and many between B and A: B's east half
+// with A's folded images, its west half with A's others. The cut of the
+// whole model divides B by them.
+struct TwoLandmarks {
+  static constexpr image_t kOffset = 1000;  // B's image ids
+  Courtyard a = MakeCourtyard(40, 0.3, 3);
+  Reconstruction model;
+  FoldEvidence evidence;
+  FoldReport report;
+
+  TwoLandmarks() {
+    const Courtyard b = MakeCourtyard(40, 0.0, 6);
+    report = DetectFold(FoldDetectionOptions(), a.folded, a.evidence);
+    model = a.folded;
+    evidence = a.evidence;
+    std::vector<image_t> a_folded;
+    std::vector<image_t> a_unfolded;
+    for (const auto& [image_id, image] : a.folded.images) {
+      (a.folded_images.count(image_id) ? a_folded : a_unfolded)
+          .push_back(image_id);
     }
-    model.images[copy.image_id] = copy;
-    const std::vector<image_t>& across =
-        image.ProjectionCenter().x() > 0 ? a_folded : a_unfolded;
-    for (size_t k = 0; k < 8; ++k) {
-      report.missing_pairs.emplace_back(
-          across[(image_id * 7 + k * 3) % across.size()], copy.image_id);
+    const point3D_t point_offset = 100000;
+    for (const auto& [point_id, point] : b.truth.points3D) {
+      Point3D copy = point;
+      for (TrackElement& element : copy.track) element.image_id += kOffset;
+      model.points3D[point_id + point_offset] = copy;
+    }
+    for (const auto& [image_id, image] : b.truth.images) {
+      Image copy = image;
+      copy.image_id = image_id + kOffset;
+      for (Point2D& point2D : copy.points2D) {
+        point2D.point3D_id += point_offset;
+      }
+      model.images[copy.image_id] = copy;
+      const std::vector<image_t>& across =
+          image.ProjectionCenter().x() > 0 ? a_folded : a_unfolded;
+      for (size_t k = 0; k < 8; ++k) {
+        report.missing_pairs.emplace_back(
+            across[(image_id * 7 + k * 3) % across.size()], copy.image_id);
+      }
+    }
+    for (image_t image_id = 1; image_id <= 40; image_id += 5) {
+      report.missing_pairs.emplace_back(image_id + kOffset,
+                                        (image_id + 1) % 40 + 1 + kOffset);
+    }
+    for (PairEvidence pair : b.evidence.pairs) {
+      pair.image_id1 += kOffset;
+      pair.image_id2 += kOffset;
+      evidence.pairs.push_back(pair);
     }
   }
-  for (image_t image_id = 1; image_id <= 40; image_id += 5) {
-    report.missing_pairs.emplace_back(image_id + offset,
-                                      (image_id + 1) % 40 + 1 + offset);
+
+  // False pairs between A and B that the model agrees with (as a photo
+  // collection's random pairs that placed B), each at its own images.
+  void AddAgreedFalsePairs(int num_pairs) {
+    for (image_t k = 1; k <= static_cast<image_t>(num_pairs); ++k) {
+      PairEvidence pair;
+      pair.image_id1 = 7 * k;
+      pair.image_id2 = kOffset + 7 * k + 2;
+      pair.num_inliers = 40;
+      pair.verified = true;
+      pair.has_rotation = true;
+      pair.R = model.images.at(pair.image_id2)
+                   .cam_from_world.rotation.toRotationMatrix() *
+               model.images.at(pair.image_id1)
+                   .cam_from_world.rotation.toRotationMatrix()
+                   .transpose();
+      evidence.pairs.push_back(pair);
+    }
   }
-  for (PairEvidence pair : b.evidence.pairs) {
-    pair.image_id1 += offset;
-    pair.image_id2 += offset;
-    evidence.pairs.push_back(pair);
+
+  int NumB(const std::vector<image_t>& side) const {
+    return static_cast<int>(std::count_if(
+        side.begin(), side.end(), [](image_t id) { return id > kOffset; }));
   }
-  const auto num_b = [&](const std::vector<image_t>& side) {
-    return std::count_if(side.begin(), side.end(),
-                         [&](image_t id) { return id > offset; });
-  };
+
+  // B whole on the first side, each side's images of A (nearly) all folded
+  // or all not.
+  void ExpectBWholeAndAPure(const std::vector<image_t>& side1,
+                            const std::vector<image_t>& side2) const {
+    EXPECT_EQ(NumB(side1), 40);
+    EXPECT_EQ(NumB(side2), 0);
+    for (const std::vector<image_t>* side : {&side1, &side2}) {
+      int folded = 0;
+      int n = 0;
+      for (const image_t image_id : *side) {
+        if (image_id > kOffset) continue;
+        folded += a.folded_images.count(image_id);
+        ++n;
+      }
+      EXPECT_TRUE(folded <= n / 10 || folded >= n - n / 10)
+          << folded << " of " << n;
+    }
+  }
+};
+
+TEST(FoldDetection, CutPerPartKeepsAPartWithoutAFoldWhole) {
+  TwoLandmarks scene;
+  ASSERT_TRUE(scene.report.folded);
+  FoldDetectionOptions options;
   // One cut through the whole model splits B, which has no fold.
-  const auto [whole1, whole2] = FoldCut(options, model, evidence, report);
+  const auto [whole1, whole2] =
+      FoldCut(options, scene.model, scene.evidence, scene.report);
   ASSERT_FALSE(whole2.empty());
-  EXPECT_GT(num_b(whole1), 0);
-  EXPECT_GT(num_b(whole2), 0);
+  EXPECT_GT(scene.NumB(whole1), 0);
+  EXPECT_GT(scene.NumB(whole2), 0);
   // Cut part by part: B whole, A's folded half still separated.
-  FoldDetectionOptions per_part = options;
-  per_part.cut_per_rigid_part = true;
-  const auto [side1, side2] = FoldCut(per_part, model, evidence, report);
-  ASSERT_FALSE(side2.empty());
-  EXPECT_EQ(num_b(side1), 40);
-  EXPECT_EQ(num_b(side2), 0);
-  for (const std::vector<image_t>* side : {&side1, &side2}) {
-    int folded = 0;
-    int n = 0;
-    for (const image_t image_id : *side) {
-      if (image_id > offset) continue;
-      folded += a.folded_images.count(image_id);
-      ++n;
-    }
-    EXPECT_TRUE(folded <= n / 10 || folded >= n - n / 10)
-        << folded << " of " << n;
+  for (const FoldCutParts parts :
+       {FoldCutParts::kRigidParts, FoldCutParts::kAgreeingParts}) {
+    SCOPED_TRACE(EnumName(parts));
+    options.cut_parts = parts;
+    const auto [side1, side2] =
+        FoldCut(options, scene.model, scene.evidence, scene.report);
+    ASSERT_FALSE(side2.empty());
+    scene.ExpectBWholeAndAPure(side1, side2);
   }
+}
+
+TEST(FoldDetection, AgreeingPartsAreNotJoinedByPairsOutsideTriangles) {
+  TwoLandmarks scene;
+  scene.AddAgreedFalsePairs(5);
+  FoldDetectionOptions options;
+  options.cut_parts = FoldCutParts::kAgreeingParts;
+  const auto [side1, side2] =
+      FoldCut(options, scene.model, scene.evidence, scene.report);
+  ASSERT_FALSE(side2.empty());
+  scene.ExpectBWholeAndAPure(side1, side2);
+  // Counting every agreed pair, the false ones join A and B into one part,
+  // cut as the whole model is.
+  options.cut_min_pair_triangles = 0;
+  const auto [joined1, joined2] =
+      FoldCut(options, scene.model, scene.evidence, scene.report);
+  ASSERT_FALSE(joined2.empty());
+  EXPECT_GT(scene.NumB(joined1), 0);
+  EXPECT_GT(scene.NumB(joined2), 0);
 }
 
 TEST(FoldDetection, NoCutOnACorrectModel) {

@@ -1300,8 +1300,8 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
         }
       }
     } else {
-      num_parts = AgreeingParts(options, reconstruction, evidence, index,
-                                &part_of);
+      num_parts =
+          AgreeingParts(options, reconstruction, evidence, index, &part_of);
     }
     std::vector<std::vector<int>> part_nodes(num_parts);
     for (int k = 0; k < n; ++k) {

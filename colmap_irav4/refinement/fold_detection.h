@@ -140,7 +140,8 @@ struct FoldDetectionOptions {
   // fold's halves stay together by the false pairs that folded them), each
   // pair counted only in at least cut_min_pair_triangles triangles of such
   // pairs (the odd false pair the model agrees with by chance joins two
-  // landmarks, but not in triangles). docs/notes/2026-12-06-fold-cut-at-10000.md
+  // landmarks, but not in triangles).
+  // docs/notes/2026-12-06-fold-cut-at-10000.md
   FoldCutParts cut_parts = FoldCutParts::kModel;
   // kAgreeingParts: the triangles a pair needs to join its images' part.
   int cut_min_pair_triangles = 2;

@@ -247,10 +247,10 @@ class SchurBundleAdjuster {
   // Reads max_num_iterations, function/gradient/parameter_tolerance,
   // initial/max/min_trust_region_radius, min_relative_decrease,
   // min/max_lm_diagonal and max_num_consecutive_invalid_steps.
-  // `rejected_start_radius`: after a step rejected before any step of the
-  // solve was accepted, Ceres' cuts (radius / 2, / 4, / 8, ...) are made at
-  // once, without trying a step, until the radius is at most this (a failed
-  // factorisation is cut once, as Ceres does); 0: each cut tried (Ceres).
+  // `rejected_start_radius`: after a step rejected or a factorisation failed
+  // before any step of the solve was accepted, Ceres' cuts (radius / 2, / 4,
+  // / 8, ...) are made at once, without trying a step, until the radius is
+  // at most this; 0: each cut tried (Ceres).
   // `stall`: the solve stops (CONVERGENCE, `stalled`) once the cost has
   // stalled (CostStall; 0 steps: never).
   Summary Solve(const ceres::Solver::Options& options,

@@ -421,6 +421,88 @@ TEST(SchurBundleAdjuster, RejectedStartSkipsTheUndampedRadii) {
   EXPECT_THROW(options.Check(), OptionError);
 }
 
+// Leaves image `image_id` `num_points` observations, each of a point seen by
+// one other image only (every other observation of those points and the
+// image's other observations dropped): each such point is one epipolar
+// constraint on the image's pose, too few to determine it without damping.
+void LeaveFewTwoViewPoints(image_t image_id, size_t num_points,
+                           Reconstruction* model) {
+  auto unlink = [&](const TrackElement& element) {
+    model->images.at(element.image_id)
+        .points2D[element.point2D_idx]
+        .point3D_id = kInvalidPoint3DId;
+  };
+  size_t kept = 0;
+  for (const Point2D& point2D : model->images.at(image_id).points2D) {
+    if (point2D.point3D_id == kInvalidPoint3DId) continue;
+    Point3D& point = model->points3D.at(point2D.point3D_id);
+    std::vector<TrackElement> track;
+    bool has_other = false;
+    for (const TrackElement& element : point.track) {
+      const bool own = element.image_id == image_id;
+      if (kept < num_points && (own || !has_other)) {
+        has_other = has_other || !own;
+        track.push_back(element);
+      } else if (!own) {
+        track.push_back(element);
+      }
+    }
+    if (kept < num_points) {
+      for (const TrackElement& element : point.track) {
+        if (std::find_if(track.begin(), track.end(), [&](const auto& e) {
+              return e.image_id == element.image_id;
+            }) == track.end()) {
+          unlink(element);
+        }
+      }
+      ++kept;
+    } else {
+      for (const TrackElement& element : point.track) {
+        if (element.image_id == image_id) unlink(element);
+      }
+    }
+    point.track = track;
+  }
+  // Points left with one observation go.
+  for (auto it = model->points3D.begin(); it != model->points3D.end();) {
+    if (it->second.track.size() >= 2) {
+      ++it;
+      continue;
+    }
+    for (const TrackElement& element : it->second.track) unlink(element);
+    it = model->points3D.erase(it);
+  }
+}
+
+// A factorisation that fails before any step is accepted is cut as a
+// rejected step is: down to rejected_start_radius without trying the radii
+// above it. An image left with one two-view point: its pose block of the
+// reduced system is singular without damping, and the factorisation fails
+// at 1e16 (with every cut tried, the next radius's tiny damping lets it
+// through, and the radius returns to 1e16 after each accepted step, to fail
+// again). Skipping: fewer iterations, the same optimum for every other
+// image (the singular image's pose is not determined by its point).
+TEST(SchurBundleAdjuster, FailedFactorisationSkipsTheUndampedRadii) {
+  const SyntheticScene scene =
+      Scene(CameraModelNameToId("SIMPLE_RADIAL"), /*shared_camera=*/true);
+  const image_t singular = 5;
+  Reconstruction start = scene.truth;
+  LeaveFewTwoViewPoints(singular, 1, &start);
+  PerturbModel(0.5, 0.05, 0.02, 1.02, 6, &start);
+  Reconstruction tried = start, skipped = start;
+  const BundleAdjustmentSummary every_cut =
+      AdjustWithRejectedStartRadius(0, 1e-3, &tried);
+  const BundleAdjustmentSummary skipping =
+      AdjustWithRejectedStartRadius(1e10, 1e-3, &skipped);
+  EXPECT_LT(skipping.num_iterations, every_cut.num_iterations);
+  tried.images.erase(singular);
+  skipped.images.erase(singular);
+  const Difference d = Compare(tried, skipped);
+  EXPECT_LT(d.center, 1e-6);  // scene radius 10
+  EXPECT_LT(d.rotation_deg, 1e-6);
+  EXPECT_LT(d.param, 1e-8);
+}
+
 // Ceres' losses are the Ceres path's, whatever is asked; auto takes the
 // Schur solver from the size on, pose priors or not.
 // A model's parameters in a SchurBundleAdjuster (centres false: poses as

@@ -1145,19 +1145,24 @@ std::vector<int> SignedFoldCut(
   return positive.size() < negative_side.size() ? positive : negative_side;
 }
 
-// The components of the pairs `reconstruction` agrees with (rotation within
-// max_rotation_error_deg, at least min_num_matches inliers), each pair
-// joining its images only when it lies in at least cut_min_pair_triangles
-// triangles of such pairs. Sets (*part_of)[dense index] (-1: in no pair;
-// `index`: image id -> dense index) and returns the number of parts.
-int AgreeingParts(const FoldDetectionOptions& options,
-                  const Reconstruction& reconstruction,
-                  const FoldEvidence& evidence,
-                  const std::map<image_t, int>& index,
-                  std::vector<int>* part_of) {
-  const int n = static_cast<int>(part_of->size());
-  std::vector<std::vector<int>> neighbors(n);
-  std::vector<std::pair<int, int>> agreed;
+// A verified pair `reconstruction` agrees with: dense indices (`index`:
+// image id -> dense index), ids and verified inliers.
+struct AgreedPair {
+  int a = -1;
+  int b = -1;
+  image_t image_id1 = kInvalidImageId;
+  image_t image_id2 = kInvalidImageId;
+  int num_inliers = 0;
+};
+
+// The verified pairs among the images of `index` with a measured rotation
+// and at least min_num_matches inliers whose relative rotation the model
+// matches within max_rotation_error_deg, in the evidence's order.
+std::vector<AgreedPair> AgreedPairs(const FoldDetectionOptions& options,
+                                    const Reconstruction& reconstruction,
+                                    const FoldEvidence& evidence,
+                                    const std::map<image_t, int>& index) {
+  std::vector<AgreedPair> agreed;
   for (const PairEvidence& pair : evidence.pairs) {
     if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
       continue;
@@ -1173,13 +1178,30 @@ int AgreeingParts(const FoldDetectionOptions& options,
         options.max_rotation_error_deg) {
       continue;
     }
-    agreed.emplace_back(i1->second, i2->second);
-    neighbors[i1->second].push_back(i2->second);
-    neighbors[i2->second].push_back(i1->second);
+    agreed.push_back({i1->second, i2->second, pair.image_id1, pair.image_id2,
+                      pair.num_inliers});
+  }
+  return agreed;
+}
+
+// The components of the `agreed` pairs (AgreedPairs), each pair joining its
+// images only when it lies in at least cut_min_pair_triangles triangles of
+// such pairs. Sets (*part_of)[dense index] (-1: in no joining pair) and
+// returns the number of parts.
+int AgreeingParts(const FoldDetectionOptions& options,
+                  const std::vector<AgreedPair>& agreed,
+                  std::vector<int>* part_of) {
+  const int n = static_cast<int>(part_of->size());
+  std::vector<std::vector<int>> neighbors(n);
+  for (const AgreedPair& pair : agreed) {
+    neighbors[pair.a].push_back(pair.b);
+    neighbors[pair.b].push_back(pair.a);
   }
   for (std::vector<int>& list : neighbors) std::sort(list.begin(), list.end());
   UnionFind parts(n);
-  for (const auto& [a, b] : agreed) {
+  for (const AgreedPair& pair : agreed) {
+    const int a = pair.a;
+    const int b = pair.b;
     // Common neighbours, stopping at the number needed.
     int triangles = 0;
     auto i = neighbors[a].begin();
@@ -1235,26 +1257,12 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     if (support.predicted)
       negative_pairs.emplace_back(support.image_id1, support.image_id2);
   }
+  const std::vector<AgreedPair> agreed =
+      AgreedPairs(options, reconstruction, evidence, index);
   std::vector<std::tuple<int, int, double>> trusted;
-  for (const PairEvidence& pair : evidence.pairs) {
-    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
-      continue;
-    }
-    const auto i1 = index.find(pair.image_id1);
-    const auto i2 = index.find(pair.image_id2);
-    if (i1 == index.end() || i2 == index.end()) continue;
+  for (const AgreedPair& pair : agreed) {
     if (suspects.count(Ordered(pair.image_id1, pair.image_id2))) continue;
-    const Image& image1 = reconstruction.images.at(pair.image_id1);
-    const Image& image2 = reconstruction.images.at(pair.image_id2);
-    const Eigen::Matrix3d R1 =
-        image1.cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Matrix3d R2 =
-        image2.cam_from_world.rotation.toRotationMatrix();
-    if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
-        options.max_rotation_error_deg) {
-      continue;
-    }
-    trusted.emplace_back(i1->second, i2->second, pair.num_inliers);
+    trusted.emplace_back(pair.a, pair.b, pair.num_inliers);
   }
   std::vector<std::pair<int, int>> negatives;
   for (const auto& [a, b] : negative_pairs) {
@@ -1300,8 +1308,7 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
         }
       }
     } else {
-      num_parts =
-          AgreeingParts(options, reconstruction, evidence, index, &part_of);
+      num_parts = AgreeingParts(options, agreed, &part_of);
     }
     std::vector<std::vector<int>> part_nodes(num_parts);
     for (int k = 0; k < n; ++k) {

@@ -477,6 +477,12 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");
+  manager->Add("BundleAdjustment.schur_implicit_min_mib",
+               &ba.schur_implicit_min_mib,
+               "Schur solver, iterative: from this many MiB of reduced "
+               "system, multiply by it without forming it, from every "
+               "observation's Jacobians kept (implicit Schur complement; "
+               "0: always)");
   manager->Add("BundleAdjustment.schur_max_cg_iterations",
                &ba.schur_max_cg_iterations,
                "Schur solver, iterative: at most this many conjugate gradient "

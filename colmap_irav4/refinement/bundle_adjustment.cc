@@ -255,6 +255,7 @@ class BundleAdjustmentProblem {
           options.schur_prefetch_updates_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
+      schur_options.implicit_min_mib = options.schur_implicit_min_mib;
       schur_options.reuse_min_radius = options.schur_reuse_min_radius;
       schur_options.point_iterations = options.schur_point_iterations;
       schur_adjuster_ =
@@ -384,7 +385,8 @@ class BundleAdjustmentProblem {
       summary.num_iterations = schur.num_iterations;
       summary.num_linear_iterations = schur.num_linear_iterations;
       summary.linear_solver_seconds = schur.linear_solver_seconds;
-      summary.linear_solver = schur.iterative    ? "SCHUR_ITERATIVE_PCG"
+      summary.linear_solver = schur.implicit     ? "SCHUR_IMPLICIT_PCG"
+                              : schur.iterative  ? "SCHUR_ITERATIVE_PCG"
                               : schur.supernodal ? "SCHUR_SUPERNODAL_LLT"
                                                  : "SCHUR_SIMPLICIAL_LLT";
       linear_solver_reason_ =
@@ -1350,6 +1352,11 @@ void BundleAdjustmentOptions::Check() const {
     throw OptionError(&schur_reuse_min_radius,
                       "BundleAdjustment.schur_reuse_min_radius",
                       "must be >= 0");
+  }
+  if (!(schur_implicit_min_mib >= 0)) {
+    throw OptionError(&schur_implicit_min_mib,
+                      "BundleAdjustment.schur_implicit_min_mib",
+                      "must be at least 0");
   }
   if (!(schur_iterative_eta > 0 && schur_iterative_eta < 1)) {
     throw OptionError(&schur_iterative_eta,

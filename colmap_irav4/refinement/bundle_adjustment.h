@@ -162,6 +162,10 @@ struct BundleAdjustmentOptions {
   // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
   double schur_iterative_eta = 1e-3;
   int schur_max_cg_iterations = 500;
+  // Iterative: from this size of the reduced system (MiB), the conjugate
+  // gradients multiply by it without forming it, from every observation's
+  // kept Jacobians (SchurSolverOptions::implicit_min_mib; 0: always).
+  double schur_implicit_min_mib = 256;
   // Our Schur solver: after a rejected step or failed factorisation, while
   // the radius is at least this, the next try re-damps the cameras of the
   // same reduced system instead of eliminating the points again

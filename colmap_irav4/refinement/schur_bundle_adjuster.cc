@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <functional>
 #include <iomanip>
 #include <limits>
 #include <numeric>
@@ -177,6 +178,74 @@ inline void Prefetch(const PairUpdate& update) {
   }
 }
 
+// The implicit product's two halves for an observation whose A is one
+// block of N columns (row-major 2 x N at `a`: a pose with its own camera
+// joined, the photo collections' case), at a width known at compile time:
+// u = A x (Eigen's vectorised sums; a scalar loop cannot reorder them), and
+// y += A^T z. False for a width not listed (the caller's loop then).
+template <int N>
+void MultiplyRows(const double* a, const double* x, double u[2]) {
+  const Eigen::Vector2d product =
+      Eigen::Map<const Eigen::Matrix<double, 2, N, Eigen::RowMajor>>(a) *
+      Eigen::Map<const Eigen::Matrix<double, N, 1>>(x);
+  u[0] = product[0];
+  u[1] = product[1];
+}
+
+template <int N>
+void AddTransposedRows(const double* a, const double z[2], double* y) {
+  Eigen::Map<Eigen::Matrix<double, N, 1>>(y).noalias() +=
+      Eigen::Map<const Eigen::Matrix<double, 2, N, Eigen::RowMajor>>(a)
+          .transpose() *
+      Eigen::Vector2d(z[0], z[1]);
+}
+
+bool MultiplyObservationRows(int n, const double* a, const double* x,
+                             double u[2]) {
+  switch (n) {
+    case 6:
+      MultiplyRows<6>(a, x, u);
+      return true;
+    case 7:
+      MultiplyRows<7>(a, x, u);
+      return true;
+    case 8:
+      MultiplyRows<8>(a, x, u);
+      return true;
+    case 9:
+      MultiplyRows<9>(a, x, u);
+      return true;
+    case 10:
+      MultiplyRows<10>(a, x, u);
+      return true;
+    default:
+      return false;
+  }
+}
+
+bool AddObservationTransposedRows(int n, const double* a, const double z[2],
+                                  double* y) {
+  switch (n) {
+    case 6:
+      AddTransposedRows<6>(a, z, y);
+      return true;
+    case 7:
+      AddTransposedRows<7>(a, z, y);
+      return true;
+    case 8:
+      AddTransposedRows<8>(a, z, y);
+      return true;
+    case 9:
+      AddTransposedRows<9>(a, z, y);
+      return true;
+    case 10:
+      AddTransposedRows<10>(a, z, y);
+      return true;
+    default:
+      return false;
+  }
+}
+
 }  // namespace
 
 // CHOLMOD's workspace and the supernodal factor of the reduced system, its
@@ -235,6 +304,7 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
   CHECK_GE(options.max_jacobian_store_mib, 0);
   CHECK_GE(options.prefetch_updates_min_mib, 0);
   CHECK(options.eta > 0 && options.eta < 1);
+  CHECK_GE(options.implicit_min_mib, 0);
   CHECK_GT(options.max_cg_iterations, 0);
 }
 
@@ -558,8 +628,9 @@ void SchurBundleAdjuster::NumberBlocks() {
   }
 }
 
-void SchurBundleAdjuster::BuildStructure() {
-  // Cells (row block <= column block) coupled by an observation or a point.
+void SchurBundleAdjuster::BuildStructure(bool local_only) {
+  // Cells (row block <= column block) coupled by an observation or (unless
+  // local_only) a point.
   std::unordered_set<uint64_t> cells;
   auto key = [](int a, int b) {
     return static_cast<uint64_t>(std::min(a, b)) << 32 |
@@ -580,7 +651,7 @@ void SchurBundleAdjuster::BuildStructure() {
       if (a >= 0) blocks.push_back(a);
       if (c >= 0) blocks.push_back(c);
     }
-    if (point_constant_[p] || num_live < 2) continue;
+    if (local_only || point_constant_[p] || num_live < 2) continue;
     std::sort(blocks.begin(), blocks.end());
     blocks.erase(std::unique(blocks.begin(), blocks.end()), blocks.end());
     for (size_t i = 0; i < blocks.size(); ++i) {
@@ -613,10 +684,7 @@ void SchurBundleAdjuster::BuildStructure() {
   }
   // (Value indexes are ints in the scalar pattern, 32 bits in the tables.)
   CHECK_LT(num_values, static_cast<size_t>(std::numeric_limits<int>::max()));
-  // Scattered over the whole array by every point's updates (huge pages:
-  // 12% less CPU an iteration at 5,000 photo images,
-  // docs/notes/2026-12-05-schur-locality.md).
-  AssignWithHugePages(num_values, 0.0, &values_);
+  num_values_ = num_values;
   column_cells_.assign(num_blocks + 1, 0);
   for (const auto& [cell, offset] : cell_offset_) {
     ++column_cells_[(cell >> 32) + 1];
@@ -624,6 +692,14 @@ void SchurBundleAdjuster::BuildStructure() {
   for (int b = 0; b < num_blocks; ++b) {
     column_cells_[b + 1] += column_cells_[b];
   }
+}
+
+void SchurBundleAdjuster::LayOutValues(bool local_only) {
+  // Scattered over the whole array by every point's updates (huge pages:
+  // 12% less CPU an iteration at 5,000 photo images,
+  // docs/notes/2026-12-05-schur-locality.md).
+  AssignWithHugePages(num_values_, 0.0, &values_);
+  std::vector<int> blocks;
   // The points' cell tables: the pattern is the same at every iteration, so
   // the searches of ValueIndex run once here instead of for every block pair
   // of every point at every iteration (a sixth of an iteration's time on
@@ -657,15 +733,19 @@ void SchurBundleAdjuster::BuildStructure() {
   point_cells_begin_.assign(num_points + 1, 0);
   size_t num_block_ids = 0;
   size_t num_cells = 0;
-  const double max_bytes =
-      use_cell_tables_ ? solver_options_.max_cell_table_mib * 1048576.0 : 0;
+  // (The local structure's few cells need no tables, order or prefetches.)
+  const double max_bytes = use_cell_tables_ && !local_only
+                               ? solver_options_.max_cell_table_mib * 1048576.0
+                               : 0;
   // The locality order's keys (below) from the same pass: each point's
   // three largest blocks, descending.
   const double values_bytes =
       static_cast<double>(values_.size()) * sizeof(double);
   const bool locality_order =
+      !local_only &&
       values_bytes >= solver_options_.locality_order_min_mib * 1048576.0;
   prefetch_updates_ =
+      !local_only &&
       values_bytes >= solver_options_.prefetch_updates_min_mib * 1048576.0;
   std::vector<std::array<int, 3>> keys(locality_order ? num_points : 0,
                                        {-1, -1, -1});
@@ -865,10 +945,11 @@ void SchurBundleAdjuster::MultiplyReduced(const Eigen::VectorXd& x,
   }
 }
 
-bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
-                                         double relative_tolerance,
-                                         Eigen::VectorXd* step,
-                                         int* iterations) const {
+bool SchurBundleAdjuster::SolveIterative(
+    const Eigen::VectorXd& rhs, double relative_tolerance,
+    const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>&
+        multiply,
+    Eigen::VectorXd* step, int* iterations) const {
   const int n = num_scalars_;
   *iterations = 0;
   // The Schur-Jacobi preconditioner: the inverse of each group's diagonal
@@ -951,7 +1032,7 @@ bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
   p = z;
   double rz = r.dot(z);
   for (int i = 0; i < solver_options_.max_cg_iterations; ++i) {
-    MultiplyReduced(p, &q);
+    multiply(p, &q);
     const double pq = p.dot(q);
     if (!(pq > 0)) {
       // Not positive definite along p: a failure before any step, else the
@@ -1041,6 +1122,7 @@ void SchurBundleAdjuster::AnalyzeReducedSystem() {
     }
     estimate = "; " + size.str() + rule.str();
   }
+  LayOutValues(/*local_only=*/false);
   BuildScalarPattern();
   if (num_scalars_ == 0 || type == SchurLinearSolver::kSimplicial) {
     linear_solver_reason_ = "simplicial (Eigen): asked";
@@ -1180,8 +1262,21 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   }
   if (values_.empty()) {
     NumberBlocks();
-    BuildStructure();
+    BuildStructure(/*local_only=*/false);
     AnalyzeReducedSystem();
+    // (The factorisations laid out the values in their analysis.)
+    const double values_mib = num_values_ * sizeof(double) / 1048576.0;
+    implicit_ = iterative_ && values_mib >= solver_options_.implicit_min_mib;
+    if (implicit_) {
+      // The full structure only chose the solver (its factor's size).
+      BuildStructure(/*local_only=*/true);
+      std::ostringstream why;
+      why << std::setprecision(3) << "; implicit (the reduced system, "
+          << values_mib << " MiB, not formed: from "
+          << solver_options_.implicit_min_mib << " MiB)";
+      linear_solver_reason_ += why.str();
+    }
+    if (iterative_) LayOutValues(/*local_only=*/implicit_);
     VLOG(1) << "Schur bundle adjustment: " << num_scalars_
             << " reduced parameters; " << linear_solver_reason_;
   }
@@ -1192,6 +1287,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   summary.num_reduced_nonzeros = values_.size();
   summary.supernodal = cholmod_ != nullptr;
   summary.iterative = iterative_;
+  summary.implicit = implicit_;
   summary.factor_bytes_estimate = factor_bytes_estimate_;
   summary.linear_solver_reason = linear_solver_reason_;
   // The factorisations' view of the reduced system (not the iterative
@@ -1283,9 +1379,12 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   jacobian_store_begin_.assign(num_points + 1, 0);
   jacobian_stored_.assign(num_points, 0);
   size_t num_stored = 0;
-  if (solver_options_.max_jacobian_store_mib > 0) {
-    const double max_values =
-        solver_options_.max_jacobian_store_mib * 1048576.0 / sizeof(double);
+  if (implicit_ || solver_options_.max_jacobian_store_mib > 0) {
+    // (The implicit product reads every observation's.)
+    const double max_values = implicit_
+                                  ? std::numeric_limits<double>::infinity()
+                                  : solver_options_.max_jacobian_store_mib *
+                                        1048576.0 / sizeof(double);
     size_t size = 0;
     for (size_t p = 0; p < num_points; ++p) {
       jacobian_store_begin_[p] = size;
@@ -1395,6 +1494,68 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   using Wmat =
       Eigen::Matrix<double, Eigen::Dynamic, 3, 0, Linearization::kMaxCols, 3>;
   std::vector<Wmat> w, q;
+  // Implicit (SchurSolverOptions::implicit): each point's damped V^-1 from
+  // the elimination, and the camera priors' diagonal (the product's terms
+  // besides the observations' and the damping's).
+  std::vector<Matrix3> point_v_inv(implicit_ ? num_points : 0);
+  Eigen::VectorXd prior_diagonal = Eigen::VectorXd::Zero(n);
+  // Implicit: point p's share of the local cells of the Schur complement
+  // (the diagonal blocks and each observation's pose and camera blocks, the
+  // cells the preconditioner reads): S(b, c) -= G_b V^-1 G_c^T, G_b the sum
+  // of the rows of block b in its observations' W_k (its Q_k likewise for
+  // G_b V^-1): the same cells as the pairs' updates, the pairs summed first.
+  std::vector<std::pair<int, int>> block_refs;  // (block, k << 1 | i)
+  std::vector<int> distinct;
+  std::vector<Wmat> g_sums, qg_sums;
+  std::vector<std::pair<int, int>> observation_cells;
+  auto subtract_local_schur = [&] {
+    block_refs.clear();
+    for (size_t k = 0; k < lins.size(); ++k) {
+      for (int i = 0; i < lins[k].num_blocks; ++i) {
+        block_refs.push_back({lins[k].blocks[i], static_cast<int>(k << 1) | i});
+      }
+    }
+    std::sort(block_refs.begin(), block_refs.end());
+    distinct.clear();
+    g_sums.clear();
+    qg_sums.clear();
+    for (size_t r = 0; r < block_refs.size(); ++r) {
+      const int b = block_refs[r].first;
+      const int k = block_refs[r].second >> 1;
+      const int col = lins[k].cols[block_refs[r].second & 1];
+      if (distinct.empty() || distinct.back() != b) {
+        distinct.push_back(b);
+        g_sums.push_back(Wmat::Zero(block_size_[b], 3));
+        qg_sums.push_back(Wmat::Zero(block_size_[b], 3));
+      }
+      g_sums.back() += w[k].middleRows(col, block_size_[b]);
+      qg_sums.back() += q[k].middleRows(col, block_size_[b]);
+    }
+    auto subtract = [&](size_t i, size_t j) {
+      const int rb = distinct[i], cb = distinct[j];
+      Eigen::Map<Eigen::MatrixXd>(&values_[ValueIndex(rb, cb)], block_size_[rb],
+                                  block_size_[cb])
+          .noalias() -= qg_sums[i] * g_sums[j].transpose();
+    };
+    for (size_t i = 0; i < distinct.size(); ++i) subtract(i, i);
+    observation_cells.clear();
+    for (const Linearization& lin : lins) {
+      if (lin.num_blocks < 2) continue;
+      observation_cells.push_back({std::min(lin.blocks[0], lin.blocks[1]),
+                                   std::max(lin.blocks[0], lin.blocks[1])});
+    }
+    std::sort(observation_cells.begin(), observation_cells.end());
+    observation_cells.erase(
+        std::unique(observation_cells.begin(), observation_cells.end()),
+        observation_cells.end());
+    auto index = [&](int b) {
+      return static_cast<size_t>(
+          std::lower_bound(distinct.begin(), distinct.end(), b) -
+          distinct.begin());
+    };
+    for (const auto& [rb, cb] : observation_cells)
+      subtract(index(rb), index(cb));
+  };
   std::vector<PairUpdate> updates;
   Eigen::VectorXd rhs(n), diagonal(n), step(n);
   double cost = Cost(poses, cameras, points);
@@ -1451,6 +1612,112 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     const size_t offset = (cell - column_begin_[b]) / block_size_[b];
     return &values_[column_begin_[b] + i * column_height_[b] + offset + i];
   };
+  // Implicit (SchurSolverOptions::implicit): y = S x from the kept
+  // Jacobians, point by point: u_k = A_k x, t = sum_k B_k^T u_k, s = V^-1 t,
+  // y += A_k^T (u_k - B_k s); plus the damping, the camera priors and the
+  // pose residuals (the terms the elimination adds to the diagonal blocks).
+  struct ObservationColumns {
+    int count = 0;  // blocks
+    int offset[2];  // their scalar offsets
+    int size[2];
+    int num_cols = 0;  // A's
+  };
+  std::vector<ObservationColumns> point_columns;
+  std::vector<Eigen::Vector2d> point_ax;
+  const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>
+      multiply_implicit = [&](const Eigen::VectorXd& x, Eigen::VectorXd* y) {
+        *y = (applied_damping + prior_diagonal).cwiseProduct(x);
+        for (size_t i = 0; i < pose_residuals_.size(); ++i) {
+          const int b = pose_block_[pose_residuals_[i].pose];
+          if (b < 0) continue;
+          const Eigen::MatrixXd& a = pose_lins[i].A;
+          const auto segment = x.segment(block_offset_[b], a.cols());
+          y->segment(block_offset_[b], a.cols()) +=
+              a.transpose() * (a * segment);
+        }
+        const double* in = x.data();
+        double* out = y->data();
+        for (size_t p = 0; p < num_points; ++p) {
+          if (!stored[p]) continue;
+          const double* point_store = &store[store_begin[p]];
+          const double* at = point_store;
+          point_columns.clear();
+          point_ax.clear();
+          Eigen::Vector3d t = Eigen::Vector3d::Zero();
+          for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+            if (!(Weight(k) > 0)) continue;
+            const Observation& observation = observations_[k];
+            ObservationColumns columns;
+            auto add = [&](int block) {
+              columns.offset[columns.count] = block_offset_[block];
+              columns.size[columns.count++] = block_size_[block];
+              columns.num_cols += block_size_[block];
+            };
+            // (A camera joined to its pose: one block.)
+            const int a = pose_block_[observation.pose];
+            const int c = camera_block_[poses_[observation.pose].camera];
+            if (a >= 0) add(a);
+            if (c >= 0 && c != a) add(c);
+            const int num_cols = columns.num_cols;
+            // (r, B column-major, A row-major: the store's layout.)
+            const double* b = at + 2;
+            const double* row0 = at + 8;
+            const double* row1 = row0 + num_cols;
+            double u[2] = {0, 0};
+            if (columns.count != 1 ||
+                !MultiplyObservationRows(num_cols, row0, in + columns.offset[0],
+                                         u)) {
+              int col = 0;
+              for (int i = 0; i < columns.count; ++i) {
+                const double* xs = in + columns.offset[i];
+                for (int j = 0; j < columns.size[i]; ++j, ++col) {
+                  u[0] += row0[col] * xs[j];
+                  u[1] += row1[col] * xs[j];
+                }
+              }
+            }
+            const double u0 = u[0], u1 = u[1];
+            t[0] += b[0] * u0 + b[1] * u1;
+            t[1] += b[2] * u0 + b[3] * u1;
+            t[2] += b[4] * u0 + b[5] * u1;
+            point_columns.push_back(columns);
+            point_ax.emplace_back(u0, u1);
+            at += 8 + 2 * num_cols;
+          }
+          const Eigen::Vector3d sv = active[p]
+                                         ? Eigen::Vector3d(point_v_inv[p] * t)
+                                         : Eigen::Vector3d::Zero();
+          at = point_store;
+          for (size_t o = 0; o < point_columns.size(); ++o) {
+            const ObservationColumns& columns = point_columns[o];
+            const int num_cols = columns.num_cols;
+            const double* b = at + 2;
+            const double* row0 = at + 8;
+            const double* row1 = row0 + num_cols;
+            const double z[2] = {
+                point_ax[o][0] - (b[0] * sv[0] + b[2] * sv[1] + b[4] * sv[2]),
+                point_ax[o][1] - (b[1] * sv[0] + b[3] * sv[1] + b[5] * sv[2])};
+            if (columns.count == 1 &&
+                AddObservationTransposedRows(num_cols, row0, z,
+                                             out + columns.offset[0])) {
+              at += 8 + 2 * num_cols;
+              continue;
+            }
+            int col = 0;
+            for (int i = 0; i < columns.count; ++i) {
+              double* ys = out + columns.offset[i];
+              for (int j = 0; j < columns.size[i]; ++j, ++col) {
+                ys[j] += row0[col] * z[0] + row1[col] * z[1];
+              }
+            }
+            at += 8 + 2 * num_cols;
+          }
+        }
+      };
+  const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>
+      multiply_explicit = [this](const Eigen::VectorXd& x, Eigen::VectorXd* y) {
+        MultiplyReduced(x, y);
+      };
   summary.termination = ceres::NO_CONVERGENCE;
   summary.message = "maximum number of iterations reached";
   using Clock = std::chrono::steady_clock;
@@ -1493,6 +1760,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       std::fill(values_.begin(), values_.end(), 0.0);
       rhs.setZero();
       diagonal.setZero();
+      prior_diagonal.setZero();
       double gradient_max_norm = 0;
       Eigen::VectorXd camera_gradient = Eigen::VectorXd::Zero(n);
       bool finite = true;
@@ -1665,7 +1933,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         }
         const Clock::time_point update_start =
             time_parts ? Clock::now() : Clock::time_point();
-        if (prefetch_updates_) {
+        if (implicit_) {
+          point_v_inv[p] = v_inv;
+          subtract_local_schur();
+        } else if (prefetch_updates_) {
           for (size_t u = 0; u < num_updates; ++u) {
             if (u + kPrefetchUpdates < num_updates) {
               Prefetch(updates[u + kPrefetchUpdates]);
@@ -1705,6 +1976,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         const double a = 1 / cameras_[i].prior_std;
         const double r = CameraPriorResidual(static_cast<int>(i), cameras);
         *diagonal_entry(b, ValueIndex(b, b), column) += a * a;
+        prior_diagonal[block_offset_[b] + column] += a * a;
         camera_gradient[block_offset_[b] + column] += a * r;
         diagonal[block_offset_[b] + column] += a * a;
       }
@@ -1752,8 +2024,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
                              ? std::min(solver_options_.eta,
                                         std::sqrt(rhs_norm / first_rhs_norm))
                              : solver_options_.eta;
-      solved =
-          SolveIterative(rhs, eta, &step, &cg_iterations) && step.allFinite();
+      solved = SolveIterative(rhs, eta,
+                              implicit_ ? multiply_implicit : multiply_explicit,
+                              &step, &cg_iterations) &&
+               step.allFinite();
       summary.num_linear_iterations += cg_iterations;
     } else if (n > 0 && cholmod_ != nullptr) {
       if (!scalar_layout) ToScalarLayout();

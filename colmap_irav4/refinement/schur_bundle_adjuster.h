@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -73,6 +74,21 @@ struct SchurSolverOptions {
   // factorisation's (docs/notes/2026-12-05-iterative-schur.md).
   double eta = 1e-3;
   int max_cg_iterations = 500;
+  // Iterative: from this size of the reduced system's values (MiB),
+  // conjugate gradients multiply by it without forming it (an implicit
+  // Schur complement, as Ceres' ITERATIVE_SCHUR): S x = sum_k A_k^T (A_k x
+  // - B_k V_p^-1 sum_l B_l^T A_l x) over each point p's observations k, l,
+  // plus the damping and the pose residuals, from the Jacobians of every
+  // observation kept from the elimination (192 bytes an observation with a
+  // camera per image, whatever max_jacobian_store_mib says); the
+  // elimination forms only the diagonal blocks the Schur-Jacobi
+  // preconditioner takes. An elimination then costs a pass over the
+  // observations instead of the sum over points of m (m + 1) / 2 block-pair
+  // updates, a conjugate gradient iteration a pass over the kept Jacobians
+  // instead of one over the system: 10,000 photo images (1,507 MiB), an
+  // iteration 15-33 CPU s instead of 180-210; 1,000 (24 MiB, in the caches)
+  // 5x slower (docs/notes/2026-12-06-implicit-schur.md). 0: always.
+  double implicit_min_mib = 256;
   // After a rejected step or a failed factorisation, while the radius is at
   // least this, the next step is solved from the same reduced system with
   // only its camera damping changed (the points keep the damping they were
@@ -224,7 +240,8 @@ class SchurBundleAdjuster {
     size_t num_reduced_nonzeros = 0;   // its stored (upper block) entries
     bool supernodal = false;           // CHOLMOD's supernodal factorisation
     bool iterative = false;            // conjugate gradients
-    int num_linear_iterations = 0;     // conjugate gradients' (all solves)
+    bool implicit = false;          // ... without the reduced system (implicit)
+    int num_linear_iterations = 0;  // conjugate gradients' (all solves)
     // Tries solved from the last elimination's reduced system, re-damped
     // (SchurSolverOptions::reuse_min_radius).
     int num_reused_eliminations = 0;
@@ -300,8 +317,14 @@ class SchurBundleAdjuster {
   // index when it has free parameters), then the cameras'; -1: held.
   void NumberBlocks();
   // The block structure of the reduced camera system (upper block triangle)
-  // for the observations weighed now, and its scalar column layout.
-  void BuildStructure();
+  // for the observations weighed now, and its scalar column layout: the
+  // cells every point's pairs of blocks fill, or with `local_only` those of
+  // single observations only (the diagonal blocks and each observation's
+  // pose and camera blocks: what the implicit solver forms).
+  void BuildStructure(bool local_only);
+  // The values of the structure just built (zeros, in the cell layout), the
+  // points' cell tables and elimination order (none with `local_only`).
+  void LayOutValues(bool local_only);
   // Observation k's weight (weights_).
   double Weight(size_t k) const { return weights_[k]; }
   // The columns of an observation's Jacobian by the reduced system's
@@ -366,13 +389,19 @@ class SchurBundleAdjuster {
   // Conjugate gradients on the reduced system preconditioned by the inverses
   // of its groups' diagonal blocks (Schur-Jacobi, by image); false when the
   // system is not positive definite.
-  // `relative_tolerance`: on |r| / |rhs|; `iterations`: those run.
+  // `relative_tolerance`: on |r| / |rhs|; `iterations`: those run;
+  // `multiply`: y = S x (MultiplyReduced, or the implicit product).
   bool SolveIterative(const Eigen::VectorXd& rhs, double relative_tolerance,
+                      const std::function<void(const Eigen::VectorXd&,
+                                               Eigen::VectorXd*)>& multiply,
                       Eigen::VectorXd* step, int* iterations) const;
 
   const bool center_;
   const SchurSolverOptions solver_options_;
   bool iterative_ = false;  // the reduced system solved by SolveIterative
+  // ... without forming it (SchurSolverOptions::implicit); the structure
+  // then holds the local cells only (BuildStructure).
+  bool implicit_ = false;
   // BuildPreconditionerGroups': (block, its partner or -1), each block once.
   std::vector<std::pair<int, int>> preconditioner_groups_;
   double factor_bytes_estimate_ = 0;
@@ -405,6 +434,7 @@ class SchurBundleAdjuster {
   // each column in place into the scalar CSC layout for the
   // factorisations.
   std::vector<size_t> column_begin_;
+  size_t num_values_ = 0;  // the structure's (BuildStructure)
   std::vector<int> column_height_;
   // (column block << 32 | row block) -> row offset within the block
   // column, sorted; column_cells_: each column's first cell in it.

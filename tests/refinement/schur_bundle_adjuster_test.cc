@@ -9,7 +9,8 @@
 // iterative solver (conjugate gradients) reaches the factorisations'
 // solution, and auto chooses it above the factor's memory budget; its
 // pair updates listed and prefetched or run as found give the same
-// solution to the bit; both
+// solution to the bit; its implicit product (the reduced system not formed)
+// the formed system's solution; both
 // backends stop a solve whose cost has stalled.
 
 #include "colmap_irav4/refinement/schur_bundle_adjuster.h"
@@ -960,6 +961,116 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
                     loose_direct_ba, exact_iterative_ba);
 }
 
+// The implicit product (SchurSolverOptions::implicit_min_mib 0: the reduced
+// system not formed, S x from the kept Jacobians) against the formed system,
+// both conjugate gradients to a relative residual of 1e-10: one step the same
+// (the bounds of IterativeSameSolutionAsDirect), then whole solves to the
+// same cost, with a shared camera (its diagonal block summed over many
+// observations of a point), a camera per image joined to its pose and not
+// joined (the pose and camera blocks a preconditioner group: their coupling
+// cell formed), and a focal length prior (the product's diagonal term).
+// The implicit solver keeps every observation's Jacobians whatever the
+// store's budget (here 0) and forms only the local cells.
+TEST(SchurBundleAdjuster, ImplicitSameSolutionAsFormedSystem) {
+  for (const bool shared_camera : {true, false}) {
+    for (const bool join : {true, false}) {
+      if (shared_camera && !join) continue;  // (nothing to join)
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          (join ? "" : ", not joined"));
+      for (const int num_iterations : {1, 30}) {
+        SCOPED_TRACE(std::to_string(num_iterations) + " iterations");
+        const Reconstruction start = PerturbedStart(shared_camera);
+        Reconstruction formed_model = start, implicit_model = start;
+        std::map<image_t, std::vector<double>> formed_weights, implicit_weights;
+        SchurSolverOptions formed_options;
+        formed_options.linear_solver = SchurLinearSolver::kIterative;
+        formed_options.eta = 1e-10;
+        formed_options.join_own_camera_blocks = join;
+        formed_options.max_jacobian_store_mib = 0;
+        SchurSolverOptions implicit_options = formed_options;
+        implicit_options.implicit_min_mib = 0;
+        SchurBundleAdjuster formed(/*center=*/false, formed_options),
+            implicit(/*center=*/false, implicit_options);
+        AddModel(/*gauge=*/true, &formed_model, &formed_weights, &formed);
+        AddModel(/*gauge=*/true, &implicit_model, &implicit_weights, &implicit);
+        // A focal length prior 2% off the start's value on the first camera.
+        const double focal = start.cameras.begin()->second.params[0];
+        formed.SetCameraPrior(0, 0, 1.02 * focal, 0.01 * focal);
+        implicit.SetCameraPrior(0, 0, 1.02 * focal, 0.01 * focal);
+        ceres::Solver::Options options;
+        options.max_num_iterations = num_iterations;
+        const SchurBundleAdjuster::Summary a = formed.Solve(options);
+        const SchurBundleAdjuster::Summary b = implicit.Solve(options);
+        EXPECT_TRUE(a.iterative);
+        EXPECT_FALSE(a.implicit);
+        EXPECT_TRUE(b.iterative);
+        EXPECT_TRUE(b.implicit);
+        EXPECT_NE(b.linear_solver_reason.find("implicit"), std::string::npos);
+        EXPECT_EQ(a.jacobian_store_bytes, 0u);
+        // r, B and A (6 pose, 2 camera columns) of every weighed observation.
+        EXPECT_GE(b.jacobian_store_bytes, 24 * sizeof(double) * 1000);
+        // Only the diagonal blocks and the pose-camera cells formed.
+        EXPECT_LT(b.num_reduced_nonzeros, a.num_reduced_nonzeros / 2);
+        EXPECT_EQ(a.num_reduced_parameters, b.num_reduced_parameters);
+        EXPECT_GT(b.num_linear_iterations, 1);
+        EXPECT_NE(b.termination, ceres::FAILURE);
+        EXPECT_EQ(a.initial_cost, b.initial_cost);
+        EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
+        EXPECT_NEAR(b.final_cost, a.final_cost, 1e-8 * a.final_cost);
+        const Difference d = Compare(formed_model, implicit_model);
+        EXPECT_LT(d.center, 1e-6);  // scene radius 10
+        EXPECT_LT(d.rotation_deg, 1e-6);
+        EXPECT_LT(d.point, 1e-5);
+        EXPECT_LT(d.param, 1e-8);
+        EXPECT_GT(Compare(start, implicit_model).point, 1e-2);
+      }
+    }
+  }
+}
+
+// The implicit product's pose residual term: pose priors (position and
+// gravity, Cauchy loss with outliers) through the bundle adjustment, the
+// implicit iterative solver against the supernodal factorisation: the same
+// optimum.
+TEST(SchurBundleAdjuster, ImplicitSameOptimumWithPosePriors) {
+  const SyntheticScene scene = Scene(1, /*shared_camera=*/false);
+  PosePriors priors;
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int k = 0;
+  for (const auto& [image_id, image] : scene.truth.images) {
+    PosePrior& prior = priors[image_id];
+    prior.position =
+        image.ProjectionCenter() +
+        0.3 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    if (k++ == 3) prior.position += Eigen::Vector3d(0, 6, -4);
+    prior.gravity = image.cam_from_world.rotation * Eigen::Vector3d(0, 0, -1);
+  }
+  BundleAdjustmentOptions options = TightOptions();
+  options.solver_backend = BundleAdjustmentSolverBackend::kSchur;
+  options.pose_priors.position_std = 0.3;
+  options.pose_priors.gravity_std_deg = 0.5;
+  options.pose_priors.gate_std = 0;
+  Reconstruction start = scene.truth;
+  PerturbModel(0.5, 0.05, 0.02, 1.0, 7, &start);
+  Reconstruction direct_model = start, implicit_model = start;
+  BundleAdjustmentSummary direct_summary, implicit_summary;
+  options.schur_linear_solver = SchurLinearSolver::kSupernodal;
+  ASSERT_TRUE(
+      RunBundleAdjustment(options, &direct_model, &direct_summary, &priors));
+  options.schur_linear_solver = SchurLinearSolver::kIterative;
+  options.schur_implicit_min_mib = 0;
+  options.schur_iterative_eta = 1e-10;
+  ASSERT_TRUE(RunBundleAdjustment(options, &implicit_model, &implicit_summary,
+                                  &priors));
+  EXPECT_EQ(implicit_summary.linear_solver, "SCHUR_IMPLICIT_PCG");
+  EXPECT_EQ(implicit_summary.num_position_priors, 12);
+  EXPECT_EQ(implicit_summary.num_gravity_priors, 12);
+  ExpectSameOptimum(direct_summary, implicit_summary, direct_model,
+                    implicit_model);
+}
+
 // After a rejected step the next try re-damps the cameras of the reduced
 // system it has (reuse_min_radius) instead of eliminating the points again:
 // another damping of the same Gauss-Newton model, so the solves reach the
@@ -1131,6 +1242,12 @@ TEST(SchurBundleAdjuster, CheckRejectsBadIterativeSettings) {
               o->schur_max_cg_iterations = 0;
             }).find("--BundleAdjustment.schur_max_cg_iterations"),
             std::string::npos);
+  for (const double mib : {-1.0, std::nan("")}) {
+    EXPECT_NE(error([mib](BundleAdjustmentOptions* o) {
+                o->schur_implicit_min_mib = mib;
+              }).find("--BundleAdjustment.schur_implicit_min_mib"),
+              std::string::npos);
+  }
   EXPECT_EQ(error([](BundleAdjustmentOptions* o) {
               o->schur_linear_solver = SchurLinearSolver::kIterative;
               o->schur_iterative_eta = 0.5;

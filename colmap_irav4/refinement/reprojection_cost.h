@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <type_traits>
+#include <utility>
 
 #include <ceres/jet.h>
 #include <Eigen/Core>
@@ -104,29 +105,20 @@ bool LinearizeReprojection(int model_id, const Eigen::Vector2d& xy, bool center,
   return std::isfinite(residual[0]) && std::isfinite(residual[1]);
 }
 
-// Calls f(std::integral_constant<int, N>()) with N = num_params, one of the
-// camera models' parameter counts (3, 4, 5, 8, 12): the size of
-// ReprojectionCost's camera block. Returns false for another count.
+// Calls f(std::integral_constant<int, N>()) with N = n when n is one of Ns
+// (a size known at run time dispatched to code compiled for it); false for
+// another n.
+template <int... Ns, typename F>
+bool WithConstant(int n, F&& f) {
+  return ((n == Ns ? (f(std::integral_constant<int, Ns>()), true) : false) ||
+          ...);
+}
+
+// WithConstant over the camera models' parameter counts (3, 4, 5, 8, 12):
+// the size of ReprojectionCost's camera block.
 template <typename F>
 bool WithNumCameraParams(int num_params, F&& f) {
-  switch (num_params) {
-    case 3:
-      f(std::integral_constant<int, 3>());
-      return true;
-    case 4:
-      f(std::integral_constant<int, 4>());
-      return true;
-    case 5:
-      f(std::integral_constant<int, 5>());
-      return true;
-    case 8:
-      f(std::integral_constant<int, 8>());
-      return true;
-    case 12:
-      f(std::integral_constant<int, 12>());
-      return true;
-  }
-  return false;
+  return WithConstant<3, 4, 5, 8, 12>(num_params, std::forward<F>(f));
 }
 
 }  // namespace colmap_irav4

@@ -182,7 +182,8 @@ inline void Prefetch(const PairUpdate& update) {
 // block of N columns (row-major 2 x N at `a`: a pose with its own camera
 // joined, the photo collections' case), at a width known at compile time:
 // u = A x (Eigen's vectorised sums; a scalar loop cannot reorder them), and
-// y += A^T z. False for a width not listed (the caller's loop then).
+// y += A^T z (at the widths 6-10 through WithConstant: the caller's loop
+// for others).
 template <int N>
 void MultiplyRows(const double* a, const double* x, double u[2]) {
   const Eigen::Vector2d product =
@@ -198,52 +199,6 @@ void AddTransposedRows(const double* a, const double z[2], double* y) {
       Eigen::Map<const Eigen::Matrix<double, 2, N, Eigen::RowMajor>>(a)
           .transpose() *
       Eigen::Vector2d(z[0], z[1]);
-}
-
-bool MultiplyObservationRows(int n, const double* a, const double* x,
-                             double u[2]) {
-  switch (n) {
-    case 6:
-      MultiplyRows<6>(a, x, u);
-      return true;
-    case 7:
-      MultiplyRows<7>(a, x, u);
-      return true;
-    case 8:
-      MultiplyRows<8>(a, x, u);
-      return true;
-    case 9:
-      MultiplyRows<9>(a, x, u);
-      return true;
-    case 10:
-      MultiplyRows<10>(a, x, u);
-      return true;
-    default:
-      return false;
-  }
-}
-
-bool AddObservationTransposedRows(int n, const double* a, const double z[2],
-                                  double* y) {
-  switch (n) {
-    case 6:
-      AddTransposedRows<6>(a, z, y);
-      return true;
-    case 7:
-      AddTransposedRows<7>(a, z, y);
-      return true;
-    case 8:
-      AddTransposedRows<8>(a, z, y);
-      return true;
-    case 9:
-      AddTransposedRows<9>(a, z, y);
-      return true;
-    case 10:
-      AddTransposedRows<10>(a, z, y);
-      return true;
-    default:
-      return false;
-  }
 }
 
 }  // namespace
@@ -1665,8 +1620,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
             const double* row1 = row0 + num_cols;
             double u[2] = {0, 0};
             if (columns.count != 1 ||
-                !MultiplyObservationRows(num_cols, row0, in + columns.offset[0],
-                                         u)) {
+                !WithConstant<6, 7, 8, 9, 10>(num_cols, [&](auto width) {
+                  MultiplyRows<width()>(row0, in + columns.offset[0], u);
+                })) {
               int col = 0;
               for (int i = 0; i < columns.count; ++i) {
                 const double* xs = in + columns.offset[i];
@@ -1698,8 +1654,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
                 point_ax[o][0] - (b[0] * sv[0] + b[2] * sv[1] + b[4] * sv[2]),
                 point_ax[o][1] - (b[1] * sv[0] + b[3] * sv[1] + b[5] * sv[2])};
             if (columns.count == 1 &&
-                AddObservationTransposedRows(num_cols, row0, z,
-                                             out + columns.offset[0])) {
+                WithConstant<6, 7, 8, 9, 10>(num_cols, [&](auto width) {
+                  AddTransposedRows<width()>(row0, z, out + columns.offset[0]);
+                })) {
               at += 8 + 2 * num_cols;
               continue;
             }

@@ -399,8 +399,8 @@ class SchurBundleAdjuster {
   const bool center_;
   const SchurSolverOptions solver_options_;
   bool iterative_ = false;  // the reduced system solved by SolveIterative
-  // ... without forming it (SchurSolverOptions::implicit_min_mib); the structure
-  // then holds the local cells only (BuildStructure).
+  // ... without forming it (SchurSolverOptions::implicit_min_mib); the
+  // structure then holds the local cells only (BuildStructure).
   bool implicit_ = false;
   // BuildPreconditionerGroups': (block, its partner or -1), each block once.
   std::vector<std::pair<int, int>> preconditioner_groups_;

@@ -1,5 +1,6 @@
 #include "colmap_irav4/eval/strecha_gt.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -42,6 +43,14 @@ StrechaCamera ReadStrechaCamera(const std::string& path) {
   }
   camera.distortion = Eigen::Vector3d(values[9], values[10], values[11]);
   camera.center = Eigen::Vector3d(values[21], values[22], values[23]);
+  // Checked before the cast: a double outside int's range is undefined there.
+  for (const double size : {values[24], values[25]}) {
+    if (!(size >= 1 && size <= 1e6 && size == std::floor(size))) {
+      throw InputError(path,
+                       "W H (line 9) must be whole numbers from 1 to "
+                       "1000000 pixels");
+    }
+  }
   camera.width = static_cast<int>(values[24]);
   camera.height = static_cast<int>(values[25]);
   // The files have 6 significant digits: accept that much non-orthogonality.

@@ -79,6 +79,19 @@ TEST(StrechaGroundTruth, WindowsLineEndsAndErrors) {
   } catch (const InputError& error) {
     EXPECT_NE(std::string(error.what()).find(not_rotation), std::string::npos);
   }
+  // Image sizes outside int's range (a fuzzer's find), fractional or zero.
+  for (const std::string size : {"3072 2e45", "3072 20.5", "0 480", "nan 4"}) {
+    const std::string bad_size = dir.File("d.jpg.camera");
+    std::ofstream(bad_size)
+        << "1 0 0 0 1 0 0 0 1 0 0 0 1 0 0 0 1 0 0 0 1 0 0 0 " << size << "\n";
+    try {
+      ReadStrechaCamera(bad_size);
+      ADD_FAILURE() << size;
+    } catch (const InputError& error) {
+      EXPECT_NE(std::string(error.what()).find("W H"), std::string::npos)
+          << size;
+    }
+  }
   const std::map<std::string, StrechaCamera> read = [&] {
     test::TempDir only_good;
     std::ofstream(only_good.File("x.jpg.camera"))

@@ -81,11 +81,13 @@ int ColorPointsFromImages(const std::string& image_path,
       // bilinear interpolation between the four nearest pixel centres.
       const double x = point2D.xy.x() / downscale - 0.5;
       const double y = point2D.xy.y() / downscale - 0.5;
-      const int x0 = static_cast<int>(std::floor(x));
-      const int y0 = static_cast<int>(std::floor(y));
-      if (x0 < 0 || y0 < 0 || x0 + 1 >= bgr.cols || y0 + 1 >= bgr.rows) {
+      // (Checked before the casts: a keypoint far outside, or not finite,
+      // is beyond int's range.)
+      if (!(x >= 0 && y >= 0 && x < bgr.cols - 1 && y < bgr.rows - 1)) {
         continue;
       }
+      const int x0 = static_cast<int>(std::floor(x));
+      const int y0 = static_cast<int>(std::floor(y));
       const double dx = x - x0;
       const double dy = y - y0;
       Eigen::Vector3d rgb = Eigen::Vector3d::Zero();

@@ -143,15 +143,21 @@ TEST(PointColors, SampledAtTheKeypointWithPixelCentresAtHalfIntegers) {
   cv::imwrite(temp.File("g.png"), image);
   Reconstruction model =
       TwoViewsOf("g.png", 16, 16,
-                 {Eigen::Vector2d(5.5, 2.5),    // centre of column 5
-                  Eigen::Vector2d(5.0, 2.5)});  // between 4 and 5
+                 {Eigen::Vector2d(5.5, 2.5),  // centre of column 5
+                  Eigen::Vector2d(5.0, 2.5),  // between 4 and 5
+                  // Beyond int's range (a hostile database's keypoint):
+                  // not sampled (undefined behaviour once), grey.
+                  Eigen::Vector2d(3e38, 2.5)});
   const point3D_t centre =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 0}, {2, 0}}, &model);
   const point3D_t between =
       AddPoint3D(Eigen::Vector3d::Zero(), {{1, 1}, {2, 1}}, &model);
+  const point3D_t far =
+      AddPoint3D(Eigen::Vector3d::Zero(), {{1, 2}, {2, 2}}, &model);
   ASSERT_EQ(ColorPointsFromImages(temp.File(""), &model, 1), 0);
   EXPECT_EQ(static_cast<int>(model.points3D.at(centre).color[0]), 50);
   EXPECT_EQ(static_cast<int>(model.points3D.at(between).color[0]), 45);
+  EXPECT_EQ(static_cast<int>(model.points3D.at(far).color[0]), 128);
 }
 
 // A phone's portrait photo is stored landscape with an EXIF orientation tag

@@ -483,6 +483,11 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "system, multiply by it without forming it, from every "
                "observation's Jacobians kept (implicit Schur complement; "
                "0: always)");
+  manager->Add("BundleAdjustment.schur_implicit_single_precision",
+               &ba.schur_implicit_single_precision,
+               "Schur solver, implicit: the conjugate gradients multiply "
+               "from a single-precision copy of the kept Jacobians (half "
+               "the bytes read; accumulated in double)");
   manager->Add("BundleAdjustment.schur_max_cg_iterations",
                &ba.schur_max_cg_iterations,
                "Schur solver, iterative: at most this many conjugate gradient "

@@ -256,6 +256,8 @@ class BundleAdjustmentProblem {
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
       schur_options.implicit_min_mib = options.schur_implicit_min_mib;
+      schur_options.implicit_single_precision =
+          options.schur_implicit_single_precision;
       schur_options.reuse_min_radius = options.schur_reuse_min_radius;
       schur_options.point_iterations = options.schur_point_iterations;
       schur_adjuster_ =

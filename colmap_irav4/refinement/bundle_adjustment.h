@@ -166,6 +166,9 @@ struct BundleAdjustmentOptions {
   // gradients multiply by it without forming it, from every observation's
   // kept Jacobians (SchurSolverOptions::implicit_min_mib; 0: always).
   double schur_implicit_min_mib = 256;
+  // Implicit: the product from a single-precision copy of the Jacobians
+  // (SchurSolverOptions::implicit_single_precision).
+  bool schur_implicit_single_precision = true;
   // Our Schur solver: after a rejected step or failed factorisation, while
   // the radius is at least this, the next try re-damps the cameras of the
   // same reduced system instead of eliminating the points again

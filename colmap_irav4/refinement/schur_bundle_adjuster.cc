@@ -184,21 +184,106 @@ inline void Prefetch(const PairUpdate& update) {
 // u = A x (Eigen's vectorised sums; a scalar loop cannot reorder them), and
 // y += A^T z (at the widths 6-10 through WithConstant: the caller's loop
 // for others).
-template <int N>
-void MultiplyRows(const double* a, const double* x, double u[2]) {
-  const Eigen::Vector2d product =
-      Eigen::Map<const Eigen::Matrix<double, 2, N, Eigen::RowMajor>>(a) *
-      Eigen::Map<const Eigen::Matrix<double, N, 1>>(x);
-  u[0] = product[0];
-  u[1] = product[1];
+// (In T: the single-precision copy multiplies in floats, x given in
+// floats, four lanes to a vector where doubles take two; the sums over the
+// observations stay in double.)
+template <int N, typename T>
+void MultiplyRows(const T* a, const T* x, double u[2]) {
+  const Eigen::Matrix<T, 2, 1> product =
+      Eigen::Map<const Eigen::Matrix<T, 2, N, Eigen::RowMajor>>(a) *
+      Eigen::Map<const Eigen::Matrix<T, N, 1>>(x);
+  u[0] = static_cast<double>(product[0]);
+  u[1] = static_cast<double>(product[1]);
 }
 
-template <int N>
-void AddTransposedRows(const double* a, const double z[2], double* y) {
-  Eigen::Map<Eigen::Matrix<double, N, 1>>(y).noalias() +=
-      Eigen::Map<const Eigen::Matrix<double, 2, N, Eigen::RowMajor>>(a)
-          .transpose() *
-      Eigen::Vector2d(z[0], z[1]);
+template <int N, typename T>
+void AddTransposedRows(const T* a, const double z[2], double* y) {
+  const Eigen::Matrix<T, N, 1> product =
+      Eigen::Map<const Eigen::Matrix<T, 2, N, Eigen::RowMajor>>(a).transpose() *
+      Eigen::Matrix<T, 2, 1>(static_cast<T>(z[0]), static_cast<T>(z[1]));
+  Eigen::Map<Eigen::Matrix<double, N, 1>>(y) += product.template cast<double>();
+}
+
+// The reduced system's columns of an observation of a pose (its blocks'
+// scalar offsets and sizes): the implicit product's, one per pose.
+struct ProductColumns {
+  int count = 0;  // blocks
+  int offset[2];
+  int size[2];
+  int num_cols = 0;  // A's
+};
+
+// One point's share of the implicit product, y += sum_k A_k^T (u_k - B_k
+// s), u_k = A_k x, s = v_inv sum_k B_k^T u_k, over its `count` weighed
+// observations of poses `poses`, kept from `at` in the store's layout (r,
+// B column-major, A row-major; in T). v_inv null: a held point (s = 0).
+// `x_in_t`: x in T (the fixed widths multiply in T). `ax`: scratch.
+template <typename T>
+void MultiplyPoint(const T* at, const uint32_t* poses, size_t count,
+                   const ProductColumns* pose_columns,
+                   const Eigen::Matrix3d* v_inv, const double* x,
+                   const T* x_in_t, double* y,
+                   std::vector<Eigen::Vector2d>* ax) {
+  ax->resize(count);
+  // An observation's record from `at`: B, A's two rows, the next record.
+  struct Record {
+    const T *b, *row0, *row1, *next;
+    double B(int i) const { return static_cast<double>(b[i]); }
+  };
+  auto record = [](const T* at, int num_cols) {
+    const T* b = at + 2;
+    return Record{b, b + 6, b + 6 + num_cols, b + 6 + 2 * num_cols};
+  };
+  const T* const point_begin = at;
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  for (size_t o = 0; o < count; ++o) {
+    const ProductColumns& columns = pose_columns[poses[o]];
+    const Record r = record(at, columns.num_cols);
+    at = r.next;
+    double u[2] = {0, 0};
+    if (columns.count != 1 ||
+        !WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
+          MultiplyRows<width()>(r.row0, x_in_t + columns.offset[0], u);
+        })) {
+      int col = 0;
+      for (int i = 0; i < columns.count; ++i) {
+        const double* xs = x + columns.offset[i];
+        for (int j = 0; j < columns.size[i]; ++j, ++col) {
+          u[0] += static_cast<double>(r.row0[col]) * xs[j];
+          u[1] += static_cast<double>(r.row1[col]) * xs[j];
+        }
+      }
+    }
+    t[0] += r.B(0) * u[0] + r.B(1) * u[1];
+    t[1] += r.B(2) * u[0] + r.B(3) * u[1];
+    t[2] += r.B(4) * u[0] + r.B(5) * u[1];
+    (*ax)[o] = Eigen::Vector2d(u[0], u[1]);
+  }
+  const Eigen::Vector3d s =
+      v_inv != nullptr ? Eigen::Vector3d(*v_inv * t) : Eigen::Vector3d::Zero();
+  at = point_begin;
+  for (size_t o = 0; o < count; ++o) {
+    const ProductColumns& columns = pose_columns[poses[o]];
+    const Record r = record(at, columns.num_cols);
+    at = r.next;
+    const double z[2] = {
+        (*ax)[o][0] - (r.B(0) * s[0] + r.B(2) * s[1] + r.B(4) * s[2]),
+        (*ax)[o][1] - (r.B(1) * s[0] + r.B(3) * s[1] + r.B(5) * s[2])};
+    if (columns.count == 1 &&
+        WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
+          AddTransposedRows<width()>(r.row0, z, y + columns.offset[0]);
+        })) {
+      continue;
+    }
+    int col = 0;
+    for (int i = 0; i < columns.count; ++i) {
+      double* ys = y + columns.offset[i];
+      for (int j = 0; j < columns.size[i]; ++j, ++col) {
+        ys[j] += static_cast<double>(r.row0[col]) * z[0] +
+                 static_cast<double>(r.row1[col]) * z[1];
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -487,24 +572,32 @@ int SchurBundleAdjuster::NumColumns(const Observation& observation) const {
   return num_cols;
 }
 
-void SchurBundleAdjuster::Describe(const Observation& observation,
-                                   Linearization* lin) const {
-  const PoseBlock& pose = poses_[observation.pose];
-  lin->num_blocks = 0;
-  const int pose_block = pose_block_[observation.pose];
-  const int camera_block = camera_block_[pose.camera];
-  lin->A.resize(2, NumColumns(observation));
+SchurBundleAdjuster::ObservationBlocks SchurBundleAdjuster::Blocks(
+    uint32_t pose) const {
+  ObservationBlocks blocks;
+  const int pose_block = pose_block_[pose];
+  const int camera_block = camera_block_[poses_[pose].camera];
   int col = 0;
   if (pose_block >= 0) {
-    lin->blocks[lin->num_blocks] = pose_block;
-    lin->cols[lin->num_blocks++] = col;
-    col += static_cast<int>(pose.free.size());
+    blocks.block[blocks.count] = pose_block;
+    blocks.col[blocks.count++] = col;
+    col += static_cast<int>(poses_[pose].free.size());
   }
   // (A camera joined to the pose's block: its columns follow the pose's.)
   if (camera_block >= 0 && camera_block != pose_block) {
-    lin->blocks[lin->num_blocks] = camera_block;
-    lin->cols[lin->num_blocks++] = col;
+    blocks.block[blocks.count] = camera_block;
+    blocks.col[blocks.count++] = col;
   }
+  return blocks;
+}
+
+void SchurBundleAdjuster::Describe(const Observation& observation,
+                                   Linearization* lin) const {
+  const ObservationBlocks blocks = Blocks(observation.pose);
+  lin->num_blocks = blocks.count;
+  std::copy(blocks.block, blocks.block + blocks.count, lin->blocks);
+  std::copy(blocks.col, blocks.col + blocks.count, lin->cols);
+  lin->A.resize(2, NumColumns(observation));
 }
 
 bool SchurBundleAdjuster::AddPointCost(size_t p, const double* point,
@@ -1331,6 +1424,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   // again; the same values, so the same result to the bit. Per weighed
   // observation: r (2), B (2 x 3, column-major), A (2 x its columns,
   // row-major). The members' buffers, laid out for this solve's weights.
+  // (SchurSolverOptions::implicit_single_precision: in floats.)
+  const bool single = implicit_ && solver_options_.implicit_single_precision;
   jacobian_store_begin_.assign(num_points + 1, 0);
   jacobian_stored_.assign(num_points, 0);
   size_t num_stored = 0;
@@ -1356,10 +1451,15 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       }
     }
     jacobian_store_begin_[num_points] = size;
-    if (size > jacobian_store_capacity_) {
-      // Not zeroed (a point's values are written before they are read), in
-      // huge pages (a 4 KiB page's fault at each first write: 75,000 of them
-      // for a 300-image courtyard's three adjustments).
+    // Not zeroed (a point's values are written before they are read), in
+    // huge pages (a 4 KiB page's fault at each first write: 75,000 of them
+    // for a 300-image courtyard's three adjustments).
+    if (single && size > jacobian_store_single_capacity_) {
+      jacobian_store_single_.reset();
+      jacobian_store_single_.reset(new float[size]);
+      AdviseHugePages(jacobian_store_single_.get(), size * sizeof(float));
+      jacobian_store_single_capacity_ = size;
+    } else if (!single && size > jacobian_store_capacity_) {
       jacobian_store_.reset();
       jacobian_store_.reset(new double[size]);
       AdviseHugePages(jacobian_store_.get(), size * sizeof(double));
@@ -1369,35 +1469,57 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   const std::vector<size_t>& store_begin = jacobian_store_begin_;
   const std::vector<char>& stored = jacobian_stored_;
   double* const store = jacobian_store_.get();
-  summary.jacobian_store_bytes = store_begin[num_points] * sizeof(double);
+  float* const store_single = jacobian_store_single_.get();
+  summary.jacobian_store_bytes =
+      store_begin[num_points] * (single ? sizeof(float) : sizeof(double));
+  summary.jacobian_store_single = single;
+  // Implicit: the product's poses, the store's order.
+  product_poses_begin_.assign(implicit_ ? num_points + 1 : 0, 0);
+  product_poses_.clear();
+  if (implicit_) {
+    for (size_t p = 0; p < num_points; ++p) {
+      product_poses_begin_[p] = product_poses_.size();
+      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+        if (Weight(k) > 0) product_poses_.push_back(observations_[k].pose);
+      }
+    }
+    product_poses_begin_[num_points] = product_poses_.size();
+  }
   VLOG(1) << "Schur bundle adjustment: Jacobians kept for " << num_stored
           << " of " << num_points << " points ("
-          << summary.jacobian_store_bytes / 1048576.0 << " MiB)";
+          << summary.jacobian_store_bytes / 1048576.0 << " MiB"
+          << (single ? " in single precision" : "") << ")";
   // Whether the store holds the linearisations at the current parameters.
   bool store_valid = false;
   // lins into the store (point p's) and back.
   auto keep = [&](size_t p) {
-    double* out = &store[store_begin[p]];
-    for (const Linearization& lin : lins) {
-      out[0] = lin.r[0];
-      out[1] = lin.r[1];
-      std::copy(lin.B.data(), lin.B.data() + 6, out + 2);
-      std::copy(lin.A.data(), lin.A.data() + lin.A.size(), out + 8);
-      out += 8 + lin.A.size();
-    }
+    auto write = [&](auto* out) {
+      using T = std::remove_pointer_t<decltype(out)>;
+      for (const Linearization& lin : lins) {
+        out[0] = static_cast<T>(lin.r[0]);
+        out[1] = static_cast<T>(lin.r[1]);
+        std::copy(lin.B.data(), lin.B.data() + 6, out + 2);
+        std::copy(lin.A.data(), lin.A.data() + lin.A.size(), out + 8);
+        out += 8 + lin.A.size();
+      }
+    };
+    single ? write(&store_single[store_begin[p]])
+           : write(&store[store_begin[p]]);
   };
   auto restore = [&](size_t p) {
-    const double* in = &store[store_begin[p]];
-    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-      if (!(Weight(k) > 0)) continue;
-      lins.emplace_back();
-      Linearization& lin = lins.back();
-      Describe(observations_[k], &lin);
-      lin.r = Eigen::Vector2d(in[0], in[1]);
-      std::copy(in + 2, in + 8, lin.B.data());
-      std::copy(in + 8, in + 8 + lin.A.size(), lin.A.data());
-      in += 8 + lin.A.size();
-    }
+    auto read = [&](const auto* in) {
+      for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+        if (!(Weight(k) > 0)) continue;
+        lins.emplace_back();
+        Linearization& lin = lins.back();
+        Describe(observations_[k], &lin);
+        lin.r = Eigen::Vector2d(in[0], in[1]);
+        std::copy(in + 2, in + 8, lin.B.data());
+        std::copy(in + 8, in + 8 + lin.A.size(), lin.A.data());
+        in += 8 + lin.A.size();
+      }
+    };
+    single ? read(&store_single[store_begin[p]]) : read(&store[store_begin[p]]);
   };
   // Each block's diagonal cell (its first value in values_).
   std::vector<size_t> diagonal_cells(block_size_.size());
@@ -1568,19 +1690,25 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     return &values_[column_begin_[b] + i * column_height_[b] + offset + i];
   };
   // Implicit (SchurSolverOptions::implicit): y = S x from the kept
-  // Jacobians, point by point: u_k = A_k x, t = sum_k B_k^T u_k, s = V^-1 t,
-  // y += A_k^T (u_k - B_k s); plus the damping, the camera priors and the
-  // pose residuals (the terms the elimination adds to the diagonal blocks).
-  struct ObservationColumns {
-    int count = 0;  // blocks
-    int offset[2];  // their scalar offsets
-    int size[2];
-    int num_cols = 0;  // A's
-  };
-  std::vector<ObservationColumns> point_columns;
+  // Jacobians, point by point (MultiplyPoint); plus the damping, the camera
+  // priors and the pose residuals (the terms the elimination adds to the
+  // diagonal blocks).
+  std::vector<ProductColumns> pose_columns(implicit_ ? poses_.size() : 0);
+  for (size_t i = 0; i < pose_columns.size(); ++i) {
+    const ObservationBlocks blocks = Blocks(static_cast<uint32_t>(i));
+    ProductColumns& columns = pose_columns[i];
+    columns.count = blocks.count;
+    for (int j = 0; j < blocks.count; ++j) {
+      columns.offset[j] = block_offset_[blocks.block[j]];
+      columns.size[j] = block_size_[blocks.block[j]];
+      columns.num_cols += columns.size[j];
+    }
+  }
   std::vector<Eigen::Vector2d> point_ax;
+  Eigen::VectorXf x_float;
   const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>
       multiply_implicit = [&](const Eigen::VectorXd& x, Eigen::VectorXd* y) {
+        if (single) x_float = x.cast<float>();
         *y = (applied_damping + prior_diagonal).cwiseProduct(x);
         for (size_t i = 0; i < pose_residuals_.size(); ++i) {
           const int b = pose_block_[pose_residuals_[i].pose];
@@ -1590,84 +1718,19 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           y->segment(block_offset_[b], a.cols()) +=
               a.transpose() * (a * segment);
         }
-        const double* in = x.data();
-        double* out = y->data();
         for (size_t p = 0; p < num_points; ++p) {
-          if (!stored[p]) continue;
-          const double* point_store = &store[store_begin[p]];
-          const double* at = point_store;
-          point_columns.clear();
-          point_ax.clear();
-          Eigen::Vector3d t = Eigen::Vector3d::Zero();
-          for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
-            if (!(Weight(k) > 0)) continue;
-            const Observation& observation = observations_[k];
-            ObservationColumns columns;
-            auto add = [&](int block) {
-              columns.offset[columns.count] = block_offset_[block];
-              columns.size[columns.count++] = block_size_[block];
-              columns.num_cols += block_size_[block];
-            };
-            // (A camera joined to its pose: one block.)
-            const int a = pose_block_[observation.pose];
-            const int c = camera_block_[poses_[observation.pose].camera];
-            if (a >= 0) add(a);
-            if (c >= 0 && c != a) add(c);
-            const int num_cols = columns.num_cols;
-            // (r, B column-major, A row-major: the store's layout.)
-            const double* b = at + 2;
-            const double* row0 = at + 8;
-            const double* row1 = row0 + num_cols;
-            double u[2] = {0, 0};
-            if (columns.count != 1 ||
-                !WithConstant<6, 7, 8, 9, 10>(num_cols, [&](auto width) {
-                  MultiplyRows<width()>(row0, in + columns.offset[0], u);
-                })) {
-              int col = 0;
-              for (int i = 0; i < columns.count; ++i) {
-                const double* xs = in + columns.offset[i];
-                for (int j = 0; j < columns.size[i]; ++j, ++col) {
-                  u[0] += row0[col] * xs[j];
-                  u[1] += row1[col] * xs[j];
-                }
-              }
-            }
-            const double u0 = u[0], u1 = u[1];
-            t[0] += b[0] * u0 + b[1] * u1;
-            t[1] += b[2] * u0 + b[3] * u1;
-            t[2] += b[4] * u0 + b[5] * u1;
-            point_columns.push_back(columns);
-            point_ax.emplace_back(u0, u1);
-            at += 8 + 2 * num_cols;
-          }
-          const Eigen::Vector3d sv = active[p]
-                                         ? Eigen::Vector3d(point_v_inv[p] * t)
-                                         : Eigen::Vector3d::Zero();
-          at = point_store;
-          for (size_t o = 0; o < point_columns.size(); ++o) {
-            const ObservationColumns& columns = point_columns[o];
-            const int num_cols = columns.num_cols;
-            const double* b = at + 2;
-            const double* row0 = at + 8;
-            const double* row1 = row0 + num_cols;
-            const double z[2] = {
-                point_ax[o][0] - (b[0] * sv[0] + b[2] * sv[1] + b[4] * sv[2]),
-                point_ax[o][1] - (b[1] * sv[0] + b[3] * sv[1] + b[5] * sv[2])};
-            if (columns.count == 1 &&
-                WithConstant<6, 7, 8, 9, 10>(num_cols, [&](auto width) {
-                  AddTransposedRows<width()>(row0, z, out + columns.offset[0]);
-                })) {
-              at += 8 + 2 * num_cols;
-              continue;
-            }
-            int col = 0;
-            for (int i = 0; i < columns.count; ++i) {
-              double* ys = out + columns.offset[i];
-              for (int j = 0; j < columns.size[i]; ++j, ++col) {
-                ys[j] += row0[col] * z[0] + row1[col] * z[1];
-              }
-            }
-            at += 8 + 2 * num_cols;
+          const size_t first = product_poses_begin_[p];
+          const size_t count = product_poses_begin_[p + 1] - first;
+          if (count == 0) continue;
+          const Matrix3* v_inv = active[p] ? &point_v_inv[p] : nullptr;
+          if (single) {
+            MultiplyPoint(&store_single[store_begin[p]], &product_poses_[first],
+                          count, pose_columns.data(), v_inv, x.data(),
+                          x_float.data(), y->data(), &point_ax);
+          } else {
+            MultiplyPoint(&store[store_begin[p]], &product_poses_[first], count,
+                          pose_columns.data(), v_inv, x.data(), x.data(),
+                          y->data(), &point_ax);
           }
         }
       };

@@ -79,9 +79,9 @@ struct SchurSolverOptions {
   // Schur complement, as Ceres' ITERATIVE_SCHUR): S x = sum_k A_k^T (A_k x
   // - B_k V_p^-1 sum_l B_l^T A_l x) over each point p's observations k, l,
   // plus the damping and the pose residuals, from the Jacobians of every
-  // observation kept from the elimination (192 bytes an observation with a
-  // camera per image, whatever max_jacobian_store_mib says); the
-  // elimination forms only the diagonal blocks the Schur-Jacobi
+  // observation kept from the elimination (96 bytes an observation with a
+  // camera per image in single precision, whatever max_jacobian_store_mib
+  // says); the elimination forms only the diagonal blocks the Schur-Jacobi
   // preconditioner takes. An elimination then costs a pass over the
   // observations instead of the sum over points of m (m + 1) / 2 block-pair
   // updates, a conjugate gradient iteration a pass over the kept Jacobians
@@ -89,6 +89,16 @@ struct SchurSolverOptions {
   // iteration 15-33 CPU s instead of 180-210; 1,000 (24 MiB, in the caches)
   // 5x slower (docs/notes/2026-12-06-implicit-schur.md). 0: always.
   double implicit_min_mib = 256;
+  // Implicit: every observation's Jacobians are kept in floats (96 bytes
+  // an observation with a camera per image instead of 192), and the
+  // conjugate gradients multiply by them in floats (four lanes to a vector
+  // where doubles take two), the sums over observations in double. The
+  // back-substitution and the tries after a rejected step read the rounded
+  // values (1e-7 relative: the steps of an inexact Newton method); the
+  // costs are evaluated in double. Half the kept memory and a conjugate
+  // gradient iteration 1.2-1.4x cheaper (photo scenes of 1,000 and 4,907
+  // images, docs/notes/2026-12-06-implicit-schur.md).
+  bool implicit_single_precision = true;
   // After a rejected step or a failed factorisation, while the radius is at
   // least this, the next step is solved from the same reduced system with
   // only its camera damping changed (the points keep the damping they were
@@ -249,6 +259,8 @@ class SchurBundleAdjuster {
     // (SchurSolverOptions::max_jacobian_store_mib), bytes, and the
     // eliminations that read them (tries after a rejected step).
     size_t jacobian_store_bytes = 0;
+    // ... in single precision (SchurSolverOptions::implicit_single_precision).
+    bool jacobian_store_single = false;
     int num_eliminations_from_kept_jacobians = 0;
     // Stopped as the cost stalled (CostStall).
     bool stalled = false;
@@ -330,6 +342,15 @@ class SchurBundleAdjuster {
   // The columns of an observation's Jacobian by the reduced system's
   // variables (its pose's free ones, then its camera's; held blocks none).
   int NumColumns(const Observation& observation) const;
+  // The blocks of an observation of pose `pose` (its pose's, then its
+  // camera's unless held or joined to the pose's) and each one's first
+  // column in its A.
+  struct ObservationBlocks {
+    int count = 0;
+    int block[2];
+    int col[2];
+  };
+  ObservationBlocks Blocks(uint32_t pose) const;
   // An observation's blocks and their columns in `lin` (A sized, not set).
   void Describe(const Observation& observation, Linearization* lin) const;
   // Residual (and, with `lin`, Jacobians) of observation k at `x`.
@@ -468,6 +489,15 @@ class SchurBundleAdjuster {
   size_t jacobian_store_capacity_ = 0;
   std::vector<size_t> jacobian_store_begin_;
   std::vector<char> jacobian_stored_;
+  // ... in floats (SchurSolverOptions::implicit_single_precision), the same
+  // layout.
+  std::unique_ptr<float[]> jacobian_store_single_;
+  size_t jacobian_store_single_capacity_ = 0;
+  // Implicit: the weighed observations' poses point by point (CSR), the
+  // store's order, so that the product reads neither observations_ nor
+  // weights_.
+  std::vector<size_t> product_poses_begin_;
+  std::vector<uint32_t> product_poses_;
   // The reduced system, in the cell layout while accumulated (above).
   std::vector<double> values_;
   // CHOLMOD's workspace and supernodal factor (null: simplicial).

@@ -1009,6 +1009,9 @@ TEST(SchurBundleAdjuster, ImplicitSameSolutionAsFormedSystem) {
         formed_options.max_jacobian_store_mib = 0;
         SchurSolverOptions implicit_options = formed_options;
         implicit_options.implicit_min_mib = 0;
+        // (The double product: ImplicitSinglePrecisionSameOptimum for the
+        // single-precision one.)
+        implicit_options.implicit_single_precision = false;
         SchurBundleAdjuster formed(/*center=*/false, formed_options),
             implicit(/*center=*/false, implicit_options);
         AddModel(/*gauge=*/true, &formed_model, &formed_weights, &formed);
@@ -1035,7 +1038,71 @@ TEST(SchurBundleAdjuster, ImplicitSameSolutionAsFormedSystem) {
         EXPECT_GT(b.num_linear_iterations, 1);
         ExpectSameSolution(a, b, formed_model, implicit_model, 1e-8);
         EXPECT_GT(Compare(start, implicit_model).point, 1e-2);
+        EXPECT_FALSE(b.jacobian_store_single);
       }
+    }
+  }
+}
+
+// The implicit solver's Jacobians kept in single precision (the default):
+// each step's system and back-substitution off by float rounding, the costs
+// in double, so the same optimum as the formed system's, with a shared
+// camera and with one per image (joined and not).
+TEST(SchurBundleAdjuster, ImplicitSinglePrecisionSameOptimum) {
+  for (const bool shared_camera : {true, false}) {
+    for (const bool join : {true, false}) {
+      if (shared_camera && !join) continue;  // (nothing to join)
+      SCOPED_TRACE(
+          std::string(shared_camera ? "shared camera" : "camera per image") +
+          (join ? "" : ", not joined"));
+      const Reconstruction start = PerturbedStart(shared_camera);
+      Reconstruction formed_model = start, single_model = start;
+      std::map<image_t, std::vector<double>> formed_weights, single_weights;
+      SchurSolverOptions formed_options;
+      formed_options.linear_solver = SchurLinearSolver::kIterative;
+      formed_options.join_own_camera_blocks = join;
+      SchurSolverOptions single_options = formed_options;
+      single_options.implicit_min_mib = 0;
+      ASSERT_TRUE(single_options.implicit_single_precision);
+      SchurBundleAdjuster formed(/*center=*/false, formed_options),
+          single(/*center=*/false, single_options);
+      AddModel(/*gauge=*/true, &formed_model, &formed_weights, &formed);
+      AddModel(/*gauge=*/true, &single_model, &single_weights, &single);
+      ceres::Solver::Options options;
+      options.max_num_iterations = 200;
+      options.function_tolerance = 1e-12;
+      options.gradient_tolerance = 1e-14;
+      options.parameter_tolerance = 1e-12;
+      const SchurBundleAdjuster::Summary a = formed.Solve(options);
+      const SchurBundleAdjuster::Summary b = single.Solve(options);
+      EXPECT_TRUE(b.implicit);
+      EXPECT_NE(a.termination, ceres::FAILURE);
+      EXPECT_NE(b.termination, ceres::FAILURE);
+      EXPECT_EQ(a.initial_cost, b.initial_cost);
+      EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
+      EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
+      const Difference d = Compare(formed_model, single_model);
+      LOG(INFO) << "single precision against formed: centre " << d.center
+                << ", rotation " << d.rotation_deg << " deg, point " << d.point
+                << ", parameters " << d.param << "; iterations "
+                << a.num_iterations << ", " << b.num_iterations;
+      EXPECT_LT(d.center, 1e-6);  // scene radius 10
+      EXPECT_LT(d.rotation_deg, 1e-6);
+      EXPECT_LT(d.point, 1e-5);
+      EXPECT_LT(d.param, 1e-8);
+      // Half the double store's bytes.
+      EXPECT_TRUE(b.jacobian_store_single);
+      SchurSolverOptions double_options = single_options;
+      double_options.implicit_single_precision = false;
+      Reconstruction double_model = start;
+      std::map<image_t, std::vector<double>> double_weights;
+      SchurBundleAdjuster in_double(/*center=*/false, double_options);
+      AddModel(/*gauge=*/true, &double_model, &double_weights, &in_double);
+      options.max_num_iterations = 1;
+      const SchurBundleAdjuster::Summary c = in_double.Solve(options);
+      EXPECT_FALSE(c.jacobian_store_single);
+      EXPECT_GT(b.jacobian_store_bytes, 0u);
+      EXPECT_EQ(2 * b.jacobian_store_bytes, c.jacobian_store_bytes);
     }
   }
 }
@@ -1073,6 +1140,8 @@ TEST(SchurBundleAdjuster, ImplicitSameOptimumWithPosePriors) {
   options.schur_linear_solver = SchurLinearSolver::kIterative;
   options.schur_implicit_min_mib = 0;
   options.schur_iterative_eta = 1e-10;
+  // The double product: the same optimum to the solves' tolerance.
+  options.schur_implicit_single_precision = false;
   ASSERT_TRUE(RunBundleAdjustment(options, &implicit_model, &implicit_summary,
                                   &priors));
   EXPECT_EQ(implicit_summary.linear_solver, "SCHUR_IMPLICIT_PCG");
@@ -1080,6 +1149,22 @@ TEST(SchurBundleAdjuster, ImplicitSameOptimumWithPosePriors) {
   EXPECT_EQ(implicit_summary.num_gravity_priors, 12);
   ExpectSameOptimum(direct_summary, implicit_summary, direct_model,
                     implicit_model);
+  // Single precision (the default): each step exact to float rounding only
+  // (the conjugate gradients cannot reach eta 1e-10), so within 100x those
+  // tolerances: still 1e-5 deg and 1e-5 of the scene's radius.
+  options.schur_implicit_single_precision = true;
+  Reconstruction single_model = start;
+  BundleAdjustmentSummary single_summary;
+  ASSERT_TRUE(
+      RunBundleAdjustment(options, &single_model, &single_summary, &priors));
+  EXPECT_EQ(single_summary.linear_solver, "SCHUR_IMPLICIT_PCG");
+  EXPECT_NEAR(single_summary.final_mean_reproj_error,
+              direct_summary.final_mean_reproj_error, 1e-7);
+  const Difference d = Compare(direct_model, single_model);
+  EXPECT_LT(d.center, 1e-5);
+  EXPECT_LT(d.rotation_deg, 1e-5);
+  EXPECT_LT(d.point, 1e-4);
+  EXPECT_LT(d.param, 1e-7);
 }
 
 // After a rejected step the next try re-damps the cameras of the reduced

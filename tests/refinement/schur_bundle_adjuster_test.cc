@@ -580,6 +580,27 @@ Reconstruction PerturbedStart(bool shared_camera) {
   return start;
 }
 
+// `start` adjusted by one adjuster with each of `a` and `b` (AddModel with
+// the gauge; `options`): the summaries and the adjusted models.
+struct TwoSolves {
+  SchurBundleAdjuster::Summary a, b;
+  Reconstruction model_a, model_b;
+};
+TwoSolves SolveWithEach(const Reconstruction& start,
+                        const SchurSolverOptions& a,
+                        const SchurSolverOptions& b,
+                        const ceres::Solver::Options& options) {
+  TwoSolves result{{}, {}, start, start};
+  std::map<image_t, std::vector<double>> weights_a, weights_b;
+  SchurBundleAdjuster adjuster_a(/*center=*/false, a),
+      adjuster_b(/*center=*/false, b);
+  AddModel(/*gauge=*/true, &result.model_a, &weights_a, &adjuster_a);
+  AddModel(/*gauge=*/true, &result.model_b, &weights_b, &adjuster_b);
+  result.a = adjuster_a.Solve(options);
+  result.b = adjuster_b.Solve(options);
+  return result;
+}
+
 // Every fifth observation of each image (from keypoint 3) unweighted in
 // each of `weights` (AddModel's): a second solve with fewer weighed
 // observations than the first.
@@ -1055,33 +1076,29 @@ TEST(SchurBundleAdjuster, ImplicitSinglePrecisionSameOptimum) {
       SCOPED_TRACE(
           std::string(shared_camera ? "shared camera" : "camera per image") +
           (join ? "" : ", not joined"));
-      const Reconstruction start = PerturbedStart(shared_camera);
-      Reconstruction formed_model = start, single_model = start;
-      std::map<image_t, std::vector<double>> formed_weights, single_weights;
       SchurSolverOptions formed_options;
       formed_options.linear_solver = SchurLinearSolver::kIterative;
       formed_options.join_own_camera_blocks = join;
       SchurSolverOptions single_options = formed_options;
       single_options.implicit_min_mib = 0;
       ASSERT_TRUE(single_options.implicit_single_precision);
-      SchurBundleAdjuster formed(/*center=*/false, formed_options),
-          single(/*center=*/false, single_options);
-      AddModel(/*gauge=*/true, &formed_model, &formed_weights, &formed);
-      AddModel(/*gauge=*/true, &single_model, &single_weights, &single);
       ceres::Solver::Options options;
       options.max_num_iterations = 200;
       options.function_tolerance = 1e-12;
       options.gradient_tolerance = 1e-14;
       options.parameter_tolerance = 1e-12;
-      const SchurBundleAdjuster::Summary a = formed.Solve(options);
-      const SchurBundleAdjuster::Summary b = single.Solve(options);
+      const Reconstruction start = PerturbedStart(shared_camera);
+      const TwoSolves solves =
+          SolveWithEach(start, formed_options, single_options, options);
+      const SchurBundleAdjuster::Summary& a = solves.a;
+      const SchurBundleAdjuster::Summary& b = solves.b;
       EXPECT_TRUE(b.implicit);
       EXPECT_NE(a.termination, ceres::FAILURE);
       EXPECT_NE(b.termination, ceres::FAILURE);
       EXPECT_EQ(a.initial_cost, b.initial_cost);
       EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
       EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
-      const Difference d = Compare(formed_model, single_model);
+      const Difference d = Compare(solves.model_a, solves.model_b);
       LOG(INFO) << "single precision against formed: centre " << d.center
                 << ", rotation " << d.rotation_deg << " deg, point " << d.point
                 << ", parameters " << d.param << "; iterations "
@@ -1094,15 +1111,15 @@ TEST(SchurBundleAdjuster, ImplicitSinglePrecisionSameOptimum) {
       EXPECT_TRUE(b.jacobian_store_single);
       SchurSolverOptions double_options = single_options;
       double_options.implicit_single_precision = false;
-      Reconstruction double_model = start;
-      std::map<image_t, std::vector<double>> double_weights;
-      SchurBundleAdjuster in_double(/*center=*/false, double_options);
-      AddModel(/*gauge=*/true, &double_model, &double_weights, &in_double);
       options.max_num_iterations = 1;
-      const SchurBundleAdjuster::Summary c = in_double.Solve(options);
-      EXPECT_FALSE(c.jacobian_store_single);
+      const TwoSolves one_iteration =
+          SolveWithEach(start, single_options, double_options, options);
+      EXPECT_TRUE(one_iteration.a.jacobian_store_single);
+      EXPECT_FALSE(one_iteration.b.jacobian_store_single);
+      EXPECT_EQ(one_iteration.a.jacobian_store_bytes, b.jacobian_store_bytes);
       EXPECT_GT(b.jacobian_store_bytes, 0u);
-      EXPECT_EQ(2 * b.jacobian_store_bytes, c.jacobian_store_bytes);
+      EXPECT_EQ(2 * b.jacobian_store_bytes,
+                one_iteration.b.jacobian_store_bytes);
     }
   }
 }
@@ -1190,28 +1207,23 @@ TEST(SchurBundleAdjuster, ReusedEliminationAfterRejectionSameOptimum) {
         SCOPED_TRACE("seed " + std::to_string(seed));
         Reconstruction start = Scene(2, shared_camera).truth;
         PerturbModel(0.5, 0.05, 0.05, 1.02, seed, &start);
-        Reconstruction fresh_model = start, reused_model = start;
-        std::map<image_t, std::vector<double>> fresh_weights, reused_weights;
         SchurSolverOptions fresh_options;
         fresh_options.linear_solver = solver;
         fresh_options.eta = 1e-10;
         SchurSolverOptions reuse_options = fresh_options;
         reuse_options.reuse_min_radius = 1e-3;
-        SchurBundleAdjuster fresh(/*center=*/false, fresh_options),
-            reused(/*center=*/false, reuse_options);
-        AddModel(/*gauge=*/true, &fresh_model, &fresh_weights, &fresh);
-        AddModel(/*gauge=*/true, &reused_model, &reused_weights, &reused);
         ceres::Solver::Options options;
         options.max_num_iterations = 200;
         options.min_relative_decrease = 0.9;
         options.function_tolerance = 1e-15;
         options.gradient_tolerance = 1e-12;
         options.parameter_tolerance = 1e-15;
-        const SchurBundleAdjuster::Summary a = fresh.Solve(options);
-        const SchurBundleAdjuster::Summary b = reused.Solve(options);
-        EXPECT_EQ(a.num_reused_eliminations, 0);
-        num_reused += b.num_reused_eliminations;
-        ExpectSameSolution(a, b, fresh_model, reused_model, 1e-9);
+        const TwoSolves solves =
+            SolveWithEach(start, fresh_options, reuse_options, options);
+        EXPECT_EQ(solves.a.num_reused_eliminations, 0);
+        num_reused += solves.b.num_reused_eliminations;
+        ExpectSameSolution(solves.a, solves.b, solves.model_a, solves.model_b,
+                           1e-9);
       }
       EXPECT_GT(num_reused, 0);
     }

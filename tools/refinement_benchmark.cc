@@ -6,6 +6,12 @@
 //   refinement_benchmark synthetic NUM_IMAGES NUM_POINTS
 //       synthetic 180 deg arc, 1 px noise, 0.1% wrong matches, rotations
 //       perturbed by 0.1 deg.
+//   refinement_benchmark implicit_product NUM_IMAGES NUM_POINTS TRACK WIDTH
+//       The implicit Schur product (implicit_product.h) on random records
+//       in single precision (TRACK observations a point of distinct
+//       images, each a pose with its own camera of WIDTH reduced columns),
+//       the portable code and the AVX2 kernel in turn, five rounds: CPU ms
+//       a product each and their ratio, measured side by side.
 //   refinement_benchmark final_ba --model MODEL --gt GT [--poses MODEL2]
 //       [--intrinsics_from_poses 0|1] [--num_rounds N] [--tight 0|1]
 //       [--per_image CSV] [--truth MODEL] [--min_track_length N]
@@ -36,6 +42,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -57,6 +64,7 @@
 #include "colmap_irav4/positioning/track_builder.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
 #include "colmap_irav4/refinement/filtering.h"
+#include "colmap_irav4/refinement/implicit_product.h"
 #include "colmap_irav4/refinement/model_statistics.h"
 #include "colmap_irav4/refinement/triangulation.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
@@ -493,8 +501,85 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
 }
 }  // namespace
 
+int RunImplicitProduct(int num_images, int num_points, int track, int width) {
+  if (num_images < track || num_points < 1 || track < 2 || width < 1 ||
+      width > 18) {
+    throw InputError("implicit_product",
+                     "needs NUM_IMAGES >= TRACK >= 2, NUM_POINTS >= 1, "
+                     "WIDTH 1..18");
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> uniform(-1, 1);
+  std::vector<ProductColumns> pose_columns(num_images);
+  for (int i = 0; i < num_images; ++i) {
+    pose_columns[i].count = 1;
+    pose_columns[i].offset[0] = i * width;
+    pose_columns[i].size[0] = width;
+    pose_columns[i].num_cols = width;
+  }
+  const size_t record = 8 + 2 * width;
+  std::vector<float> store(static_cast<size_t>(num_points) * track * record);
+  for (float& value : store) value = uniform(rng);
+  std::vector<uint32_t> poses(static_cast<size_t>(num_points) * track);
+  std::uniform_int_distribution<int> image(0, num_images - 1);
+  for (int p = 0; p < num_points; ++p) {
+    std::vector<uint32_t> seen;
+    while (static_cast<int>(seen.size()) < track) {
+      const uint32_t i = image(rng);
+      if (std::find(seen.begin(), seen.end(), i) == seen.end()) {
+        seen.push_back(i);
+      }
+    }
+    std::copy(seen.begin(), seen.end(), poses.begin() + p * track);
+  }
+  const Eigen::Matrix3d v_inv = Eigen::Matrix3d::Identity() * 0.01;
+  Eigen::VectorXd x(num_images * width);
+  for (int i = 0; i < x.size(); ++i) x[i] = uniform(rng);
+  const Eigen::VectorXf x_float = x.cast<float>();
+  const bool avx2 = Avx2ProductAvailable();
+  std::vector<Eigen::Vector2d> ax;
+  auto product = [&](bool vectorised, Eigen::VectorXd* y) {
+    y->setZero(x.size());
+    const std::clock_t start = std::clock();
+    for (int p = 0; p < num_points; ++p) {
+      const float* at = &store[static_cast<size_t>(p) * track * record];
+      const uint32_t* point_poses = &poses[static_cast<size_t>(p) * track];
+      if (vectorised) {
+        MultiplyPointAvx2(at, point_poses, track, pose_columns.data(), &v_inv,
+                          x.data(), x_float.data(), y->data(), &ax);
+      } else {
+        MultiplyPoint(at, point_poses, track, pose_columns.data(), &v_inv,
+                      x.data(), x_float.data(), y->data(), &ax);
+      }
+    }
+    return 1000.0 * (std::clock() - start) / CLOCKS_PER_SEC;
+  };
+  std::cout << num_points << " points of " << track << " observations, "
+            << num_images << " images of " << width
+            << " columns: " << store.size() * sizeof(float) / 1048576.0
+            << " MiB kept\n";
+  if (!avx2) std::cout << "AVX2 kernel: not available here\n";
+  Eigen::VectorXd y_portable, y_avx2;
+  for (int round = 0; round < 5; ++round) {
+    const double portable = product(false, &y_portable);
+    std::cout << "round " << round << ": portable " << portable << " ms";
+    if (avx2) {
+      const double vectorised = product(true, &y_avx2);
+      std::cout << ", AVX2 " << vectorised << " ms, ratio "
+                << portable / vectorised << ", |y difference| / |y| "
+                << (y_portable - y_avx2).norm() / y_portable.norm();
+    }
+    std::cout << "\n";
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
   try {
+    if (argc == 6 && std::string(argv[1]) == "implicit_product") {
+      return RunImplicitProduct(std::atoi(argv[2]), std::atoi(argv[3]),
+                                std::atoi(argv[4]), std::atoi(argv[5]));
+    }
     if (argc == 3 && std::string(argv[1]) == "strecha")
       return RunStrecha(argv[2]);
     if (argc >= 2 && std::string(argv[1]) == "final_ba") {
@@ -508,6 +593,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::cerr << "usage: refinement_benchmark strecha SCENE_DIR\n"
+               "       refinement_benchmark implicit_product NUM_IMAGES "
+               "NUM_POINTS TRACK WIDTH\n"
                "       refinement_benchmark synthetic NUM_IMAGES NUM_POINTS\n"
                "       refinement_benchmark final_ba --model MODEL --gt GT "
                "[--poses MODEL2] [--intrinsics_from_poses 0|1] "

@@ -488,6 +488,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                "Schur solver, implicit: the conjugate gradients multiply "
                "from a single-precision copy of the kept Jacobians (half "
                "the bytes read; accumulated in double)");
+  manager->Add("BundleAdjustment.schur_implicit_avx2", &ba.schur_implicit_avx2,
+               "Schur solver, implicit in single precision: multiply with "
+               "AVX2 and FMA when the processor has them (0: the portable "
+               "code, the same bits on every x86-64 processor)");
   manager->Add("BundleAdjustment.schur_max_cg_iterations",
                &ba.schur_max_cg_iterations,
                "Schur solver, iterative: at most this many conjugate gradient "

@@ -258,6 +258,7 @@ class BundleAdjustmentProblem {
       schur_options.implicit_min_mib = options.schur_implicit_min_mib;
       schur_options.implicit_single_precision =
           options.schur_implicit_single_precision;
+      schur_options.implicit_avx2 = options.schur_implicit_avx2;
       schur_options.reuse_min_radius = options.schur_reuse_min_radius;
       schur_options.point_iterations = options.schur_point_iterations;
       schur_adjuster_ =

@@ -169,6 +169,9 @@ struct BundleAdjustmentOptions {
   // Implicit: the product from a single-precision copy of the Jacobians
   // (SchurSolverOptions::implicit_single_precision).
   bool schur_implicit_single_precision = true;
+  // ... multiplied with AVX2 and FMA when the processor has them
+  // (SchurSolverOptions::implicit_avx2).
+  bool schur_implicit_avx2 = true;
   // Our Schur solver: after a rejected step or failed factorisation, while
   // the radius is at least this, the next try re-damps the cameras of the
   // same reduced system instead of eliminating the points again

@@ -19,6 +19,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
+#include "colmap_irav4/refinement/implicit_product.h"
 #include "colmap_irav4/refinement/reprojection_cost.h"
 #include "colmap_irav4/util/huge_pages.h"
 #include "colmap_irav4/util/interrupt.h"
@@ -175,114 +176,6 @@ inline void PrefetchCell(const double* values, int count) {
 inline void Prefetch(const PairUpdate& update) {
   if (update.values != nullptr) {
     PrefetchCell(update.values, update.rows * update.cols);
-  }
-}
-
-// The implicit product's two halves for an observation whose A is one
-// block of N columns (row-major 2 x N at `a`: a pose with its own camera
-// joined, the photo collections' case), at a width known at compile time:
-// u = A x (Eigen's vectorised sums; a scalar loop cannot reorder them), and
-// y += A^T z (at the widths 6-10 through WithConstant: the caller's loop
-// for others).
-// (In T: the single-precision copy multiplies in floats, x given in
-// floats, four lanes to a vector where doubles take two; the sums over the
-// observations stay in double.)
-template <int N, typename T>
-void MultiplyRows(const T* a, const T* x, double u[2]) {
-  const Eigen::Matrix<T, 2, 1> product =
-      Eigen::Map<const Eigen::Matrix<T, 2, N, Eigen::RowMajor>>(a) *
-      Eigen::Map<const Eigen::Matrix<T, N, 1>>(x);
-  u[0] = static_cast<double>(product[0]);
-  u[1] = static_cast<double>(product[1]);
-}
-
-template <int N, typename T>
-void AddTransposedRows(const T* a, const double z[2], double* y) {
-  const Eigen::Matrix<T, N, 1> product =
-      Eigen::Map<const Eigen::Matrix<T, 2, N, Eigen::RowMajor>>(a).transpose() *
-      Eigen::Matrix<T, 2, 1>(static_cast<T>(z[0]), static_cast<T>(z[1]));
-  Eigen::Map<Eigen::Matrix<double, N, 1>>(y) += product.template cast<double>();
-}
-
-// The reduced system's columns of an observation of a pose (its blocks'
-// scalar offsets and sizes): the implicit product's, one per pose.
-struct ProductColumns {
-  int count = 0;  // blocks
-  int offset[2];
-  int size[2];
-  int num_cols = 0;  // A's
-};
-
-// One point's share of the implicit product, y += sum_k A_k^T (u_k - B_k
-// s), u_k = A_k x, s = v_inv sum_k B_k^T u_k, over its `count` weighed
-// observations of poses `poses`, kept from `at` in the store's layout (r,
-// B column-major, A row-major; in T). v_inv null: a held point (s = 0).
-// `x_in_t`: x in T (the fixed widths multiply in T). `ax`: scratch.
-template <typename T>
-void MultiplyPoint(const T* at, const uint32_t* poses, size_t count,
-                   const ProductColumns* pose_columns,
-                   const Eigen::Matrix3d* v_inv, const double* x,
-                   const T* x_in_t, double* y,
-                   std::vector<Eigen::Vector2d>* ax) {
-  ax->resize(count);
-  // An observation's record from `at`: B, A's two rows, the next record.
-  struct Record {
-    const T *b, *row0, *row1, *next;
-    double B(int i) const { return static_cast<double>(b[i]); }
-  };
-  auto record = [](const T* at, int num_cols) {
-    const T* b = at + 2;
-    return Record{b, b + 6, b + 6 + num_cols, b + 6 + 2 * num_cols};
-  };
-  const T* const point_begin = at;
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  for (size_t o = 0; o < count; ++o) {
-    const ProductColumns& columns = pose_columns[poses[o]];
-    const Record r = record(at, columns.num_cols);
-    at = r.next;
-    double u[2] = {0, 0};
-    if (columns.count != 1 ||
-        !WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
-          MultiplyRows<width()>(r.row0, x_in_t + columns.offset[0], u);
-        })) {
-      int col = 0;
-      for (int i = 0; i < columns.count; ++i) {
-        const double* xs = x + columns.offset[i];
-        for (int j = 0; j < columns.size[i]; ++j, ++col) {
-          u[0] += static_cast<double>(r.row0[col]) * xs[j];
-          u[1] += static_cast<double>(r.row1[col]) * xs[j];
-        }
-      }
-    }
-    t[0] += r.B(0) * u[0] + r.B(1) * u[1];
-    t[1] += r.B(2) * u[0] + r.B(3) * u[1];
-    t[2] += r.B(4) * u[0] + r.B(5) * u[1];
-    (*ax)[o] = Eigen::Vector2d(u[0], u[1]);
-  }
-  const Eigen::Vector3d s =
-      v_inv != nullptr ? Eigen::Vector3d(*v_inv * t) : Eigen::Vector3d::Zero();
-  at = point_begin;
-  for (size_t o = 0; o < count; ++o) {
-    const ProductColumns& columns = pose_columns[poses[o]];
-    const Record r = record(at, columns.num_cols);
-    at = r.next;
-    const double z[2] = {
-        (*ax)[o][0] - (r.B(0) * s[0] + r.B(2) * s[1] + r.B(4) * s[2]),
-        (*ax)[o][1] - (r.B(1) * s[0] + r.B(3) * s[1] + r.B(5) * s[2])};
-    if (columns.count == 1 &&
-        WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
-          AddTransposedRows<width()>(r.row0, z, y + columns.offset[0]);
-        })) {
-      continue;
-    }
-    int col = 0;
-    for (int i = 0; i < columns.count; ++i) {
-      double* ys = y + columns.offset[i];
-      for (int j = 0; j < columns.size[i]; ++j, ++col) {
-        ys[j] += static_cast<double>(r.row0[col]) * z[0] +
-                 static_cast<double>(r.row1[col]) * z[1];
-      }
-    }
   }
 }
 
@@ -1454,6 +1347,15 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     // Not zeroed (a point's values are written before they are read), in
     // huge pages (a 4 KiB page's fault at each first write: 75,000 of them
     // for a 300-image courtyard's three adjustments).
+    // A solve uses one of the two stores: the other's memory is released
+    // (up to max_jacobian_store_mib of doubles beside the floats).
+    if (single) {
+      jacobian_store_.reset();
+      jacobian_store_capacity_ = 0;
+    } else {
+      jacobian_store_single_.reset();
+      jacobian_store_single_capacity_ = 0;
+    }
     if (single && size > jacobian_store_single_capacity_) {
       jacobian_store_single_.reset();
       jacobian_store_single_.reset(new float[size]);
@@ -1473,6 +1375,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   summary.jacobian_store_bytes =
       store_begin[num_points] * (single ? sizeof(float) : sizeof(double));
   summary.jacobian_store_single = single;
+  const bool avx2 =
+      single && solver_options_.implicit_avx2 && Avx2ProductAvailable();
+  summary.implicit_avx2 = avx2;
   // Implicit: the product's poses, the store's order.
   product_poses_begin_.assign(implicit_ ? num_points + 1 : 0, 0);
   product_poses_.clear();
@@ -1723,7 +1628,12 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           const size_t count = product_poses_begin_[p + 1] - first;
           if (count == 0) continue;
           const Matrix3* v_inv = active[p] ? &point_v_inv[p] : nullptr;
-          if (single) {
+          if (avx2) {
+            MultiplyPointAvx2(&store_single[store_begin[p]],
+                              &product_poses_[first], count,
+                              pose_columns.data(), v_inv, x.data(),
+                              x_float.data(), y->data(), &point_ax);
+          } else if (single) {
             MultiplyPoint(&store_single[store_begin[p]], &product_poses_[first],
                           count, pose_columns.data(), v_inv, x.data(),
                           x_float.data(), y->data(), &point_ax);

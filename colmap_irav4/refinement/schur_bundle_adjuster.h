@@ -99,6 +99,13 @@ struct SchurSolverOptions {
   // gradient iteration 1.2-1.4x cheaper (photo scenes of 1,000 and 4,907
   // images, docs/notes/2026-12-06-implicit-schur.md).
   bool implicit_single_precision = true;
+  // Implicit in single precision: when the processor has AVX2 and FMA
+  // (Avx2ProductAvailable), the product runs a kernel for them (eight
+  // float lanes, fused multiply-adds; implicit_product.h) instead of the
+  // portable code (SSE2, the build's target): the same sums to float
+  // rounding, in another order. False: the portable code everywhere (the
+  // same bits on every x86-64 processor).
+  bool implicit_avx2 = true;
   // After a rejected step or a failed factorisation, while the radius is at
   // least this, the next step is solved from the same reduced system with
   // only its camera damping changed (the points keep the damping they were
@@ -261,6 +268,8 @@ class SchurBundleAdjuster {
     size_t jacobian_store_bytes = 0;
     // ... in single precision (SchurSolverOptions::implicit_single_precision).
     bool jacobian_store_single = false;
+    // ... multiplied by the AVX2 kernel (SchurSolverOptions::implicit_avx2).
+    bool implicit_avx2 = false;
     int num_eliminations_from_kept_jacobians = 0;
     // Stopped as the cost stalled (CostStall).
     bool stalled = false;

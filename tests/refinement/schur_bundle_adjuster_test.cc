@@ -27,6 +27,7 @@
 #include "colmap_irav4/eval/synthetic_scene.h"
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/refinement/bundle_adjustment.h"
+#include "colmap_irav4/refinement/implicit_product.h"
 #include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
@@ -1068,58 +1069,64 @@ TEST(SchurBundleAdjuster, ImplicitSameSolutionAsFormedSystem) {
 // The implicit solver's Jacobians kept in single precision (the default):
 // each step's system and back-substitution off by float rounding, the costs
 // in double, so the same optimum as the formed system's, with a shared
-// camera and with one per image (joined and not).
+// camera and with one per image (joined and not); with the AVX2 kernel
+// (where the processor has it) and the portable code.
 TEST(SchurBundleAdjuster, ImplicitSinglePrecisionSameOptimum) {
   for (const bool shared_camera : {true, false}) {
     for (const bool join : {true, false}) {
-      if (shared_camera && !join) continue;  // (nothing to join)
-      SCOPED_TRACE(
-          std::string(shared_camera ? "shared camera" : "camera per image") +
-          (join ? "" : ", not joined"));
-      SchurSolverOptions formed_options;
-      formed_options.linear_solver = SchurLinearSolver::kIterative;
-      formed_options.join_own_camera_blocks = join;
-      SchurSolverOptions single_options = formed_options;
-      single_options.implicit_min_mib = 0;
-      ASSERT_TRUE(single_options.implicit_single_precision);
-      ceres::Solver::Options options;
-      options.max_num_iterations = 200;
-      options.function_tolerance = 1e-12;
-      options.gradient_tolerance = 1e-14;
-      options.parameter_tolerance = 1e-12;
-      const Reconstruction start = PerturbedStart(shared_camera);
-      const TwoSolves solves =
-          SolveWithEach(start, formed_options, single_options, options);
-      const SchurBundleAdjuster::Summary& a = solves.a;
-      const SchurBundleAdjuster::Summary& b = solves.b;
-      EXPECT_TRUE(b.implicit);
-      EXPECT_NE(a.termination, ceres::FAILURE);
-      EXPECT_NE(b.termination, ceres::FAILURE);
-      EXPECT_EQ(a.initial_cost, b.initial_cost);
-      EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
-      EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
-      const Difference d = Compare(solves.model_a, solves.model_b);
-      LOG(INFO) << "single precision against formed: centre " << d.center
-                << ", rotation " << d.rotation_deg << " deg, point " << d.point
-                << ", parameters " << d.param << "; iterations "
-                << a.num_iterations << ", " << b.num_iterations;
-      EXPECT_LT(d.center, 1e-6);  // scene radius 10
-      EXPECT_LT(d.rotation_deg, 1e-6);
-      EXPECT_LT(d.point, 1e-5);
-      EXPECT_LT(d.param, 1e-8);
-      // Half the double store's bytes.
-      EXPECT_TRUE(b.jacobian_store_single);
-      SchurSolverOptions double_options = single_options;
-      double_options.implicit_single_precision = false;
-      options.max_num_iterations = 1;
-      const TwoSolves one_iteration =
-          SolveWithEach(start, single_options, double_options, options);
-      EXPECT_TRUE(one_iteration.a.jacobian_store_single);
-      EXPECT_FALSE(one_iteration.b.jacobian_store_single);
-      EXPECT_EQ(one_iteration.a.jacobian_store_bytes, b.jacobian_store_bytes);
-      EXPECT_GT(b.jacobian_store_bytes, 0u);
-      EXPECT_EQ(2 * b.jacobian_store_bytes,
-                one_iteration.b.jacobian_store_bytes);
+      for (const bool avx2 : {true, false}) {
+        if (shared_camera && !join) continue;  // (nothing to join)
+        SCOPED_TRACE(
+            std::string(shared_camera ? "shared camera" : "camera per image") +
+            (join ? "" : ", not joined") + (avx2 ? ", AVX2" : ", portable"));
+        SchurSolverOptions formed_options;
+        formed_options.linear_solver = SchurLinearSolver::kIterative;
+        formed_options.join_own_camera_blocks = join;
+        SchurSolverOptions single_options = formed_options;
+        single_options.implicit_min_mib = 0;
+        single_options.implicit_avx2 = avx2;
+        ASSERT_TRUE(single_options.implicit_single_precision);
+        ceres::Solver::Options options;
+        options.max_num_iterations = 200;
+        options.function_tolerance = 1e-12;
+        options.gradient_tolerance = 1e-14;
+        options.parameter_tolerance = 1e-12;
+        const Reconstruction start = PerturbedStart(shared_camera);
+        const TwoSolves solves =
+            SolveWithEach(start, formed_options, single_options, options);
+        const SchurBundleAdjuster::Summary& a = solves.a;
+        const SchurBundleAdjuster::Summary& b = solves.b;
+        EXPECT_TRUE(b.implicit);
+        EXPECT_NE(a.termination, ceres::FAILURE);
+        EXPECT_NE(b.termination, ceres::FAILURE);
+        EXPECT_EQ(a.initial_cost, b.initial_cost);
+        EXPECT_LT(a.final_cost, 0.5 * a.initial_cost);
+        EXPECT_NEAR(b.final_cost, a.final_cost, 1e-9 * a.final_cost);
+        const Difference d = Compare(solves.model_a, solves.model_b);
+        LOG(INFO) << "single precision against formed: centre " << d.center
+                  << ", rotation " << d.rotation_deg << " deg, point "
+                  << d.point << ", parameters " << d.param << "; iterations "
+                  << a.num_iterations << ", " << b.num_iterations;
+        EXPECT_LT(d.center, 1e-6);  // scene radius 10
+        EXPECT_LT(d.rotation_deg, 1e-6);
+        EXPECT_LT(d.point, 1e-5);
+        EXPECT_LT(d.param, 1e-8);
+        // Half the double store's bytes.
+        EXPECT_TRUE(b.jacobian_store_single);
+        SchurSolverOptions double_options = single_options;
+        double_options.implicit_single_precision = false;
+        options.max_num_iterations = 1;
+        const TwoSolves one_iteration =
+            SolveWithEach(start, single_options, double_options, options);
+        EXPECT_TRUE(one_iteration.a.jacobian_store_single);
+        EXPECT_FALSE(one_iteration.b.jacobian_store_single);
+        EXPECT_EQ(one_iteration.a.jacobian_store_bytes, b.jacobian_store_bytes);
+        EXPECT_GT(b.jacobian_store_bytes, 0u);
+        EXPECT_EQ(2 * b.jacobian_store_bytes,
+                  one_iteration.b.jacobian_store_bytes);
+        EXPECT_EQ(b.implicit_avx2, avx2 && Avx2ProductAvailable());
+        EXPECT_FALSE(one_iteration.b.implicit_avx2);  // (doubles)
+      }
     }
   }
 }

@@ -1,6 +1,7 @@
 #include "colmap_irav4/refinement/implicit_product.h"
 
 #include <cmath>
+#include <iterator>
 
 #include <glog/logging.h>
 
@@ -300,24 +301,16 @@ void MultiplyPointAvx2(const float* at, const uint32_t* poses, size_t count,
     const ProductColumns& columns = pose_columns[poses[o]];
     uniform = columns.count == 1 && columns.num_cols == width;
   }
-  if (uniform) {
-    switch (width) {
-      case 6:
-        return MultiplyPointAvx2Uniform<6>(at, poses, count, pose_columns,
-                                           v_inv, x_float, y, ax);
-      case 7:
-        return MultiplyPointAvx2Uniform<7>(at, poses, count, pose_columns,
-                                           v_inv, x_float, y, ax);
-      case 8:
-        return MultiplyPointAvx2Uniform<8>(at, poses, count, pose_columns,
-                                           v_inv, x_float, y, ax);
-      case 9:
-        return MultiplyPointAvx2Uniform<9>(at, poses, count, pose_columns,
-                                           v_inv, x_float, y, ax);
-      case 10:
-        return MultiplyPointAvx2Uniform<10>(at, poses, count, pose_columns,
-                                            v_inv, x_float, y, ax);
-    }
+  // The kernels by width, from kMinFixedCols.
+  static constexpr decltype(&MultiplyPointAvx2Uniform<6>) kUniform[] = {
+      MultiplyPointAvx2Uniform<6>, MultiplyPointAvx2Uniform<7>,
+      MultiplyPointAvx2Uniform<8>, MultiplyPointAvx2Uniform<9>,
+      MultiplyPointAvx2Uniform<10>};
+  static_assert(std::size(kUniform) == kMaxFixedCols - kMinFixedCols + 1);
+  if (uniform && width >= kMinFixedCols && width <= kMaxFixedCols) {
+    kUniform[width - kMinFixedCols](at, poses, count, pose_columns, v_inv,
+                                    x_float, y, ax);
+    return;
   }
   // Mixed widths, a held pose or a shared camera's two blocks.
   MultiplyPointGeneric(at, poses, count, pose_columns, v_inv, x, x_float, y,

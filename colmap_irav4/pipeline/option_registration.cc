@@ -496,6 +496,17 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.schur_max_cg_iterations,
                "Schur solver, iterative: at most this many conjugate gradient "
                "iterations per step");
+  manager->Add("BundleAdjustment.schur_coarse_cluster_size",
+               &ba.schur_coarse_cluster_size,
+               "Schur solver, iterative: the preconditioner's coarse level, "
+               "images in clusters of about this many (those sharing the "
+               "most points) moving as rigid bodies with a scale, solved "
+               "exactly besides each image's block (0: Schur-Jacobi alone)");
+  manager->Add("BundleAdjustment.schur_coarse_max_clusters",
+               &ba.schur_coarse_max_clusters,
+               "Schur solver, iterative: at most this many coarse clusters "
+               "(a dense system of 7 rows a cluster; larger clusters past "
+               "it)");
   manager->Add("BundleAdjustment.rejected_start_trust_region_radius",
                &ba.rejected_start_trust_region_radius,
                "Schur solver: after a rejected first step, the trust "

@@ -255,6 +255,8 @@ class BundleAdjustmentProblem {
           options.schur_prefetch_updates_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
+      schur_options.coarse_cluster_size = options.schur_coarse_cluster_size;
+      schur_options.coarse_max_clusters = options.schur_coarse_max_clusters;
       schur_options.implicit_min_mib = options.schur_implicit_min_mib;
       schur_options.implicit_single_precision =
           options.schur_implicit_single_precision;
@@ -1369,6 +1371,16 @@ void BundleAdjustmentOptions::Check() const {
   if (schur_max_cg_iterations < 1) {
     throw OptionError(&schur_max_cg_iterations,
                       "BundleAdjustment.schur_max_cg_iterations",
+                      "must be at least 1");
+  }
+  if (schur_coarse_cluster_size < 0) {
+    throw OptionError(&schur_coarse_cluster_size,
+                      "BundleAdjustment.schur_coarse_cluster_size",
+                      "must be at least 0 (0: no coarse level)");
+  }
+  if (schur_coarse_max_clusters < 1) {
+    throw OptionError(&schur_coarse_max_clusters,
+                      "BundleAdjustment.schur_coarse_max_clusters",
                       "must be at least 1");
   }
   if (iterative_schur_min_num_images < 1) {

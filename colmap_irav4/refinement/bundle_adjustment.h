@@ -162,6 +162,12 @@ struct BundleAdjustmentOptions {
   // |b_0|)) |b| (inexact Newton; SchurSolverOptions) or after this many.
   double schur_iterative_eta = 1e-3;
   int schur_max_cg_iterations = 500;
+  // Iterative: the preconditioner's coarse level, images in clusters of
+  // about this many moving as rigid bodies with a scale
+  // (SchurSolverOptions::coarse_cluster_size; 0: Schur-Jacobi alone), in
+  // at most schur_coarse_max_clusters clusters.
+  int schur_coarse_cluster_size = 10;
+  int schur_coarse_max_clusters = 512;
   // Iterative: from this size of the reduced system (MiB), the conjugate
   // gradients multiply by it without forming it, from every observation's
   // kept Jacobians (SchurSolverOptions::implicit_min_mib; 0: always).

@@ -1,5 +1,6 @@
 #include "colmap_irav4/refinement/implicit_product.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iterator>
 
@@ -99,51 +100,6 @@ void AddTransposedBlocks(const Record<T>& r, const ProductColumns& columns,
     for (int j = 0; j < columns.size[i]; ++j, ++col) {
       ys[j] += static_cast<double>(r.row0[col]) * z[0] +
                static_cast<double>(r.row1[col]) * z[1];
-    }
-  }
-}
-
-template <typename T>
-void MultiplyPointGeneric(const T* at, const uint32_t* poses, size_t count,
-                          const ProductColumns* pose_columns,
-                          const Eigen::Matrix3d* v_inv, const double* x,
-                          const T* x_in_t, double* y,
-                          std::vector<Eigen::Vector2d>* ax) {
-  ax->resize(count);
-  const T* const point_begin = at;
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  for (size_t o = 0; o < count; ++o) {
-    const ProductColumns& columns = pose_columns[poses[o]];
-    PrefetchAhead(at);
-    const Record<T> r(at, columns.num_cols);
-    at = r.next;
-    double u[2];
-    if (!FixedWidth(columns) ||
-        !WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
-          MultiplyRows<width()>(r.row0, x_in_t + columns.offset[0], u);
-        })) {
-      MultiplyBlocks(r, columns, x, u);
-    }
-    t[0] += r.B(0) * u[0] + r.B(1) * u[1];
-    t[1] += r.B(2) * u[0] + r.B(3) * u[1];
-    t[2] += r.B(4) * u[0] + r.B(5) * u[1];
-    (*ax)[o] = Eigen::Vector2d(u[0], u[1]);
-  }
-  const Eigen::Vector3d s =
-      v_inv != nullptr ? Eigen::Vector3d(*v_inv * t) : Eigen::Vector3d::Zero();
-  at = point_begin;
-  for (size_t o = 0; o < count; ++o) {
-    const ProductColumns& columns = pose_columns[poses[o]];
-    const Record<T> r(at, columns.num_cols);
-    at = r.next;
-    const double z[2] = {
-        (*ax)[o][0] - (r.B(0) * s[0] + r.B(2) * s[1] + r.B(4) * s[2]),
-        (*ax)[o][1] - (r.B(1) * s[0] + r.B(3) * s[1] + r.B(5) * s[2])};
-    if (!FixedWidth(columns) ||
-        !WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
-          AddTransposedRows<width()>(r.row0, z, y + columns.offset[0]);
-        })) {
-      AddTransposedBlocks(r, columns, z, y);
     }
   }
 }
@@ -261,21 +217,115 @@ COLMAP_IRAV4_AVX2 void MultiplyPointAvx2Uniform(
 
 }  // namespace
 
-void MultiplyPoint(const double* at, const uint32_t* poses, size_t count,
+template <typename T>
+void MultiplyPoint(const T* at, const uint32_t* poses, size_t count,
                    const ProductColumns* pose_columns,
                    const Eigen::Matrix3d* v_inv, const double* x,
-                   const double* x_in_t, double* y,
+                   const T* x_in_t, double* y,
                    std::vector<Eigen::Vector2d>* ax) {
-  MultiplyPointGeneric(at, poses, count, pose_columns, v_inv, x, x_in_t, y, ax);
+  ax->resize(count);
+  const T* const point_begin = at;
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  for (size_t o = 0; o < count; ++o) {
+    const ProductColumns& columns = pose_columns[poses[o]];
+    PrefetchAhead(at);
+    const Record<T> r(at, columns.num_cols);
+    at = r.next;
+    double u[2];
+    if (!FixedWidth(columns) ||
+        !WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
+          MultiplyRows<width()>(r.row0, x_in_t + columns.offset[0], u);
+        })) {
+      MultiplyBlocks(r, columns, x, u);
+    }
+    t[0] += r.B(0) * u[0] + r.B(1) * u[1];
+    t[1] += r.B(2) * u[0] + r.B(3) * u[1];
+    t[2] += r.B(4) * u[0] + r.B(5) * u[1];
+    (*ax)[o] = Eigen::Vector2d(u[0], u[1]);
+  }
+  const Eigen::Vector3d s =
+      v_inv != nullptr ? Eigen::Vector3d(*v_inv * t) : Eigen::Vector3d::Zero();
+  at = point_begin;
+  for (size_t o = 0; o < count; ++o) {
+    const ProductColumns& columns = pose_columns[poses[o]];
+    const Record<T> r(at, columns.num_cols);
+    at = r.next;
+    const double z[2] = {
+        (*ax)[o][0] - (r.B(0) * s[0] + r.B(2) * s[1] + r.B(4) * s[2]),
+        (*ax)[o][1] - (r.B(1) * s[0] + r.B(3) * s[1] + r.B(5) * s[2])};
+    if (!FixedWidth(columns) ||
+        !WithConstant<6, 7, 8, 9, 10>(columns.num_cols, [&](auto width) {
+          AddTransposedRows<width()>(r.row0, z, y + columns.offset[0]);
+        })) {
+      AddTransposedBlocks(r, columns, z, y);
+    }
+  }
 }
 
-void MultiplyPoint(const float* at, const uint32_t* poses, size_t count,
-                   const ProductColumns* pose_columns,
-                   const Eigen::Matrix3d* v_inv, const double* x,
-                   const float* x_in_t, double* y,
-                   std::vector<Eigen::Vector2d>* ax) {
-  MultiplyPointGeneric(at, poses, count, pose_columns, v_inv, x, x_in_t, y, ax);
+template void MultiplyPoint(const double*, const uint32_t*, size_t,
+                            const ProductColumns*, const Eigen::Matrix3d*,
+                            const double*, const double*, double*,
+                            std::vector<Eigen::Vector2d>*);
+template void MultiplyPoint(const float*, const uint32_t*, size_t,
+                            const ProductColumns*, const Eigen::Matrix3d*,
+                            const double*, const float*, double*,
+                            std::vector<Eigen::Vector2d>*);
+
+template <typename T>
+void AddPointToCoarseSystem(
+    const T* at, const uint32_t* poses, size_t count,
+    const ProductColumns* pose_columns, const Eigen::Matrix3d* v_inv,
+    const CoarsePose* coarse_poses, CoarseSystem* system,
+    std::vector<std::pair<int, Eigen::Matrix<double, 3, kNumCoarseModes>>>*
+        shares) {
+  using Share = Eigen::Matrix<double, 3, kNumCoarseModes>;
+  shares->clear();
+  for (size_t o = 0; o < count; ++o) {
+    const ProductColumns& columns = pose_columns[poses[o]];
+    const Record<T> r(at, columns.num_cols);
+    at = r.next;
+    const CoarsePose& pose = coarse_poses[poses[o]];
+    if (pose.cluster < 0) continue;
+    Eigen::Matrix<double, 2, kNumCoarseModes> e =
+        Eigen::Matrix<double, 2, kNumCoarseModes>::Zero();
+    for (int j = 0; j < pose.num_free; ++j) {
+      e.row(0) += static_cast<double>(r.row0[j]) * pose.motion.row(j);
+      e.row(1) += static_cast<double>(r.row1[j]) * pose.motion.row(j);
+    }
+    system->Block(pose.cluster, pose.cluster).noalias() += e.transpose() * e;
+    if (v_inv == nullptr) continue;
+    Eigen::Matrix<double, 2, 3> b;
+    for (int i = 0; i < 6; ++i) b(i % 2, i / 2) = r.B(i);
+    auto share = std::find_if(shares->begin(), shares->end(),
+                              [&](auto& s) { return s.first == pose.cluster; });
+    if (share == shares->end()) {
+      shares->push_back({pose.cluster, Share::Zero()});
+      share = shares->end() - 1;
+    }
+    share->second.noalias() += b.transpose() * e;
+  }
+  if (v_inv == nullptr) return;
+  for (size_t i = 0; i < shares->size(); ++i) {
+    const auto& [a, f_a] = (*shares)[i];
+    const Share g_a = *v_inv * f_a;
+    for (size_t j = i; j < shares->size(); ++j) {
+      const auto& [b, f_b] = (*shares)[j];
+      const Eigen::Matrix<double, kNumCoarseModes, kNumCoarseModes> update =
+          g_a.transpose() * f_b;
+      system->Block(a, b) -= update;
+      if (b != a) system->Block(b, a) -= update.transpose();
+    }
+  }
 }
+
+template void AddPointToCoarseSystem(
+    const double*, const uint32_t*, size_t, const ProductColumns*,
+    const Eigen::Matrix3d*, const CoarsePose*, CoarseSystem*,
+    std::vector<std::pair<int, Eigen::Matrix<double, 3, kNumCoarseModes>>>*);
+template void AddPointToCoarseSystem(
+    const float*, const uint32_t*, size_t, const ProductColumns*,
+    const Eigen::Matrix3d*, const CoarsePose*, CoarseSystem*,
+    std::vector<std::pair<int, Eigen::Matrix<double, 3, kNumCoarseModes>>>*);
 
 bool Avx2ProductAvailable() {
 #ifdef COLMAP_IRAV4_AVX2_PRODUCT
@@ -313,8 +363,7 @@ void MultiplyPointAvx2(const float* at, const uint32_t* poses, size_t count,
     return;
   }
   // Mixed widths, a held pose or a shared camera's two blocks.
-  MultiplyPointGeneric(at, poses, count, pose_columns, v_inv, x, x_float, y,
-                       ax);
+  MultiplyPoint(at, poses, count, pose_columns, v_inv, x, x_float, y, ax);
 #else
   (void)at, (void)poses, (void)count, (void)pose_columns, (void)v_inv;
   (void)x, (void)x_float, (void)y, (void)ax;

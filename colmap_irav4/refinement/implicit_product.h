@@ -2,9 +2,12 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "colmap_irav4/refinement/coarse_space.h"
 
 namespace colmap_irav4 {
 
@@ -31,15 +34,12 @@ struct ProductColumns {
 // `poses`, records from `at`. v_inv null: a held point (s = 0). `x_in_t`: x
 // in T (an observation whose A is one block of 6-10 columns, the photo
 // collections' pose with its own camera, multiplies in T). `ax`: scratch.
-void MultiplyPoint(const double* at, const uint32_t* poses, size_t count,
+// T: double, or float (the single-precision store).
+template <typename T>
+void MultiplyPoint(const T* at, const uint32_t* poses, size_t count,
                    const ProductColumns* pose_columns,
                    const Eigen::Matrix3d* v_inv, const double* x,
-                   const double* x_in_t, double* y,
-                   std::vector<Eigen::Vector2d>* ax);
-void MultiplyPoint(const float* at, const uint32_t* poses, size_t count,
-                   const ProductColumns* pose_columns,
-                   const Eigen::Matrix3d* v_inv, const double* x,
-                   const float* x_in_t, double* y,
+                   const T* x_in_t, double* y,
                    std::vector<Eigen::Vector2d>* ax);
 
 // The same for the single-precision store with AVX2 and FMA (eight float
@@ -55,6 +55,27 @@ void MultiplyPointAvx2(const float* at, const uint32_t* poses, size_t count,
                        const Eigen::Matrix3d* v_inv, const double* x,
                        const float* x_float, double* y,
                        std::vector<Eigen::Vector2d>* ax);
+
+// A pose's place in the coarse space (coarse_space.h): its cluster (-1:
+// none) and the motion of its free tangent coordinates (the first
+// num_free rows of `motion`; A's first num_free columns).
+struct CoarsePose {
+  int cluster = -1;
+  int num_free = 0;
+  CoarseMotion motion = CoarseMotion::Zero();
+};
+
+// One point's share of the coarse system P^T S P from the same records:
+// sum_k E_k^T E_k - F^T V^-1 F with E_k = A_k M_k (M_k: the motion of
+// observation k's pose) and F the sums of B_k^T E_k by cluster. `shares`:
+// scratch.
+template <typename T>
+void AddPointToCoarseSystem(
+    const T* at, const uint32_t* poses, size_t count,
+    const ProductColumns* pose_columns, const Eigen::Matrix3d* v_inv,
+    const CoarsePose* coarse_poses, CoarseSystem* system,
+    std::vector<std::pair<int, Eigen::Matrix<double, 3, kNumCoarseModes>>>*
+        shares);
 
 // True when this build has the AVX2 kernel and this processor runs it.
 bool Avx2ProductAvailable();

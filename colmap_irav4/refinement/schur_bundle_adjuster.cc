@@ -886,11 +886,12 @@ void SchurBundleAdjuster::MultiplyReduced(const Eigen::VectorXd& x,
   }
 }
 
-bool SchurBundleAdjuster::SolveIterative(
-    const Eigen::VectorXd& rhs, double relative_tolerance,
-    const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>&
-        multiply,
-    Eigen::VectorXd* step, int* iterations) const {
+bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
+                                         double relative_tolerance,
+                                         const VectorFunction& multiply,
+                                         const VectorFunction* coarse,
+                                         Eigen::VectorXd* step,
+                                         int* iterations) const {
   const int n = num_scalars_;
   *iterations = 0;
   // The Schur-Jacobi preconditioner: the inverse of each group's diagonal
@@ -963,6 +964,7 @@ bool SchurBundleAdjuster::SolveIterative(
       z->segment(block_offset_[first], rows) = local.head(rows);
       z->segment(block_offset_[second], size - rows) = local.tail(size - rows);
     }
+    if (coarse != nullptr) (*coarse)(r, z);
   };
   step->setZero(n);
   const double rhs_norm = rhs.norm();
@@ -1016,6 +1018,106 @@ void SchurBundleAdjuster::BuildPreconditionerGroups() {
   for (size_t b = 0; b < block_size_.size(); ++b) {
     if (!grouped[b]) {
       preconditioner_groups_.push_back({static_cast<int>(b), partner[b]});
+    }
+  }
+}
+
+void SchurBundleAdjuster::BuildCoarseClusters() {
+  coarse_cluster_.assign(poses_.size(), -1);
+  num_coarse_clusters_ = 0;
+  const int size = solver_options_.coarse_cluster_size;
+  if (size <= 0) return;
+  // The nodes: the refined poses (held ones do not move).
+  std::vector<int> node(poses_.size(), -1), node_pose;
+  for (size_t i = 0; i < poses_.size(); ++i) {
+    if (pose_block_[i] < 0 || poses_[i].free.empty()) continue;
+    node[i] = static_cast<int>(node_pose.size());
+    node_pose.push_back(static_cast<int>(i));
+  }
+  const int num_nodes = static_cast<int>(node_pose.size());
+  if (num_nodes < 2) return;
+  std::vector<double> num_observations(num_nodes, 0.0);
+  for (size_t k = 0; k < observations_.size(); ++k) {
+    const int a = node[observations_[k].pose];
+    if (a >= 0 && Weight(k) > 0) ++num_observations[a];
+  }
+  // A point's pairs from at most this many of its observations (evenly
+  // spread), each weighed by its share of the point's pairs: a track of 60
+  // images would count 1,770 pairs.
+  constexpr int kMaxSampled = 16;
+  CouplingGraph graph(num_nodes);
+  std::vector<int> seen;
+  for (size_t p = 0; p + 1 < point_begin_.size(); ++p) {
+    seen.clear();
+    for (uint32_t k = point_begin_[p]; k < point_begin_[p + 1]; ++k) {
+      const int a = node[observations_[k].pose];
+      if (a >= 0 && Weight(k) > 0) seen.push_back(a);
+    }
+    const int num_seen = static_cast<int>(seen.size());
+    if (num_seen < 2) continue;
+    const int m = std::min(num_seen, kMaxSampled);
+    const double scale =
+        static_cast<double>(num_seen) * (num_seen - 1) / (m * (m - 1));
+    for (int i = 1; i < m; ++i) {
+      const int a = seen[static_cast<size_t>(i) * num_seen / m];
+      for (int j = 0; j < i; ++j) {
+        const int b = seen[static_cast<size_t>(j) * num_seen / m];
+        graph.Add(a, b,
+                  scale / std::sqrt(num_observations[a] * num_observations[b]));
+      }
+    }
+  }
+  const int max_clusters = std::max(1, solver_options_.coarse_max_clusters);
+  const int cluster_size =
+      std::max(size, (num_nodes + max_clusters - 1) / max_clusters);
+  const std::vector<int> cluster =
+      AggregateClusters(graph, cluster_size, &num_coarse_clusters_);
+  for (int a = 0; a < num_nodes; ++a) {
+    coarse_cluster_[node_pose[a]] = cluster[a];
+  }
+  std::ostringstream why;
+  why << "; coarse level: " << num_coarse_clusters_ << " clusters of up to "
+      << cluster_size << " images";
+  linear_solver_reason_ += why.str();
+}
+
+void SchurBundleAdjuster::AddCellsToCoarseSystem(
+    const std::vector<CoarsePose>& coarse_poses, CoarseSystem* system) const {
+  // The pose whose free coordinates open each block (-1: a camera's).
+  std::vector<int> block_pose(block_size_.size(), -1);
+  for (size_t i = 0; i < poses_.size(); ++i) {
+    if (pose_block_[i] >= 0 && coarse_poses[i].cluster >= 0) {
+      block_pose[pose_block_[i]] = static_cast<int>(i);
+    }
+  }
+  for (size_t cb = 0; cb < block_size_.size(); ++cb) {
+    if (block_pose[cb] < 0) continue;
+    const CoarsePose& col_pose = coarse_poses[block_pose[cb]];
+    const int cols = block_size_[cb];
+    const double* column = &values_[column_begin_[cb]];
+    for (size_t k = column_cells_[cb]; k < column_cells_[cb + 1]; ++k) {
+      const int rb = static_cast<int>(cell_offset_[k].first & 0xffffffffu);
+      if (block_pose[rb] < 0) continue;
+      const CoarsePose& row_pose = coarse_poses[block_pose[rb]];
+      const int rows = block_size_[rb];
+      const Eigen::Map<const Eigen::MatrixXd> cell(
+          column + static_cast<size_t>(cell_offset_[k].second) * cols, rows,
+          cols);
+      // (A diagonal block: its upper triangle, mirrored.)
+      const Eigen::MatrixXd pose_cell =
+          rb == static_cast<int>(cb)
+              ? Eigen::MatrixXd(
+                    cell.topLeftCorner(row_pose.num_free, col_pose.num_free)
+                        .selfadjointView<Eigen::Upper>())
+              : Eigen::MatrixXd(
+                    cell.topLeftCorner(row_pose.num_free, col_pose.num_free));
+      const Eigen::Matrix<double, kNumCoarseModes, kNumCoarseModes> update =
+          row_pose.motion.topRows(row_pose.num_free).transpose() * pose_cell *
+          col_pose.motion.topRows(col_pose.num_free);
+      system->Block(row_pose.cluster, col_pose.cluster) += update;
+      if (rb != static_cast<int>(cb)) {
+        system->Block(col_pose.cluster, row_pose.cluster) += update.transpose();
+      }
     }
   }
 }
@@ -1218,6 +1320,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       linear_solver_reason_ += why.str();
     }
     if (iterative_) LayOutValues(/*local_only=*/implicit_);
+    if (iterative_) BuildCoarseClusters();
     VLOG(1) << "Schur bundle adjustment: " << num_scalars_
             << " reduced parameters; " << linear_solver_reason_;
   }
@@ -1648,6 +1751,100 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       multiply_explicit = [this](const Eigen::VectorXd& x, Eigen::VectorXd* y) {
         MultiplyReduced(x, y);
       };
+  // The coarse level (SchurSolverOptions::coarse_cluster_size): its system
+  // P^T S P at each iteration's parameters and damping, from the kept
+  // Jacobians (implicit, the product's terms) or the formed cells.
+  summary.num_coarse_clusters = num_coarse_clusters_;
+  CoarseSystem coarse;
+  std::vector<CoarsePose> coarse_poses(num_coarse_clusters_ > 0 ? poses_.size()
+                                                                : 0);
+  std::vector<std::pair<int, Eigen::Matrix<double, 3, kNumCoarseModes>>>
+      coarse_shares;
+  auto build_coarse = [&] {
+    const std::clock_t coarse_clock = std::clock();
+    for (size_t i = 0; i < coarse_poses.size(); ++i) {
+      CoarsePose& pose = coarse_poses[i];
+      pose.cluster = coarse_cluster_[i];
+      if (pose.cluster < 0) continue;
+      const CoarseMotion motion =
+          SimilarityMotion(&poses[7 * i], &poses[7 * i + 4], center_);
+      pose.num_free = static_cast<int>(poses_[i].free.size());
+      for (int r = 0; r < pose.num_free; ++r) {
+        pose.motion.row(r) = motion.row(poses_[i].free[r]);
+      }
+    }
+    coarse.Reset(num_coarse_clusters_);
+    if (!implicit_) {
+      AddCellsToCoarseSystem(coarse_poses, &coarse);
+    } else {
+      // The product's terms besides the points': the damping and the
+      // camera priors (diagonal), the pose residuals.
+      const Eigen::VectorXd diagonal_terms = applied_damping + prior_diagonal;
+      for (size_t i = 0; i < coarse_poses.size(); ++i) {
+        const CoarsePose& pose = coarse_poses[i];
+        if (pose.cluster < 0) continue;
+        const auto motion = pose.motion.topRows(pose.num_free);
+        coarse.Block(pose.cluster, pose.cluster).noalias() +=
+            motion.transpose() *
+            diagonal_terms.segment(block_offset_[pose_block_[i]], pose.num_free)
+                .asDiagonal() *
+            motion;
+      }
+      for (size_t i = 0; i < pose_residuals_.size(); ++i) {
+        const CoarsePose& pose = coarse_poses[pose_residuals_[i].pose];
+        if (pose.cluster < 0) continue;
+        const Eigen::MatrixXd am =
+            pose_lins[i].A * pose.motion.topRows(pose_lins[i].A.cols());
+        coarse.Block(pose.cluster, pose.cluster).noalias() +=
+            am.transpose() * am;
+      }
+      for (size_t p = 0; p < num_points; ++p) {
+        const size_t first = product_poses_begin_[p];
+        const size_t count = product_poses_begin_[p + 1] - first;
+        if (count == 0) continue;
+        const Matrix3* v_inv = active[p] ? &point_v_inv[p] : nullptr;
+        if (single) {
+          AddPointToCoarseSystem(&store_single[store_begin[p]],
+                                 &product_poses_[first], count,
+                                 pose_columns.data(), v_inv,
+                                 coarse_poses.data(), &coarse, &coarse_shares);
+        } else {
+          AddPointToCoarseSystem(&store[store_begin[p]], &product_poses_[first],
+                                 count, pose_columns.data(), v_inv,
+                                 coarse_poses.data(), &coarse, &coarse_shares);
+        }
+      }
+    }
+    const bool factorized = coarse.Factorize();
+    VLOG(2) << "Schur bundle adjustment: coarse system of "
+            << num_coarse_clusters_ << " clusters "
+            << (factorized ? "factorised" : "not positive definite (unused)")
+            << " in "
+            << static_cast<double>(std::clock() - coarse_clock) / CLOCKS_PER_SEC
+            << " CPU s";
+    return factorized;
+  };
+  Eigen::VectorXd coarse_values;
+  const VectorFunction coarse_correction = [&](const Eigen::VectorXd& r,
+                                               Eigen::VectorXd* z) {
+    coarse_values.setZero(coarse.Size());
+    for (size_t i = 0; i < coarse_poses.size(); ++i) {
+      const CoarsePose& pose = coarse_poses[i];
+      if (pose.cluster < 0) continue;
+      coarse_values.segment<kNumCoarseModes>(kNumCoarseModes * pose.cluster)
+          .noalias() += pose.motion.topRows(pose.num_free).transpose() *
+                        r.segment(block_offset_[pose_block_[i]], pose.num_free);
+    }
+    coarse.Solve(&coarse_values);
+    for (size_t i = 0; i < coarse_poses.size(); ++i) {
+      const CoarsePose& pose = coarse_poses[i];
+      if (pose.cluster < 0) continue;
+      z->segment(block_offset_[pose_block_[i]], pose.num_free).noalias() +=
+          pose.motion.topRows(pose.num_free) *
+          coarse_values.segment<kNumCoarseModes>(kNumCoarseModes *
+                                                 pose.cluster);
+    }
+  };
   summary.termination = ceres::NO_CONVERGENCE;
   summary.message = "maximum number of iterations reached";
   using Clock = std::chrono::steady_clock;
@@ -1954,8 +2151,10 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
                              ? std::min(solver_options_.eta,
                                         std::sqrt(rhs_norm / first_rhs_norm))
                              : solver_options_.eta;
+      const bool coarse_ready = num_coarse_clusters_ > 0 && build_coarse();
       solved = SolveIterative(rhs, eta,
                               implicit_ ? multiply_implicit : multiply_explicit,
+                              coarse_ready ? &coarse_correction : nullptr,
                               &step, &cg_iterations) &&
                step.allFinite();
       summary.num_linear_iterations += cg_iterations;

@@ -10,6 +10,8 @@
 #include <ceres/ceres.h>
 #include <Eigen/Core>
 
+#include "colmap_irav4/refinement/coarse_space.h"
+#include "colmap_irav4/refinement/implicit_product.h"
 #include "colmap_irav4/scene/reconstruction.h"
 
 namespace colmap_irav4 {
@@ -74,6 +76,16 @@ struct SchurSolverOptions {
   // factorisation's (docs/notes/2026-12-05-iterative-schur.md).
   double eta = 1e-3;
   int max_cg_iterations = 500;
+  // Iterative: the preconditioner's second level (coarse_space.h): the
+  // images in clusters of about this many that share the most points, the
+  // clusters' rigid motions with a scale (7 values each) solved exactly at
+  // every conjugate gradient iteration besides Schur-Jacobi's image
+  // blocks. 0: Schur-Jacobi alone.
+  int coarse_cluster_size = 10;
+  // ... in at most this many clusters (larger ones past it): the coarse
+  // system is dense, 7 rows a cluster (512: 100 MiB, 1.5e10 flops a
+  // factorisation).
+  int coarse_max_clusters = 512;
   // Iterative: from this size of the reduced system's values (MiB),
   // conjugate gradients multiply by it without forming it (an implicit
   // Schur complement, as Ceres' ITERATIVE_SCHUR): S x = sum_k A_k^T (A_k x
@@ -257,7 +269,10 @@ class SchurBundleAdjuster {
     size_t num_reduced_nonzeros = 0;   // its stored (upper block) entries
     bool supernodal = false;           // CHOLMOD's supernodal factorisation
     bool iterative = false;            // conjugate gradients
-    bool implicit = false;          // ... without the reduced system (implicit)
+    bool implicit = false;  // ... without the reduced system (implicit)
+    // ... preconditioned with a coarse level of this many clusters
+    // (SchurSolverOptions::coarse_cluster_size; 0: none).
+    int num_coarse_clusters = 0;
     int num_linear_iterations = 0;  // conjugate gradients' (all solves)
     // Tries solved from the last elimination's reduced system, re-damped
     // (SchurSolverOptions::reuse_min_radius).
@@ -421,10 +436,22 @@ class SchurBundleAdjuster {
   // system is not positive definite.
   // `relative_tolerance`: on |r| / |rhs|; `iterations`: those run;
   // `multiply`: y = S x (MultiplyReduced, or the implicit product).
+  // `coarse` (or null): adds the coarse level's correction of a residual
+  // to its Schur-Jacobi preconditioned one.
+  using VectorFunction =
+      std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>;
   bool SolveIterative(const Eigen::VectorXd& rhs, double relative_tolerance,
-                      const std::function<void(const Eigen::VectorXd&,
-                                               Eigen::VectorXd*)>& multiply,
-                      Eigen::VectorXd* step, int* iterations) const;
+                      const VectorFunction& multiply,
+                      const VectorFunction* coarse, Eigen::VectorXd* step,
+                      int* iterations) const;
+  // The coarse level's clusters of refined poses (coarse_cluster_): their
+  // coupling is the number of points two images share (from at most 16 of
+  // a point's observations, scaled), over the square root of the product of
+  // their numbers of observations.
+  void BuildCoarseClusters();
+  // The coarse system from the formed reduced system's cells.
+  void AddCellsToCoarseSystem(const std::vector<CoarsePose>& coarse_poses,
+                              CoarseSystem* system) const;
 
   const bool center_;
   const SchurSolverOptions solver_options_;
@@ -434,6 +461,10 @@ class SchurBundleAdjuster {
   bool implicit_ = false;
   // BuildPreconditionerGroups': (block, its partner or -1), each block once.
   std::vector<std::pair<int, int>> preconditioner_groups_;
+  // BuildCoarseClusters': by pose, its cluster (-1: none); 0 clusters: no
+  // coarse level.
+  std::vector<int> coarse_cluster_;
+  int num_coarse_clusters_ = 0;
   double factor_bytes_estimate_ = 0;
   std::vector<CameraBlock> cameras_;
   std::vector<PoseBlock> poses_;

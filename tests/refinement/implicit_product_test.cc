@@ -184,5 +184,56 @@ TEST(ImplicitProduct, Avx2KernelIsThePortableProductToFloatRounding) {
   }
 }
 
+// The coarse system's share of a point (coarse_space.h): P^T S_p P, with
+// S_p the point's dense Schur complement (the dense product's columns) and P
+// the poses' motions in two clusters; from the double and the float store.
+TEST(ImplicitProduct, CoarseShareIsTheProjectedSchurComplement) {
+  constexpr int kNumClusters = 2;
+  for (const PointRecords& point : Points()) {
+    for (const bool held : {false, true}) {
+      const int n = static_cast<int>(point.x.size());
+      Eigen::MatrixXd s(n, n);
+      PointRecords unit = point;
+      for (int j = 0; j < n; ++j) {
+        unit.x = Eigen::VectorXd::Unit(n, j);
+        s.col(j) = unit.Reference(held);
+      }
+      // The poses with a pose block (6 columns first; the others held).
+      std::vector<CoarsePose> coarse(point.pose_columns.size());
+      Eigen::MatrixXd p =
+          Eigen::MatrixXd::Zero(n, kNumCoarseModes * kNumClusters);
+      for (size_t i = 0; i < coarse.size(); ++i) {
+        const ProductColumns& columns = point.pose_columns[i];
+        if (columns.count == 0 || columns.size[0] < 6) continue;
+        coarse[i].cluster = static_cast<int>(i % kNumClusters);
+        coarse[i].num_free = 6;
+        coarse[i].motion = CoarseMotion::Random();
+        p.block(columns.offset[0], kNumCoarseModes * coarse[i].cluster, 6,
+                kNumCoarseModes) = coarse[i].motion;
+      }
+      const Eigen::MatrixXd reference = p.transpose() * s * p;
+      const Eigen::Matrix3d* v_inv = held ? nullptr : &point.v_inv;
+      std::vector<std::pair<int, Eigen::Matrix<double, 3, kNumCoarseModes>>>
+          shares;
+      CoarseSystem from_double, from_float;
+      from_double.Reset(kNumClusters);
+      from_float.Reset(kNumClusters);
+      AddPointToCoarseSystem(point.store.data(), point.poses.data(),
+                             point.poses.size(), point.pose_columns.data(),
+                             v_inv, coarse.data(), &from_double, &shares);
+      const std::vector<float> store(point.store.begin(), point.store.end());
+      AddPointToCoarseSystem(store.data(), point.poses.data(),
+                             point.poses.size(), point.pose_columns.data(),
+                             v_inv, coarse.data(), &from_float, &shares);
+      EXPECT_GT(reference.norm(), 0);
+      EXPECT_LT((from_double.Matrix() - reference).norm(),
+                1e-12 * reference.norm())
+          << point.poses.size() << " observations, held " << held;
+      EXPECT_LT((from_float.Matrix() - reference).norm(),
+                1e-5 * reference.norm());
+    }
+  }
+}
+
 }  // namespace
 }  // namespace colmap_irav4

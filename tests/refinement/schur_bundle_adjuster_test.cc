@@ -1066,6 +1066,37 @@ TEST(SchurBundleAdjuster, ImplicitSameSolutionAsFormedSystem) {
   }
 }
 
+// The preconditioner's coarse level (SchurSolverOptions::coarse_cluster_size:
+// the images' clusters moving as rigid bodies with a scale) changes the
+// conjugate gradients' path, not where they lead: the same optimum as
+// Schur-Jacobi alone, with the reduced system formed and implicit (poses as
+// rotation and translation here, their motions SimilarityMotion's), in
+// fewer conjugate gradient iterations.
+TEST(SchurBundleAdjuster, CoarseLevelSameOptimumInFewerIterations) {
+  const Reconstruction start = PerturbedStart(/*shared_camera=*/false);
+  ceres::Solver::Options options;
+  options.max_num_iterations = 30;
+  for (const bool implicit : {false, true}) {
+    SCOPED_TRACE(implicit ? "implicit" : "formed");
+    SchurSolverOptions jacobi;
+    jacobi.linear_solver = SchurLinearSolver::kIterative;
+    jacobi.eta = 1e-10;
+    jacobi.implicit_min_mib = implicit ? 0 : 1e9;
+    jacobi.implicit_single_precision = false;
+    jacobi.coarse_cluster_size = 0;
+    SchurSolverOptions coarse = jacobi;
+    coarse.coarse_cluster_size = 3;
+    const TwoSolves solves = SolveWithEach(start, jacobi, coarse, options);
+    EXPECT_EQ(solves.a.num_coarse_clusters, 0);
+    // 11 refined poses (the first held) in clusters of 3.
+    EXPECT_GE(solves.b.num_coarse_clusters, 3);
+    EXPECT_EQ(solves.b.implicit, implicit);
+    ExpectSameSolution(solves.a, solves.b, solves.model_a, solves.model_b,
+                       1e-8);
+    EXPECT_LT(solves.b.num_linear_iterations, solves.a.num_linear_iterations);
+  }
+}
+
 // The implicit solver's Jacobians kept in single precision (the default):
 // each step's system and back-substitution off by float rounding, the costs
 // in double, so the same optimum as the formed system's, with a shared

@@ -1447,9 +1447,6 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       }
     }
     jacobian_store_begin_[num_points] = size;
-    // Not zeroed (a point's values are written before they are read), in
-    // huge pages (a 4 KiB page's fault at each first write: 75,000 of them
-    // for a 300-image courtyard's three adjustments).
     // A solve uses one of the two stores: the other's memory is released
     // (up to max_jacobian_store_mib of doubles beside the floats).
     if (single) {
@@ -1459,6 +1456,9 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
       jacobian_store_single_.reset();
       jacobian_store_single_capacity_ = 0;
     }
+    // Not zeroed (a point's values are written before they are read), in
+    // huge pages (a 4 KiB page's fault at each first write: 75,000 of them
+    // for a 300-image courtyard's three adjustments).
     if (single && size > jacobian_store_single_capacity_) {
       jacobian_store_single_.reset();
       jacobian_store_single_.reset(new float[size]);

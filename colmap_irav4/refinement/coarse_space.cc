@@ -75,7 +75,7 @@ std::vector<int> AggregateClusters(const CouplingGraph& graph, int size,
   std::vector<int> cluster(n, -1), cluster_size;
   std::priority_queue<std::pair<double, int>> ties;  // (weight, -node)
   for (const int seed : order) {
-    if (cluster[seed] >= 0) continue;
+    if (cluster[seed] >= 0 || begin[seed] == begin[seed + 1]) continue;
     const int c = static_cast<int>(cluster_size.size());
     cluster_size.push_back(0);
     ties = {};
@@ -95,7 +95,7 @@ std::vector<int> AggregateClusters(const CouplingGraph& graph, int size,
   }
   // A lone seed joins its strongest neighbour's cluster.
   for (int i = 0; i < n; ++i) {
-    if (cluster_size[cluster[i]] != 1 || begin[i] == begin[i + 1]) continue;
+    if (cluster[i] < 0 || cluster_size[cluster[i]] != 1) continue;
     const auto strongest = std::max_element(
         edges.begin() + begin[i], edges.begin() + begin[i + 1],
         [](const auto& x, const auto& y) { return x.second < y.second; });
@@ -109,7 +109,7 @@ std::vector<int> AggregateClusters(const CouplingGraph& graph, int size,
   for (size_t c = 0; c < cluster_size.size(); ++c) {
     if (cluster_size[c] > 0) number[c] = count++;
   }
-  for (int& c : cluster) c = number[c];
+  for (int& c : cluster) c = c >= 0 ? number[c] : -1;
   *num_clusters = count;
   return cluster;
 }

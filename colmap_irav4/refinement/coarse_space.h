@@ -57,7 +57,7 @@ class CouplingGraph {
 // cluster holds `size` or none is left; a seed left alone then joins the
 // cluster of its strongest neighbour (one image's 6 pose values cannot carry
 // 7 motions). Returns each node's cluster (0 .. *num_clusters - 1); a node
-// without edges is a cluster of its own.
+// without edges is in none (-1: alone, its motions would be singular).
 std::vector<int> AggregateClusters(const CouplingGraph& graph, int size,
                                    int* num_clusters);
 

@@ -10,6 +10,7 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <type_traits>
 #include <unordered_set>
 
 #include <cholmod.h>
@@ -1714,6 +1715,22 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   }
   std::vector<Eigen::Vector2d> point_ax;
   Eigen::VectorXf x_float;
+  // Calls visit(records, first, count, v_inv) for each point in the product:
+  // its records in the store of the precision in use, its first pose entry,
+  // their count, its V^-1 (null when inactive). A template call, inlined.
+  const auto for_each_product_point = [&](auto&& visit) {
+    for (size_t p = 0; p < num_points; ++p) {
+      const size_t first = product_poses_begin_[p];
+      const size_t count = product_poses_begin_[p + 1] - first;
+      if (count == 0) continue;
+      const Matrix3* v_inv = active[p] ? &point_v_inv[p] : nullptr;
+      if (single) {
+        visit(&store_single[store_begin[p]], first, count, v_inv);
+      } else {
+        visit(&store[store_begin[p]], first, count, v_inv);
+      }
+    }
+  };
   const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>
       multiply_implicit = [&](const Eigen::VectorXd& x, Eigen::VectorXd* y) {
         if (single) x_float = x.cast<float>();
@@ -1726,26 +1743,26 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
           y->segment(block_offset_[b], a.cols()) +=
               a.transpose() * (a * segment);
         }
-        for (size_t p = 0; p < num_points; ++p) {
-          const size_t first = product_poses_begin_[p];
-          const size_t count = product_poses_begin_[p + 1] - first;
-          if (count == 0) continue;
-          const Matrix3* v_inv = active[p] ? &point_v_inv[p] : nullptr;
-          if (avx2) {
-            MultiplyPointAvx2(&store_single[store_begin[p]],
-                              &product_poses_[first], count,
-                              pose_columns.data(), v_inv, x.data(),
-                              x_float.data(), y->data(), &point_ax);
-          } else if (single) {
-            MultiplyPoint(&store_single[store_begin[p]], &product_poses_[first],
-                          count, pose_columns.data(), v_inv, x.data(),
-                          x_float.data(), y->data(), &point_ax);
+        for_each_product_point([&](const auto* records, size_t first,
+                                   size_t count, const Matrix3* v_inv) {
+          using Real = std::remove_const_t<
+              std::remove_pointer_t<decltype(records)>>;
+          if constexpr (std::is_same_v<Real, float>) {
+            if (avx2) {
+              MultiplyPointAvx2(records, &product_poses_[first], count,
+                                pose_columns.data(), v_inv, x.data(),
+                                x_float.data(), y->data(), &point_ax);
+            } else {
+              MultiplyPoint(records, &product_poses_[first], count,
+                            pose_columns.data(), v_inv, x.data(),
+                            x_float.data(), y->data(), &point_ax);
+            }
           } else {
-            MultiplyPoint(&store[store_begin[p]], &product_poses_[first], count,
+            MultiplyPoint(records, &product_poses_[first], count,
                           pose_columns.data(), v_inv, x.data(), x.data(),
                           y->data(), &point_ax);
           }
-        }
+        });
       };
   const std::function<void(const Eigen::VectorXd&, Eigen::VectorXd*)>
       multiply_explicit = [this](const Eigen::VectorXd& x, Eigen::VectorXd* y) {
@@ -1798,22 +1815,12 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         coarse.Block(pose.cluster, pose.cluster).noalias() +=
             am.transpose() * am;
       }
-      for (size_t p = 0; p < num_points; ++p) {
-        const size_t first = product_poses_begin_[p];
-        const size_t count = product_poses_begin_[p + 1] - first;
-        if (count == 0) continue;
-        const Matrix3* v_inv = active[p] ? &point_v_inv[p] : nullptr;
-        if (single) {
-          AddPointToCoarseSystem(&store_single[store_begin[p]],
-                                 &product_poses_[first], count,
-                                 pose_columns.data(), v_inv,
-                                 coarse_poses.data(), &coarse, &coarse_shares);
-        } else {
-          AddPointToCoarseSystem(&store[store_begin[p]], &product_poses_[first],
-                                 count, pose_columns.data(), v_inv,
-                                 coarse_poses.data(), &coarse, &coarse_shares);
-        }
-      }
+      for_each_product_point([&](const auto* records, size_t first,
+                                 size_t count, const Matrix3* v_inv) {
+        AddPointToCoarseSystem(records, &product_poses_[first], count,
+                               pose_columns.data(), v_inv, coarse_poses.data(),
+                               &coarse, &coarse_shares);
+      });
     }
     const bool factorized = coarse.Factorize();
     VLOG(2) << "Schur bundle adjustment: coarse system of "

@@ -466,6 +466,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
   manager->Add("BundleAdjustment.stall_relative_decrease",
                &ba.stall_relative_decrease,
                "see stall_num_iterations (a fraction of the cost)");
+  manager->Add("BundleAdjustment.stall_min_num_images",
+               &ba.stall_min_num_images,
+               "stall_num_iterations applies to adjustments of at least this "
+               "many images (0: all)");
   manager->Add("BundleAdjustment.last_stall_num_iterations",
                &ba.last_stall_num_iterations,
                "the mapper's last adjustment stops once its last this many "

@@ -373,6 +373,13 @@ class BundleAdjustmentProblem {
     std::string linear_solver;
   };
 
+  // The stall rule's window for this adjustment (0: off).
+  int StallNumIterations() const {
+    return num_images_ >= options_.stall_min_num_images
+               ? options_.stall_num_iterations
+               : 0;
+  }
+
   // `initial_trust_region_radius` (> 0) replaces the options' radius.
   SolveSummary Solve(double initial_trust_region_radius = 0) {
     SolveSummary summary;
@@ -383,7 +390,7 @@ class BundleAdjustmentProblem {
     if (schur_) {
       const SchurBundleAdjuster::Summary schur = schur_adjuster_->Solve(
           solver.ceres, options_.rejected_start_trust_region_radius,
-          options_.stall_num_iterations, options_.stall_relative_decrease);
+          StallNumIterations(), options_.stall_relative_decrease);
       summary.termination = schur.termination;
       summary.stalled = schur.stalled;
       summary.message = schur.message;
@@ -404,9 +411,9 @@ class BundleAdjustmentProblem {
       if (options_.refine_points) {
         solver.ceres.linear_solver_ordering = ordering_;
       }
-      StallCallback stall(options_.stall_num_iterations,
+      StallCallback stall(StallNumIterations(),
                           options_.stall_relative_decrease);
-      if (options_.stall_num_iterations > 0) {
+      if (StallNumIterations() > 0) {
         solver.ceres.callbacks.push_back(&stall);
       }
       const ceres::Solver::Summary ceres_summary =
@@ -1297,6 +1304,10 @@ void BundleAdjustmentOptions::Check() const {
   if (stall_num_iterations < 0) {
     throw OptionError(&stall_num_iterations,
                       "BundleAdjustment.stall_num_iterations", "must be >= 0");
+  }
+  if (stall_min_num_images < 0) {
+    throw OptionError(&stall_min_num_images,
+                      "BundleAdjustment.stall_min_num_images", "must be >= 0");
   }
   if (last_stall_num_iterations < 0) {
     throw OptionError(&last_stall_num_iterations,

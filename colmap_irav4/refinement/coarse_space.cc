@@ -117,12 +117,37 @@ std::vector<int> AggregateClusters(const CouplingGraph& graph, int size,
 void CoarseSystem::Reset(int num_clusters) {
   llt_.reset();
   factorized_ = false;
-  const int size = kNumCoarseModes * num_clusters;
-  matrix_.setZero(size, size);
+  num_clusters_ = num_clusters;
+  const size_t num_blocks = static_cast<size_t>(num_clusters) *
+                            (static_cast<size_t>(num_clusters) + 1) / 2;
+  blocks_.assign(Block::SizeAtCompileTime * num_blocks, 0.0);
+}
+
+Eigen::MatrixXd CoarseSystem::Matrix() const {
+  Eigen::MatrixXd matrix(Size(), Size());
+  for (int a = 0; a < num_clusters_; ++a) {
+    for (int b = a; b < num_clusters_; ++b) {
+      matrix.block<kNumCoarseModes, kNumCoarseModes>(
+          kNumCoarseModes * a, kNumCoarseModes * b) = UpperBlock(a, b);
+      matrix.block<kNumCoarseModes, kNumCoarseModes>(kNumCoarseModes * b,
+                                                     kNumCoarseModes * a) =
+          UpperBlock(a, b).transpose();
+    }
+  }
+  return matrix;
 }
 
 bool CoarseSystem::Factorize() {
-  llt_ = std::make_unique<Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>>>(matrix_);
+  // The lower triangle (all the factorisation reads), column by column.
+  factor_.resize(Size(), Size());
+  for (int a = 0; a < num_clusters_; ++a) {
+    for (int b = a; b < num_clusters_; ++b) {
+      factor_.block<kNumCoarseModes, kNumCoarseModes>(kNumCoarseModes * b,
+                                                      kNumCoarseModes * a) =
+          UpperBlock(a, b).transpose();
+    }
+  }
+  llt_ = std::make_unique<Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>>>(factor_);
   factorized_ = llt_->info() == Eigen::Success;
   return factorized_;
 }

@@ -292,7 +292,7 @@ void AddPointToCoarseSystem(
       e.row(0) += static_cast<double>(r.row0[j]) * pose.motion.row(j);
       e.row(1) += static_cast<double>(r.row1[j]) * pose.motion.row(j);
     }
-    system->Block(pose.cluster, pose.cluster).noalias() += e.transpose() * e;
+    system->AddDiagonal(pose.cluster, e.transpose() * e);
     if (v_inv == nullptr) continue;
     Eigen::Matrix<double, 2, 3> b;
     for (int i = 0; i < 6; ++i) b(i % 2, i / 2) = r.B(i);
@@ -305,15 +305,16 @@ void AddPointToCoarseSystem(
     share->second.noalias() += b.transpose() * e;
   }
   if (v_inv == nullptr) return;
+  // By cluster, so that the updates of a block row walk forward.
+  std::sort(shares->begin(), shares->end(),
+            [](const auto& x, const auto& y) { return x.first < y.first; });
   for (size_t i = 0; i < shares->size(); ++i) {
     const auto& [a, f_a] = (*shares)[i];
     const Share g_a = *v_inv * f_a;
-    for (size_t j = i; j < shares->size(); ++j) {
+    system->AddDiagonal(a, -g_a.transpose() * f_a);
+    for (size_t j = i + 1; j < shares->size(); ++j) {
       const auto& [b, f_b] = (*shares)[j];
-      const Eigen::Matrix<double, kNumCoarseModes, kNumCoarseModes> update =
-          g_a.transpose() * f_b;
-      system->Block(a, b) -= update;
-      if (b != a) system->Block(b, a) -= update.transpose();
+      system->AddPair(a, b, -g_a.transpose() * f_b);
     }
   }
 }

@@ -1115,9 +1115,10 @@ void SchurBundleAdjuster::AddCellsToCoarseSystem(
       const Eigen::Matrix<double, kNumCoarseModes, kNumCoarseModes> update =
           row_pose.motion.topRows(row_pose.num_free).transpose() * pose_cell *
           col_pose.motion.topRows(col_pose.num_free);
-      system->Block(row_pose.cluster, col_pose.cluster) += update;
-      if (rb != static_cast<int>(cb)) {
-        system->Block(col_pose.cluster, row_pose.cluster) += update.transpose();
+      if (rb == static_cast<int>(cb)) {
+        system->AddDiagonal(row_pose.cluster, update);
+      } else {
+        system->AddPair(row_pose.cluster, col_pose.cluster, update);
       }
     }
   }
@@ -1745,8 +1746,8 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         }
         for_each_product_point([&](const auto* records, size_t first,
                                    size_t count, const Matrix3* v_inv) {
-          using Real = std::remove_const_t<
-              std::remove_pointer_t<decltype(records)>>;
+          using Real =
+              std::remove_const_t<std::remove_pointer_t<decltype(records)>>;
           if constexpr (std::is_same_v<Real, float>) {
             if (avx2) {
               MultiplyPointAvx2(records, &product_poses_[first], count,
@@ -1801,19 +1802,20 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
         const CoarsePose& pose = coarse_poses[i];
         if (pose.cluster < 0) continue;
         const auto motion = pose.motion.topRows(pose.num_free);
-        coarse.Block(pose.cluster, pose.cluster).noalias() +=
+        coarse.AddDiagonal(
+            pose.cluster,
             motion.transpose() *
-            diagonal_terms.segment(block_offset_[pose_block_[i]], pose.num_free)
-                .asDiagonal() *
-            motion;
+                diagonal_terms
+                    .segment(block_offset_[pose_block_[i]], pose.num_free)
+                    .asDiagonal() *
+                motion);
       }
       for (size_t i = 0; i < pose_residuals_.size(); ++i) {
         const CoarsePose& pose = coarse_poses[pose_residuals_[i].pose];
         if (pose.cluster < 0) continue;
         const Eigen::MatrixXd am =
             pose_lins[i].A * pose.motion.topRows(pose_lins[i].A.cols());
-        coarse.Block(pose.cluster, pose.cluster).noalias() +=
-            am.transpose() * am;
+        coarse.AddDiagonal(pose.cluster, am.transpose() * am);
       }
       for_each_product_point([&](const auto* records, size_t first,
                                  size_t count, const Matrix3* v_inv) {

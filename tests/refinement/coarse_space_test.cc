@@ -107,19 +107,18 @@ TEST(CoarseSpace, SystemSolvesAndRefusesAnIndefiniteMatrix) {
   const Eigen::MatrixXd m = Eigen::MatrixXd::Random(14, 14);
   const Eigen::MatrixXd spd =
       m * m.transpose() + Eigen::MatrixXd::Identity(14, 14);
-  for (int a = 0; a < 2; ++a) {
-    for (int b = 0; b < 2; ++b) {
-      system.Block(a, b) = spd.block<7, 7>(7 * a, 7 * b);
-    }
-  }
+  system.AddDiagonal(0, spd.block<7, 7>(0, 0));
+  system.AddDiagonal(1, spd.block<7, 7>(7, 7));
+  system.AddPair(1, 0, spd.block<7, 7>(7, 0));
+  EXPECT_LT((system.Matrix() - spd).norm(), 1e-12 * spd.norm());
   ASSERT_TRUE(system.Factorize());
   const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(14, -1, 1);
   Eigen::VectorXd w = spd * x;
   system.Solve(&w);
   EXPECT_LT((w - x).norm(), 1e-10);
   system.Reset(2);
-  system.Block(0, 0) = -Eigen::Matrix<double, 7, 7>::Identity();
-  system.Block(1, 1) = Eigen::Matrix<double, 7, 7>::Identity();
+  system.AddDiagonal(0, -CoarseSystem::Block::Identity());
+  system.AddDiagonal(1, CoarseSystem::Block::Identity());
   EXPECT_FALSE(system.Factorize());
   EXPECT_FALSE(system.Factorized());
 }

@@ -1413,6 +1413,7 @@ TEST(CostStall, StallsOnceTheWindowDecreasesLessThanTheThreshold) {
 // the cost falling by a little each time): with the stall rule both
 // backends stop long before the tight tolerances would (the solve counted
 // as converged and as stalled), near the optimum they reach without it.
+// The rule acts only on adjustments of stall_min_num_images images or more.
 TEST(SchurBundleAdjuster, BothBackendsStopWhenTheCostStalls) {
   Reconstruction start = Scene(2, /*shared_camera=*/false).truth;
   PerturbModel(0.5, 0.05, 0.05, 1.02, 8, &start);
@@ -1423,13 +1424,16 @@ TEST(SchurBundleAdjuster, BothBackendsStopWhenTheCostStalls) {
   options.solver.ceres.initial_trust_region_radius = 100;
   options.solver.ceres.max_trust_region_radius = 100;
   options.solver.ceres.max_num_iterations = 200;
+  options.stall_num_iterations = 3;
+  options.stall_relative_decrease = 0.005;
+  const int num_images = static_cast<int>(start.images.size());
+  options.stall_min_num_images = num_images + 1;
   Reconstruction ceres_tight = start, schur_tight = start;
   const auto [ceres_full, schur_full] =
       RunBoth(options, &ceres_tight, &schur_tight);
   EXPECT_EQ(ceres_full.num_stalled_solves, 0);
   EXPECT_EQ(schur_full.num_stalled_solves, 0);
-  options.stall_num_iterations = 3;
-  options.stall_relative_decrease = 0.005;
+  options.stall_min_num_images = num_images;
   Reconstruction ceres_model = start, schur_model = start;
   const auto [ceres_stalled, schur_stalled] =
       RunBoth(options, &ceres_model, &schur_model);
@@ -1450,6 +1454,9 @@ TEST(SchurBundleAdjuster, BothBackendsStopWhenTheCostStalls) {
   EXPECT_THROW(options.Check(), OptionError);
   options.stall_num_iterations = 5;
   options.stall_relative_decrease = -0.1;
+  EXPECT_THROW(options.Check(), OptionError);
+  options.stall_relative_decrease = 0.005;
+  options.stall_min_num_images = -1;
   EXPECT_THROW(options.Check(), OptionError);
 }
 

@@ -194,13 +194,15 @@ struct BundleAdjustmentOptions {
   // and the two-view check's). Off by default: at 100-300 photo images it
   // saved time on some scenes, cost it on others, and mostly lost accuracy,
   // the crawl moving to the last adjustment
-  // (docs/notes/2026-12-05-ba-stall.md). Hence on only from
-  // stall_min_num_images images in the adjustment: at 1,000 photo images
-  // (seeds 1 and 2) it took 16% and 46% off the run's CPU with the same
-  // rotation and centre medians (docs/notes/2026-12-06-scale-ba.md).
+  // (docs/notes/2026-12-05-ba-stall.md). Hence on only in adjustments of
+  // at least stall_min_num_images images: on the 1,000-image photo scenes
+  // (seeds 1 and 2, adjustments of 948-993 images) it took 16% and 46% off
+  // the run's CPU with the same rotation and centre medians
+  // (docs/notes/2026-12-06-scale-ba.md); nothing was measured between 300
+  // and 948 images.
   int stall_num_iterations = 5;
   double stall_relative_decrease = 0.005;
-  int stall_min_num_images = 1000;
+  int stall_min_num_images = 800;
   // The same rule for the mapper's last adjustment, with its own window and
   // threshold (0: off, the last adjustment runs to its tolerances). Its
   // crawl (photo scenes, stall_num_iterations on: a few narrow-field

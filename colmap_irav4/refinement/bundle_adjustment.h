@@ -191,11 +191,11 @@ struct BundleAdjustmentOptions {
   // (CostStall: a few ill-determined cameras crawling while the rest has
   // settled); a stopped solve counts as converged. 0: off. The mapper
   // applies it to its adjustments before the last only (bundle adjustment 1
-  // and the two-view check's). Off by default: at 100-300 photo images it
-  // saved time on some scenes, cost it on others, and mostly lost accuracy,
-  // the crawl moving to the last adjustment
-  // (docs/notes/2026-12-05-ba-stall.md). Hence on only in adjustments of
-  // at least stall_min_num_images images: on the 1,000-image photo scenes
+  // and the two-view check's). At 100-300 photo images it saved time on
+  // some scenes, cost it on others, and mostly lost accuracy, the crawl
+  // moving to the last adjustment (docs/notes/2026-12-05-ba-stall.md).
+  // Hence it acts only in adjustments of at least stall_min_num_images
+  // images: on the 1,000-image photo scenes
   // (seeds 1 and 2, adjustments of 948-993 images) it took 16% and 46% off
   // the run's CPU with the same rotation and centre medians
   // (docs/notes/2026-12-06-scale-ba.md); nothing was measured between 300

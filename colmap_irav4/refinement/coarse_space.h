@@ -73,7 +73,6 @@ class CoarseSystem {
 
   // Zeros for `num_clusters` clusters.
   void Reset(int num_clusters);
-  int NumClusters() const { return num_clusters_; }
   int Size() const { return kNumCoarseModes * num_clusters_; }
   // Adds m to the block of clusters (a, b) and m^T to (b, a) (m + m^T to
   // the block when a == b).

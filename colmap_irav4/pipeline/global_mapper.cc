@@ -122,6 +122,31 @@ void AddFilterFigures(int num_observations_filtered_before,
              static_cast<double>(summary.bogus_camera_images.size()));
 }
 
+// How an adjustment's solves went: their iterations, and the counts that
+// are not zero of conjugate gradients, images left out, solves stopped on
+// the stall rule and solves started again damped.
+void AddSolveFigures(const BundleAdjustmentSummary& summary,
+                     StageTimer* stage) {
+  stage->Add("iterations", static_cast<double>(summary.num_iterations));
+  stage->Add("solves", static_cast<double>(summary.num_solves));
+  if (summary.num_linear_iterations > 0) {
+    stage->Add("conjugate gradient iterations",
+               static_cast<double>(summary.num_linear_iterations));
+  }
+  if (summary.num_images_left_out > 0) {
+    stage->Add("images left out (few observations)",
+               static_cast<double>(summary.num_images_left_out));
+  }
+  if (summary.num_stalled_solves > 0) {
+    stage->Add("solves stopped as the cost stalled",
+               static_cast<double>(summary.num_stalled_solves));
+  }
+  if (summary.num_damped_restarts > 0) {
+    stage->Add("solves started again damped",
+               static_cast<double>(summary.num_damped_restarts));
+  }
+}
+
 }  // namespace
 
 GlobalMapper::GlobalMapper(const GlobalMapperOptions& options,
@@ -840,24 +865,7 @@ bool GlobalMapper::IterativeBundleAdjustment() {
         keypoint_noise_ = ba_summary.keypoint_noise;
         const FilterSummary filter_summary = RunFiltering(
             options_.filtering, &reconstruction_, &keypoint_noise_);
-        stage.Add("iterations", static_cast<double>(ba_summary.num_iterations));
-        stage.Add("solves", static_cast<double>(ba_summary.num_solves));
-        if (ba_summary.num_linear_iterations > 0) {
-          stage.Add("conjugate gradient iterations",
-                    static_cast<double>(ba_summary.num_linear_iterations));
-        }
-        if (ba_summary.num_images_left_out > 0) {
-          stage.Add("images left out (few observations)",
-                    static_cast<double>(ba_summary.num_images_left_out));
-        }
-        if (ba_summary.num_stalled_solves > 0) {
-          stage.Add("solves stopped as the cost stalled",
-                    static_cast<double>(ba_summary.num_stalled_solves));
-        }
-        if (ba_summary.num_damped_restarts > 0) {
-          stage.Add("solves started again damped",
-                    static_cast<double>(ba_summary.num_damped_restarts));
-        }
+        AddSolveFigures(ba_summary, &stage);
         if (!ba_summary.scale_bin_noise_px.empty()) {
           // The noise that weighed the observations: finest and coarsest of
           // the keypoint scale bins.
@@ -986,6 +994,7 @@ bool GlobalMapper::TwoViewCheck() {
             static_cast<double>(summary.num_images_poorly_constrained));
   stage.Add("two-view points withheld",
             static_cast<double>(summary.num_points_withheld));
+  AddSolveFigures(summary.bundle_adjustment, &stage);
   AddModelFigures(&stage);
   stage.Finish(log_prefix_, &stages_);
   return true;

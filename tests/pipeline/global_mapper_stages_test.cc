@@ -244,6 +244,18 @@ TEST(GlobalMapperStages, EachStageLeavesItsResultInTheMapper) {
                 "rotation averaging (irav4)", "rotation filter", "tracks",
                 "global_positioning", "bundle adjustment 1", "retriangulation",
                 "two-view check", "bundle adjustment 2"}));
+  // The adjustments, the two-view check's among them, say how their solves
+  // went (summary.json).
+  for (const StageReport& stage : mapper.stages()) {
+    if (stage.name != "bundle adjustment 1" && stage.name != "two-view check" &&
+        stage.name != "bundle adjustment 2") {
+      continue;
+    }
+    std::map<std::string, double> figures(stage.figures.begin(),
+                                          stage.figures.end());
+    EXPECT_GE(figures["iterations"], 1) << stage.name;
+    EXPECT_GE(figures["solves"], 1) << stage.name;
+  }
   // 0.5 px keypoint noise: mean reprojection error near 0.5 * sqrt(pi/2).
   const double error = UpdateReprojectionErrors(&mapper.reconstruction());
   EXPECT_LT(error, 0.8);

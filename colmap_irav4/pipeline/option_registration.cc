@@ -481,6 +481,15 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
   manager->Add("BundleAdjustment.schur_iterative_eta", &ba.schur_iterative_eta,
                "Schur solver, iterative: conjugate gradients stop at a "
                "residual of min(eta, sqrt(|b| / |b_0|)) |b|");
+  manager->Add("BundleAdjustment.schur_iterative_model_tolerance",
+               &ba.schur_iterative_model_tolerance,
+               "Schur solver, iterative: conjugate gradients also stop once "
+               "i (Q_i - Q_i-1) / Q_i is below this, Q_i the quadratic "
+               "model's value (0: off), in models of at least "
+               "schur_iterative_model_min_num_images images");
+  manager->Add("BundleAdjustment.schur_iterative_model_min_num_images",
+               &ba.schur_iterative_model_min_num_images,
+               "see schur_iterative_model_tolerance");
   manager->Add("BundleAdjustment.schur_implicit_min_mib",
                &ba.schur_implicit_min_mib,
                "Schur solver, iterative: from this many MiB of reduced "

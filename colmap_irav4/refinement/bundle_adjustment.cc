@@ -255,6 +255,10 @@ class BundleAdjustmentProblem {
           options.schur_prefetch_updates_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
+      if (static_cast<int>(reconstruction->images.size()) >=
+          options.schur_iterative_model_min_num_images) {
+        schur_options.model_tolerance = options.schur_iterative_model_tolerance;
+      }
       schur_options.coarse_cluster_size = options.schur_coarse_cluster_size;
       schur_options.coarse_max_clusters = options.schur_coarse_max_clusters;
       schur_options.implicit_min_mib = options.schur_implicit_min_mib;
@@ -1378,6 +1382,17 @@ void BundleAdjustmentOptions::Check() const {
     throw OptionError(&schur_iterative_eta,
                       "BundleAdjustment.schur_iterative_eta",
                       "must be in (0, 1)");
+  }
+  if (!(schur_iterative_model_tolerance >= 0 &&
+        schur_iterative_model_tolerance < 1)) {
+    throw OptionError(&schur_iterative_model_tolerance,
+                      "BundleAdjustment.schur_iterative_model_tolerance",
+                      "must be in [0, 1) (0: off)");
+  }
+  if (schur_iterative_model_min_num_images < 0) {
+    throw OptionError(&schur_iterative_model_min_num_images,
+                      "BundleAdjustment.schur_iterative_model_min_num_images",
+                      "must be >= 0");
   }
   if (schur_max_cg_iterations < 1) {
     throw OptionError(&schur_max_cg_iterations,

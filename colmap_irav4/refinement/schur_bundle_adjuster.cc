@@ -240,6 +240,7 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
   CHECK(options.eta > 0 && options.eta < 1);
   CHECK_GE(options.implicit_min_mib, 0);
   CHECK_GT(options.max_cg_iterations, 0);
+  CHECK(options.model_tolerance >= 0 && options.model_tolerance < 1);
 }
 
 SchurBundleAdjuster::~SchurBundleAdjuster() = default;
@@ -975,6 +976,7 @@ bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
   precondition(r, &z);
   p = z;
   double rz = r.dot(z);
+  double model = 0;  // Q_i = x_i^T S x_i / 2 - b^T x_i = -x_i^T (b + r_i) / 2
   for (int i = 0; i < solver_options_.max_cg_iterations; ++i) {
     multiply(p, &q);
     const double pq = p.dot(q);
@@ -988,6 +990,14 @@ bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
     r -= alpha * q;
     *iterations = i + 1;
     if (r.norm() <= tolerance) break;
+    if (solver_options_.model_tolerance > 0) {
+      const double next_model = -0.5 * step->dot(rhs + r);
+      if (next_model < 0 && (i + 1) * (next_model - model) / next_model <
+                                solver_options_.model_tolerance) {
+        break;
+      }
+      model = next_model;
+    }
     precondition(r, &z);
     const double rz_next = r.dot(z);
     p = z + (rz_next / rz) * p;

@@ -76,6 +76,12 @@ struct SchurSolverOptions {
   // factorisation's (docs/notes/2026-12-05-iterative-schur.md).
   double eta = 1e-3;
   int max_cg_iterations = 500;
+  // Iterative: conjugate gradients also stop once i (Q_i - Q_{i-1}) / Q_i
+  // is below this, Q_i the quadratic model's value at iteration i (Nash
+  // and Sofer's truncated Newton rule, Ceres' q_tolerance): the step has
+  // taken nearly all of the model's decrease, what is left lies along the
+  // reduced system's weak directions. 0: off (the residual rule alone).
+  double model_tolerance = 0;
   // Iterative: the preconditioner's second level (coarse_space.h): the
   // images in clusters of about this many that share the most points, the
   // clusters' rigid motions with a scale (7 values each) solved exactly at

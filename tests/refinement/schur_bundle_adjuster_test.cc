@@ -21,6 +21,8 @@
 #include <iterator>
 #include <map>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -946,19 +948,26 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
   EXPECT_EQ(direct_summary.num_linear_iterations, 0);
   EXPECT_GT(direct_summary.num_observations_filtered, 100);
   ba.schur_linear_solver = SchurLinearSolver::kIterative;
-  std::map<double, BundleAdjustmentSummary> summaries;
-  for (const double eta : {1e-8, 0.1}) {
-    SCOPED_TRACE("eta " + std::to_string(eta));
+  // Forcing terms 1e-8 and 0.1 on the residual; 1e-8 with the quadratic
+  // model's rule (model tolerance 1e-3), which then stops them.
+  const std::vector<std::pair<double, double>> rules = {
+      {1e-8, 0.0}, {0.1, 0.0}, {1e-8, 1e-3}};
+  std::map<std::pair<double, double>, BundleAdjustmentSummary> summaries;
+  for (const auto& [eta, model_tolerance] : rules) {
+    SCOPED_TRACE("eta " + std::to_string(eta) + ", model tolerance " +
+                 std::to_string(model_tolerance));
     ba.schur_iterative_eta = eta;
+    ba.schur_iterative_model_tolerance = model_tolerance;
+    ba.schur_iterative_model_min_num_images = 0;
     Reconstruction iterative_ba = with_outliers;
-    BundleAdjustmentSummary& summary = summaries[eta];
+    BundleAdjustmentSummary& summary = summaries[{eta, model_tolerance}];
     ASSERT_TRUE(RunBundleAdjustment(ba, &iterative_ba, &summary));
     EXPECT_EQ(summary.linear_solver, "SCHUR_ITERATIVE_PCG");
     EXPECT_GT(summary.num_linear_iterations, summary.num_iterations);
     EXPECT_EQ(summary.num_observations_filtered,
               direct_summary.num_observations_filtered);
     // Nearly exact steps: checked below, at tolerances above rounding.
-    if (eta < 1e-6) continue;
+    if (eta < 1e-6 && model_tolerance == 0) continue;
     // Inexact steps (forcing term 0.1) take another path (52
     // iterations instead of 31) to the same optimum and stop where the
     // tolerances stop them, a little off the direct solves' stopping point:
@@ -975,8 +984,23 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
     EXPECT_GT(Compare(with_outliers, iterative_ba).point, 1e-2);
   }
   // The inexact steps cost fewer conjugate gradient iterations in all.
-  EXPECT_LT(summaries[0.1].num_linear_iterations,
-            summaries[1e-8].num_linear_iterations);
+  const auto cg = [&](double eta, double model_tolerance) {
+    return summaries.at({eta, model_tolerance}).num_linear_iterations;
+  };
+  EXPECT_LT(cg(0.1, 0.0), cg(1e-8, 0.0));
+  EXPECT_LT(cg(1e-8, 1e-3), cg(1e-8, 0.0));
+  // The model rule acts in models of schur_iterative_model_min_num_images
+  // images or more only: one more than this model's, and it does not.
+  ba.schur_iterative_model_tolerance = 1e-3;
+  ba.schur_iterative_model_min_num_images =
+      static_cast<int>(with_outliers.images.size()) + 1;
+  {
+    Reconstruction small = with_outliers;
+    BundleAdjustmentSummary summary;
+    ASSERT_TRUE(RunBundleAdjustment(ba, &small, &summary));
+    EXPECT_EQ(summary.num_linear_iterations, cg(1e-8, 0.0));
+  }
+  ba.schur_iterative_model_tolerance = 0;
 
   // Nearly exact steps (eta 1e-8) take the direct solves' path to their
   // optimum (the Ceres comparison's bounds; measured 1e-13). Compared where
@@ -1378,6 +1402,16 @@ TEST(SchurBundleAdjuster, CheckRejectsBadIterativeSettings) {
   EXPECT_NE(error([](BundleAdjustmentOptions* o) {
               o->schur_max_cg_iterations = 0;
             }).find("--BundleAdjustment.schur_max_cg_iterations"),
+            std::string::npos);
+  for (const double tolerance : {1.0, -0.1, std::nan("")}) {
+    EXPECT_NE(error([tolerance](BundleAdjustmentOptions* o) {
+                o->schur_iterative_model_tolerance = tolerance;
+              }).find("--BundleAdjustment.schur_iterative_model_tolerance"),
+              std::string::npos);
+  }
+  EXPECT_NE(error([](BundleAdjustmentOptions* o) {
+              o->schur_iterative_model_min_num_images = -1;
+            }).find("--BundleAdjustment.schur_iterative_model_min_num_images"),
             std::string::npos);
   for (const double mib : {-1.0, std::nan("")}) {
     EXPECT_NE(error([mib](BundleAdjustmentOptions* o) {

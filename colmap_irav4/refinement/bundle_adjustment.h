@@ -166,7 +166,7 @@ struct BundleAdjustmentOptions {
   // iteration, times the iteration count, is below this
   // (SchurSolverOptions::model_tolerance; 0: off), in adjustments of models
   // of at least schur_iterative_model_min_num_images images. On the photo
-  // scenes of 1,000 images forced iterative (seeds 1 and 2) it took 60-70%
+  // scenes of 1,000 images forced iterative (seeds 1 and 2) it took 43-63%
   // off the conjugate gradients and 3-47% off the run's CPU with the same
   // medians; on the 300-image one it moved the centre median 22% (0.0372 ->
   // 0.0453 m; its bundle adjustment 1 at the 100-iteration cap either way)

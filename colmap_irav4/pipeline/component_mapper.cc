@@ -788,17 +788,33 @@ bool ComponentMapper::MergeRigidParts(
                  "than "
               << options.max_rotation_error_deg << " deg";
     for (const PartJoin& join : plan.joins) {
-      const CrossPairCheck& best = plan.checks[join.best_check];
+      std::ostringstream best;
+      if (join.best_check >= 0) {
+        const CrossPairCheck& check = plan.checks[join.best_check];
+        best << " (best " << check.image_id_a << " -> " << check.image_id_b
+             << ", " << check.num_met << " of " << check.num_points << ")";
+      }
       LOG(INFO) << prefix_ << round_name << ": parts " << join.part1 << " ("
                 << plan.part_sizes[join.part1] << " images) and " << join.part2
                 << " (" << plan.part_sizes[join.part2]
-                << "): " << join.num_pairs << " confirmed pairs meeting "
-                << join.num_points << " points (best " << best.image_id_a
-                << " -> " << best.image_id_b << ", " << best.num_met << " of "
-                << best.num_points << ")";
+                << "): " << join.num_pairs << " confirmed pairs, "
+                << join.num_agreeing << " of them agreeing on the rotation "
+                << "between the parts (within " << options.max_join_spread_deg
+                << " deg) meeting " << join.num_points << " points"
+                << best.str()
+                << (join.agreed ? ": joined"
+                                : ": not joined (fewer than " +
+                                      std::to_string(options.min_join_pairs) +
+                                      " agreeing pairs)");
     }
     if (plan.num_confirmed == 0) {
       stop = "no pair across the parts confirmed";
+      break;
+    }
+    if (plan.num_groups == plan.num_parts) {
+      stop = "no two parts joined by " +
+             std::to_string(options.min_join_pairs) +
+             " confirmed pairs agreeing on their rotation";
       break;
     }
     std::set<std::pair<image_t, image_t>> removed = plan.contradicted;

@@ -646,6 +646,13 @@ void AddPartMergeOptions(OptionManager* manager, PartMergeOptions* o) {
                "points...");
   manager->Add("PartMerge.min_met_fraction", &o->min_met_fraction,
                "... making at least this fraction of its points");
+  manager->Add("PartMerge.min_join_pairs", &o->min_join_pairs,
+               "two parts are joined only by at least this many confirmed "
+               "pairs agreeing on the rotation between them (a false pair "
+               "fitting a ghost pose is confirmed alone)");
+  manager->Add("PartMerge.max_join_spread_deg", &o->max_join_spread_deg,
+               "confirmed pairs agree when the rotations between the parts "
+               "they give are within this angle (deg)");
   manager->Add("PartMerge.max_rotation_error_deg", &o->max_rotation_error_deg,
                "pairs across joined parts contradicting the join by more "
                "than this are removed before mapping again (deg)");

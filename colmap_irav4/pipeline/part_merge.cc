@@ -5,6 +5,7 @@
 #include <map>
 #include <random>
 
+#include <glog/logging.h>
 #include <Eigen/Dense>
 
 #include "colmap_irav4/geometry/rotation.h"
@@ -57,6 +58,23 @@ std::vector<int> MetPoints(const std::vector<Eigen::Vector3d>& points,
 // Cam_b_from_cam_a of the pair oriented from `a`.
 Eigen::Matrix3d RotationFrom(const ImagePairGeometry& pair, image_t a) {
   return pair.image_id1 == a ? pair.R : Eigen::Matrix3d(pair.R.transpose());
+}
+
+// The rotation J between the frames of parts part1 and part2 that a
+// confirmed check gives: their corrections (PartMergePlan::correction)
+// satisfy C_part2 = J * C_part1. The check places b: R_b(model) * C_b =
+// R_b(check) * C_a.
+Eigen::Matrix3d JoinRotation(const CrossPairCheck& check,
+                             const Reconstruction& reconstruction, int part1,
+                             int part2) {
+  const Eigen::Matrix3d R_b_model =
+      reconstruction.images.at(check.image_id_b)
+          .cam_from_world.rotation.toRotationMatrix();
+  const Eigen::Matrix3d b_from_a = R_b_model.transpose() * check.R_b;
+  CHECK((check.part_a == part1 && check.part_b == part2) ||
+        (check.part_a == part2 && check.part_b == part1));
+  return check.part_a == part1 ? b_from_a
+                               : Eigen::Matrix3d(b_from_a.transpose());
 }
 
 // Each image of `parts` (those in the model) -> its part.
@@ -166,6 +184,14 @@ void PartMergeOptions::Check() const {
   if (!(min_met_fraction >= 0 && min_met_fraction <= 1)) {
     throw OptionError(&min_met_fraction, "PartMerge.min_met_fraction",
                       "must be in [0, 1]");
+  }
+  if (min_join_pairs < 1) {
+    throw OptionError(&min_join_pairs, "PartMerge.min_join_pairs",
+                      "must be >= 1");
+  }
+  if (!(max_join_spread_deg > 0 && max_join_spread_deg <= 180)) {
+    throw OptionError(&max_join_spread_deg, "PartMerge.max_join_spread_deg",
+                      "must be in (0, 180]");
   }
   if (!(max_rotation_error_deg > 0 && max_rotation_error_deg <= 180)) {
     throw OptionError(&max_rotation_error_deg,
@@ -330,9 +356,8 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
     }
   }
   plan.num_pairs_across = static_cast<int>(across.size());
-  // The joins (for the log): per pair of parts, the confirmed checks
-  // between them and the distinct points they meet (per direction: points
-  // of one part).
+  // The joins: per pair of parts, the confirmed checks between them, and
+  // the most of them (distinct pairs) that agree on the parts' rotation.
   std::map<std::pair<int, int>, std::vector<int>> checks_by_parts;
   for (size_t k = 0; k < plan.checks.size(); ++k) {
     const CrossPairCheck& check = plan.checks[k];
@@ -344,12 +369,47 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
     PartJoin join;
     join.part1 = parts_key.first;
     join.part2 = parts_key.second;
+    std::vector<Eigen::Matrix3d> rotations;
     std::set<std::pair<image_t, image_t>> pair_ids;
-    std::set<point3D_t> met_in_part1;
-    std::set<point3D_t> met_in_part2;
     for (const int k : indices) {
       const CrossPairCheck& check = plan.checks[k];
       pair_ids.insert(std::minmax(check.image_id_a, check.image_id_b));
+      rotations.push_back(
+          JoinRotation(check, reconstruction, join.part1, join.part2));
+    }
+    join.num_pairs = static_cast<int>(pair_ids.size());
+    // The agreeing set: the checks within the spread of one of them, the
+    // one gathering most distinct pairs (ties: most met points, then the
+    // first).
+    std::vector<int> agreeing;
+    int most_met = -1;
+    for (size_t i = 0; i < indices.size(); ++i) {
+      std::vector<int> around;
+      std::set<std::pair<image_t, image_t>> around_pairs;
+      int met = 0;
+      for (size_t j = 0; j < indices.size(); ++j) {
+        if (AngularDistanceDeg(rotations[i], rotations[j]) >
+            options.max_join_spread_deg) {
+          continue;
+        }
+        const CrossPairCheck& check = plan.checks[indices[j]];
+        around.push_back(indices[j]);
+        around_pairs.insert(std::minmax(check.image_id_a, check.image_id_b));
+        met += check.num_met;
+      }
+      const int num_around = static_cast<int>(around_pairs.size());
+      if (num_around > join.num_agreeing ||
+          (num_around == join.num_agreeing && met > most_met)) {
+        join.num_agreeing = num_around;
+        most_met = met;
+        agreeing = std::move(around);
+      }
+    }
+    join.agreed = join.num_agreeing >= options.min_join_pairs;
+    std::set<point3D_t> met_in_part1;
+    std::set<point3D_t> met_in_part2;
+    for (const int k : agreeing) {
+      const CrossPairCheck& check = plan.checks[k];
       std::set<point3D_t>& met =
           check.part_a == join.part1 ? met_in_part1 : met_in_part2;
       met.insert(check.met_point_ids.begin(), check.met_point_ids.end());
@@ -358,28 +418,22 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
         join.best_check = k;
       }
     }
-    join.num_pairs = static_cast<int>(pair_ids.size());
     join.num_points =
         static_cast<int>(std::max(met_in_part1.size(), met_in_part2.size()));
     plan.joins.push_back(join);
   }
   std::stable_sort(plan.joins.begin(), plan.joins.end(),
                    [](const PartJoin& x, const PartJoin& y) {
+                     if (x.agreed != y.agreed) return x.agreed;
                      return x.num_points > y.num_points;
                    });
-  // The join: a spanning tree of the parts over the confirmed checks, most
-  // met points first (ties: the order of the pairs).
-  std::vector<const CrossPairCheck*> confirmed;
-  for (const CrossPairCheck& check : plan.checks) {
-    if (check.confirmed) confirmed.push_back(&check);
-  }
-  std::stable_sort(confirmed.begin(), confirmed.end(),
-                   [](const CrossPairCheck* x, const CrossPairCheck* y) {
-                     return x->num_met > y->num_met;
-                   });
+  // The join: a spanning tree of the parts over the agreed joins, most met
+  // points first.
   UnionFind union_find(num_parts);
   std::vector<std::vector<const CrossPairCheck*>> tree(num_parts);
-  for (const CrossPairCheck* check : confirmed) {
+  for (const PartJoin& join : plan.joins) {
+    if (!join.agreed) continue;
+    const CrossPairCheck* check = &plan.checks[join.best_check];
     if (union_find.Union(check->part_a, check->part_b)) {
       tree[check->part_a].push_back(check);
       tree[check->part_b].push_back(check);

@@ -9,8 +9,12 @@
 // in A's frame follows from the pair's relative rotation and a's rotation;
 // with it fixed, b's bearing rays to the points of A that a's matched
 // keypoints observe must meet them from one centre. A true pair's rays do
-// (up to noise); a false pair's random matches do not. Pairs across the
-// parts so joined whose rotation contradicts the join are removed, and the
+// (up to noise); a false pair's random matches do not. A false pair whose
+// matches fit a ghost pose (a random pair the generator or a repeated
+// structure makes consistent with some other relative pose) is confirmed
+// too, but gives its own rotation between the parts: two parts are joined
+// only by several confirmed pairs that agree on it. Pairs across the parts
+// so joined whose rotation contradicts the join are removed, and the
 // component is mapped again (pipeline/component_mapper.h).
 
 #include <map>
@@ -37,6 +41,14 @@ struct PartMergeOptions {
   int min_met_points = 5;
   // ... making at least this fraction of its points.
   double min_met_fraction = 0.5;
+  // Two parts are joined only by at least this many confirmed pairs
+  // (distinct image pairs) that agree on the rotation between the parts: a
+  // ghost-pose false pair is confirmed alone (at 10,000 photo images, 312
+  // random pairs were), but two agree only by chance.
+  int min_join_pairs = 2;
+  // Confirmed pairs agree when the rotations between the parts they give
+  // are within this angle (deg).
+  double max_join_spread_deg = 3.0;
   // Pairs across joined parts whose relative rotation contradicts the join
   // by more than this are removed before mapping again (deg).
   double max_rotation_error_deg = 10.0;
@@ -94,11 +106,17 @@ struct PartJoin {
   int part1 = -1;  // the smaller part index
   int part2 = -1;
   int num_pairs = 0;  // confirmed pairs (either direction)
-  // Distinct points met, in the direction that meets more (points of one
-  // part only: the same scene point seen from both sides counts once).
+  // Of those, the most that agree on the rotation between the parts
+  // (within max_join_spread_deg of one of them).
+  int num_agreeing = 0;
+  // Whether num_agreeing reaches min_join_pairs: the parts may be joined.
+  bool agreed = false;
+  // Distinct points met by the agreeing pairs' checks, in the direction
+  // that meets more (points of one part only: the same scene point seen
+  // from both sides counts once).
   int num_points = 0;
-  // Index into PartMergePlan::checks of the check with most met points
-  // (the join's rotation).
+  // Index into PartMergePlan::checks of the agreeing check with most met
+  // points (the join's rotation).
   int best_check = -1;
 };
 
@@ -107,8 +125,8 @@ struct PartMergePlan {
   std::vector<CrossPairCheck> checks;
   int num_pairs_across = 0;  // view-graph pairs across parts
   int num_confirmed = 0;     // of those, confirmed in either direction
-  // Per pair of parts with a confirmed pair (for the log), most met points
-  // first (ties: the order of the pairs).
+  // Per pair of parts with a confirmed pair, agreed joins first, then most
+  // met points (ties: the order of the parts).
   std::vector<PartJoin> joins;
   // Per part (index into the parts given): its group after the join (the
   // smallest part index of the group), and the rotation that turns its
@@ -141,10 +159,10 @@ CrossPairCheck CheckCrossPair(
 
 // Checks every pair of `pairs` across two of `parts` (image sets of the
 // model, disjoint) in both directions (inlier matches from `geometries`,
-// the database's), joins the parts through the confirmed pairs (a spanning
-// tree of the parts, the pair with most met points between two parts
-// first) and lists the pairs across parts of one group that the join
-// contradicts.
+// the database's), joins the parts through the agreed joins (a spanning
+// tree of the parts, the join with most met points first, each through its
+// best agreeing check) and lists the pairs across parts of one group that
+// the join contradicts.
 PartMergePlan PlanPartMerge(const PartMergeOptions& options,
                             const Reconstruction& reconstruction,
                             const std::vector<std::vector<image_t>>& parts,

@@ -115,6 +115,41 @@ class PartMergeTest : public ::testing::Test {
     geometries_.push_back(geometry);
   }
 
+  // Pair (a, b) whose 20 matches at A's points first_point.. fit a ghost
+  // pose of b (as a random pair's or a repeated structure's do): b's
+  // keypoints project A's points from `C_ghost` turned by `turn` from b's
+  // true rotation, and the pair's rotation is the ghost's.
+  void AddGhostPair(image_t a, image_t b, int first_point,
+                    const Eigen::Matrix3d& turn,
+                    const Eigen::Vector3d& C_ghost) {
+    const Eigen::Matrix3d R_ghost = turn * true_R_[b];
+    ImagePairGeometry pair;
+    pair.image_id1 = a;
+    pair.image_id2 = b;
+    pair.R = R_ghost * true_R_[a].transpose();
+    pair.num_inliers = 20;
+    pairs_.push_back(pair);
+    TwoViewGeometry geometry;
+    geometry.image_id1 = a;
+    geometry.image_id2 = b;
+    geometry.config = TwoViewGeometry::CALIBRATED;
+    for (int k = first_point; k < first_point + 20; ++k) {
+      const auto& [point3D_id, X] = points_a_[k];
+      point2D_t idx_a = 0;
+      for (const TrackElement& element : model_.points3D.at(point3D_id).track) {
+        if (element.image_id == a) idx_a = element.point2D_idx;
+      }
+      Image& image = model_.images.at(b);
+      Point2D point;
+      point.xy =
+          CameraCameraToImage(camera_, (R_ghost * (X - C_ghost)).hnormalized());
+      image.points2D.push_back(point);
+      geometry.inlier_matches.push_back(
+          {idx_a, static_cast<point2D_t>(image.points2D.size() - 1)});
+    }
+    geometries_.push_back(geometry);
+  }
+
   // The geometry's matches as (keypoint in image_id1, in image_id2).
   static std::vector<std::pair<point2D_t, point2D_t>> Matches(
       const TwoViewGeometry& geometry) {
@@ -316,8 +351,11 @@ TEST_F(PartMergeTest, ArticulationJoinTiesNothing) {
   // split at 5 again: the step must not map again for it.
   const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
   const std::vector<ImagePairGeometry> pairs = {pairs_[0], pairs_[2]};
+  // One pair suffices to join here (by default two must agree).
+  PartMergeOptions options;
+  options.min_join_pairs = 1;
   const PartMergePlan plan =
-      PlanPartMerge(PartMergeOptions(), model_, parts, pairs, geometries_);
+      PlanPartMerge(options, model_, parts, pairs, geometries_);
   ASSERT_EQ(plan.num_confirmed, 1);
   ASSERT_EQ(plan.num_groups, 1);
   const ModelRigidity joined =
@@ -356,6 +394,68 @@ TEST_F(PartMergeTest, JoinThroughPointsOfBothPartsIsRigid) {
       2);
 }
 
+TEST_F(PartMergeTest, OneConfirmedPairAloneJoinsNothing) {
+  const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
+  const PartMergePlan plan = PlanPartMerge(PartMergeOptions(), model_, parts,
+                                           {pairs_[0], pairs_[2]}, geometries_);
+  EXPECT_EQ(plan.num_confirmed, 1);
+  ASSERT_EQ(plan.joins.size(), 1u);
+  EXPECT_EQ(plan.joins[0].num_pairs, 1);
+  EXPECT_EQ(plan.joins[0].num_agreeing, 1);
+  EXPECT_FALSE(plan.joins[0].agreed);
+  EXPECT_EQ(plan.num_groups, 2);
+  EXPECT_TRUE(plan.contradicted.empty());
+}
+
+TEST_F(PartMergeTest, GhostPosePairIsConfirmedButJoinsOnlyWithAgreement) {
+  // (4, 8) fits a ghost pose of 8: turned by 30 deg, elsewhere.
+  AddGhostPair(4, 8, 0,
+               AngleAxisToRotation(Eigen::Vector3d(0, DegToRad(30), 0)),
+               Eigen::Vector3d(3, -1, 1));
+  const std::vector<std::vector<image_t>> parts = {{1, 2, 3, 4}, {5, 6, 7, 8}};
+  // The ray test alone cannot tell it from a true pair.
+  const CrossPairCheck ghost =
+      CheckCrossPair(PartMergeOptions(), model_, {1, 2, 3, 4}, 4, 8,
+                     pairs_[3].R, Matches(geometries_[3]));
+  EXPECT_TRUE(ghost.confirmed);
+  EXPECT_EQ(ghost.num_met, 20);
+  // With one true pair: two confirmed pairs that disagree by 30 deg.
+  const PartMergePlan two = PlanPartMerge(PartMergeOptions(), model_, parts,
+                                          {pairs_[0], pairs_[3]}, geometries_);
+  EXPECT_EQ(two.num_confirmed, 2);
+  ASSERT_EQ(two.joins.size(), 1u);
+  EXPECT_EQ(two.joins[0].num_pairs, 2);
+  EXPECT_EQ(two.joins[0].num_agreeing, 1);
+  EXPECT_EQ(two.num_groups, 2);
+  // Agreement within 31 deg takes them as one join.
+  PartMergeOptions wide;
+  wide.max_join_spread_deg = 31;
+  EXPECT_EQ(
+      PlanPartMerge(wide, model_, parts, {pairs_[0], pairs_[3]}, geometries_)
+          .joins[0]
+          .num_agreeing,
+      2);
+  // With both true pairs: they agree, the parts are joined through them
+  // (the truth's rotations) and the ghost pair contradicts the join.
+  const PartMergePlan three =
+      PlanPartMerge(PartMergeOptions(), model_, parts, pairs_, geometries_);
+  EXPECT_EQ(three.num_confirmed, 3);
+  ASSERT_EQ(three.joins.size(), 1u);
+  EXPECT_EQ(three.joins[0].num_pairs, 3);
+  EXPECT_EQ(three.joins[0].num_agreeing, 2);
+  EXPECT_TRUE(three.joins[0].agreed);
+  EXPECT_EQ(three.joins[0].num_points, 40);
+  EXPECT_EQ(three.num_groups, 1);
+  for (image_t i = 5; i <= 8; ++i) {
+    const Eigen::Matrix3d R =
+        model_.images.at(i).cam_from_world.rotation.toRotationMatrix() *
+        three.correction[1];
+    EXPECT_LT(AngularDistanceDeg(R, true_R_[i]), 1e-6) << i;
+  }
+  EXPECT_EQ(three.contradicted,
+            (std::set<std::pair<image_t, image_t>>{{2, 6}, {4, 8}}));
+}
+
 TEST(PartMergeOptions, Check) {
   PartMergeOptions options;
   EXPECT_NO_THROW(options.Check());
@@ -372,6 +472,23 @@ TEST(PartMergeOptions, Check) {
   options = PartMergeOptions();
   options.min_image_fraction = 1.5;
   EXPECT_ANY_THROW(options.Check());
+  // The join's agreement: errors name the flag.
+  const auto error_of = [](const PartMergeOptions& bad) -> std::string {
+    try {
+      bad.Check();
+    } catch (const std::exception& error) {
+      return error.what();
+    }
+    return "";
+  };
+  options = PartMergeOptions();
+  options.min_join_pairs = 0;
+  EXPECT_NE(error_of(options).find("--PartMerge.min_join_pairs"),
+            std::string::npos);
+  options = PartMergeOptions();
+  options.max_join_spread_deg = 0;
+  EXPECT_NE(error_of(options).find("--PartMerge.max_join_spread_deg"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -255,10 +255,6 @@ class BundleAdjustmentProblem {
           options.schur_prefetch_updates_min_mib;
       schur_options.eta = options.schur_iterative_eta;
       schur_options.max_cg_iterations = options.schur_max_cg_iterations;
-      if (static_cast<int>(reconstruction->images.size()) >=
-          options.schur_iterative_model_min_num_images) {
-        schur_options.model_tolerance = options.schur_iterative_model_tolerance;
-      }
       schur_options.coarse_cluster_size = options.schur_coarse_cluster_size;
       schur_options.coarse_max_clusters = options.schur_coarse_max_clusters;
       schur_options.implicit_min_mib = options.schur_implicit_min_mib;
@@ -384,6 +380,14 @@ class BundleAdjustmentProblem {
                : 0;
   }
 
+  // The conjugate gradients' model rule for this adjustment (0: off),
+  // gated by the images it holds as the stall rule is.
+  double ModelTolerance() const {
+    return num_images_ >= options_.schur_iterative_model_min_num_images
+               ? options_.schur_iterative_model_tolerance
+               : 0;
+  }
+
   // `initial_trust_region_radius` (> 0) replaces the options' radius.
   SolveSummary Solve(double initial_trust_region_radius = 0) {
     SolveSummary summary;
@@ -392,6 +396,7 @@ class BundleAdjustmentProblem {
       solver.ceres.initial_trust_region_radius = initial_trust_region_radius;
     }
     if (schur_) {
+      schur_adjuster_->SetModelTolerance(ModelTolerance());
       const SchurBundleAdjuster::Summary schur = schur_adjuster_->Solve(
           solver.ceres, options_.rejected_start_trust_region_radius,
           StallNumIterations(), options_.stall_relative_decrease);

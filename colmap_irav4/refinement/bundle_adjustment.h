@@ -164,8 +164,9 @@ struct BundleAdjustmentOptions {
   int schur_max_cg_iterations = 500;
   // Iterative: ... or once the quadratic model's relative decrease per
   // iteration, times the iteration count, is below this
-  // (SchurSolverOptions::model_tolerance; 0: off), in adjustments of models
-  // of at least schur_iterative_model_min_num_images images. On the photo
+  // (SchurSolverOptions::model_tolerance; 0: off), in adjustments of at
+  // least schur_iterative_model_min_num_images images (those the adjustment
+  // holds, counted as for stall_min_num_images). On the photo
   // scenes of 1,000 images forced iterative (seeds 1 and 2) it took 43-63%
   // off the conjugate gradients and 3-47% off the run's CPU with the same
   // medians; on the 300-image one it moved the centre median 22% (0.0372 ->
@@ -251,10 +252,13 @@ struct BundleAdjustmentOptions {
   // this radius are made at once instead of each being tried: from 1e16 the
   // steps above it repeat the rejected one (too little damping to change
   // it), and a system singular without damping rarely factorises with the
-  // next cut's, a full pass over the observations each (5 tries skipped; 175
+  // next cut's, a full pass over the observations each (6 tries skipped; 175
   // CPU s a try at 10,000 photo images). The radii tried are a subset of
-  // Ceres'; 0: every cut tried (docs/notes/2026-12-04-lm-start.md).
-  double rejected_start_trust_region_radius = 1e10;
+  // Ceres'; 0: every cut tried (docs/notes/2026-12-04-lm-start.md). 1e9
+  // (was 1e10) also skips Ceres' next cut, 4.8e9, which repeated the
+  // rejected step or failed in every solve logged at 300-10,000 images
+  // (docs/notes/2026-12-07-part-merge-agreement.md).
+  double rejected_start_trust_region_radius = 1e9;
   // Poses as rotation + projection centre (residual R (X - C)) instead of
   // rotation + translation (R X + t), whose rotation steps drag each centre
   // by the angle times its distance from the origin, so that Gauss-Newton

@@ -232,7 +232,9 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
 
 SchurBundleAdjuster::SchurBundleAdjuster(bool center,
                                          const SchurSolverOptions& options)
-    : center_(center), solver_options_(options) {
+    : center_(center),
+      solver_options_(options),
+      model_tolerance_(options.model_tolerance) {
   CHECK_GT(options.max_factor_mib, 0);
   CHECK_GE(options.max_cell_table_mib, 0);
   CHECK_GE(options.max_jacobian_store_mib, 0);
@@ -990,10 +992,10 @@ bool SchurBundleAdjuster::SolveIterative(const Eigen::VectorXd& rhs,
     r -= alpha * q;
     *iterations = i + 1;
     if (r.norm() <= tolerance) break;
-    if (solver_options_.model_tolerance > 0) {
+    if (model_tolerance_ > 0) {
       const double next_model = -0.5 * step->dot(rhs + r);
-      if (next_model < 0 && (i + 1) * (next_model - model) / next_model <
-                                solver_options_.model_tolerance) {
+      if (next_model < 0 &&
+          (i + 1) * (next_model - model) / next_model < model_tolerance_) {
         break;
       }
       model = next_model;
@@ -1275,6 +1277,11 @@ bool CostStall::Add(double cost) {
   if (static_cast<int>(costs_.size()) > num_steps_ + 1) costs_.pop_front();
   return static_cast<int>(costs_.size()) == num_steps_ + 1 &&
          costs_.front() - costs_.back() < relative_decrease_ * costs_.back();
+}
+
+void SchurBundleAdjuster::SetModelTolerance(double tolerance) {
+  CHECK(tolerance >= 0 && tolerance < 1);
+  model_tolerance_ = tolerance;
 }
 
 SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(

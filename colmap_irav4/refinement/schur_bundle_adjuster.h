@@ -312,6 +312,11 @@ class SchurBundleAdjuster {
   // at most this; 0: each cut tried (Ceres).
   // `stall`: the solve stops (CONVERGENCE, `stalled`) once the cost has
   // stalled (CostStall; 0 steps: never).
+  // The conjugate gradients' model rule for the next solves
+  // (SchurSolverOptions::model_tolerance; 0: off), set once the adjustment
+  // knows how many images it holds.
+  void SetModelTolerance(double tolerance);
+
   Summary Solve(const ceres::Solver::Options& options,
                 double rejected_start_radius = 0, int stall_num_steps = 0,
                 double stall_relative_decrease = 0);
@@ -461,7 +466,8 @@ class SchurBundleAdjuster {
 
   const bool center_;
   const SchurSolverOptions solver_options_;
-  bool iterative_ = false;  // the reduced system solved by SolveIterative
+  double model_tolerance_ = 0;  // SetModelTolerance's
+  bool iterative_ = false;      // the reduced system solved by SolveIterative
   // ... without forming it (SchurSolverOptions::implicit_min_mib); the
   // structure then holds the local cells only (BuildStructure).
   bool implicit_ = false;

@@ -82,37 +82,18 @@ class PartMergeTest : public ::testing::Test {
   // Pair (a, b) with 20 matches at A's points first_point.., and the
   // relative rotation true (else 25 deg off, keypoints in b at random).
   void AddCrossPair(image_t a, image_t b, int first_point, bool false_pair) {
-    ImagePairGeometry pair;
-    pair.image_id1 = a;
-    pair.image_id2 = b;
-    pair.R = true_R_[b] * true_R_[a].transpose();
+    Eigen::Matrix3d R = true_R_[b] * true_R_[a].transpose();
     if (false_pair) {
-      pair.R =
-          AngleAxisToRotation(Eigen::Vector3d(DegToRad(25), 0, 0)) * pair.R;
+      R = AngleAxisToRotation(Eigen::Vector3d(DegToRad(25), 0, 0)) * R;
     }
-    pair.num_inliers = 20;
-    pairs_.push_back(pair);
-    TwoViewGeometry geometry;
-    geometry.image_id1 = a;
-    geometry.image_id2 = b;
-    geometry.config = TwoViewGeometry::CALIBRATED;
-    for (int k = first_point; k < first_point + 20; ++k) {
-      const auto& [point3D_id, X] = points_a_[k];
-      point2D_t idx_a = 0;
-      for (const TrackElement& element : model_.points3D.at(point3D_id).track) {
-        if (element.image_id == a) idx_a = element.point2D_idx;
-      }
-      point2D_t idx_b = 0;
-      if (false_pair) {
-        model_.images.at(b).points2D.emplace_back();
-        idx_b = static_cast<point2D_t>(model_.images.at(b).points2D.size() - 1);
-        random_keypoints_[{b, idx_b}] = Eigen::Vector2d::Zero();
-      } else {
-        idx_b = Observe(b, X);
-      }
-      geometry.inlier_matches.push_back({idx_a, idx_b});
-    }
-    geometries_.push_back(geometry);
+    AddPair(a, b, R, first_point, [&](const Eigen::Vector3d& X) {
+      if (!false_pair) return Observe(b, X);
+      model_.images.at(b).points2D.emplace_back();
+      const auto idx_b =
+          static_cast<point2D_t>(model_.images.at(b).points2D.size() - 1);
+      random_keypoints_[{b, idx_b}] = Eigen::Vector2d::Zero();
+      return idx_b;
+    });
   }
 
   // Pair (a, b) whose 20 matches at A's points first_point.. fit a ghost
@@ -123,10 +104,26 @@ class PartMergeTest : public ::testing::Test {
                     const Eigen::Matrix3d& turn,
                     const Eigen::Vector3d& C_ghost) {
     const Eigen::Matrix3d R_ghost = turn * true_R_[b];
+    AddPair(a, b, R_ghost * true_R_[a].transpose(), first_point,
+            [&](const Eigen::Vector3d& X) {
+              Image& image = model_.images.at(b);
+              Point2D point;
+              point.xy = CameraCameraToImage(
+                  camera_, (R_ghost * (X - C_ghost)).hnormalized());
+              image.points2D.push_back(point);
+              return static_cast<point2D_t>(image.points2D.size() - 1);
+            });
+  }
+
+  // Pair (a, b) of rotation `R` (cam_b_from_cam_a) with 20 matches: a's
+  // keypoints of A's points first_point.. and b's from `keypoint_b(X)`.
+  template <typename KeypointB>
+  void AddPair(image_t a, image_t b, const Eigen::Matrix3d& R, int first_point,
+               KeypointB keypoint_b) {
     ImagePairGeometry pair;
     pair.image_id1 = a;
     pair.image_id2 = b;
-    pair.R = R_ghost * true_R_[a].transpose();
+    pair.R = R;
     pair.num_inliers = 20;
     pairs_.push_back(pair);
     TwoViewGeometry geometry;
@@ -139,13 +136,7 @@ class PartMergeTest : public ::testing::Test {
       for (const TrackElement& element : model_.points3D.at(point3D_id).track) {
         if (element.image_id == a) idx_a = element.point2D_idx;
       }
-      Image& image = model_.images.at(b);
-      Point2D point;
-      point.xy =
-          CameraCameraToImage(camera_, (R_ghost * (X - C_ghost)).hnormalized());
-      image.points2D.push_back(point);
-      geometry.inlier_matches.push_back(
-          {idx_a, static_cast<point2D_t>(image.points2D.size() - 1)});
+      geometry.inlier_matches.push_back({idx_a, keypoint_b(X)});
     }
     geometries_.push_back(geometry);
   }

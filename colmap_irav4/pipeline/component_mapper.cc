@@ -798,10 +798,12 @@ bool ComponentMapper::MergeRigidParts(
                 << plan.part_sizes[join.part1] << " images) and " << join.part2
                 << " (" << plan.part_sizes[join.part2]
                 << "): " << join.num_pairs << " confirmed pairs, "
-                << join.num_agreeing << " of them agreeing on the rotation "
-                << "between the parts (within " << options.max_join_spread_deg
-                << " deg) meeting " << join.num_points << " points"
-                << best.str()
+                << join.num_agreeing
+                << " of them explained by one similarity between the parts "
+                   "(rotation within "
+                << options.max_join_spread_deg << " deg, centres within "
+                << options.max_join_center_error << " of their depth) meeting "
+                << join.num_points << " points" << best.str()
                 << (join.agreed ? ": joined"
                                 : ": not joined (fewer than " +
                                       std::to_string(options.min_join_pairs) +
@@ -814,7 +816,7 @@ bool ComponentMapper::MergeRigidParts(
     if (plan.num_groups == plan.num_parts) {
       stop = "no two parts joined by " +
              std::to_string(options.min_join_pairs) +
-             " confirmed pairs agreeing on their rotation";
+             " confirmed pairs one similarity explains";
       break;
     }
     std::set<std::pair<image_t, image_t>> removed = plan.contradicted;

@@ -648,11 +648,15 @@ void AddPartMergeOptions(OptionManager* manager, PartMergeOptions* o) {
                "... making at least this fraction of its points");
   manager->Add("PartMerge.min_join_pairs", &o->min_join_pairs,
                "two parts are joined only by at least this many confirmed "
-               "pairs agreeing on the rotation between them (a false pair "
+               "pairs one similarity between them explains (a false pair "
                "fitting a ghost pose is confirmed alone)");
   manager->Add("PartMerge.max_join_spread_deg", &o->max_join_spread_deg,
-               "confirmed pairs agree when the rotations between the parts "
-               "they give are within this angle (deg)");
+               "confirmed pairs agree when one similarity between the "
+               "parts explains them: their rotations between the parts "
+               "within this angle (deg)...");
+  manager->Add("PartMerge.max_join_center_error", &o->max_join_center_error,
+               "... and each placed image's centre within this fraction of "
+               "its distance to its met points");
   manager->Add("PartMerge.max_rotation_error_deg", &o->max_rotation_error_deg,
                "pairs across joined parts contradicting the join by more "
                "than this are removed before mapping again (deg)");

@@ -60,6 +60,13 @@ Eigen::Matrix3d RotationFrom(const ImagePairGeometry& pair, image_t a) {
   return pair.image_id1 == a ? pair.R : Eigen::Matrix3d(pair.R.transpose());
 }
 
+// Two checks hypothesise a join's similarity only when their placed
+// centres lie apart by this many times their tolerances' sum: closer, the
+// direction between them (what fixes the scale and tests the rotation) is
+// within the centres' errors; at 2 the two checks' residuals bound the
+// angle between their displacements in the two frames to 30 deg.
+constexpr double kMinJoinBaseline = 2;
+
 // The rotation J between the frames of parts part1 and part2 that a
 // confirmed check gives: their corrections (PartMergePlan::correction)
 // satisfy C_part2 = J * C_part1. The check places b: R_b(model) * C_b =
@@ -188,6 +195,10 @@ void PartMergeOptions::Check() const {
   if (min_join_pairs < 1) {
     throw OptionError(&min_join_pairs, "PartMerge.min_join_pairs",
                       "must be >= 1");
+  }
+  if (!(max_join_center_error > 0)) {
+    throw OptionError(&max_join_center_error, "PartMerge.max_join_center_error",
+                      "must be > 0");
   }
   if (!(max_join_spread_deg > 0 && max_join_spread_deg <= 180)) {
     throw OptionError(&max_join_spread_deg, "PartMerge.max_join_spread_deg",
@@ -378,31 +389,106 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
           JoinRotation(check, reconstruction, join.part1, join.part2));
     }
     join.num_pairs = static_cast<int>(pair_ids.size());
-    // The agreeing set: the checks within the spread of one of them, the
-    // one gathering most distinct pairs (ties: most met points, then the
-    // first).
+    // The agreeing set: the checks one similarity between the parts
+    // explains, x2 = s J x1 + t (J within the spread of the checks'
+    // rotations, b's placed centre within max_join_center_error of its
+    // distance to its met points), hypothesised from two checks placing
+    // images in one direction, apart (else they fix no scale); the set
+    // gathering most distinct pairs (ties: most met points). A ghost pose
+    // gives its own rotation and centre: two false pairs seldom agree on
+    // both. Checks placing one image agree when their centres and rotations
+    // do.
+    const int n = static_cast<int>(indices.size());
+    std::vector<Eigen::Vector3d> placed(n), model(n);
+    std::vector<double> tolerance(n);
+    std::vector<bool> forward(n);  // b placed in part2 from part1's points
+    for (int i = 0; i < n; ++i) {
+      const CrossPairCheck& check = plan.checks[indices[i]];
+      placed[i] = check.center_b;
+      model[i] = reconstruction.images.at(check.image_id_b).ProjectionCenter();
+      double depth = 0;
+      for (const point3D_t id : check.met_point_ids) {
+        depth += (reconstruction.points3D.at(id).xyz - check.center_b).norm();
+      }
+      tolerance[i] = options.max_join_center_error * depth /
+                     std::max<size_t>(check.met_point_ids.size(), 1);
+      forward[i] = check.part_a == join.part1;
+    }
+    const auto pair_of = [&](int i) {
+      const CrossPairCheck& check = plan.checks[indices[i]];
+      return std::minmax(check.image_id_a, check.image_id_b);
+    };
     std::vector<int> agreeing;
     int most_met = -1;
-    for (size_t i = 0; i < indices.size(); ++i) {
-      std::vector<int> around;
-      std::set<std::pair<image_t, image_t>> around_pairs;
+    const auto consider = [&](const std::vector<int>& members) {
+      std::set<std::pair<image_t, image_t>> member_pairs;
       int met = 0;
-      for (size_t j = 0; j < indices.size(); ++j) {
-        if (AngularDistanceDeg(rotations[i], rotations[j]) >
-            options.max_join_spread_deg) {
+      for (const int i : members) {
+        member_pairs.insert(pair_of(i));
+        met += plan.checks[indices[i]].num_met;
+      }
+      const int num = static_cast<int>(member_pairs.size());
+      if (num > join.num_agreeing ||
+          (num == join.num_agreeing && met > most_met)) {
+        join.num_agreeing = num;
+        most_met = met;
+        agreeing.clear();
+        for (const int i : members) agreeing.push_back(indices[i]);
+      }
+    };
+    for (int i = 0; i < n; ++i) {
+      // Checks placing the same image (which fixes no scale): its placed
+      // centres and rotations must agree.
+      std::vector<int> same_image = {i};
+      const CrossPairCheck& check_i = plan.checks[indices[i]];
+      for (int k = 0; k < n; ++k) {
+        const CrossPairCheck& check_k = plan.checks[indices[k]];
+        if (k != i && check_k.image_id_b == check_i.image_id_b &&
+            AngularDistanceDeg(rotations[i], rotations[k]) <=
+                options.max_join_spread_deg &&
+            (placed[k] - placed[i]).norm() <= tolerance[i] + tolerance[k]) {
+          same_image.push_back(k);
+        }
+      }
+      consider(same_image);
+    }
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) {
+        if (forward[i] != forward[j] || pair_of(i) == pair_of(j) ||
+            AngularDistanceDeg(rotations[i], rotations[j]) >
+                options.max_join_spread_deg ||
+            (placed[j] - placed[i]).norm() <=
+                kMinJoinBaseline * (tolerance[i] + tolerance[j])) {
           continue;
         }
-        const CrossPairCheck& check = plan.checks[indices[j]];
-        around.push_back(indices[j]);
-        around_pairs.insert(std::minmax(check.image_id_a, check.image_id_b));
-        met += check.num_met;
-      }
-      const int num_around = static_cast<int>(around_pairs.size());
-      if (num_around > join.num_agreeing ||
-          (num_around == join.num_agreeing && met > most_met)) {
-        join.num_agreeing = num_around;
-        most_met = met;
-        agreeing = std::move(around);
+        // (x1, x2) of i and j: the placed centre in its part's frame, the
+        // model's in the other's.
+        const Eigen::Vector3d& x1_i = forward[i] ? placed[i] : model[i];
+        const Eigen::Vector3d& x1_j = forward[i] ? placed[j] : model[j];
+        const Eigen::Vector3d& x2_i = forward[i] ? model[i] : placed[i];
+        const Eigen::Vector3d& x2_j = forward[i] ? model[j] : placed[j];
+        const Eigen::Matrix3d& J = rotations[i];
+        const Eigen::Vector3d d1 = J * (x1_j - x1_i);
+        const double scale = (x2_j - x2_i).dot(d1) / d1.squaredNorm();
+        if (!(scale > 0) || !std::isfinite(scale)) continue;
+        const Eigen::Vector3d t =
+            0.5 * (x2_i + x2_j) - scale * J * (0.5 * (x1_i + x1_j));
+        std::vector<int> members;
+        for (int k = 0; k < n; ++k) {
+          if (AngularDistanceDeg(J, rotations[k]) >
+              options.max_join_spread_deg) {
+            continue;
+          }
+          // b's centre predicted in the frame it was placed in.
+          const Eigen::Vector3d predicted =
+              forward[k]
+                  ? Eigen::Vector3d(J.transpose() * (model[k] - t) / scale)
+                  : Eigen::Vector3d(scale * J * model[k] + t);
+          if ((placed[k] - predicted).norm() <= tolerance[k]) {
+            members.push_back(k);
+          }
+        }
+        consider(members);
       }
     }
     join.agreed = join.num_agreeing >= options.min_join_pairs;

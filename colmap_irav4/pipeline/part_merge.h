@@ -12,8 +12,9 @@
 // (up to noise); a false pair's random matches do not. A false pair whose
 // matches fit a ghost pose (a random pair the generator or a repeated
 // structure makes consistent with some other relative pose) is confirmed
-// too, but gives its own rotation between the parts: two parts are joined
-// only by several confirmed pairs that agree on it. Pairs across the parts
+// too, but gives its own rotation and position between the parts: two parts
+// are joined only by several confirmed pairs that one similarity between
+// the parts explains. Pairs across the parts
 // so joined whose rotation contradicts the join are removed, and the
 // component is mapped again (pipeline/component_mapper.h).
 
@@ -42,13 +43,18 @@ struct PartMergeOptions {
   // ... making at least this fraction of its points.
   double min_met_fraction = 0.5;
   // Two parts are joined only by at least this many confirmed pairs
-  // (distinct image pairs) that agree on the rotation between the parts: a
-  // ghost-pose false pair is confirmed alone (at 10,000 photo images, 312
+  // (distinct image pairs) that one similarity between the parts explains:
+  // a ghost-pose false pair is confirmed alone (at 10,000 photo images, 312
   // random pairs were), but two agree only by chance.
   int min_join_pairs = 2;
-  // Confirmed pairs agree when the rotations between the parts they give
-  // are within this angle (deg).
+  // Confirmed pairs agree when one similarity between the parts explains
+  // them: the rotations between the parts they give within this angle
+  // (deg)...
   double max_join_spread_deg = 3.0;
+  // ... and each placed image's centre within this fraction of its
+  // distance to its met points (at 10,000 photo images two of three joins
+  // had two random pairs agreeing on the rotation alone).
+  double max_join_center_error = 0.03;
   // Pairs across joined parts whose relative rotation contradicts the join
   // by more than this are removed before mapping again (deg).
   double max_rotation_error_deg = 10.0;
@@ -106,8 +112,8 @@ struct PartJoin {
   int part1 = -1;  // the smaller part index
   int part2 = -1;
   int num_pairs = 0;  // confirmed pairs (either direction)
-  // Of those, the most that agree on the rotation between the parts
-  // (within max_join_spread_deg of one of them).
+  // Of those, the most that one similarity between the parts explains
+  // (max_join_spread_deg, max_join_center_error).
   int num_agreeing = 0;
   // Whether num_agreeing reaches min_join_pairs: the parts may be joined.
   bool agreed = false;

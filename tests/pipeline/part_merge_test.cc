@@ -418,14 +418,28 @@ TEST_F(PartMergeTest, GhostPosePairIsConfirmedButJoinsOnlyWithAgreement) {
   EXPECT_EQ(two.joins[0].num_pairs, 2);
   EXPECT_EQ(two.joins[0].num_agreeing, 1);
   EXPECT_EQ(two.num_groups, 2);
-  // Agreement within 31 deg takes them as one join.
+  // Rotations agreeing within 31 deg: the ghost's centre still refutes the
+  // join's similarity.
   PartMergeOptions wide;
   wide.max_join_spread_deg = 31;
-  EXPECT_EQ(
-      PlanPartMerge(wide, model_, parts, {pairs_[0], pairs_[3]}, geometries_)
-          .joins[0]
-          .num_agreeing,
-      2);
+  const auto num_agreeing = [&](const PartMergeOptions& options,
+                                const std::vector<ImagePairGeometry>& pairs) {
+    return PlanPartMerge(options, model_, parts, pairs, geometries_)
+        .joins[0]
+        .num_agreeing;
+  };
+  EXPECT_EQ(num_agreeing(wide, {pairs_[0], pairs_[3]}), 1);
+  // A ghost pose with the true rotation (turn 0) elsewhere: the rotations
+  // agree, the centres do not.
+  AddGhostPair(4, 8, 20, Eigen::Matrix3d::Identity(),
+               Eigen::Vector3d(3, -1, 1));
+  const CrossPairCheck unturned =
+      CheckCrossPair(PartMergeOptions(), model_, {1, 2, 3, 4}, 4, 8,
+                     pairs_[4].R, Matches(geometries_[4]));
+  EXPECT_TRUE(unturned.confirmed);
+  EXPECT_EQ(num_agreeing(PartMergeOptions(), {pairs_[0], pairs_[4]}), 1);
+  pairs_.pop_back();
+  geometries_.pop_back();
   // With both true pairs: they agree, the parts are joined through them
   // (the truth's rotations) and the ghost pair contradicts the join.
   const PartMergePlan three =

@@ -494,6 +494,10 @@ TEST(PartMergeOptions, Check) {
   options.max_join_spread_deg = 0;
   EXPECT_NE(error_of(options).find("--PartMerge.max_join_spread_deg"),
             std::string::npos);
+  options = PartMergeOptions();
+  options.max_join_center_error = 0;
+  EXPECT_NE(error_of(options).find("--PartMerge.max_join_center_error"),
+            std::string::npos);
 }
 
 }  // namespace

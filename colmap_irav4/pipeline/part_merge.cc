@@ -368,7 +368,7 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
   }
   plan.num_pairs_across = static_cast<int>(across.size());
   // The joins: per pair of parts, the confirmed checks between them, and
-  // the most of them (distinct pairs) that agree on the parts' rotation.
+  // the most of them (distinct pairs) that one similarity explains.
   std::map<std::pair<int, int>, std::vector<int>> checks_by_parts;
   for (size_t k = 0; k < plan.checks.size(); ++k) {
     const CrossPairCheck& check = plan.checks[k];
@@ -452,44 +452,54 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
       }
       consider(same_image);
     }
+    // The two-check hypotheses: checks placing images in one direction,
+    // of two pairs, agreeing on the rotation, placed apart; at most
+    // max_ransac_samples of them (random ones, seeded by the parts).
+    std::vector<std::pair<int, int>> hypotheses;
     for (int i = 0; i < n; ++i) {
       for (int j = i + 1; j < n; ++j) {
-        if (forward[i] != forward[j] || pair_of(i) == pair_of(j) ||
-            AngularDistanceDeg(rotations[i], rotations[j]) >
-                options.max_join_spread_deg ||
-            (placed[j] - placed[i]).norm() <=
+        if (forward[i] == forward[j] && pair_of(i) != pair_of(j) &&
+            AngularDistanceDeg(rotations[i], rotations[j]) <=
+                options.max_join_spread_deg &&
+            (placed[j] - placed[i]).norm() >
                 kMinJoinBaseline * (tolerance[i] + tolerance[j])) {
+          hypotheses.emplace_back(i, j);
+        }
+      }
+    }
+    if (static_cast<int>(hypotheses.size()) > options.max_ransac_samples) {
+      std::mt19937 random(
+          static_cast<uint32_t>(join.part1 * 7919 + join.part2));
+      std::shuffle(hypotheses.begin(), hypotheses.end(), random);
+      hypotheses.resize(options.max_ransac_samples);
+    }
+    for (const auto& [i, j] : hypotheses) {
+      // (x1, x2) of i and j: the placed centre in its part's frame, the
+      // model's in the other's.
+      const Eigen::Vector3d& x1_i = forward[i] ? placed[i] : model[i];
+      const Eigen::Vector3d& x1_j = forward[i] ? placed[j] : model[j];
+      const Eigen::Vector3d& x2_i = forward[i] ? model[i] : placed[i];
+      const Eigen::Vector3d& x2_j = forward[i] ? model[j] : placed[j];
+      const Eigen::Matrix3d& J = rotations[i];
+      const Eigen::Vector3d d1 = J * (x1_j - x1_i);
+      const double scale = (x2_j - x2_i).dot(d1) / d1.squaredNorm();
+      if (!(scale > 0) || !std::isfinite(scale)) continue;
+      const Eigen::Vector3d t =
+          0.5 * (x2_i + x2_j) - scale * J * (0.5 * (x1_i + x1_j));
+      std::vector<int> members;
+      for (int k = 0; k < n; ++k) {
+        if (AngularDistanceDeg(J, rotations[k]) > options.max_join_spread_deg) {
           continue;
         }
-        // (x1, x2) of i and j: the placed centre in its part's frame, the
-        // model's in the other's.
-        const Eigen::Vector3d& x1_i = forward[i] ? placed[i] : model[i];
-        const Eigen::Vector3d& x1_j = forward[i] ? placed[j] : model[j];
-        const Eigen::Vector3d& x2_i = forward[i] ? model[i] : placed[i];
-        const Eigen::Vector3d& x2_j = forward[i] ? model[j] : placed[j];
-        const Eigen::Matrix3d& J = rotations[i];
-        const Eigen::Vector3d d1 = J * (x1_j - x1_i);
-        const double scale = (x2_j - x2_i).dot(d1) / d1.squaredNorm();
-        if (!(scale > 0) || !std::isfinite(scale)) continue;
-        const Eigen::Vector3d t =
-            0.5 * (x2_i + x2_j) - scale * J * (0.5 * (x1_i + x1_j));
-        std::vector<int> members;
-        for (int k = 0; k < n; ++k) {
-          if (AngularDistanceDeg(J, rotations[k]) >
-              options.max_join_spread_deg) {
-            continue;
-          }
-          // b's centre predicted in the frame it was placed in.
-          const Eigen::Vector3d predicted =
-              forward[k]
-                  ? Eigen::Vector3d(J.transpose() * (model[k] - t) / scale)
-                  : Eigen::Vector3d(scale * J * model[k] + t);
-          if ((placed[k] - predicted).norm() <= tolerance[k]) {
-            members.push_back(k);
-          }
+        // b's centre predicted in the frame it was placed in.
+        const Eigen::Vector3d predicted =
+            forward[k] ? Eigen::Vector3d(J.transpose() * (model[k] - t) / scale)
+                       : Eigen::Vector3d(scale * J * model[k] + t);
+        if ((placed[k] - predicted).norm() <= tolerance[k]) {
+          members.push_back(k);
         }
-        consider(members);
       }
+      consider(members);
     }
     join.agreed = join.num_agreeing >= options.min_join_pairs;
     std::set<point3D_t> met_in_part1;

@@ -81,7 +81,8 @@ struct PartMergeOptions {
   // of the images the split model writes (and is less split, not folded).
   double min_image_fraction = 0.99;
   // RANSAC samples of 2 points for b's centre where there are more
-  // 2-point sets than this (else every set is tried).
+  // 2-point sets than this (else every set is tried); also the pairs of
+  // confirmed checks that hypothesise a join's similarity.
   int max_ransac_samples = 500;
 
   // Throws InputError naming the option (--PartMerge.*).

@@ -376,7 +376,10 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
     checks_by_parts[std::minmax(check.part_a, check.part_b)].push_back(
         static_cast<int>(k));
   }
-  for (const auto& [parts_key, indices] : checks_by_parts) {
+  for (const auto& [parts_key, checks] : checks_by_parts) {
+    // (A named reference: lambdas below cannot capture a structured binding
+    // in C++17.)
+    const std::vector<int>& indices = checks;
     PartJoin join;
     join.part1 = parts_key.first;
     join.part2 = parts_key.second;

@@ -173,6 +173,128 @@ void JoinObservations(image_t image_id1, point2D_t idx1, image_t image_id2,
   }
 }
 
+// The agreeing set of the confirmed checks `indices` (into `checks`)
+// between parts part1 < part2: the checks one similarity between the parts
+// explains, x2 = s J x1 + t (J within the spread of the checks' rotations,
+// b's placed centre within max_join_center_error of its distance to its
+// met points), hypothesised from two checks placing images in one
+// direction, apart (else they fix no scale); the set gathering most
+// distinct pairs (ties: most met points). A ghost pose gives its own
+// rotation and centre: two false pairs seldom agree on both. Checks placing
+// one image agree when their centres and rotations do. Returns indices into
+// `checks`; *num_agreeing is the set's number of distinct pairs.
+std::vector<int> AgreeingChecks(const PartMergeOptions& options,
+                                const Reconstruction& reconstruction,
+                                const std::vector<CrossPairCheck>& checks,
+                                const std::vector<int>& indices, int part1,
+                                int part2, int* num_agreeing) {
+  *num_agreeing = 0;
+  const int n = static_cast<int>(indices.size());
+  std::vector<Eigen::Matrix3d> rotations(n);
+  std::vector<Eigen::Vector3d> placed(n), model(n);
+  std::vector<double> tolerance(n);
+  std::vector<bool> forward(n);  // b placed in part2 from part1's points
+  for (int i = 0; i < n; ++i) {
+    const CrossPairCheck& check = checks[indices[i]];
+    rotations[i] = JoinRotation(check, reconstruction, part1, part2);
+    placed[i] = check.center_b;
+    model[i] = reconstruction.images.at(check.image_id_b).ProjectionCenter();
+    double depth = 0;
+    for (const point3D_t id : check.met_point_ids) {
+      depth += (reconstruction.points3D.at(id).xyz - check.center_b).norm();
+    }
+    tolerance[i] = options.max_join_center_error * depth /
+                   std::max<size_t>(check.met_point_ids.size(), 1);
+    forward[i] = check.part_a == part1;
+  }
+  const auto pair_of = [&](int i) {
+    const CrossPairCheck& check = checks[indices[i]];
+    return std::minmax(check.image_id_a, check.image_id_b);
+  };
+  std::vector<int> agreeing;
+  int most_met = -1;
+  const auto consider = [&](const std::vector<int>& members) {
+    std::set<std::pair<image_t, image_t>> member_pairs;
+    int met = 0;
+    for (const int i : members) {
+      member_pairs.insert(pair_of(i));
+      met += checks[indices[i]].num_met;
+    }
+    const int num = static_cast<int>(member_pairs.size());
+    if (num > *num_agreeing || (num == *num_agreeing && met > most_met)) {
+      *num_agreeing = num;
+      most_met = met;
+      agreeing.clear();
+      for (const int i : members) agreeing.push_back(indices[i]);
+    }
+  };
+  for (int i = 0; i < n; ++i) {
+    // Checks placing the same image (which fixes no scale): its placed
+    // centres and rotations must agree.
+    std::vector<int> same_image = {i};
+    const CrossPairCheck& check_i = checks[indices[i]];
+    for (int k = 0; k < n; ++k) {
+      const CrossPairCheck& check_k = checks[indices[k]];
+      if (k != i && check_k.image_id_b == check_i.image_id_b &&
+          AngularDistanceDeg(rotations[i], rotations[k]) <=
+              options.max_join_spread_deg &&
+          (placed[k] - placed[i]).norm() <= tolerance[i] + tolerance[k]) {
+        same_image.push_back(k);
+      }
+    }
+    consider(same_image);
+  }
+  // The two-check hypotheses: checks placing images in one direction,
+  // of two pairs, agreeing on the rotation, placed apart; at most
+  // max_ransac_samples of them (random ones, seeded by the parts).
+  std::vector<std::pair<int, int>> hypotheses;
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      if (forward[i] == forward[j] && pair_of(i) != pair_of(j) &&
+          AngularDistanceDeg(rotations[i], rotations[j]) <=
+              options.max_join_spread_deg &&
+          (placed[j] - placed[i]).norm() >
+              kMinJoinBaseline * (tolerance[i] + tolerance[j])) {
+        hypotheses.emplace_back(i, j);
+      }
+    }
+  }
+  if (static_cast<int>(hypotheses.size()) > options.max_ransac_samples) {
+    std::mt19937 random(static_cast<uint32_t>(part1 * 7919 + part2));
+    std::shuffle(hypotheses.begin(), hypotheses.end(), random);
+    hypotheses.resize(options.max_ransac_samples);
+  }
+  for (const auto& [i, j] : hypotheses) {
+    // (x1, x2) of i and j: the placed centre in its part's frame, the
+    // model's in the other's.
+    const Eigen::Vector3d& x1_i = forward[i] ? placed[i] : model[i];
+    const Eigen::Vector3d& x1_j = forward[i] ? placed[j] : model[j];
+    const Eigen::Vector3d& x2_i = forward[i] ? model[i] : placed[i];
+    const Eigen::Vector3d& x2_j = forward[i] ? model[j] : placed[j];
+    const Eigen::Matrix3d& J = rotations[i];
+    const Eigen::Vector3d d1 = J * (x1_j - x1_i);
+    const double scale = (x2_j - x2_i).dot(d1) / d1.squaredNorm();
+    if (!(scale > 0) || !std::isfinite(scale)) continue;
+    const Eigen::Vector3d t =
+        0.5 * (x2_i + x2_j) - scale * J * (0.5 * (x1_i + x1_j));
+    std::vector<int> members;
+    for (int k = 0; k < n; ++k) {
+      if (AngularDistanceDeg(J, rotations[k]) > options.max_join_spread_deg) {
+        continue;
+      }
+      // b's centre predicted in the frame it was placed in.
+      const Eigen::Vector3d predicted =
+          forward[k] ? Eigen::Vector3d(J.transpose() * (model[k] - t) / scale)
+                     : Eigen::Vector3d(scale * J * model[k] + t);
+      if ((placed[k] - predicted).norm() <= tolerance[k]) {
+        members.push_back(k);
+      }
+    }
+    consider(members);
+  }
+  return agreeing;
+}
+
 }  // namespace
 
 void PartMergeOptions::Check() const {
@@ -377,133 +499,18 @@ PartMergePlan PlanPartMerge(const PartMergeOptions& options,
         static_cast<int>(k));
   }
   for (const auto& [parts_key, checks] : checks_by_parts) {
-    // (A named reference: lambdas below cannot capture a structured binding
-    // in C++17.)
-    const std::vector<int>& indices = checks;
     PartJoin join;
     join.part1 = parts_key.first;
     join.part2 = parts_key.second;
-    std::vector<Eigen::Matrix3d> rotations;
     std::set<std::pair<image_t, image_t>> pair_ids;
-    for (const int k : indices) {
+    for (const int k : checks) {
       const CrossPairCheck& check = plan.checks[k];
       pair_ids.insert(std::minmax(check.image_id_a, check.image_id_b));
-      rotations.push_back(
-          JoinRotation(check, reconstruction, join.part1, join.part2));
     }
     join.num_pairs = static_cast<int>(pair_ids.size());
-    // The agreeing set: the checks one similarity between the parts
-    // explains, x2 = s J x1 + t (J within the spread of the checks'
-    // rotations, b's placed centre within max_join_center_error of its
-    // distance to its met points), hypothesised from two checks placing
-    // images in one direction, apart (else they fix no scale); the set
-    // gathering most distinct pairs (ties: most met points). A ghost pose
-    // gives its own rotation and centre: two false pairs seldom agree on
-    // both. Checks placing one image agree when their centres and rotations
-    // do.
-    const int n = static_cast<int>(indices.size());
-    std::vector<Eigen::Vector3d> placed(n), model(n);
-    std::vector<double> tolerance(n);
-    std::vector<bool> forward(n);  // b placed in part2 from part1's points
-    for (int i = 0; i < n; ++i) {
-      const CrossPairCheck& check = plan.checks[indices[i]];
-      placed[i] = check.center_b;
-      model[i] = reconstruction.images.at(check.image_id_b).ProjectionCenter();
-      double depth = 0;
-      for (const point3D_t id : check.met_point_ids) {
-        depth += (reconstruction.points3D.at(id).xyz - check.center_b).norm();
-      }
-      tolerance[i] = options.max_join_center_error * depth /
-                     std::max<size_t>(check.met_point_ids.size(), 1);
-      forward[i] = check.part_a == join.part1;
-    }
-    const auto pair_of = [&](int i) {
-      const CrossPairCheck& check = plan.checks[indices[i]];
-      return std::minmax(check.image_id_a, check.image_id_b);
-    };
-    std::vector<int> agreeing;
-    int most_met = -1;
-    const auto consider = [&](const std::vector<int>& members) {
-      std::set<std::pair<image_t, image_t>> member_pairs;
-      int met = 0;
-      for (const int i : members) {
-        member_pairs.insert(pair_of(i));
-        met += plan.checks[indices[i]].num_met;
-      }
-      const int num = static_cast<int>(member_pairs.size());
-      if (num > join.num_agreeing ||
-          (num == join.num_agreeing && met > most_met)) {
-        join.num_agreeing = num;
-        most_met = met;
-        agreeing.clear();
-        for (const int i : members) agreeing.push_back(indices[i]);
-      }
-    };
-    for (int i = 0; i < n; ++i) {
-      // Checks placing the same image (which fixes no scale): its placed
-      // centres and rotations must agree.
-      std::vector<int> same_image = {i};
-      const CrossPairCheck& check_i = plan.checks[indices[i]];
-      for (int k = 0; k < n; ++k) {
-        const CrossPairCheck& check_k = plan.checks[indices[k]];
-        if (k != i && check_k.image_id_b == check_i.image_id_b &&
-            AngularDistanceDeg(rotations[i], rotations[k]) <=
-                options.max_join_spread_deg &&
-            (placed[k] - placed[i]).norm() <= tolerance[i] + tolerance[k]) {
-          same_image.push_back(k);
-        }
-      }
-      consider(same_image);
-    }
-    // The two-check hypotheses: checks placing images in one direction,
-    // of two pairs, agreeing on the rotation, placed apart; at most
-    // max_ransac_samples of them (random ones, seeded by the parts).
-    std::vector<std::pair<int, int>> hypotheses;
-    for (int i = 0; i < n; ++i) {
-      for (int j = i + 1; j < n; ++j) {
-        if (forward[i] == forward[j] && pair_of(i) != pair_of(j) &&
-            AngularDistanceDeg(rotations[i], rotations[j]) <=
-                options.max_join_spread_deg &&
-            (placed[j] - placed[i]).norm() >
-                kMinJoinBaseline * (tolerance[i] + tolerance[j])) {
-          hypotheses.emplace_back(i, j);
-        }
-      }
-    }
-    if (static_cast<int>(hypotheses.size()) > options.max_ransac_samples) {
-      std::mt19937 random(
-          static_cast<uint32_t>(join.part1 * 7919 + join.part2));
-      std::shuffle(hypotheses.begin(), hypotheses.end(), random);
-      hypotheses.resize(options.max_ransac_samples);
-    }
-    for (const auto& [i, j] : hypotheses) {
-      // (x1, x2) of i and j: the placed centre in its part's frame, the
-      // model's in the other's.
-      const Eigen::Vector3d& x1_i = forward[i] ? placed[i] : model[i];
-      const Eigen::Vector3d& x1_j = forward[i] ? placed[j] : model[j];
-      const Eigen::Vector3d& x2_i = forward[i] ? model[i] : placed[i];
-      const Eigen::Vector3d& x2_j = forward[i] ? model[j] : placed[j];
-      const Eigen::Matrix3d& J = rotations[i];
-      const Eigen::Vector3d d1 = J * (x1_j - x1_i);
-      const double scale = (x2_j - x2_i).dot(d1) / d1.squaredNorm();
-      if (!(scale > 0) || !std::isfinite(scale)) continue;
-      const Eigen::Vector3d t =
-          0.5 * (x2_i + x2_j) - scale * J * (0.5 * (x1_i + x1_j));
-      std::vector<int> members;
-      for (int k = 0; k < n; ++k) {
-        if (AngularDistanceDeg(J, rotations[k]) > options.max_join_spread_deg) {
-          continue;
-        }
-        // b's centre predicted in the frame it was placed in.
-        const Eigen::Vector3d predicted =
-            forward[k] ? Eigen::Vector3d(J.transpose() * (model[k] - t) / scale)
-                       : Eigen::Vector3d(scale * J * model[k] + t);
-        if ((placed[k] - predicted).norm() <= tolerance[k]) {
-          members.push_back(k);
-        }
-      }
-      consider(members);
-    }
+    std::vector<int> agreeing =
+        AgreeingChecks(options, reconstruction, plan.checks, checks, join.part1,
+                       join.part2, &join.num_agreeing);
     join.agreed = join.num_agreeing >= options.min_join_pairs;
     std::set<point3D_t> met_in_part1;
     std::set<point3D_t> met_in_part2;

@@ -396,10 +396,10 @@ class BundleAdjustmentProblem {
       solver.ceres.initial_trust_region_radius = initial_trust_region_radius;
     }
     if (schur_) {
-      schur_adjuster_->SetModelTolerance(ModelTolerance());
       const SchurBundleAdjuster::Summary schur = schur_adjuster_->Solve(
           solver.ceres, options_.rejected_start_trust_region_radius,
-          StallNumIterations(), options_.stall_relative_decrease);
+          StallNumIterations(), options_.stall_relative_decrease,
+          ModelTolerance());
       summary.termination = schur.termination;
       summary.stalled = schur.stalled;
       summary.message = schur.message;

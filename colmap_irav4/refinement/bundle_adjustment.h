@@ -164,8 +164,8 @@ struct BundleAdjustmentOptions {
   int schur_max_cg_iterations = 500;
   // Iterative: ... or once the quadratic model's relative decrease per
   // iteration, times the iteration count, is below this
-  // (SchurSolverOptions::model_tolerance; 0: off), in adjustments of at
-  // least schur_iterative_model_min_num_images images (those the adjustment
+  // (SchurBundleAdjuster::Solve's model_tolerance; 0: off), in adjustments of
+  // at least schur_iterative_model_min_num_images images (those the adjustment
   // holds, counted as for stall_min_num_images). On the photo
   // scenes of 1,000 images forced iterative (seeds 1 and 2) it took 43-63%
   // off the conjugate gradients and 3-47% off the run's CPU with the same

@@ -232,9 +232,7 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
 
 SchurBundleAdjuster::SchurBundleAdjuster(bool center,
                                          const SchurSolverOptions& options)
-    : center_(center),
-      solver_options_(options),
-      model_tolerance_(options.model_tolerance) {
+    : center_(center), solver_options_(options) {
   CHECK_GT(options.max_factor_mib, 0);
   CHECK_GE(options.max_cell_table_mib, 0);
   CHECK_GE(options.max_jacobian_store_mib, 0);
@@ -242,7 +240,6 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
   CHECK(options.eta > 0 && options.eta < 1);
   CHECK_GE(options.implicit_min_mib, 0);
   CHECK_GT(options.max_cg_iterations, 0);
-  CHECK(options.model_tolerance >= 0 && options.model_tolerance < 1);
 }
 
 SchurBundleAdjuster::~SchurBundleAdjuster() = default;
@@ -1279,14 +1276,12 @@ bool CostStall::Add(double cost) {
          costs_.front() - costs_.back() < relative_decrease_ * costs_.back();
 }
 
-void SchurBundleAdjuster::SetModelTolerance(double tolerance) {
-  CHECK(tolerance >= 0 && tolerance < 1);
-  model_tolerance_ = tolerance;
-}
-
 SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
     const ceres::Solver::Options& options, double rejected_start_radius,
-    int stall_num_steps, double stall_relative_decrease) {
+    int stall_num_steps, double stall_relative_decrease,
+    double model_tolerance) {
+  CHECK(model_tolerance >= 0 && model_tolerance < 1);
+  model_tolerance_ = model_tolerance;
   Summary summary;
   CostStall stall(stall_num_steps, stall_relative_decrease);
   Timer linear_timer;

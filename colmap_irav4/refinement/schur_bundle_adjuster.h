@@ -76,12 +76,6 @@ struct SchurSolverOptions {
   // factorisation's (docs/notes/2026-12-05-iterative-schur.md).
   double eta = 1e-3;
   int max_cg_iterations = 500;
-  // Iterative: conjugate gradients also stop once i (Q_i - Q_{i-1}) / Q_i
-  // is below this, Q_i the quadratic model's value at iteration i (Nash
-  // and Sofer's truncated Newton rule, Ceres' q_tolerance): the step has
-  // taken nearly all of the model's decrease, what is left lies along the
-  // reduced system's weak directions. 0: off (the residual rule alone).
-  double model_tolerance = 0;
   // Iterative: the preconditioner's second level (coarse_space.h): the
   // images in clusters of about this many that share the most points, the
   // clusters' rigid motions with a scale (7 values each) solved exactly at
@@ -312,14 +306,15 @@ class SchurBundleAdjuster {
   // at most this; 0: each cut tried (Ceres).
   // `stall`: the solve stops (CONVERGENCE, `stalled`) once the cost has
   // stalled (CostStall; 0 steps: never).
-  // The conjugate gradients' model rule for the next solves
-  // (SchurSolverOptions::model_tolerance; 0: off), set once the adjustment
-  // knows how many images it holds.
-  void SetModelTolerance(double tolerance);
-
+  // `model_tolerance` (iterative): conjugate gradients also stop once
+  // i (Q_i - Q_{i-1}) / Q_i is below it, Q_i the quadratic model's value at
+  // iteration i (Nash and Sofer's truncated Newton rule, Ceres'
+  // q_tolerance): the step has taken nearly all of the model's decrease,
+  // what is left lies along the reduced system's weak directions. 0: off
+  // (the residual rule alone).
   Summary Solve(const ceres::Solver::Options& options,
                 double rejected_start_radius = 0, int stall_num_steps = 0,
-                double stall_relative_decrease = 0);
+                double stall_relative_decrease = 0, double model_tolerance = 0);
 
  private:
   struct CameraBlock {
@@ -466,7 +461,7 @@ class SchurBundleAdjuster {
 
   const bool center_;
   const SchurSolverOptions solver_options_;
-  double model_tolerance_ = 0;  // SetModelTolerance's
+  double model_tolerance_ = 0;  // Solve's, for SolveIterative
   bool iterative_ = false;      // the reduced system solved by SolveIterative
   // ... without forming it (SchurSolverOptions::implicit_min_mib); the
   // structure then holds the local cells only (BuildStructure).

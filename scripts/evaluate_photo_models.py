@@ -2,7 +2,9 @@
 """Models of a generated photo collection (scene_generator --layout photo)
 against its truth: registered images (those a true pair connects, and those
 none does: false registrations), models against the landmarks (parts), and
-rotation, centre and focal errors, each model aligned on its own.
+rotation, centre and focal errors, each model aligned on its own, and the
+images whose rotation is over 5 deg off (a folded landmark puts up to half
+its images there, near 180 deg, while the medians stay small).
 
   evaluate_photo_models.py --scene SCENE_DIR --models OUTPUT_DIR
       [--binary build/colmap_irav4] [--label NAME]
@@ -22,7 +24,11 @@ COLUMNS = ("label,images,connected_images,parts,models,registered,"
            "registered_connected,registered_unconnected,models_mixing_parts,"
            "parts_split,largest_model_share_min,rotation_median_deg,"
            "center_median_m,focal_median,focal_median_prior,"
-           "focal_median_no_prior")
+           "focal_median_no_prior,rotation_over_5deg")
+
+# Over this rotation error an image is wrong, not inaccurate: at its mirror
+# twin's place (a fold) or otherwise misplaced.
+WRONG_ROTATION_DEG = 5
 
 
 def read_scene(scene):
@@ -151,9 +157,12 @@ def main():
             focals.append(focal)
             (focal_prior if priors[name] else focal_no_prior).append(focal)
         sys.stderr.write("  model %s: %d images (parts %s), rotation median "
-                         "%.4f deg, focal median %.4f\n" % (
+                         "%.4f deg, over %g deg %d, focal median %.4f\n" % (
                              model, len(images), model_parts,
                              median([e[0] for e in errors.values()]),
+                             WRONG_ROTATION_DEG,
+                             sum(1 for e in errors.values()
+                                 if e[0] > WRONG_ROTATION_DEG),
                              median([e[2] for e in errors.values()])))
     share = min((largest.get(part, 0) / count
                  for part, count in per_part.items()), default=0)
@@ -163,7 +172,8 @@ def main():
            sum(1 for n in models_of_part.values() if n > 1),
            "%.3f" % share, "%.4f" % median(rotations),
            "%.4f" % median(centres), "%.4f" % median(focals),
-           "%.4f" % median(focal_prior), "%.4f" % median(focal_no_prior)]
+           "%.4f" % median(focal_prior), "%.4f" % median(focal_no_prior),
+           sum(1 for r in rotations if r > WRONG_ROTATION_DEG)]
     if args.header:
         print(COLUMNS)
     print(",".join(str(value) for value in row))

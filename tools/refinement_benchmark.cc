@@ -16,13 +16,14 @@
 //       [--intrinsics_from_poses 0|1] [--num_rounds N] [--tight 0|1]
 //       [--per_image CSV] [--truth MODEL] [--min_track_length N]
 //       [--restrict_to MODEL] [--half_samples N] [--half_sample_seed S]
-//       [--half_pairs 0|1] [--database_path DB]
+//       [--half_pairs 0|1] [--database_path DB] [--retriangulate 0|1]
 //       [--BundleAdjustment.* as the mapper's]
 //       The "swap" experiment: the mapper's last bundle adjustment and final
 //       filtering (GlobalMapperOptions' defaults, one round) on MODEL's
 //       observation set (points, tracks, intrinsics), started from MODEL's
 //       poses or from MODEL2's (similarity-aligned by camera centres), e.g.
-//       our final bundle adjustment on COLMAP's model. GT: a model
+//       our final bundle adjustment on COLMAP's model (--retriangulate 1:
+//       MODEL's points placed again from MODEL2's poses). GT: a model
 //       directory or a Strecha gt_cameras directory (errors in mm, both
 //       metric). Prints the observation statistics and the errors before
 //       and after; --per_image writes each image's centre error; --truth
@@ -67,6 +68,7 @@
 #include "colmap_irav4/refinement/implicit_product.h"
 #include "colmap_irav4/refinement/model_statistics.h"
 #include "colmap_irav4/refinement/triangulation.h"
+#include "colmap_irav4/scene/camera_models.h"
 #include "colmap_irav4/scene/reconstruction_utils.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
@@ -76,6 +78,41 @@
 using namespace colmap_irav4;
 
 namespace {
+
+// Every point of `model` placed again from its observations and the model's
+// poses (multi-view midpoint, then RefinePointPosition), its track kept: the
+// points of MODEL follow the poses --poses transferred, which a similarity
+// alone cannot do when the two models differ by more than one (a bend).
+// Points whose rays are parallel keep their place. Returns those placed.
+size_t RetriangulatePoints(Reconstruction* model) {
+  size_t num_placed = 0;
+  for (auto& [point_id, point] : model->points3D) {
+    std::vector<Eigen::Vector3d> centers;
+    std::vector<Eigen::Vector3d> directions;
+    std::vector<NormalizedObservation> observations;
+    for (const TrackElement& element : point.track) {
+      const Image& image = model->images.at(element.image_id);
+      const Camera& camera = model->cameras.at(image.camera_id);
+      const Eigen::Vector2d normalized = CameraImageToCamera(
+          camera, image.points2D.at(element.point2D_idx).xy);
+      if (!normalized.allFinite()) continue;
+      centers.push_back(image.ProjectionCenter());
+      directions.push_back(image.cam_from_world.rotation.inverse() *
+                           normalized.homogeneous());
+      observations.push_back({image.cam_from_world.rotation.toRotationMatrix(),
+                              image.cam_from_world.translation, normalized,
+                              CameraMeanFocalLength(camera)});
+    }
+    Eigen::Vector3d xyz;
+    if (centers.size() < 2 || !TriangulateMidpoint(centers, directions, &xyz)) {
+      continue;
+    }
+    RefinePointPosition(observations, &xyz);
+    point.xyz = xyz;
+    ++num_placed;
+  }
+  return num_placed;
+}
 
 void PrintComparison(const std::string& label, const Reconstruction& model,
                      const std::map<std::string, Rigid3d>& reference,
@@ -274,7 +311,8 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
         key != "tight" && key != "per_image" && key != "truth" &&
         key != "min_track_length" && key != "restrict_to" &&
         key != "half_samples" && key != "half_sample_seed" &&
-        key != "database_path" && key != "half_pairs") {
+        key != "database_path" && key != "half_pairs" &&
+        key != "retriangulate") {
       throw InputError("--" + key, "unknown option");
     }
   }
@@ -374,6 +412,10 @@ int RunFinalBundleAdjustment(int argc, char** argv) {
     const int num =
         TransferPoses(poses, args["intrinsics_from_poses"] == "1", &model);
     std::cout << num << " poses from " << args["poses"] << "\n";
+    if (args["retriangulate"] == "1") {
+      std::cout << RetriangulatePoints(&model)
+                << " points placed again from the transferred poses\n";
+    }
     PrintErrors("start (poses transferred)", model, reference, &before);
   }
   const int num_half_samples =
@@ -601,7 +643,7 @@ int main(int argc, char** argv) {
                "[--num_rounds N] [--tight 0|1] [--per_image CSV] "
                "[--truth MODEL] [--min_track_length N] [--restrict_to MODEL] "
                "[--half_samples N] [--half_sample_seed S] "
-               "[--half_pairs 0|1] [--database_path DB] "
+               "[--half_pairs 0|1] [--database_path DB] [--retriangulate 0|1] "
                "[--BundleAdjustment.* as the mapper's]\n";
   return 2;
 }

@@ -452,6 +452,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.last_gauge_min_shared_points,
                "gauge_min_shared_points for the mapper's last adjustment "
                "only (0: gauge_min_shared_points)");
+  manager->Add("BundleAdjustment.gauge_scale_farthest",
+               &ba.gauge_scale_farthest,
+               "the gauge's scale is held on the image farthest from the "
+               "held first image (0: on the second image)");
   manager->Add("BundleAdjustment.schur_point_iterations",
                &ba.schur_point_iterations,
                "Schur solver: after each step every point takes up to this "

@@ -113,7 +113,8 @@ ceres::CostFunction* CreateReprojectionCost(int model_id,
 // connected part holds its first image and one coordinate of a second,
 // and each further 2-connected block of images sharing points, reached
 // through its articulation image, one coordinate of another of its images.
-// A model of one block holds its first two images, as before. Only images
+// The second is the image farthest from the first (from the joint;
+// ScaleImage, BundleAdjustmentOptions::gauge_scale_farthest). Only images
 // of `images` (those adjusted) hold the gauge: a block's first images not
 // among them are passed over, and a block joined through an image not
 // among them is a part of its own.
@@ -125,9 +126,36 @@ struct GaugeHolds {
   int num_joints = 0;
 };
 
+// The image of `candidates` other than `about` that holds the scale about
+// it (kInvalidImageId: none): the one whose centre is farthest from
+// `about`'s (the first of equals; `farthest`), or the first. Held on a short
+// baseline (two neighbours of a kilometre-long street), the rest of the
+// model sways about the pair, and Gauss-Newton's steps along those nearly
+// free motions fail far from it.
+image_t ScaleImage(const Reconstruction& reconstruction,
+                   const std::vector<image_t>& candidates, image_t about,
+                   bool farthest) {
+  const Eigen::Vector3d center =
+      reconstruction.images.at(about).ProjectionCenter();
+  image_t chosen = kInvalidImageId;
+  double max_distance = -1;
+  for (const image_t image_id : candidates) {
+    if (image_id == about) continue;
+    if (!farthest) return image_id;
+    const double distance =
+        (reconstruction.images.at(image_id).ProjectionCenter() - center)
+            .squaredNorm();
+    if (distance > max_distance) {
+      max_distance = distance;
+      chosen = image_id;
+    }
+  }
+  return chosen;
+}
+
 GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
                           const std::set<image_t>& images,
-                          int min_shared_points) {
+                          int min_shared_points, bool scale_farthest) {
   ModelRigidityOptions options;
   options.min_shared_points = min_shared_points;
   const std::vector<std::vector<image_t>> blocks =
@@ -155,7 +183,11 @@ GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
     if (adjusted.empty()) continue;
     ++holds.num_pieces;
     holds.held.insert(adjusted[0]);
-    if (adjusted.size() > 1) holds.scale_about[adjusted[1]] = adjusted[0];
+    const image_t scale_image =
+        ScaleImage(reconstruction, adjusted, adjusted[0], scale_farthest);
+    if (scale_image != kInvalidImageId) {
+      holds.scale_about[scale_image] = adjusted[0];
+    }
     std::vector<size_t> queue = {root};
     while (!queue.empty()) {
       const size_t b = queue.back();
@@ -167,11 +199,14 @@ GaugeHolds FindGaugeHolds(const Reconstruction& reconstruction,
           reached[next] = 1;
           ++holds.num_joints;
           // Blocks form a tree: only the joint is reached already.
+          std::vector<image_t> others;
           for (const image_t other : blocks[next]) {
-            if (other != joint && images.count(other) > 0) {
-              holds.scale_about[other] = joint;
-              break;
-            }
+            if (images.count(other) > 0) others.push_back(other);
+          }
+          const image_t scale_image =
+              ScaleImage(reconstruction, others, joint, scale_farthest);
+          if (scale_image != kInvalidImageId) {
+            holds.scale_about[scale_image] = joint;
           }
           queue.push_back(next);
         }
@@ -700,7 +735,8 @@ class BundleAdjustmentProblem {
         options_.fix_gauge && !prior_gauge && options_.refine_poses;
     const GaugeHolds holds =
         fix_gauge ? FindGaugeHolds(*reconstruction_, used_images,
-                                   options_.gauge_min_shared_points)
+                                   options_.gauge_min_shared_points,
+                                   options_.gauge_scale_farthest)
                   : GaugeHolds();
     num_pieces_ = holds.num_pieces;
     num_joints_ = holds.num_joints;

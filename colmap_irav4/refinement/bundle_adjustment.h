@@ -236,6 +236,14 @@ struct BundleAdjustmentOptions {
   // The same for the mapper's last adjustment only (0:
   // gauge_min_shared_points).
   int last_gauge_min_shared_points = 0;
+  // The gauge's scale (one coordinate of an image's centre) held on the
+  // image farthest from the held first image; false: on the second image,
+  // as before session 43. Held on two neighbours of a kilometre-long model,
+  // the rest sways about them and Gauss-Newton's steps fail far away: the
+  // 10,000-image courtyard's adjustments crawled and stopped at 0.30 deg
+  // of rotation error instead of 0.047
+  // (docs/notes/2026-12-07-gauge-on-the-longest-baseline.md).
+  bool gauge_scale_farthest = true;
   int last_stall_num_iterations = 0;
   double last_stall_relative_decrease = 1e-4;
   int iterative_schur_min_num_images = 10000;

@@ -187,9 +187,9 @@ TEST(SchurBundleAdjuster, SameOptimumWithDistortionAndTranslations) {
   }
 }
 
-// The gauge: the first image's pose bit for bit, and the coordinate of the
-// second image's centre that Ceres holds; with held intrinsics and poses
-// only the points move.
+// The gauge: the first image's pose bit for bit, and one coordinate of the
+// centre of the image farthest from it (the scale on the longest baseline);
+// with held intrinsics and poses only the points move.
 TEST(SchurBundleAdjuster, HoldsTheGaugeAndTheHeldParameters) {
   const SyntheticScene scene = Scene(CameraModelNameToId("SIMPLE_RADIAL"));
   Reconstruction start = scene.truth;
@@ -205,12 +205,29 @@ TEST(SchurBundleAdjuster, HoldsTheGaugeAndTheHeldParameters) {
             first_start.cam_from_world.rotation.coeffs());
   EXPECT_EQ(first.cam_from_world.translation,
             first_start.cam_from_world.translation);
-  const Image& second = std::next(model.images.begin())->second;
-  const Image& second_start = std::next(start.images.begin())->second;
-  const Eigen::Vector3d moved =
-      (second.ProjectionCenter() - second_start.ProjectionCenter()).cwiseAbs();
-  EXPECT_LT(moved.minCoeff(), 1e-12);  // the held coordinate
-  EXPECT_GT(moved.maxCoeff(), 1e-4);
+  image_t farthest = kInvalidImageId;
+  double max_distance = 0;
+  for (const auto& [image_id, image] : start.images) {
+    const double distance =
+        (image.ProjectionCenter() - first_start.ProjectionCenter()).norm();
+    if (distance > max_distance) {
+      max_distance = distance;
+      farthest = image_id;
+    }
+  }
+  ASSERT_NE(farthest, std::next(start.images.begin())->first);
+  for (const auto& [image_id, image] : model.images) {
+    if (image_id == first_start.image_id) continue;
+    const Eigen::Vector3d moved = (image.ProjectionCenter() -
+                                   start.images.at(image_id).ProjectionCenter())
+                                      .cwiseAbs();
+    if (image_id == farthest) {
+      EXPECT_LT(moved.minCoeff(), 1e-12);  // the held coordinate
+    } else {
+      EXPECT_GT(moved.minCoeff(), 1e-9) << image_id;
+    }
+    EXPECT_GT(moved.maxCoeff(), 1e-4);
+  }
   EXPECT_EQ(model.cameras.at(1).params[0], start.cameras.at(1).params[0]);
   EXPECT_NE(model.cameras.at(1).params[3], start.cameras.at(1).params[3]);
 
@@ -385,6 +402,10 @@ BundleAdjustmentSummary AdjustWithRejectedStartRadius(
   options.loss_function = BundleAdjustmentLoss::kTrivial;
   options.max_reproj_error = 0;
   options.rejected_start_trust_region_radius = rejected_start_radius;
+  // The scale held on the second image: this start's Gauss-Newton step then
+  // realises less than 99.9% of its model's decrease (held on the farthest
+  // image, the default, 99.97%: accepted, nothing to skip).
+  options.gauge_scale_farthest = false;
   BundleAdjustmentSummary summary;
   EXPECT_TRUE(RunBundleAdjustment(options, model, &summary));
   EXPECT_EQ(summary.backend, "schur");
@@ -976,8 +997,8 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
               direct_summary.num_observations_filtered);
     // Nearly exact steps: checked below, at tolerances above rounding.
     if (eta < 1e-6 && model_tolerance == 0) continue;
-    // Inexact steps (forcing term 0.1) take another path (52
-    // iterations instead of 31) to the same optimum and stop where the
+    // Inexact steps (forcing term 0.1) take another path (50
+    // iterations instead of 30) to the same optimum and stop where the
     // tolerances stop them, a little off the direct solves' stopping point:
     // measured 7e-8 (centres, points; scene radius 10), 4e-8 deg, 1e-8 of
     // the focal length, 2e-10 px; the bounds are 10x that. (With eta 1e-2 the
@@ -991,11 +1012,13 @@ TEST(SchurBundleAdjuster, IterativeSameSolutionAsDirect) {
     EXPECT_LT(d.param, 1e-7);
     EXPECT_GT(Compare(with_outliers, iterative_ba).point, 1e-2);
   }
-  // The inexact steps cost fewer conjugate gradient iterations in all.
+  // The model rule's inexact steps cost fewer conjugate gradient iterations
+  // in all (549 against 700). The forcing term 0.1 alone did too until the
+  // gauge's scale moved to the farthest image (session 43): now its 20 more
+  // iterations cost more (765) than its cheaper steps save.
   const auto cg = [&](double eta, double model_tolerance) {
     return summaries.at({eta, model_tolerance}).num_linear_iterations;
   };
-  EXPECT_LT(cg(0.1, 0.0), cg(1e-8, 0.0));
   EXPECT_LT(cg(1e-8, 1e-3), cg(1e-8, 0.0));
   // The model rule acts in models of schur_iterative_model_min_num_images
   // images or more only: one more than this model's, and it does not.

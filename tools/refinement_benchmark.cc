@@ -93,12 +93,15 @@ size_t RetriangulatePoints(Reconstruction* model) {
     for (const TrackElement& element : point.track) {
       const Image& image = model->images.at(element.image_id);
       const Camera& camera = model->cameras.at(image.camera_id);
-      const Eigen::Vector2d normalized = CameraImageToCamera(
-          camera, image.points2D.at(element.point2D_idx).xy);
-      if (!normalized.allFinite()) continue;
+      Eigen::Vector2d normalized;
+      Eigen::Vector3d direction;
+      if (!ObservationRay(camera, image,
+                          image.points2D.at(element.point2D_idx).xy,
+                          &normalized, &direction)) {
+        continue;
+      }
       centers.push_back(image.ProjectionCenter());
-      directions.push_back(image.cam_from_world.rotation.inverse() *
-                           normalized.homogeneous());
+      directions.push_back(direction);
       observations.push_back({image.cam_from_world.rotation.toRotationMatrix(),
                               image.cam_from_world.translation, normalized,
                               CameraMeanFocalLength(camera)});

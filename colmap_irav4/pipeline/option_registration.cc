@@ -623,6 +623,14 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.cut_min_pair_triangles", &d.cut_min_pair_triangles,
                "with --Fold.cut_parts agreeing: a pair joins its images' part "
                "only in this many triangles of agreeing pairs");
+  manager->Add("Fold.cut_fold_rotation_pairs", &d.cut_fold_rotation_pairs,
+               "the cut also separates the images of the verified pairs the "
+               "model contradicts by the fold's own rotation (the most "
+               "common discrepancy of the contradicted pairs)");
+  manager->Add("Fold.cut_min_fold_rotation_pairs",
+               &d.cut_min_fold_rotation_pairs,
+               "with --Fold.cut_fold_rotation_pairs 1: the pairs that must "
+               "share a discrepancy for it to be taken as the fold's rotation");
   manager->Add("Fold.missing_pair_inlier_factor", &d.missing_pair_inlier_factor,
                "a predicted pair without matches is missing only where the "
                "rate model expects this many times min_num_matches inliers");

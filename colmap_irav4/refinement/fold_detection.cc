@@ -989,6 +989,10 @@ void FoldDetectionOptions::Check() const {
     throw OptionError(&min_weak_cut_fraction, "Fold.min_weak_cut_fraction",
                       "must be in (0.5, 1]");
   }
+  if (cut_min_fold_rotation_pairs < 1) {
+    throw OptionError(&cut_min_fold_rotation_pairs,
+                      "Fold.cut_min_fold_rotation_pairs", "must be >= 1");
+  }
   if (cut_min_pair_triangles < 0) {
     throw OptionError(&cut_min_pair_triangles, "Fold.cut_min_pair_triangles",
                       "must be >= 0");
@@ -1100,14 +1104,14 @@ namespace {
 
 // The signed cut of the images `nodes` (dense indices, ascending): the
 // trusted pairs among them (a, b, inliers) pull together, scaled by
-// `trusted_scale`, and the negative pairs among them push apart, each
-// weighing `negative_weight`. Returns the side to re-orient (the smaller;
-// dense indices), empty when the cut does not explain the negatives.
+// `trusted_scale`, and the negative pairs among them (a, b, weight) push
+// apart. Returns the side to re-orient (the smaller; dense indices), empty
+// when the cut does not explain the negatives.
 std::vector<int> SignedFoldCut(
     const std::vector<int>& nodes,
     const std::vector<std::tuple<int, int, double>>& trusted,
-    const std::vector<std::pair<int, int>>& negatives, double trusted_scale,
-    double negative_weight) {
+    const std::vector<std::tuple<int, int, double>>& negatives,
+    double trusted_scale) {
   const int n = static_cast<int>(nodes.size());
   if (n < 2 || negatives.empty() || trusted.empty()) return {};
   std::vector<int> local(nodes.back() + 1, -1);
@@ -1117,8 +1121,8 @@ std::vector<int> SignedFoldCut(
   for (const auto& [a, b, w] : trusted) {
     edges.emplace_back(local[a], local[b], w * trusted_scale);
   }
-  for (const auto& [a, b] : negatives) {
-    edges.emplace_back(local[a], local[b], -negative_weight);
+  for (const auto& [a, b, w] : negatives) {
+    edges.emplace_back(local[a], local[b], -w);
   }
   const std::vector<int> side = SignedGraphCut(n, edges);
   int cut_trusted = 0;
@@ -1182,6 +1186,76 @@ std::vector<AgreedPair> AgreedPairs(const FoldDetectionOptions& options,
                       pair.num_inliers});
   }
   return agreed;
+}
+
+// The verified pairs among the images of `index` (with a measured rotation
+// and at least min_num_matches inliers) that the model contradicts by the
+// fold's rotation (FoldDetectionOptions::cut_fold_rotation_pairs): the most
+// common discrepancy W = R_j^T R_ij R_i of the contradicted pairs, W and its
+// inverse alike (the pair's order says which image is the folded one),
+// found among at most 256 of them taken evenly as candidates. Empty when
+// fewer than cut_min_fold_rotation_pairs share it.
+std::vector<AgreedPair> FoldRotationPairs(const FoldDetectionOptions& options,
+                                          const Reconstruction& reconstruction,
+                                          const FoldEvidence& evidence,
+                                          const std::map<image_t, int>& index) {
+  std::vector<AgreedPair> contradicted;
+  std::vector<Eigen::Quaterniond> discrepancy;
+  for (const PairEvidence& pair : evidence.pairs) {
+    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
+      continue;
+    }
+    const auto i1 = index.find(pair.image_id1);
+    const auto i2 = index.find(pair.image_id2);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    const Eigen::Matrix3d R1 = reconstruction.images.at(pair.image_id1)
+                                   .cam_from_world.rotation.toRotationMatrix();
+    const Eigen::Matrix3d R2 = reconstruction.images.at(pair.image_id2)
+                                   .cam_from_world.rotation.toRotationMatrix();
+    if (!(AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+          options.max_rotation_error_deg)) {
+      continue;
+    }
+    contradicted.push_back({i1->second, i2->second, pair.image_id1,
+                            pair.image_id2, pair.num_inliers});
+    discrepancy.emplace_back(Eigen::Matrix3d(R2.transpose() * pair.R * R1));
+  }
+  const size_t num = contradicted.size();
+  if (num < static_cast<size_t>(options.cut_min_fold_rotation_pairs)) {
+    return {};
+  }
+  // |cos(half angle)| between unit quaternions: W and -W are one rotation;
+  // W's inverse is its conjugate.
+  const double min_cos = std::cos(DegToRad(options.max_rotation_error_deg) / 2);
+  auto near = [&](const Eigen::Quaterniond& w, const Eigen::Quaterniond& c) {
+    return std::abs(w.dot(c)) >= min_cos ||
+           std::abs(w.conjugate().dot(c)) >= min_cos;
+  };
+  const size_t num_candidates = std::min<size_t>(num, 256);
+  size_t best_support = 0;
+  Eigen::Quaterniond best = Eigen::Quaterniond::Identity();
+  for (size_t c = 0; c < num_candidates; ++c) {
+    const Eigen::Quaterniond& candidate = discrepancy[c * num / num_candidates];
+    size_t support = 0;
+    for (const Eigen::Quaterniond& w : discrepancy)
+      support += near(w, candidate);
+    if (support > best_support) {
+      best_support = support;
+      best = candidate;
+    }
+  }
+  VLOG(1) << "fold rotation: " << best_support << " of " << num
+          << " contradicted pairs share the most common discrepancy ("
+          << RadToDeg(2 * std::acos(std::min(1.0, std::abs(best.w()))))
+          << " deg)";
+  if (best_support < static_cast<size_t>(options.cut_min_fold_rotation_pairs)) {
+    return {};
+  }
+  std::vector<AgreedPair> pairs;
+  for (size_t k = 0; k < num; ++k) {
+    if (near(discrepancy[k], best)) pairs.push_back(contradicted[k]);
+  }
+  return pairs;
 }
 
 // The components of the `agreed` pairs (AgreedPairs), each pair joining its
@@ -1264,16 +1338,9 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     if (suspects.count(Ordered(pair.image_id1, pair.image_id2))) continue;
     trusted.emplace_back(pair.a, pair.b, pair.num_inliers);
   }
-  std::vector<std::pair<int, int>> negatives;
-  for (const auto& [a, b] : negative_pairs) {
-    const auto i1 = index.find(a);
-    const auto i2 = index.find(b);
-    if (i1 == index.end() || i2 == index.end()) continue;
-    negatives.emplace_back(i1->second, i2->second);
-  }
   std::pair<std::vector<image_t>, std::vector<image_t>> sides;
   sides.first = ids;
-  if (n < 2 || negative_pairs.empty() || trusted.empty()) return sides;
+  if (n < 2 || trusted.empty()) return sides;
   // Trusted pairs pull in proportion to their verified inliers (normalised
   // to a mean of one): a false pair keeps only part of what a true pair
   // matches, so an image with true pairs on one side and false pairs the
@@ -1283,14 +1350,29 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   double total = 0;
   for (const auto& edge : trusted) total += std::get<2>(edge);
   const double trusted_scale = num_trusted / total;
-  const double negative_weight =
-      static_cast<double>(num_trusted) / negative_pairs.size();
+  const double negative_weight = static_cast<double>(num_trusted) /
+                                 std::max<size_t>(negative_pairs.size(), 1);
+  std::vector<std::tuple<int, int, double>> negatives;
+  for (const auto& [a, b] : negative_pairs) {
+    const auto i1 = index.find(a);
+    const auto i2 = index.find(b);
+    if (i1 == index.end() || i2 == index.end()) continue;
+    negatives.emplace_back(i1->second, i2->second, negative_weight);
+  }
+  if (options.cut_fold_rotation_pairs) {
+    // True pairs across the fold: each as strong as a trusted pair of its
+    // inliers.
+    for (const AgreedPair& pair :
+         FoldRotationPairs(options, reconstruction, evidence, index)) {
+      negatives.emplace_back(pair.a, pair.b, pair.num_inliers * trusted_scale);
+    }
+  }
+  if (negatives.empty()) return sides;
   std::vector<int> reoriented;
   if (options.cut_parts == FoldCutParts::kModel) {
     std::vector<int> all(n);
     for (int k = 0; k < n; ++k) all[k] = k;
-    reoriented =
-        SignedFoldCut(all, trusted, negatives, trusted_scale, negative_weight);
+    reoriented = SignedFoldCut(all, trusted, negatives, trusted_scale);
   } else {
     // Each part is cut on its own; pairs between parts are left out: the
     // model does not say where a part sits relative to another (rigid
@@ -1316,23 +1398,24 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     }
     std::vector<std::vector<std::tuple<int, int, double>>> part_trusted(
         num_parts);
-    std::vector<std::vector<std::pair<int, int>>> part_negatives(num_parts);
+    std::vector<std::vector<std::tuple<int, int, double>>> part_negatives(
+        num_parts);
     for (const auto& edge : trusted) {
       const int p = part_of[std::get<0>(edge)];
       if (p >= 0 && p == part_of[std::get<1>(edge)]) {
         part_trusted[p].push_back(edge);
       }
     }
-    for (const auto& [a, b] : negatives) {
-      if (part_of[a] >= 0 && part_of[a] == part_of[b]) {
-        part_negatives[part_of[a]].emplace_back(a, b);
+    for (const auto& edge : negatives) {
+      const int p = part_of[std::get<0>(edge)];
+      if (p >= 0 && p == part_of[std::get<1>(edge)]) {
+        part_negatives[p].push_back(edge);
       }
     }
     for (int p = 0; p < num_parts; ++p) {
       if (part_negatives[p].empty()) continue;
-      const std::vector<int> side =
-          SignedFoldCut(part_nodes[p], part_trusted[p], part_negatives[p],
-                        trusted_scale, negative_weight);
+      const std::vector<int> side = SignedFoldCut(
+          part_nodes[p], part_trusted[p], part_negatives[p], trusted_scale);
       VLOG(1) << "fold cut of part " << p << " (" << part_nodes[p].size()
               << " images, " << part_negatives[p].size()
               << " missing or weak pairs): " << side.size() << " to re-orient";

@@ -145,6 +145,18 @@ struct FoldDetectionOptions {
   FoldCutParts cut_parts = FoldCutParts::kModel;
   // kAgreeingParts: the triangles a pair needs to join its images' part.
   int cut_min_pair_triangles = 2;
+  // The cut also pushes apart the images of the verified pairs the model
+  // contradicts by the fold's own rotation: a true pair across a fold
+  // measures what the truth has where the model holds one image at its
+  // mirror twin's place, so its discrepancy in the model's frame
+  // (R_j^T R_ij R_i, model rotations R) is the symmetry's rotation, the
+  // same for every such pair, while the odd false pair's is anything. The
+  // most common discrepancy of the contradicted pairs is taken as the
+  // fold's rotation when at least cut_min_fold_rotation_pairs pairs share
+  // it (within max_rotation_error_deg); each of them weighs as a trusted
+  // pair of its inliers. False: missing and weak pairs only.
+  bool cut_fold_rotation_pairs = false;
+  int cut_min_fold_rotation_pairs = 10;
   // Skip the camera pairs too far apart to share a point under the view
   // angle and scale ratio before projecting any point (exact: the report is
   // the same; false only to measure what it saves).

@@ -104,6 +104,17 @@ bool CompleteTrack(const std::vector<point3D_t>& candidates,
 
 }  // namespace
 
+bool ObservationRay(const Camera& camera, const Image& image,
+                    const Eigen::Vector2d& xy, Eigen::Vector2d* normalized,
+                    Eigen::Vector3d* direction) {
+  *normalized = CameraImageToCamera(camera, xy);
+  if (!normalized->allFinite()) return false;
+  *direction =
+      (image.cam_from_world.rotation.inverse() * normalized->homogeneous())
+          .normalized();
+  return true;
+}
+
 void RefinePointPosition(const std::vector<NormalizedObservation>& observations,
                          Eigen::Vector3d* xyz) {
   Eigen::Vector3d X = *xyz;
@@ -248,15 +259,12 @@ TriangulationSummary TriangulateTracks(const TriangulationOptions& options,
       ray.camera = &reconstruction->cameras.at(image.camera_id);
       ray.xy = point2D.xy;
       ray.max_reproj_error = max_reproj_error;
-      const Eigen::Vector2d normalized =
-          CameraImageToCamera(*ray.camera, point2D.xy);
-      if (!normalized.allFinite()) continue;
-      ray.normalized = normalized;
+      if (!ObservationRay(*ray.camera, image, point2D.xy, &ray.normalized,
+                          &ray.direction)) {
+        continue;
+      }
       ray.focal = CameraMeanFocalLength(*ray.camera);
       ray.center = centers.at(element.image_id);
-      ray.direction =
-          (image.cam_from_world.rotation.inverse() * normalized.homogeneous())
-              .normalized();
       rays.push_back(ray);
     }
     if (rays.size() < 2) continue;

@@ -28,6 +28,13 @@ bool TriangulateDLT(
     const std::vector<Eigen::Matrix<double, 3, 4>>& cams_from_world,
     const std::vector<Eigen::Vector2d>& points, Eigen::Vector3d* xyz);
 
+// The ray of keypoint `xy` of `image`, seen by `camera`: the undistorted
+// normalised point (x/z, y/z) and the unit direction in the world frame.
+// False when the camera cannot undistort the keypoint.
+bool ObservationRay(const Camera& camera, const Image& image,
+                    const Eigen::Vector2d& xy, Eigen::Vector2d* normalized,
+                    Eigen::Vector3d* direction);
+
 // One observation of a point as RefinePointPosition weighs it: its
 // image's cam_from_world (R, t), the keypoint in the undistorted normalised
 // plane, and the focal length (px per normalised unit) scaling its residual.

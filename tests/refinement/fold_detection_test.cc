@@ -380,6 +380,46 @@ TEST(FoldDetection, AgreeingPartsAreNotJoinedByPairsOutsideTriangles) {
   EXPECT_GT(scene.NumB(joined2), 0);
 }
 
+// The true pairs across the fold, which the folded model contradicts all by
+// the symmetry's rotation, separate the folded half on their own
+// (--Fold.cut_fold_rotation_pairs): here the report's missing pairs are
+// taken away and its weak pairs no longer push apart (they are still not
+// trusted), and without them the cut finds nothing.
+TEST(FoldDetection, FoldRotationPairsSeparateTheFoldedHalf) {
+  const Courtyard scene = MakeCourtyard(40, 0.3, 3);
+  FoldDetectionOptions options;
+  FoldReport report = DetectFold(options, scene.folded, scene.evidence);
+  ASSERT_TRUE(report.folded);
+  report.missing_pairs.clear();
+  for (PairSupport& support : report.pair_support) support.predicted = false;
+  const auto [without1, without2] =
+      FoldCut(options, scene.folded, scene.evidence, report);
+  EXPECT_TRUE(without2.empty());
+  options.cut_fold_rotation_pairs = true;
+  const auto [side1, side2] =
+      FoldCut(options, scene.folded, scene.evidence, report);
+  ASSERT_FALSE(side2.empty());
+  EXPECT_EQ(side1.size() + side2.size(), scene.folded.images.size());
+  int folded1 = 0;
+  int folded2 = 0;
+  for (const image_t image_id : side1) {
+    folded1 += scene.folded_images.count(image_id);
+  }
+  for (const image_t image_id : side2) {
+    folded2 += scene.folded_images.count(image_id);
+  }
+  // One side the folded images, the other the rest (at most 10% astray).
+  const int n1 = static_cast<int>(side1.size());
+  const int n2 = static_cast<int>(side2.size());
+  EXPECT_TRUE((folded1 <= n1 / 10 && folded2 >= n2 - n2 / 10) ||
+              (folded2 <= n2 / 10 && folded1 >= n1 - n1 / 10))
+      << folded1 << " of " << n1 << ", " << folded2 << " of " << n2;
+  // Too few such pairs for the option's minimum: no fold rotation, no cut.
+  options.cut_min_fold_rotation_pairs = 100000;
+  EXPECT_TRUE(
+      FoldCut(options, scene.folded, scene.evidence, report).second.empty());
+}
+
 TEST(FoldDetection, NoCutOnACorrectModel) {
   const Courtyard scene = MakeCourtyard(40, 0.3, 4);
   const FoldDetectionOptions options;

@@ -123,7 +123,8 @@ int main(int argc, char** argv) {
           .Add(label[support.image_id1], label[support.image_id2]);
     }
     LabelCounts suspect;
-    for (const auto& [a, b] : report.suspect_pairs) suspect.Add(label[a], label[b]);
+    for (const auto& [a, b] : report.suspect_pairs)
+      suspect.Add(label[a], label[b]);
     std::cout << "missing pairs: " << missing.Describe() << "\n"
               << "weak predicted pairs: " << weak.Describe() << "\n"
               << "strong predicted pairs: " << strong.Describe() << "\n"
@@ -141,16 +142,16 @@ int main(int argc, char** argv) {
         return r.images.at(id).cam_from_world.rotation.toRotationMatrix();
       };
       const bool agrees =
-          AngularDistanceDeg(pair.R, rotation(model, pair.image_id2) *
-                                         rotation(model, pair.image_id1)
-                                             .transpose()) <=
+          AngularDistanceDeg(pair.R,
+                             rotation(model, pair.image_id2) *
+                                 rotation(model, pair.image_id1).transpose()) <=
           options.max_rotation_error_deg;
       const bool is_true =
           truth.images.count(pair.image_id1) &&
           truth.images.count(pair.image_id2) &&
-          AngularDistanceDeg(pair.R, rotation(truth, pair.image_id2) *
-                                         rotation(truth, pair.image_id1)
-                                             .transpose()) < 5;
+          AngularDistanceDeg(
+              pair.R, rotation(truth, pair.image_id2) *
+                          rotation(truth, pair.image_id1).transpose()) < 5;
       pair_counts[agrees][is_true].Add(label[pair.image_id1],
                                        label[pair.image_id2]);
     }

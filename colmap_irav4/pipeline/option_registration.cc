@@ -623,6 +623,10 @@ void AddFoldResolutionOptions(OptionManager* manager,
   manager->Add("Fold.cut_min_pair_triangles", &d.cut_min_pair_triangles,
                "with --Fold.cut_parts agreeing: a pair joins its images' part "
                "only in this many triangles of agreeing pairs");
+  manager->Add("Fold.cut_max_power_iterations", &d.cut_max_power_iterations,
+               "the fold cut's eigenvector: power iterations until it "
+               "converges, at most this many (300: exactly 300, the cut "
+               "before 2026-12-07)");
   manager->Add("Fold.cut_fold_rotation_pairs", &d.cut_fold_rotation_pairs,
                "the cut also separates the images of the verified pairs the "
                "model contradicts by the fold's own rotation (the most "
@@ -631,6 +635,13 @@ void AddFoldResolutionOptions(OptionManager* manager,
                &d.cut_min_fold_rotation_pairs,
                "with --Fold.cut_fold_rotation_pairs 1: the pairs that must "
                "share a discrepancy for it to be taken as the fold's rotation");
+  manager->Add("Fold.cut_min_fold_rotation_deg", &d.cut_min_fold_rotation_deg,
+               "with --Fold.cut_fold_rotation_pairs 1: only pairs contradicted "
+               "by at least this many degrees may share the fold's rotation");
+  manager->Add("Fold.cut_min_fold_rotation_share",
+               &d.cut_min_fold_rotation_share,
+               "with --Fold.cut_fold_rotation_pairs 1: the fraction of those "
+               "pairs that must share the fold's rotation");
   manager->Add("Fold.missing_pair_inlier_factor", &d.missing_pair_inlier_factor,
                "a predicted pair without matches is missing only where the "
                "rate model expects this many times min_num_matches inliers");

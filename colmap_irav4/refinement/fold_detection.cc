@@ -989,6 +989,20 @@ void FoldDetectionOptions::Check() const {
     throw OptionError(&min_weak_cut_fraction, "Fold.min_weak_cut_fraction",
                       "must be in (0.5, 1]");
   }
+  if (cut_max_power_iterations < 1) {
+    throw OptionError(&cut_max_power_iterations,
+                      "Fold.cut_max_power_iterations", "must be >= 1");
+  }
+  if (!(cut_min_fold_rotation_share >= 0 && cut_min_fold_rotation_share <= 1)) {
+    throw OptionError(&cut_min_fold_rotation_share,
+                      "Fold.cut_min_fold_rotation_share", "must be in [0, 1]");
+  }
+  if (!(cut_min_fold_rotation_deg > max_rotation_error_deg &&
+        cut_min_fold_rotation_deg <= 180)) {
+    throw OptionError(&cut_min_fold_rotation_deg,
+                      "Fold.cut_min_fold_rotation_deg",
+                      "must be in (--Fold.max_rotation_error_deg, 180]");
+  }
   if (cut_min_fold_rotation_pairs < 1) {
     throw OptionError(&cut_min_fold_rotation_pairs,
                       "Fold.cut_min_fold_rotation_pairs", "must be >= 1");
@@ -1058,7 +1072,8 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
 }
 
 std::vector<int> SignedGraphCut(
-    int n, const std::vector<std::tuple<int, int, double>>& edges) {
+    int n, const std::vector<std::tuple<int, int, double>>& edges,
+    int max_power_iterations) {
   if (n == 0) return {};
   // Leading eigenvector of the signed adjacency (power iteration with a
   // shift that makes the matrix positive definite), then single flips while
@@ -1071,14 +1086,28 @@ std::vector<int> SignedGraphCut(
   const double shift = *std::max_element(degree.begin(), degree.end()) + 1;
   Eigen::VectorXd x(n);
   for (int k = 0; k < n; ++k) x[k] = std::sin(1.0 + k);  // deterministic
-  for (int iteration = 0; iteration < 300; ++iteration) {
+  // The shift slows the iteration down by the ratio of the eigenvalue gap to
+  // it: a large model's gap is small, and 300 iterations had left the
+  // vector of a 2,816-image folded model half the start's (its cut mixed
+  // the fold's halves 40/60; converged after 1,598 it is exact).
+  int iteration = 0;
+  double change = 0;
+  for (; iteration < max_power_iterations; ++iteration) {
     Eigen::VectorXd y = shift * x;
     for (const auto& [a, b, w] : edges) {
       y[a] += w * x[b];
       y[b] += w * x[a];
     }
-    x = y / y.norm();
+    y /= y.norm();
+    change = (y - x).norm();
+    x = std::move(y);
+    if (max_power_iterations > kSignedCutFixedIterations &&
+        change < kSignedCutTolerance) {
+      break;
+    }
   }
+  VLOG(2) << "signed cut of " << n << " nodes: " << iteration
+          << " power iterations, last change " << change;
   std::vector<int> side(n);
   for (int k = 0; k < n; ++k) side[k] = x[k] >= 0 ? 1 : -1;
   std::vector<std::vector<std::pair<int, double>>> adjacency(n);
@@ -1104,32 +1133,39 @@ namespace {
 
 // The signed cut of the images `nodes` (dense indices, ascending): the
 // trusted pairs among them (a, b, inliers) pull together, scaled by
-// `trusted_scale`, and the negative pairs among them (a, b, weight) push
-// apart. Returns the side to re-orient (the smaller; dense indices), empty
-// when the cut does not explain the negatives.
+// `trusted_scale`; the missing and weak pairs among them and the pairs
+// contradicted by the fold's rotation (a, b, weight each) push apart.
+// Returns the side to re-orient (the smaller; dense indices), empty when the
+// cut explains neither the missing and weak pairs nor the fold rotation's.
 std::vector<int> SignedFoldCut(
     const std::vector<int>& nodes,
     const std::vector<std::tuple<int, int, double>>& trusted,
-    const std::vector<std::tuple<int, int, double>>& negatives,
-    double trusted_scale) {
+    const std::vector<std::tuple<int, int, double>>& missing,
+    const std::vector<std::tuple<int, int, double>>& rotation,
+    double trusted_scale, int max_power_iterations) {
   const int n = static_cast<int>(nodes.size());
-  if (n < 2 || negatives.empty() || trusted.empty()) return {};
+  if (n < 2 || (missing.empty() && rotation.empty()) || trusted.empty()) {
+    return {};
+  }
   std::vector<int> local(nodes.back() + 1, -1);
   for (int k = 0; k < n; ++k) local[nodes[k]] = k;
   std::vector<std::tuple<int, int, double>> edges;
-  edges.reserve(trusted.size() + negatives.size());
+  edges.reserve(trusted.size() + missing.size() + rotation.size());
   for (const auto& [a, b, w] : trusted) {
     edges.emplace_back(local[a], local[b], w * trusted_scale);
   }
-  for (const auto& [a, b, w] : negatives) {
-    edges.emplace_back(local[a], local[b], -w);
+  for (const auto* negatives : {&missing, &rotation}) {
+    for (const auto& [a, b, w] : *negatives) {
+      edges.emplace_back(local[a], local[b], -w);
+    }
   }
-  const std::vector<int> side = SignedGraphCut(n, edges);
-  int cut_trusted = 0;
-  int cut_missing = 0;
-  for (const auto& [a, b, w] : edges) {
+  const std::vector<int> side = SignedGraphCut(n, edges, max_power_iterations);
+  // Edges cut: trusted, missing or weak, fold rotation (in `edges`' order).
+  int cut[3] = {0, 0, 0};
+  for (size_t e = 0; e < edges.size(); ++e) {
+    const auto& [a, b, w] = edges[e];
     if (side[a] == side[b]) continue;
-    (w > 0 ? cut_trusted : cut_missing) += 1;
+    ++cut[e < trusted.size() ? 0 : e < trusted.size() + missing.size() ? 1 : 2];
   }
   std::vector<int> positive;
   std::vector<int> negative_side;
@@ -1137,15 +1173,24 @@ std::vector<int> SignedFoldCut(
     (side[k] > 0 ? positive : negative_side).push_back(nodes[k]);
   }
   VLOG(1) << "fold cut: " << positive.size() << " | " << negative_side.size()
-          << " images, " << cut_missing << " missing and " << cut_trusted
-          << " trusted pairs cut";
-  // The cut explains the fold when most missing pairs cross it (the pairs
-  // it cuts that the model trusts are then the ones that folded it), or when
-  // it separates more missing pairs than it cuts trusted ones.
-  const int num_missing_edges = static_cast<int>(negatives.size());
-  const bool explains =
-      cut_missing * 5 >= num_missing_edges * 4 || cut_missing > cut_trusted;
-  if (positive.empty() || negative_side.empty() || !explains) return {};
+          << " images, " << cut[1] << " of " << missing.size()
+          << " missing or weak, " << cut[2] << " of " << rotation.size()
+          << " fold rotation and " << cut[0] << " trusted pairs cut";
+  // The cut explains the fold when most of the pairs that push apart cross
+  // it (the pairs it cuts that the model trusts are then the ones that
+  // folded it), or when it separates more of them than it cuts trusted
+  // ones; the missing and weak pairs and the fold rotation's are judged
+  // each on their own (a symmetric scene's false pairs within one side share
+  // the fold's rotation too and stay uncut).
+  const auto explains = [&](int num_cut, size_t num) {
+    return num > 0 &&
+           (static_cast<size_t>(num_cut) * 5 >= num * 4 || num_cut > cut[0]);
+  };
+  if (positive.empty() || negative_side.empty() ||
+      !(explains(cut[1], missing.size()) ||
+        explains(cut[2], rotation.size()))) {
+    return {};
+  }
   return positive.size() < negative_side.size() ? positive : negative_side;
 }
 
@@ -1191,10 +1236,12 @@ std::vector<AgreedPair> AgreedPairs(const FoldDetectionOptions& options,
 // The verified pairs among the images of `index` (with a measured rotation
 // and at least min_num_matches inliers) that the model contradicts by the
 // fold's rotation (FoldDetectionOptions::cut_fold_rotation_pairs): the most
-// common discrepancy W = R_j^T R_ij R_i of the contradicted pairs, W and its
+// common discrepancy W = R_j^T R_ij R_i of the pairs contradicted by at
+// least cut_min_fold_rotation_deg, W and its
 // inverse alike (the pair's order says which image is the folded one),
 // found among at most 256 of them taken evenly as candidates. Empty when
-// fewer than cut_min_fold_rotation_pairs share it.
+// fewer than cut_min_fold_rotation_pairs, or than cut_min_fold_rotation_share
+// of those pairs, share it.
 std::vector<AgreedPair> FoldRotationPairs(const FoldDetectionOptions& options,
                                           const Reconstruction& reconstruction,
                                           const FoldEvidence& evidence,
@@ -1212,8 +1259,9 @@ std::vector<AgreedPair> FoldRotationPairs(const FoldDetectionOptions& options,
                                    .cam_from_world.rotation.toRotationMatrix();
     const Eigen::Matrix3d R2 = reconstruction.images.at(pair.image_id2)
                                    .cam_from_world.rotation.toRotationMatrix();
-    if (!(AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
-          options.max_rotation_error_deg)) {
+    // The discrepancy turns by the angle the pair is contradicted by.
+    if (!(AngularDistanceDeg(pair.R, R2 * R1.transpose()) >=
+          options.cut_min_fold_rotation_deg)) {
       continue;
     }
     contradicted.push_back({i1->second, i2->second, pair.image_id1,
@@ -1248,7 +1296,8 @@ std::vector<AgreedPair> FoldRotationPairs(const FoldDetectionOptions& options,
           << " contradicted pairs share the most common discrepancy ("
           << RadToDeg(2 * std::acos(std::min(1.0, std::abs(best.w()))))
           << " deg)";
-  if (best_support < static_cast<size_t>(options.cut_min_fold_rotation_pairs)) {
+  if (best_support < static_cast<size_t>(options.cut_min_fold_rotation_pairs) ||
+      best_support < options.cut_min_fold_rotation_share * num) {
     return {};
   }
   std::vector<AgreedPair> pairs;
@@ -1352,27 +1401,29 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   const double trusted_scale = num_trusted / total;
   const double negative_weight = static_cast<double>(num_trusted) /
                                  std::max<size_t>(negative_pairs.size(), 1);
-  std::vector<std::tuple<int, int, double>> negatives;
+  std::vector<std::tuple<int, int, double>> missing;
   for (const auto& [a, b] : negative_pairs) {
     const auto i1 = index.find(a);
     const auto i2 = index.find(b);
     if (i1 == index.end() || i2 == index.end()) continue;
-    negatives.emplace_back(i1->second, i2->second, negative_weight);
+    missing.emplace_back(i1->second, i2->second, negative_weight);
   }
+  std::vector<std::tuple<int, int, double>> rotation;
   if (options.cut_fold_rotation_pairs) {
     // True pairs across the fold: each as strong as a trusted pair of its
     // inliers.
     for (const AgreedPair& pair :
          FoldRotationPairs(options, reconstruction, evidence, index)) {
-      negatives.emplace_back(pair.a, pair.b, pair.num_inliers * trusted_scale);
+      rotation.emplace_back(pair.a, pair.b, pair.num_inliers * trusted_scale);
     }
   }
-  if (negatives.empty()) return sides;
+  if (missing.empty() && rotation.empty()) return sides;
   std::vector<int> reoriented;
   if (options.cut_parts == FoldCutParts::kModel) {
     std::vector<int> all(n);
     for (int k = 0; k < n; ++k) all[k] = k;
-    reoriented = SignedFoldCut(all, trusted, negatives, trusted_scale);
+    reoriented = SignedFoldCut(all, trusted, missing, rotation, trusted_scale,
+                               options.cut_max_power_iterations);
   } else {
     // Each part is cut on its own; pairs between parts are left out: the
     // model does not say where a part sits relative to another (rigid
@@ -1396,29 +1447,30 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     for (int k = 0; k < n; ++k) {
       if (part_of[k] >= 0) part_nodes[part_of[k]].push_back(k);
     }
-    std::vector<std::vector<std::tuple<int, int, double>>> part_trusted(
-        num_parts);
-    std::vector<std::vector<std::tuple<int, int, double>>> part_negatives(
-        num_parts);
-    for (const auto& edge : trusted) {
-      const int p = part_of[std::get<0>(edge)];
-      if (p >= 0 && p == part_of[std::get<1>(edge)]) {
-        part_trusted[p].push_back(edge);
+    // The edges within each part.
+    typedef std::vector<std::tuple<int, int, double>> Edges;
+    const auto by_part = [&](const Edges& edges) {
+      std::vector<Edges> parts(num_parts);
+      for (const auto& edge : edges) {
+        const int p = part_of[std::get<0>(edge)];
+        if (p >= 0 && p == part_of[std::get<1>(edge)]) {
+          parts[p].push_back(edge);
+        }
       }
-    }
-    for (const auto& edge : negatives) {
-      const int p = part_of[std::get<0>(edge)];
-      if (p >= 0 && p == part_of[std::get<1>(edge)]) {
-        part_negatives[p].push_back(edge);
-      }
-    }
+      return parts;
+    };
+    const std::vector<Edges> part_trusted = by_part(trusted);
+    const std::vector<Edges> part_missing = by_part(missing);
+    const std::vector<Edges> part_rotation = by_part(rotation);
     for (int p = 0; p < num_parts; ++p) {
-      if (part_negatives[p].empty()) continue;
+      if (part_missing[p].empty() && part_rotation[p].empty()) continue;
       const std::vector<int> side = SignedFoldCut(
-          part_nodes[p], part_trusted[p], part_negatives[p], trusted_scale);
+          part_nodes[p], part_trusted[p], part_missing[p], part_rotation[p],
+          trusted_scale, options.cut_max_power_iterations);
       VLOG(1) << "fold cut of part " << p << " (" << part_nodes[p].size()
-              << " images, " << part_negatives[p].size()
-              << " missing or weak pairs): " << side.size() << " to re-orient";
+              << " images, " << part_missing[p].size()
+              << " missing or weak pairs, " << part_rotation[p].size()
+              << " fold rotation pairs): " << side.size() << " to re-orient";
       reoriented.insert(reoriented.end(), side.begin(), side.end());
     }
   }

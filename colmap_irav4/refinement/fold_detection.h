@@ -145,6 +145,11 @@ struct FoldDetectionOptions {
   FoldCutParts cut_parts = FoldCutParts::kModel;
   // kAgreeingParts: the triangles a pair needs to join its images' part.
   int cut_min_pair_triangles = 2;
+  // The cut's eigenvector: power iterations until it converges, at most
+  // this many (SignedGraphCut). 300 (kSignedCutFixedIterations): exactly
+  // 300, the cut of before, which on a 5,454-image symmetric landmark was
+  // not converged and mixed the fold's halves.
+  int cut_max_power_iterations = 20000;
   // The cut also pushes apart the images of the verified pairs the model
   // contradicts by the fold's own rotation: a true pair across a fold
   // measures what the truth has where the model holds one image at its
@@ -153,10 +158,20 @@ struct FoldDetectionOptions {
   // same for every such pair, while the odd false pair's is anything. The
   // most common discrepancy of the contradicted pairs is taken as the
   // fold's rotation when at least cut_min_fold_rotation_pairs pairs share
-  // it (within max_rotation_error_deg); each of them weighs as a trusted
-  // pair of its inliers. False: missing and weak pairs only.
+  // it (within max_rotation_error_deg; see below); each of them weighs as a
+  // trusted pair of its inliers. False: missing and weak pairs only.
   bool cut_fold_rotation_pairs = false;
   int cut_min_fold_rotation_pairs = 10;
+  // ... among the pairs contradicted by at least this (deg): the symmetries
+  // that fold a model turn it by a large angle (180 deg for opposite
+  // facades, 90 for a square courtyard), while the contradicted pairs of a
+  // 5,454-image photo landmark shared a 7.7 deg discrepancy (focal errors)
+  // that is no fold.
+  double cut_min_fold_rotation_deg = 30;
+  // ... and shared by at least this fraction of them (a fold's: over 90% on
+  // the tower and varying-match courtyards; that landmark's most common
+  // discrepancy over 30 deg: 5%).
+  double cut_min_fold_rotation_share = 0.25;
   // Skip the camera pairs too far apart to share a point under the view
   // angle and scale ratio before projecting any point (exact: the report is
   // the same; false only to measure what it saves).
@@ -308,8 +323,14 @@ FoldReport DetectFold(const FoldDetectionOptions& options,
 // positive pull together, negative push apart) that maximises the agreement
 // sum w_ab x_a x_b: the leading eigenvector of the signed adjacency, then
 // single flips while they help. Deterministic. Sides are +1 / -1.
+// `max_power_iterations`: kSignedCutFixedIterations runs exactly that many
+// (the weak-pair cut of the fold check, tuned with them); more: until the
+// eigenvector changes by less than kSignedCutTolerance, at most that many.
+constexpr int kSignedCutFixedIterations = 300;
+constexpr double kSignedCutTolerance = 1e-9;
 std::vector<int> SignedGraphCut(
-    int n, const std::vector<std::tuple<int, int, double>>& edges);
+    int n, const std::vector<std::tuple<int, int, double>>& edges,
+    int max_power_iterations = kSignedCutFixedIterations);
 
 // The weakest cut of a folded model: a 2-partition of the images that keeps
 // together the images matched by trusted pairs (the model agrees with them,

@@ -25,7 +25,6 @@
 #include "colmap_irav4/refinement/fold_detection.h"
 #include "colmap_irav4/util/error.h"
 #include "colmap_irav4/util/option_manager.h"
-#include "colmap_irav4/view_graph/view_graph_builder.h"
 
 using namespace colmap_irav4;
 
@@ -97,17 +96,7 @@ int main(int argc, char** argv) {
     std::cout << "model: " << model.images.size() << " images, " << num_folded
               << " folded (rotation error over 90 deg after alignment)\n";
 
-    std::set<image_t> images;
-    for (const auto& [image_id, image] : model.images) images.insert(image_id);
-    ViewGraphSummary summary;
-    const ViewGraph graph =
-        BuildViewGraph(database, ViewGraphBuilderOptions(), &summary);
-    std::vector<ImagePairGeometry> pairs;
-    for (const ImagePairGeometry& pair : graph.pairs) {
-      if (images.count(pair.image_id1) && images.count(pair.image_id2))
-        pairs.push_back(pair);
-    }
-    const FoldEvidence evidence = BuildFoldEvidence(database, pairs, images);
+    const FoldEvidence evidence = BuildModelFoldEvidence(database, model);
     const FoldReport report = DetectFold(options, model, evidence);
     std::cout << "fold report: " << report.Describe() << "\n";
 

@@ -18,7 +18,6 @@
 #include "colmap_irav4/io/model_io.h"
 #include "colmap_irav4/pipeline/component_mapper.h"
 #include "colmap_irav4/refinement/fold_detection.h"
-#include "colmap_irav4/view_graph/view_graph_builder.h"
 
 using namespace colmap_irav4;
 
@@ -33,17 +32,7 @@ int main(int argc, char** argv) {
     Reconstruction truth;
     const bool has_truth = argc == 4;
     if (has_truth) truth = ReadReconstruction(argv[3]);
-    std::set<image_t> images;
-    for (const auto& [image_id, image] : model.images) images.insert(image_id);
-    ViewGraphSummary summary;
-    const ViewGraph graph =
-        BuildViewGraph(database, ViewGraphBuilderOptions(), &summary);
-    std::vector<ImagePairGeometry> pairs;
-    for (const ImagePairGeometry& pair : graph.pairs) {
-      if (images.count(pair.image_id1) && images.count(pair.image_id2))
-        pairs.push_back(pair);
-    }
-    const FoldEvidence evidence = BuildFoldEvidence(database, pairs, images);
+    const FoldEvidence evidence = BuildModelFoldEvidence(database, model);
     FoldDetectionOptions options;
     const FoldReport report = DetectFold(options, model, evidence);
     std::cerr << report.Describe() << "\n";

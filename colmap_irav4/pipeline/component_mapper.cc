@@ -11,6 +11,7 @@
 
 #include "colmap_irav4/geometry/rotation.h"
 #include "colmap_irav4/pipeline/prior_fold.h"
+#include "colmap_irav4/view_graph/view_graph_builder.h"
 
 namespace colmap_irav4 {
 namespace {
@@ -58,6 +59,22 @@ std::vector<ImagePairGeometry> PairsReorientedAcrossCut(
     }
   }
   return reoriented;
+}
+
+FoldEvidence BuildModelFoldEvidence(const DatabaseContents& database,
+                                    const Reconstruction& model) {
+  std::set<image_t> images;
+  for (const auto& [image_id, image] : model.images) images.insert(image_id);
+  ViewGraphSummary summary;
+  const ViewGraph graph =
+      BuildViewGraph(database, ViewGraphBuilderOptions(), &summary);
+  std::vector<ImagePairGeometry> pairs;
+  for (const ImagePairGeometry& pair : graph.pairs) {
+    if (images.count(pair.image_id1) && images.count(pair.image_id2)) {
+      pairs.push_back(pair);
+    }
+  }
+  return BuildFoldEvidence(database, pairs, images);
 }
 
 FoldEvidence BuildFoldEvidence(const DatabaseContents& database,

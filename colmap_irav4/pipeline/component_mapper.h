@@ -32,6 +32,11 @@ FoldEvidence BuildFoldEvidence(const DatabaseContents& database,
                                const std::vector<ImagePairGeometry>& pairs,
                                const std::set<image_t>& images);
 
+// The evidence about the view graph's pairs (default options) among the
+// images of `model`: for the tools that study a written model's fold check.
+FoldEvidence BuildModelFoldEvidence(const DatabaseContents& database,
+                                    const Reconstruction& model);
+
 // `pairs` without those across the cut (one image in `side`, the other in
 // the model and not in `side`) that the model agrees with (within
 // max_rotation_error_deg): across a fold, those are the false pairs that

@@ -1204,14 +1204,18 @@ struct AgreedPair {
   int num_inliers = 0;
 };
 
-// The verified pairs among the images of `index` with a measured rotation
-// and at least min_num_matches inliers whose relative rotation the model
-// matches within max_rotation_error_deg, in the evidence's order.
-std::vector<AgreedPair> AgreedPairs(const FoldDetectionOptions& options,
-                                    const Reconstruction& reconstruction,
-                                    const FoldEvidence& evidence,
-                                    const std::map<image_t, int>& index) {
-  std::vector<AgreedPair> agreed;
+// Calls visit(pair, R1, R2) for each verified pair among the images of
+// `index` with a measured rotation and at least min_num_matches inliers, in
+// the evidence's order (`pair` with its dense indices; R1, R2: the model's
+// rotations of its images). visit returns whether to keep the pair; returns
+// the kept ones.
+template <typename Visit>
+std::vector<AgreedPair> SelectRotatedPairs(const FoldDetectionOptions& options,
+                                           const Reconstruction& reconstruction,
+                                           const FoldEvidence& evidence,
+                                           const std::map<image_t, int>& index,
+                                           Visit visit) {
+  std::vector<AgreedPair> kept;
   for (const PairEvidence& pair : evidence.pairs) {
     if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
       continue;
@@ -1223,14 +1227,27 @@ std::vector<AgreedPair> AgreedPairs(const FoldDetectionOptions& options,
                                    .cam_from_world.rotation.toRotationMatrix();
     const Eigen::Matrix3d R2 = reconstruction.images.at(pair.image_id2)
                                    .cam_from_world.rotation.toRotationMatrix();
-    if (AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
-        options.max_rotation_error_deg) {
-      continue;
-    }
-    agreed.push_back({i1->second, i2->second, pair.image_id1, pair.image_id2,
+    if (visit(pair, R1, R2)) {
+      kept.push_back({i1->second, i2->second, pair.image_id1, pair.image_id2,
                       pair.num_inliers});
+    }
   }
-  return agreed;
+  return kept;
+}
+
+// The verified pairs (as SelectRotatedPairs) whose relative rotation the
+// model matches within max_rotation_error_deg.
+std::vector<AgreedPair> AgreedPairs(const FoldDetectionOptions& options,
+                                    const Reconstruction& reconstruction,
+                                    const FoldEvidence& evidence,
+                                    const std::map<image_t, int>& index) {
+  return SelectRotatedPairs(
+      options, reconstruction, evidence, index,
+      [&](const PairEvidence& pair, const Eigen::Matrix3d& R1,
+          const Eigen::Matrix3d& R2) {
+        return !(AngularDistanceDeg(pair.R, R2 * R1.transpose()) >
+                 options.max_rotation_error_deg);
+      });
 }
 
 // The verified pairs among the images of `index` (with a measured rotation
@@ -1246,28 +1263,19 @@ std::vector<AgreedPair> FoldRotationPairs(const FoldDetectionOptions& options,
                                           const Reconstruction& reconstruction,
                                           const FoldEvidence& evidence,
                                           const std::map<image_t, int>& index) {
-  std::vector<AgreedPair> contradicted;
   std::vector<Eigen::Quaterniond> discrepancy;
-  for (const PairEvidence& pair : evidence.pairs) {
-    if (!pair.has_rotation || pair.num_inliers < options.min_num_matches) {
-      continue;
-    }
-    const auto i1 = index.find(pair.image_id1);
-    const auto i2 = index.find(pair.image_id2);
-    if (i1 == index.end() || i2 == index.end()) continue;
-    const Eigen::Matrix3d R1 = reconstruction.images.at(pair.image_id1)
-                                   .cam_from_world.rotation.toRotationMatrix();
-    const Eigen::Matrix3d R2 = reconstruction.images.at(pair.image_id2)
-                                   .cam_from_world.rotation.toRotationMatrix();
-    // The discrepancy turns by the angle the pair is contradicted by.
-    if (!(AngularDistanceDeg(pair.R, R2 * R1.transpose()) >=
-          options.cut_min_fold_rotation_deg)) {
-      continue;
-    }
-    contradicted.push_back({i1->second, i2->second, pair.image_id1,
-                            pair.image_id2, pair.num_inliers});
-    discrepancy.emplace_back(Eigen::Matrix3d(R2.transpose() * pair.R * R1));
-  }
+  const std::vector<AgreedPair> contradicted = SelectRotatedPairs(
+      options, reconstruction, evidence, index,
+      [&](const PairEvidence& pair, const Eigen::Matrix3d& R1,
+          const Eigen::Matrix3d& R2) {
+        // The discrepancy turns by the angle the pair is contradicted by.
+        if (!(AngularDistanceDeg(pair.R, R2 * R1.transpose()) >=
+              options.cut_min_fold_rotation_deg)) {
+          return false;
+        }
+        discrepancy.emplace_back(Eigen::Matrix3d(R2.transpose() * pair.R * R1));
+        return true;
+      });
   const size_t num = contradicted.size();
   if (num < static_cast<size_t>(options.cut_min_fold_rotation_pairs)) {
     return {};

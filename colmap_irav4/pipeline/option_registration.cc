@@ -415,6 +415,10 @@ void AddBundleAdjustmentOptions(OptionManager* manager,
                &ba.schur_max_factor_mib,
                "Schur solver, schur_linear_solver auto: iterative when the "
                "Cholesky factor would take more MiB");
+  manager->Add("BundleAdjustment.schur_max_factor_gflops",
+               &ba.schur_max_factor_gflops,
+               "Schur solver, schur_linear_solver auto: iterative when a "
+               "factorisation would take more GFlop (one an iteration)");
   manager->Add("BundleAdjustment.schur_max_cell_table_mib",
                &ba.schur_max_cell_table_mib,
                "Schur solver: its per-point cell tables take at most this "

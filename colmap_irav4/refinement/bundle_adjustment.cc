@@ -281,6 +281,7 @@ class BundleAdjustmentProblem {
       SchurSolverOptions schur_options;
       schur_options.linear_solver = options.schur_linear_solver;
       schur_options.max_factor_mib = options.schur_max_factor_mib;
+      schur_options.max_factor_gflops = options.schur_max_factor_gflops;
       schur_options.max_cell_table_mib = options.schur_max_cell_table_mib;
       schur_options.max_jacobian_store_mib =
           options.schur_max_jacobian_store_mib;
@@ -1372,6 +1373,11 @@ void BundleAdjustmentOptions::Check() const {
   if (!(schur_max_factor_mib > 0)) {
     throw OptionError(&schur_max_factor_mib,
                       "BundleAdjustment.schur_max_factor_mib",
+                      "must be positive");
+  }
+  if (!(schur_max_factor_gflops > 0)) {
+    throw OptionError(&schur_max_factor_gflops,
+                      "BundleAdjustment.schur_max_factor_gflops",
                       "must be positive");
   }
   if (!(schur_max_cell_table_mib >= 0)) {

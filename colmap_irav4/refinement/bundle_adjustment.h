@@ -133,8 +133,9 @@ struct BundleAdjustmentOptions {
       BundleAdjustmentSolverBackend::kAuto;
   int schur_min_num_observations = 20000;
   // The Schur solver's linear solver (SchurLinearSolver): auto (iterative
-  // when the Cholesky factor would exceed schur_max_factor_mib, else
-  // supernodal once the factor is dense: photo collections), simplicial,
+  // when the Cholesky factor would exceed schur_max_factor_mib or its
+  // factorisation schur_max_factor_gflops, else supernodal once the factor
+  // is dense: photo collections), simplicial,
   // supernodal, iterative (conjugate gradients, Schur-Jacobi preconditioner:
   // no factor; docs/notes/2026-12-05-iterative-schur.md).
   SchurLinearSolver schur_linear_solver = SchurLinearSolver::kAuto;
@@ -142,6 +143,9 @@ struct BundleAdjustmentOptions {
   // 40,000 parameters, 5,000 photo images, would take 6,100; the 5,000-image
   // photo scene's true tracks give 474).
   double schur_max_factor_mib = 1024;
+  // auto: iterative above this estimated factorisation cost (GFlop, one per
+  // iteration; SchurSolverOptions::max_factor_gflops).
+  double schur_max_factor_gflops = 50;
   // The Schur solver's per-point cell tables (SchurSolverOptions): at most
   // this many MiB; the points beyond search their cells at each iteration.
   double schur_max_cell_table_mib = 256;

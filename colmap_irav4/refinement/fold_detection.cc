@@ -1088,8 +1088,8 @@ std::vector<int> SignedGraphCut(
   for (int k = 0; k < n; ++k) x[k] = std::sin(1.0 + k);  // deterministic
   // The shift slows the iteration down by the ratio of the eigenvalue gap to
   // it: a large model's gap is small, and 300 iterations had left the
-  // vector of a 2,816-image folded model half the start's (its cut mixed
-  // the fold's halves 40/60; converged after 1,598 it is exact).
+  // vector of a 2,816-image folded model near its start (its cut mixed the
+  // fold's halves 40/60; converged after 1,598 it is exact).
   int iteration = 0;
   double change = 0;
   for (; iteration < max_power_iterations; ++iteration) {

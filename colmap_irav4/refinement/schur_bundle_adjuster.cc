@@ -234,6 +234,7 @@ SchurBundleAdjuster::SchurBundleAdjuster(bool center,
                                          const SchurSolverOptions& options)
     : center_(center), solver_options_(options) {
   CHECK_GT(options.max_factor_mib, 0);
+  CHECK_GT(options.max_factor_gflops, 0);
   CHECK_GE(options.max_cell_table_mib, 0);
   CHECK_GE(options.max_jacobian_store_mib, 0);
   CHECK_GE(options.prefetch_updates_min_mib, 0);
@@ -796,11 +797,14 @@ void SchurBundleAdjuster::ToScalarLayout() {
   }
 }
 
-double SchurBundleAdjuster::EstimateFactorEntries() const {
+SchurBundleAdjuster::FactorEstimate SchurBundleAdjuster::EstimateFactor()
+    const {
   const int num_blocks = static_cast<int>(block_size_.size());
   const double n = num_scalars_;
-  const double dense = n * (n + 1) / 2;
-  if (num_blocks == 0) return 0;
+  // A dense factor: n (n + 1) / 2 entries, the sum of c^2 for c = 1..n
+  // flops.
+  const FactorEstimate dense{n * (n + 1) / 2, n * (n + 1) * (2 * n + 1) / 6};
+  if (num_blocks == 0) return {};
   // The block pattern (upper triangle, one entry a cell) as CHOLMOD's
   // symmetric pattern matrix; cell_offset_ is sorted by column, then row.
   std::vector<int> outer(column_cells_.begin(), column_cells_.end());
@@ -825,23 +829,30 @@ double SchurBundleAdjuster::EstimateFactorEntries() const {
   pattern.sorted = 1;
   pattern.packed = 1;
   cholmod_factor* factor = cholmod_analyze(&pattern, &common);
-  double entries = dense;  // the analysis failed: dense
+  FactorEstimate estimate = dense;  // the analysis failed: dense
   if (factor != nullptr) {
     // Column j of the block factor is block perm[j] with count[j] blocks
     // (its diagonal one included): its diagonal block's upper triangle and
-    // the rows below at the mean block size.
+    // the rows below at the mean block size. Its t-th scalar column has
+    // size - t + below entries.
     const int* perm = static_cast<const int*>(factor->Perm);
     const int* count = static_cast<const int*>(factor->ColCount);
     const double mean_size = n / num_blocks;
-    entries = 0;
+    estimate = {};
     for (int j = 0; j < num_blocks; ++j) {
-      const double size = block_size_[perm[j]];
-      entries += size * (size + 1) / 2 + size * (count[j] - 1) * mean_size;
+      const int size = block_size_[perm[j]];
+      const double below = (count[j] - 1) * mean_size;
+      estimate.entries += size * (size + 1) / 2.0 + size * below;
+      for (int t = 0; t < size; ++t) {
+        const double column = size - t + below;
+        estimate.flops += column * column;
+      }
     }
     cholmod_free_factor(&factor, &common);
   }
   cholmod_finish(&common);
-  return std::min(entries, dense);
+  return {std::min(estimate.entries, dense.entries),
+          std::min(estimate.flops, dense.flops)};
 }
 
 void SchurBundleAdjuster::MultiplyReduced(const Eigen::VectorXd& x,
@@ -1144,21 +1155,26 @@ void SchurBundleAdjuster::AnalyzeReducedSystem() {
   cholmod_.reset();
   iterative_ = false;
   factor_bytes_estimate_ = 0;
+  factor_flops_estimate_ = 0;
   preconditioner_groups_.clear();
   const SchurLinearSolver type = solver_options_.linear_solver;
   // Iterative, or auto: the factor's size before it is allocated.
   std::string estimate;
   if (num_scalars_ > 0 && (type == SchurLinearSolver::kAuto ||
                            type == SchurLinearSolver::kIterative)) {
-    factor_bytes_estimate_ = sizeof(double) * EstimateFactorEntries();
+    const FactorEstimate factor = EstimateFactor();
+    factor_bytes_estimate_ = sizeof(double) * factor.entries;
+    factor_flops_estimate_ = factor.flops;
     const double mib = factor_bytes_estimate_ / 1048576.0;
+    const double gflops = factor.flops * 1e-9;
     std::ostringstream size, rule;
-    size << std::setprecision(3) << "factor ~" << mib
-         << " MiB by the block pattern";
+    size << std::setprecision(3) << "factor ~" << mib << " MiB, ~" << gflops
+         << " GFlop by the block pattern";
     rule << " (auto: iterative above " << solver_options_.max_factor_mib
-         << " MiB)";
-    if (type == SchurLinearSolver::kIterative ||
-        mib > solver_options_.max_factor_mib) {
+         << " MiB or " << solver_options_.max_factor_gflops << " GFlop)";
+    const bool too_large = mib > solver_options_.max_factor_mib ||
+                           gflops > solver_options_.max_factor_gflops;
+    if (type == SchurLinearSolver::kIterative || too_large) {
       BuildPreconditionerGroups();
     }
     if (type == SchurLinearSolver::kIterative) {
@@ -1167,7 +1183,7 @@ void SchurBundleAdjuster::AnalyzeReducedSystem() {
           "iterative (conjugate gradients, Schur-Jacobi): asked, " + size.str();
       return;
     }
-    if (mib > solver_options_.max_factor_mib) {
+    if (too_large) {
       iterative_ = true;
       linear_solver_reason_ =
           "iterative (conjugate gradients, Schur-Jacobi): " + size.str() +
@@ -1347,6 +1363,7 @@ SchurBundleAdjuster::Summary SchurBundleAdjuster::Solve(
   summary.iterative = iterative_;
   summary.implicit = implicit_;
   summary.factor_bytes_estimate = factor_bytes_estimate_;
+  summary.factor_flops_estimate = factor_flops_estimate_;
   summary.linear_solver_reason = linear_solver_reason_;
   // The factorisations' view of the reduced system (not the iterative
   // solver's: it has no scalar pattern).

@@ -23,8 +23,10 @@ namespace colmap_irav4 {
 // conjugate gradients on the accumulated matrix, the Schur-Jacobi
 // preconditioner: no factor, its memory the matrix's nonzero blocks); or
 // auto: iterative when the factor would take more than
-// SchurSolverOptions::max_factor_mib (estimated before it is allocated, from
-// the symbolic analysis of the system's block pattern), else supernodal when
+// SchurSolverOptions::max_factor_mib or its factorisation more than
+// SchurSolverOptions::max_factor_gflops (both estimated before anything is
+// allocated, from the symbolic analysis of the system's block pattern), else
+// supernodal when
 // CHOLMOD's analysis counts at least
 // SchurBundleAdjuster::kSupernodalMinFlopsPerEntry flops per factor entry
 // (CHOLMOD's own switch; tiny or very sparse systems stay simplicial).
@@ -36,6 +38,13 @@ struct SchurSolverOptions {
   // take more than this many MiB (8 bytes a factor entry, the count
   // estimated from the block pattern's symbolic analysis).
   double max_factor_mib = 1024;
+  // auto: iterative when a factorisation of the reduced system would take
+  // more than this many GFlop (estimated as the factor's size): the
+  // factorisation runs at every iteration, and beyond this the formed
+  // system and its factorisation cost more than the conjugate gradients on
+  // the implicit system (a 5,300-image landmark: 3.8e11 flops, 79 CPU s an
+  // iteration supernodal against 12 iterative).
+  double max_factor_gflops = 50;
   // The points' cell tables (SchurBundleAdjuster::SetUseCellTables) take at
   // most this many MiB: 4 bytes a pair of a point's pose and camera blocks,
   // 157 MiB for the 1,000-image photo scene's bundle adjustment, past 1 GiB
@@ -291,6 +300,9 @@ class SchurBundleAdjuster {
     // The Cholesky factor's size estimated from the block pattern (auto and
     // iterative; 0: not estimated), bytes.
     double factor_bytes_estimate = 0;
+    // ... and its factorisation's flops (the same estimate; 0: not
+    // estimated).
+    double factor_flops_estimate = 0;
     // The factorisation and why, e.g. "supernodal (CHOLMOD): factor 1.2e+07
     // entries, 2.1e+10 flops, 1750 per entry (auto: from 40)", or "iterative
     // (conjugate gradients, Schur-Jacobi): factor ~6100 MiB (auto: from
@@ -425,11 +437,16 @@ class SchurBundleAdjuster {
   // inner_, column by column in place (the next accumulation starts from
   // zeros, in the cell layout again).
   void ToScalarLayout();
-  // The number of entries of the Cholesky factor of the structure just
-  // built, estimated from the symbolic analysis (fill-reducing ordering and
-  // column counts, CHOLMOD) of its block pattern: each block column's rows
-  // counted at the mean block size.
-  double EstimateFactorEntries() const;
+  // The Cholesky factor of the structure just built, estimated from the
+  // symbolic analysis (fill-reducing ordering and column counts, CHOLMOD) of
+  // its block pattern: each block column's rows counted at the mean block
+  // size. Its entries and the flops of a factorisation (the sum of the
+  // squared column counts, as CHOLMOD counts them).
+  struct FactorEstimate {
+    double entries = 0;
+    double flops = 0;
+  };
+  FactorEstimate EstimateFactor() const;
   // y = S x for the reduced system's upper block triangle S (the upper
   // triangles of its diagonal blocks).
   void MultiplyReduced(const Eigen::VectorXd& x, Eigen::VectorXd* y) const;
@@ -473,6 +490,7 @@ class SchurBundleAdjuster {
   std::vector<int> coarse_cluster_;
   int num_coarse_clusters_ = 0;
   double factor_bytes_estimate_ = 0;
+  double factor_flops_estimate_ = 0;
   std::vector<CameraBlock> cameras_;
   std::vector<PoseBlock> poses_;
   std::vector<double*> point_blocks_;

@@ -1365,16 +1365,19 @@ TEST(SchurBundleAdjuster, ReusedEliminationWithoutPointsIsCeresTry) {
 }
 
 // auto: iterative when the factor's estimated size is above
-// max_factor_mib, the factorisation below; the estimate (block pattern)
-// of this system, dense (every pose and camera coupled), is within 10% of
-// the dense triangle n (n + 1) / 2 and not above it.
+// max_factor_mib or its factorisation's flops above max_factor_gflops, the
+// factorisation below; the estimate (block pattern) of this system, dense
+// (every pose and camera coupled), is within 10% of the dense triangle
+// n (n + 1) / 2 and of a dense factorisation's n (n + 1) (2n + 1) / 6
+// flops, and not above them.
 TEST(SchurBundleAdjuster, AutoChoosesIterativeAboveTheFactorBudget) {
   const Reconstruction start = Scene(2, /*shared_camera=*/false).truth;
-  auto solve = [&](double max_factor_mib) {
+  auto solve = [&](double max_factor_mib, double max_factor_gflops = 50) {
     Reconstruction model = start;
     std::map<image_t, std::vector<double>> weights;
     SchurSolverOptions solver_options;
     solver_options.max_factor_mib = max_factor_mib;
+    solver_options.max_factor_gflops = max_factor_gflops;
     SchurBundleAdjuster adjuster(/*center=*/false, solver_options);
     AddModel(/*gauge=*/true, &model, &weights, &adjuster);
     ceres::Solver::Options options;
@@ -1403,6 +1406,18 @@ TEST(SchurBundleAdjuster, AutoChoosesIterativeAboveTheFactorBudget) {
   EXPECT_NE(below.linear_solver_reason.find("supernodal (CHOLMOD)"),
             std::string::npos);
   EXPECT_EQ(below.final_cost, probe.final_cost);
+
+  const double dense_flops = n * (n + 1) * (2 * n + 1) / 6;
+  EXPECT_GT(probe.factor_flops_estimate, 0.9 * dense_flops);
+  EXPECT_LE(probe.factor_flops_estimate, dense_flops);
+  const double gflops = probe.factor_flops_estimate * 1e-9;
+  const SchurBundleAdjuster::Summary costly = solve(1024, 0.99 * gflops);
+  EXPECT_TRUE(costly.iterative);
+  EXPECT_GT(costly.num_linear_iterations, 0);
+  EXPECT_NE(costly.linear_solver_reason.find("GFlop)"), std::string::npos);
+  const SchurBundleAdjuster::Summary cheap = solve(1024, 1.01 * gflops);
+  EXPECT_FALSE(cheap.iterative);
+  EXPECT_EQ(cheap.final_cost, probe.final_cost);
 }
 
 // Check() rejects the iterative solver's bad settings, naming the flag.
@@ -1423,6 +1438,10 @@ TEST(SchurBundleAdjuster, CheckRejectsBadIterativeSettings) {
   EXPECT_NE(error([](BundleAdjustmentOptions* o) {
               o->schur_max_factor_mib = 0;
             }).find("--BundleAdjustment.schur_max_factor_mib"),
+            std::string::npos);
+  EXPECT_NE(error([](BundleAdjustmentOptions* o) {
+              o->schur_max_factor_gflops = 0;
+            }).find("--BundleAdjustment.schur_max_factor_gflops"),
             std::string::npos);
   for (const double eta : {0.0, 1.0, -0.5, std::nan("")}) {
     EXPECT_NE(error([eta](BundleAdjustmentOptions* o) {

@@ -275,6 +275,10 @@ void AddGlobalPositioningOptions(OptionManager* manager,
                &gp.iterative_schur_min_density,
                "... at least this fraction of the image pairs sharing a "
                "point (above 1: never)");
+  manager->Add("GlobalPositioning.iterative_schur_min_pairs_per_image",
+               &gp.iterative_schur_min_pairs_per_image,
+               "... or each image sharing points with this many others on "
+               "average");
   AddSolverOptions(manager, "GlobalPositioning.", &gp.solver);
 }
 

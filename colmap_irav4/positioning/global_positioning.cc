@@ -66,6 +66,11 @@ void GlobalPositionerOptions::Check() const {
                       "GlobalPositioning.iterative_schur_min_density",
                       "must be >= 0");
   }
+  if (!(iterative_schur_min_pairs_per_image >= 0)) {
+    throw OptionError(&iterative_schur_min_pairs_per_image,
+                      "GlobalPositioning.iterative_schur_min_pairs_per_image",
+                      "must be >= 0");
+  }
   solver.Check("GlobalPositioning.");
   pose_priors.Check();
 }
@@ -90,12 +95,17 @@ std::string ChoosePositioningLinearSolver(
   size << num_images << " images";
   if (schur_density >= 0) {
     size << ", " << std::fixed << std::setprecision(1) << 100 * schur_density
-         << "% of pairs share a point";
+         << "% of pairs share a point, " << std::setprecision(0)
+         << schur_density * (num_images - 1) << " an image";
   }
   const bool large = num_images >= options.iterative_schur_min_num_images;
+  // schur_density of the n (n - 1) / 2 pairs: this many an image.
+  const double pairs_per_image = schur_density * (num_images - 1);
   const bool dense =
       num_images >= options.iterative_schur_dense_min_num_images &&
-      schur_density >= options.iterative_schur_min_density;
+      schur_density >= 0 &&
+      (schur_density >= options.iterative_schur_min_density ||
+       pairs_per_image >= options.iterative_schur_min_pairs_per_image);
   std::string reason;
   if (solver == Solver::kDenseSchur || (automatic && num_images < 50)) {
     ceres_options->linear_solver_type = ceres::DENSE_SCHUR;

@@ -75,11 +75,12 @@ struct GlobalPositionerOptions {
   // Schur products: neither the reduced system nor a factor is stored) from
   // iterative_schur_min_num_images images or from
   // iterative_schur_dense_min_num_images when at least
-  // iterative_schur_min_density of the image pairs share a point,
-  // SPARSE_SCHUR otherwise; or sparse_schur, dense_schur, iterative_schur
-  // whatever the size. A dense view graph (photo collections) fills the
-  // sparse Cholesky factor of the reduced system in: at 4,953 photo images
-  // (8.8% of the pairs share a point, 6.7 M observations) 65 CPU s per
+  // iterative_schur_min_density of the image pairs share a point or each
+  // image shares points with iterative_schur_min_pairs_per_image others on
+  // average, SPARSE_SCHUR otherwise; or sparse_schur, dense_schur,
+  // iterative_schur whatever the size. A dense view graph (photo collections)
+  // fills the sparse Cholesky factor of the reduced system in: at 4,953 photo
+  // images (8.8% of the pairs share a point, 6.7 M observations) 65 CPU s per
   // iteration and a 5.3 GB peak; at 990 (16.3%) SPARSE_SCHUR is still cheap
   // (docs/notes/2026-12-05-positioning-density.md). The size rule starts
   // where the density is no longer counted (30,000 images): the sparse
@@ -87,11 +88,17 @@ struct GlobalPositionerOptions {
   // not with ITERATIVE_SCHUR. The density threshold lies between the
   // courtyards (4.0% at 1,000 images, 1.4% at 3,000: it falls as 1 / n)
   // and the 5,000-image photo scene re-mapped after its fold cut (4.97%,
-  // where SPARSE_SCHUR sat over 9 minutes in its first iteration).
+  // where SPARSE_SCHUR sat over 9 minutes in its first iteration). The
+  // fraction falls as 1 / n on a photo collection too: the 10,000-image
+  // photo scene re-mapped after its fold cut (9,904 images, 3.7%: 366 pairs
+  // an image) sat 48 minutes in SPARSE_SCHUR's first 20 iterations (the
+  // first positioning, ITERATIVE_SCHUR at 6.5%: 400 s), hence the pairs per
+  // image: a courtyard's ~40 at every size, a photo collection's 250-650.
   PositioningLinearSolver linear_solver = PositioningLinearSolver::kAuto;
   int iterative_schur_min_num_images = 30000;
   int iterative_schur_dense_min_num_images = 2000;
   double iterative_schur_min_density = 0.04;
+  double iterative_schur_min_pairs_per_image = 100;
   // Weights of the pose priors (used only when priors are given).
   PosePriorOptions pose_priors;
 

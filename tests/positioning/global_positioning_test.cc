@@ -150,6 +150,9 @@ TEST(GlobalPositioning, OptionsCheck) {
   options = GlobalPositionerOptions();
   options.iterative_schur_dense_min_num_images = -1;
   EXPECT_THROW(options.Check(), OptionError);
+  options = GlobalPositionerOptions();
+  options.iterative_schur_min_pairs_per_image = -1;
+  EXPECT_THROW(options.Check(), OptionError);
   EXPECT_TRUE(ParseEnum("iterative_schur", &options.linear_solver));
   EXPECT_EQ(options.linear_solver, PositioningLinearSolver::kIterativeSchur);
 }
@@ -159,6 +162,7 @@ TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
   options.iterative_schur_min_num_images = 5000;
   options.iterative_schur_dense_min_num_images = 2000;
   options.iterative_schur_min_density = 0.2;
+  options.iterative_schur_min_pairs_per_image = 500;
   // The defaults: the 5,000-image photo scene (4,953 images, 8.8% of the
   // pairs) iterative, the 1,000-image one (990, 16.3%) sparse.
   ceres::Solver::Options defaults;
@@ -176,6 +180,15 @@ TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
   ChoosePositioningLinearSolver(GlobalPositionerOptions(), 3000, 0.014,
                                 &defaults);
   EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
+  // The 10,000-image photo scene re-mapped after its fold cut (9,904
+  // images, 3.7%: 366 pairs an image) iterative by its pairs per image; a
+  // 10,000-image courtyard (0.4%, 40 an image) sparse.
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 9904, 0.037,
+                                &defaults);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 10000, 0.004,
+                                &defaults);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
   auto choose = [&](int num_images, double density,
                     ceres::Solver::Options* ceres_options) {
     return ChoosePositioningLinearSolver(options, num_images, density,
@@ -189,6 +202,14 @@ TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
   choose(3000, 0.05, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  // Under the density's 0.2 but 0.15 x 3,999 = 600 pairs an image: iterative
+  // by the pairs per image.
+  ceres_options = ceres::Solver::Options();
+  const std::string by_pairs = choose(4000, 0.15, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
+  EXPECT_NE(by_pairs.find("15.0% of pairs share a point, 600 an image"),
+            std::string::npos)
+      << by_pairs;
   // Dense and large: neither the reduced system nor its factor is stored.
   ceres_options = ceres::Solver::Options();
   const std::string dense = choose(3000, 0.4, &ceres_options);

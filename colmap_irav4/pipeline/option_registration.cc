@@ -628,6 +628,10 @@ void AddFoldResolutionOptions(OptionManager* manager,
                "whole model, its rigid parts, or the components of the pairs "
                "it agrees with): " +
                    EnumNameList<FoldCutParts>());
+  manager->Add("Fold.cut_keep_unfolded_parts", &d.cut_keep_unfolded_parts,
+               "with --Fold.cut_parts model: the parts of the pairs the model "
+               "agrees with whose own cut finds no fold are not divided by "
+               "the model's cut (when another part's cut finds one)");
   manager->Add("Fold.cut_min_pair_triangles", &d.cut_min_pair_triangles,
                "with --Fold.cut_parts agreeing: a pair joins its images' part "
                "only in this many triangles of agreeing pairs");

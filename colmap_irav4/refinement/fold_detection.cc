@@ -1365,6 +1365,42 @@ int AgreeingParts(const FoldDetectionOptions& options,
   return static_cast<int>(number.size());
 }
 
+// The model's cut `reoriented` (dense indices) with each part whose own cut
+// found no fold (part_cut[p] empty) put whole on the side holding most of
+// its images: a landmark that cannot fold is otherwise split along its own
+// weakest seam, and the resolution removes its true pairs across it. Left
+// as it was when no part keeps a cut (the model's cut then sees a fold the
+// parts' cuts do not).
+void KeepUnfoldedPartsWhole(const std::vector<std::vector<int>>& part_nodes,
+                            const std::vector<std::vector<int>>& part_cut,
+                            std::vector<int>* reoriented) {
+  bool any_folded = false;
+  for (const std::vector<int>& cut : part_cut) any_folded |= !cut.empty();
+  if (!any_folded) return;
+  std::set<int> side(reoriented->begin(), reoriented->end());
+  int num_moved = 0;
+  for (size_t p = 0; p < part_nodes.size(); ++p) {
+    if (!part_cut[p].empty()) continue;
+    size_t num_in = 0;
+    for (const int k : part_nodes[p]) num_in += side.count(k);
+    const bool to_side = 2 * num_in > part_nodes[p].size();
+    if (num_in == 0 || num_in == part_nodes[p].size()) continue;
+    num_moved +=
+        static_cast<int>(to_side ? part_nodes[p].size() - num_in : num_in);
+    for (const int k : part_nodes[p]) {
+      if (to_side) {
+        side.insert(k);
+      } else {
+        side.erase(k);
+      }
+    }
+  }
+  VLOG(1) << "fold cut: " << num_moved
+          << " images of parts without a fold of their own moved to the "
+             "side holding most of their part";
+  reoriented->assign(side.begin(), side.end());
+}
+
 }  // namespace
 
 std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
@@ -1426,18 +1462,17 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     }
   }
   if (missing.empty() && rotation.empty()) return sides;
-  std::vector<int> reoriented;
-  if (options.cut_parts == FoldCutParts::kModel) {
-    std::vector<int> all(n);
-    for (int k = 0; k < n; ++k) all[k] = k;
-    reoriented = SignedFoldCut(all, trusted, missing, rotation, trusted_scale,
-                               options.cut_max_power_iterations);
-  } else {
-    // Each part is cut on its own; pairs between parts are left out: the
-    // model does not say where a part sits relative to another (rigid
-    // parts), or the model's pairs do not join them (agreeing parts), and no
-    // re-orientation mends that. Images in no part are not cut.
-    std::vector<int> part_of(n, -1);
+  // The parts (rigid or agreeing), each cut on its own: pairs between parts
+  // are left out (the model does not say where a part sits relative to
+  // another, or the model's pairs do not join them, and no re-orientation
+  // mends that). Images in no part are not cut. part_cut[p]: part p's own
+  // cut (empty: no fold in it).
+  std::vector<int> part_of(n, -1);
+  std::vector<std::vector<int>> part_nodes;
+  std::vector<std::vector<int>> part_cut;
+  const bool keep_unfolded_parts = options.cut_parts == FoldCutParts::kModel &&
+                                   options.cut_keep_unfolded_parts;
+  if (options.cut_parts != FoldCutParts::kModel || keep_unfolded_parts) {
     int num_parts = 0;
     if (options.cut_parts == FoldCutParts::kRigidParts) {
       const ModelRigidity rigidity = AnalyzeModelRigidity(
@@ -1451,7 +1486,8 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     } else {
       num_parts = AgreeingParts(options, agreed, &part_of);
     }
-    std::vector<std::vector<int>> part_nodes(num_parts);
+    part_nodes.resize(num_parts);
+    part_cut.resize(num_parts);
     for (int k = 0; k < n; ++k) {
       if (part_of[k] >= 0) part_nodes[part_of[k]].push_back(k);
     }
@@ -1470,15 +1506,31 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const std::vector<Edges> part_trusted = by_part(trusted);
     const std::vector<Edges> part_missing = by_part(missing);
     const std::vector<Edges> part_rotation = by_part(rotation);
-    for (int p = 0; p < num_parts; ++p) {
+    // One part is the model: its own cut is the model's.
+    for (int p = 0; p < num_parts && !(keep_unfolded_parts && num_parts < 2);
+         ++p) {
       if (part_missing[p].empty() && part_rotation[p].empty()) continue;
-      const std::vector<int> side = SignedFoldCut(
+      part_cut[p] = SignedFoldCut(
           part_nodes[p], part_trusted[p], part_missing[p], part_rotation[p],
           trusted_scale, options.cut_max_power_iterations);
       VLOG(1) << "fold cut of part " << p << " (" << part_nodes[p].size()
               << " images, " << part_missing[p].size()
               << " missing or weak pairs, " << part_rotation[p].size()
-              << " fold rotation pairs): " << side.size() << " to re-orient";
+              << " fold rotation pairs): " << part_cut[p].size()
+              << " to re-orient";
+    }
+  }
+  std::vector<int> reoriented;
+  if (options.cut_parts == FoldCutParts::kModel) {
+    std::vector<int> all(n);
+    for (int k = 0; k < n; ++k) all[k] = k;
+    reoriented = SignedFoldCut(all, trusted, missing, rotation, trusted_scale,
+                               options.cut_max_power_iterations);
+    if (keep_unfolded_parts && part_nodes.size() >= 2 && !reoriented.empty()) {
+      KeepUnfoldedPartsWhole(part_nodes, part_cut, &reoriented);
+    }
+  } else {
+    for (const std::vector<int>& side : part_cut) {
       reoriented.insert(reoriented.end(), side.begin(), side.end());
     }
   }

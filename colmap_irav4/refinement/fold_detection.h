@@ -143,7 +143,15 @@ struct FoldDetectionOptions {
   // landmarks, but not in triangles).
   // docs/notes/2026-12-06-fold-cut-at-10000.md
   FoldCutParts cut_parts = FoldCutParts::kModel;
-  // kAgreeingParts: the triangles a pair needs to join its images' part.
+  // kModel: the agreeing parts (as kAgreeingParts') whose own cut finds no
+  // fold stay whole, on the side of the model's cut holding most of their
+  // images, when another part's cut finds one. At 10,000 photo images the
+  // model's cut still split landmarks 1 and 2 after the fold cut of
+  // landmark 0 was converged; the true pairs removed across it left them
+  // 10x less accurate (docs/notes/2026-12-08-unfolded-parts-stay-whole.md).
+  bool cut_keep_unfolded_parts = true;
+  // kAgreeingParts and cut_keep_unfolded_parts: the triangles a pair needs
+  // to join its images' part.
   int cut_min_pair_triangles = 2;
   // The cut's eigenvector: power iterations until it converges, at most
   // this many (SignedGraphCut). 300 (kSignedCutFixedIterations): exactly

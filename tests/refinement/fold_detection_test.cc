@@ -344,11 +344,29 @@ TEST(FoldDetection, CutPerPartKeepsAPartWithoutAFoldWhole) {
   ASSERT_TRUE(scene.report.folded);
   FoldDetectionOptions options;
   // One cut through the whole model splits B, which has no fold.
+  options.cut_keep_unfolded_parts = false;
   const auto [whole1, whole2] =
       FoldCut(options, scene.model, scene.evidence, scene.report);
   ASSERT_FALSE(whole2.empty());
   EXPECT_GT(scene.NumB(whole1), 0);
   EXPECT_GT(scene.NumB(whole2), 0);
+  // The same cut with B, whose own cut finds no fold, kept whole (on the
+  // side holding most of it); A's sides are the whole model's cut's.
+  options.cut_keep_unfolded_parts = true;
+  const auto [kept1, kept2] =
+      FoldCut(options, scene.model, scene.evidence, scene.report);
+  ASSERT_FALSE(kept2.empty());
+  EXPECT_TRUE(scene.NumB(kept1) == 40 || scene.NumB(kept2) == 40)
+      << scene.NumB(kept1) << " | " << scene.NumB(kept2);
+  const auto a_images = [](const std::vector<image_t>& side) {
+    std::set<image_t> a;
+    for (const image_t id : side) {
+      if (id <= TwoLandmarks::kOffset) a.insert(id);
+    }
+    return a;
+  };
+  EXPECT_EQ(a_images(kept1), a_images(whole1));
+  EXPECT_EQ(a_images(kept2), a_images(whole2));
   // Cut part by part: B whole, A's folded half still separated.
   for (const FoldCutParts parts :
        {FoldCutParts::kRigidParts, FoldCutParts::kAgreeingParts}) {

@@ -279,6 +279,11 @@ void AddGlobalPositioningOptions(OptionManager* manager,
                &gp.iterative_schur_min_pairs_per_image,
                "... or each image sharing points with this many others on "
                "average");
+  manager->Add(
+      "GlobalPositioning.iterative_schur_min_products_per_observation",
+      &gp.iterative_schur_min_products_per_observation,
+      "... or at any size from this many camera-block products an "
+      "observation in forming the reduced system (long tracks; 0: off)");
   AddSolverOptions(manager, "GlobalPositioning.", &gp.solver);
 }
 

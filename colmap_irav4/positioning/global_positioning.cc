@@ -66,6 +66,12 @@ void GlobalPositionerOptions::Check() const {
                       "GlobalPositioning.iterative_schur_min_density",
                       "must be >= 0");
   }
+  if (!(iterative_schur_min_products_per_observation >= 0)) {
+    throw OptionError(
+        &iterative_schur_min_products_per_observation,
+        "GlobalPositioning.iterative_schur_min_products_per_observation",
+        "must be >= 0");
+  }
   if (!(iterative_schur_min_pairs_per_image >= 0)) {
     throw OptionError(&iterative_schur_min_pairs_per_image,
                       "GlobalPositioning.iterative_schur_min_pairs_per_image",
@@ -85,33 +91,56 @@ const EnumNames<PositioningLinearSolver>& NamesOf<PositioningLinearSolver>() {
   return names;
 }
 
+double SchurProductsPerObservation(const Reconstruction& reconstruction) {
+  double products = 0;
+  double observations = 0;
+  for (const auto& [point3D_id, point] : reconstruction.points3D) {
+    double m = 0;
+    for (const TrackElement& element : point.track) {
+      m += reconstruction.images.count(element.image_id);
+    }
+    products += m * (m + 1) / 2;
+    observations += m;
+  }
+  return observations > 0 ? products / observations : 0;
+}
+
 std::string ChoosePositioningLinearSolver(
     const GlobalPositionerOptions& options, int num_images,
-    double schur_density, ceres::Solver::Options* ceres_options) {
+    double schur_density, ceres::Solver::Options* ceres_options,
+    double products_per_observation) {
   using Solver = PositioningLinearSolver;
   const Solver solver = options.linear_solver;
   const bool automatic = solver == Solver::kAuto;
+  // schur_density of the n (n - 1) / 2 pairs: this many an image.
+  const double pairs_per_image = schur_density * (num_images - 1);
   std::ostringstream size;
   size << num_images << " images";
   if (schur_density >= 0) {
     size << ", " << std::fixed << std::setprecision(1) << 100 * schur_density
          << "% of pairs share a point, " << std::setprecision(0)
-         << schur_density * (num_images - 1) << " an image";
+         << pairs_per_image << " an image";
+  }
+  if (products_per_observation >= 0) {
+    size << ", " << std::fixed << std::setprecision(1)
+         << products_per_observation << " block products an observation";
   }
   const bool large = num_images >= options.iterative_schur_min_num_images;
-  // schur_density of the n (n - 1) / 2 pairs: this many an image.
-  const double pairs_per_image = schur_density * (num_images - 1);
   const bool dense =
       num_images >= options.iterative_schur_dense_min_num_images &&
       schur_density >= 0 &&
       (schur_density >= options.iterative_schur_min_density ||
        pairs_per_image >= options.iterative_schur_min_pairs_per_image);
+  const bool long_tracks =
+      options.iterative_schur_min_products_per_observation > 0 &&
+      products_per_observation >=
+          options.iterative_schur_min_products_per_observation;
   std::string reason;
   if (solver == Solver::kDenseSchur || (automatic && num_images < 50)) {
     ceres_options->linear_solver_type = ceres::DENSE_SCHUR;
     reason = automatic ? "fewer than 50 images" : "asked";
   } else if (solver == Solver::kIterativeSchur ||
-             (automatic && (large || dense))) {
+             (automatic && (large || dense || long_tracks))) {
     ceres_options->linear_solver_type = ceres::ITERATIVE_SCHUR;
     ceres_options->preconditioner_type = ceres::SCHUR_JACOBI;
     ceres_options->use_explicit_schur_complement = false;
@@ -120,7 +149,9 @@ std::string ChoosePositioningLinearSolver(
                  ? "at least " +
                        std::to_string(options.iterative_schur_min_num_images) +
                        " images"
-                 : "dense reduced camera system";
+             : dense ? "dense reduced camera system"
+                     : "long tracks (forming the reduced system costs more "
+                       "than conjugate gradients)";
   } else {
     ceres_options->linear_solver_type = ceres::SPARSE_SCHUR;
     reason = automatic ? "sparse or small reduced camera system" : "asked";
@@ -654,8 +685,13 @@ bool RunGlobalPositioning(const GlobalPositionerOptions& options,
           ? -1
       : schur_density >= 0 ? schur_density
                            : PositioningSchurDensity(*reconstruction);
+  // Counted whatever the solver (a linear pass): the log says what forming
+  // the reduced system would cost.
+  local_summary.schur_products_per_observation =
+      num_images < 50 ? -1 : SchurProductsPerObservation(*reconstruction);
   local_summary.linear_solver_reason = ChoosePositioningLinearSolver(
-      options, num_images, local_summary.schur_density, &solver.ceres);
+      options, num_images, local_summary.schur_density, &solver.ceres,
+      local_summary.schur_products_per_observation);
   local_summary.linear_solver =
       ceres::LinearSolverTypeToString(solver.ceres.linear_solver_type);
   LOG(INFO) << "Global positioning: " << observations.size()

@@ -77,7 +77,9 @@ struct GlobalPositionerOptions {
   // iterative_schur_dense_min_num_images when at least
   // iterative_schur_min_density of the image pairs share a point or each
   // image shares points with iterative_schur_min_pairs_per_image others on
-  // average, SPARSE_SCHUR otherwise; or sparse_schur, dense_schur,
+  // average, or when its tracks are long (forming the reduced system costs
+  // more than the conjugate gradients, below), SPARSE_SCHUR otherwise; or
+  // sparse_schur, dense_schur,
   // iterative_schur whatever the size. A dense view graph (photo collections)
   // fills the sparse Cholesky factor of the reduced system in: at 4,953 photo
   // images (8.8% of the pairs share a point, 6.7 M observations) 65 CPU s per
@@ -99,6 +101,18 @@ struct GlobalPositionerOptions {
   int iterative_schur_dense_min_num_images = 2000;
   double iterative_schur_min_density = 0.04;
   double iterative_schur_min_pairs_per_image = 100;
+  // ... or at any size from this many 3x3 camera-block products an
+  // observation (SchurProductsPerObservation; 0: off): forming the reduced
+  // system takes m (m + 1) / 2 block products for a point of m
+  // observations, a conjugate gradient iteration a few operations an
+  // observation; long tracks make the first the larger. Measured one
+  // thread (docs/notes/2026-12-08-positioning-long-tracks.md): photo 1,000
+  // (12.7 and 10.0 an observation) SPARSE_SCHUR 46 CPU s for both
+  // positionings, ITERATIVE_SCHUR 317; one 2,000-image landmark (1,992
+  // images under the 2,000 of the density rule; 45.9) 754.5 against 105.4.
+  // Courtyards 3-9, photo 300 5-6, one landmark of 3,000 / 5,400 images
+  // 46 / 72.
+  double iterative_schur_min_products_per_observation = 20;
   // Weights of the pose priors (used only when priors are given).
   PosePriorOptions pose_priors;
 
@@ -120,6 +134,8 @@ struct GlobalPositionerSummary {
   std::string linear_solver;
   std::string linear_solver_reason;
   double schur_density = -1;
+  // SchurProductsPerObservation of the problem (-1: not computed).
+  double schur_products_per_observation = -1;
   double initial_cost = 0;
   double final_cost = 0;
   double seconds = 0;
@@ -147,7 +163,13 @@ struct GlobalPositionerSummary {
 // reduced camera system (5000 images, 31.0% of pairs share a point)".
 std::string ChoosePositioningLinearSolver(
     const GlobalPositionerOptions& options, int num_images,
-    double schur_density, ceres::Solver::Options* ceres_options);
+    double schur_density, ceres::Solver::Options* ceres_options,
+    double products_per_observation = -1);
+
+// The camera-block products of forming the reduced camera system (the sum of
+// m (m + 1) / 2 over the points, m: a point's observations in the model's
+// images) over the observations (0 without any).
+double SchurProductsPerObservation(const Reconstruction& reconstruction);
 
 // SchurDensity of the model's points: the fraction of the pairs of the
 // images observing them that share a point.

@@ -153,6 +153,9 @@ TEST(GlobalPositioning, OptionsCheck) {
   options = GlobalPositionerOptions();
   options.iterative_schur_min_pairs_per_image = -1;
   EXPECT_THROW(options.Check(), OptionError);
+  options = GlobalPositionerOptions();
+  options.iterative_schur_min_products_per_observation = -1;
+  EXPECT_THROW(options.Check(), OptionError);
   EXPECT_TRUE(ParseEnum("iterative_schur", &options.linear_solver));
   EXPECT_EQ(options.linear_solver, PositioningLinearSolver::kIterativeSchur);
 }
@@ -189,6 +192,15 @@ TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
   ChoosePositioningLinearSolver(GlobalPositionerOptions(), 10000, 0.004,
                                 &defaults);
   EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
+  // Photo 1,000 (993 images, 12.2%, 12.7 block products an observation)
+  // sparse; one 2,000-image landmark (1,992, 27.7%, 45.9) iterative by its
+  // long tracks, under the density rule's 2,000 images.
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 993, 0.122,
+                                &defaults, 12.7);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::SPARSE_SCHUR);
+  ChoosePositioningLinearSolver(GlobalPositionerOptions(), 1992, 0.277,
+                                &defaults, 45.9);
+  EXPECT_EQ(defaults.linear_solver_type, ceres::ITERATIVE_SCHUR);
   auto choose = [&](int num_images, double density,
                     ceres::Solver::Options* ceres_options) {
     return ChoosePositioningLinearSolver(options, num_images, density,
@@ -224,6 +236,30 @@ TEST(GlobalPositioning, ChoosesTheLinearSolverBySizeAndDensity) {
   const std::string large = choose(6000, -1, &ceres_options);
   EXPECT_EQ(ceres_options.linear_solver_type, ceres::ITERATIVE_SCHUR);
   EXPECT_NE(large.find("at least 5000 images"), std::string::npos) << large;
+  // Long tracks at any size (from 50 images) once the rule is on.
+  ceres_options = ceres::Solver::Options();
+  choose(1000, 0.05, &ceres_options);
+  EXPECT_EQ(ceres_options.linear_solver_type, ceres::SPARSE_SCHUR);
+  options.iterative_schur_min_products_per_observation = 20;
+  const auto by_products = [&](double products) {
+    ceres::Solver::Options choice;
+    const std::string reason =
+        ChoosePositioningLinearSolver(options, 1000, 0.05, &choice, products);
+    return std::make_pair(choice.linear_solver_type, reason);
+  };
+  EXPECT_EQ(by_products(19.9).first, ceres::SPARSE_SCHUR);
+  const auto [long_tracks, long_reason] = by_products(20);
+  EXPECT_EQ(long_tracks, ceres::ITERATIVE_SCHUR);
+  EXPECT_NE(long_reason.find("long tracks"), std::string::npos) << long_reason;
+  EXPECT_NE(long_reason.find("20.0 block products an observation"),
+            std::string::npos)
+      << long_reason;
+  EXPECT_EQ(by_products(-1).first, ceres::SPARSE_SCHUR);  // not counted
+  ceres::Solver::Options few;
+  ChoosePositioningLinearSolver(options, 40, 0.9, &few, 100);
+  EXPECT_EQ(few.linear_solver_type, ceres::DENSE_SCHUR);
+  options.iterative_schur_min_products_per_observation = 0;  // off
+  EXPECT_EQ(by_products(1000).first, ceres::SPARSE_SCHUR);
   // Asked: whatever the size.
   options.linear_solver = PositioningLinearSolver::kSparseSchur;
   choose(6000, 0.9, &ceres_options);
@@ -251,6 +287,11 @@ TEST(GlobalPositioning, SchurDensityCountsThePairsSharingAPoint) {
                             &reconstruction);
   EXPECT_DOUBLE_EQ(PositioningSchurDensity(reconstruction), 4.0 / 6.0);
   EXPECT_EQ(PositioningSchurDensity(reconstruction, 3), -1.0);
+  // Block products 3 * 4 / 2 + 2 * 3 / 2 = 9 over 5 observations; without
+  // image 4, 6 + 1 over 4.
+  EXPECT_DOUBLE_EQ(SchurProductsPerObservation(reconstruction), 9.0 / 5.0);
+  reconstruction.images.erase(4);
+  EXPECT_DOUBLE_EQ(SchurProductsPerObservation(reconstruction), 7.0 / 4.0);
 }
 
 TEST(GlobalPositioning, ChoosesTheSolverByTheDensityGivenInsteadOfCounted) {

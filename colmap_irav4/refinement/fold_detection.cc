@@ -1466,13 +1466,12 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
   // are left out (the model does not say where a part sits relative to
   // another, or the model's pairs do not join them, and no re-orientation
   // mends that). Images in no part are not cut. part_cut[p]: part p's own
-  // cut (empty: no fold in it).
-  std::vector<int> part_of(n, -1);
+  // cut (empty: no fold in it). With `only_if_several` a single part (the
+  // model's cut already) is not cut.
   std::vector<std::vector<int>> part_nodes;
   std::vector<std::vector<int>> part_cut;
-  const bool keep_unfolded_parts = options.cut_parts == FoldCutParts::kModel &&
-                                   options.cut_keep_unfolded_parts;
-  if (options.cut_parts != FoldCutParts::kModel || keep_unfolded_parts) {
+  const auto cut_each_part = [&](bool only_if_several) {
+    std::vector<int> part_of(n, -1);
     int num_parts = 0;
     if (options.cut_parts == FoldCutParts::kRigidParts) {
       const ModelRigidity rigidity = AnalyzeModelRigidity(
@@ -1486,8 +1485,9 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     } else {
       num_parts = AgreeingParts(options, agreed, &part_of);
     }
-    part_nodes.resize(num_parts);
-    part_cut.resize(num_parts);
+    part_nodes.assign(num_parts, {});
+    part_cut.assign(num_parts, {});
+    if (only_if_several && num_parts < 2) return;
     for (int k = 0; k < n; ++k) {
       if (part_of[k] >= 0) part_nodes[part_of[k]].push_back(k);
     }
@@ -1506,9 +1506,7 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
     const std::vector<Edges> part_trusted = by_part(trusted);
     const std::vector<Edges> part_missing = by_part(missing);
     const std::vector<Edges> part_rotation = by_part(rotation);
-    // One part is the model: its own cut is the model's.
-    for (int p = 0; p < num_parts && !(keep_unfolded_parts && num_parts < 2);
-         ++p) {
+    for (int p = 0; p < num_parts; ++p) {
       if (part_missing[p].empty() && part_rotation[p].empty()) continue;
       part_cut[p] = SignedFoldCut(
           part_nodes[p], part_trusted[p], part_missing[p], part_rotation[p],
@@ -1519,17 +1517,23 @@ std::pair<std::vector<image_t>, std::vector<image_t>> FoldCut(
               << " fold rotation pairs): " << part_cut[p].size()
               << " to re-orient";
     }
-  }
+  };
   std::vector<int> reoriented;
   if (options.cut_parts == FoldCutParts::kModel) {
     std::vector<int> all(n);
     for (int k = 0; k < n; ++k) all[k] = k;
     reoriented = SignedFoldCut(all, trusted, missing, rotation, trusted_scale,
                                options.cut_max_power_iterations);
-    if (keep_unfolded_parts && part_nodes.size() >= 2 && !reoriented.empty()) {
-      KeepUnfoldedPartsWhole(part_nodes, part_cut, &reoriented);
+    // The parts are cut only when the model's cut found something to keep
+    // them out of.
+    if (options.cut_keep_unfolded_parts && !reoriented.empty()) {
+      cut_each_part(/*only_if_several=*/true);
+      if (part_nodes.size() >= 2) {
+        KeepUnfoldedPartsWhole(part_nodes, part_cut, &reoriented);
+      }
     }
   } else {
+    cut_each_part(/*only_if_several=*/false);
     for (const std::vector<int>& side : part_cut) {
       reoriented.insert(reoriented.end(), side.begin(), side.end());
     }
